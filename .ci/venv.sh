@@ -1,0 +1,16 @@
+# Sourced by ./run and ./run-tests: make ./.venv hold lamech (editable) and the extras in $1.
+# Reinstalls only when pyproject.toml or the extras asked for change.
+venv="$here/.venv"
+extras="$1"
+py="${PYTHON:-python3}"
+if [ ! -x "$venv/bin/python" ]; then
+    "$py" -m venv "$venv" >&2
+fi
+stamp="$venv/.lamech-installed"
+want="$(cat "$here/pyproject.toml" | cksum) $extras"
+if [ ! -f "$stamp" ] || ! grep -qxF -- "$want" "$stamp"; then
+    echo "lamech: installing into $venv (first run only) ..." >&2
+    "$venv/bin/python" -m pip install --quiet --upgrade pip >&2
+    "$venv/bin/python" -m pip install --quiet -e "$here$extras" >&2
+    echo "$want" >> "$stamp"
+fi

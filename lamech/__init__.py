@@ -1,0 +1,18 @@
+"""lamech: constrained mechanics by Lagrange multipliers.
+
+>>> import lamech
+>>> sol = lamech.solve(lamech.load("cylinder"))
+>>> sol.multipliers["rolling"]
+-g*m*sin(theta1)/3
+"""
+
+from .derive import DegenerateConstraintsError, Dynamics, dynamics
+from .expr import ExpressionError
+from .model import Body, Constraint, Coordinate, Parameter, System
+from .problem import ProblemFileError, example_names, from_dict, load, loads
+from .solve import Solution, solve
+
+__all__ = ["load", "loads", "from_dict", "solve", "dynamics", "example_names", "System",
+           "Solution", "Dynamics", "Body", "Constraint", "Coordinate", "Parameter",
+           "ProblemFileError", "ExpressionError", "DegenerateConstraintsError"]
+__version__ = "0.1.0"

@@ -1,0 +1,61 @@
+"""The ``lamech`` command: a thin layer over the library (imports are lazy so that
+``lamech --help`` is instant)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+DEFAULT_PROBLEM = "cylinder"
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="lamech",
+        description="Constrained mechanics by Lagrange multipliers. With no arguments, "
+                    "solves the bundled cylinder-rolling-on-a-cylinder problem.")
+    sub = p.add_subparsers(dest="command")
+    s = sub.add_parser("solve", help="equations, multipliers, forces, lift-off and slip of a "
+                                     "problem file")
+    s.add_argument("problem", nargs="?", default=DEFAULT_PROBLEM,
+                   help="a .toml problem file or a bundled example name "
+                        f"(default: {DEFAULT_PROBLEM}; see `lamech examples`)")
+    fmt = s.add_mutually_exclusive_group()
+    fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
+    fmt.add_argument("--json", action="store_true", help="print one JSON object")
+    sub.add_parser("examples", help="list the bundled example problems")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(sys.argv[1:] if argv is None else argv)
+    command = args.command or "solve"
+    if command == "examples":
+        from .problem import example_names, load
+        for name in example_names():
+            print(f"{name:<18} {load(name).title}")
+        return 0
+    from .derive import DegenerateConstraintsError
+    from .problem import ProblemFileError, load
+    from .solve import solve
+    problem = getattr(args, "problem", DEFAULT_PROBLEM)
+    try:
+        solution = solve(load(problem))
+    except ProblemFileError as exc:
+        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        return 2
+    except DegenerateConstraintsError as exc:
+        print(f"lamech: {problem}: {exc}", file=sys.stderr)
+        return 2
+    if getattr(args, "json", False):
+        print(json.dumps(solution.to_json(), indent=2, ensure_ascii=False))
+    elif getattr(args, "latex", False):
+        print(solution.to_latex(), end="")
+    else:
+        print(solution.to_text(), end="")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

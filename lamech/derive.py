@@ -1,0 +1,193 @@
+"""The general derivation: M, h, A, gamma, Q and the KKT system of a :class:`System`.
+
+With the canonical equations of :mod:`lamech.model`,
+
+.. math::
+
+    M(q,t)\\,\\ddot q + h(q,\\dot q,t) = A^T\\lambda + Q^{nc}, \\qquad
+    A\\,\\ddot q + \\gamma(q,\\dot q,t) = 0,
+
+where :math:`M = \\partial^2 L/\\partial\\dot q^2`, each constraint row of A is
+:math:`\\partial F_j/\\partial\\dot q` of its velocity form F_j (df/dt for holonomic f, g
+itself for a non-holonomic one) and :math:`\\gamma_j = \\partial F_j/\\partial q\\,\\dot q +
+\\partial F_j/\\partial t`. Together, the KKT system
+
+.. math::
+
+    \\begin{bmatrix} M & -A^T \\\\ A & 0 \\end{bmatrix}
+    \\begin{bmatrix} \\ddot q \\\\ \\lambda \\end{bmatrix} =
+    \\begin{bmatrix} Q^{nc} - h \\\\ -\\gamma \\end{bmatrix}.
+
+M may be singular (a massless coordinate) as long as the KKT matrix is not: M is never
+inverted on its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from .model import System, time_derivative
+
+__all__ = ["Dynamics", "dynamics", "dependent_constraints", "kkt_numeric",
+           "DegenerateConstraintsError"]
+
+
+class DegenerateConstraintsError(ValueError):
+    """The KKT matrix is singular: the multipliers are not uniquely determined."""
+
+
+@dataclass(frozen=True)
+class Dynamics:
+    """M, h, Q, A, gamma of a system (shapes (n, n), (n, 1), (n, 1), (m, n), (m, 1)).
+
+    ``velocity_forms`` holds F_j (df_j/dt or g_j), ``equations`` the Euler-Lagrange
+    equations M q'' + h - A^T lambda - Q (each = 0), one per coordinate.
+    """
+
+    system: System
+    M: sp.Matrix
+    h: sp.Matrix
+    Q: sp.Matrix
+    A: sp.Matrix
+    gamma: sp.Matrix
+    velocity_forms: sp.Matrix
+    equations: tuple[sp.Expr, ...]
+
+
+def velocity_form(system: System, constraint) -> sp.Expr:
+    """F_j: df/dt for a holonomic constraint, g for a velocity constraint."""
+    if constraint.holonomic:
+        return time_derivative(constraint.expr, system)
+    return constraint.expr
+
+
+def constraint_jacobian(system: System) -> tuple[sp.Matrix, sp.Matrix]:
+    """(A, F): A = dF/dq' (m, n) and the velocity forms F (m, 1)."""
+    F = sp.Matrix([velocity_form(system, c) for c in system.constraints])
+    if not system.constraints:
+        return sp.zeros(0, len(system.coordinates)), F
+    return F.jacobian(sp.Matrix(system.qd)), F
+
+
+def dynamics(system: System) -> Dynamics:
+    """Derive M, h, Q, A, gamma and the Euler-Lagrange equations (pure, no simplification)."""
+    q, qd, qdd = system.q, system.qd, system.qdd
+    n = len(q)
+    L = system.L
+    p = [sp.diff(L, v) for v in qd]
+    M = sp.Matrix(n, n, lambda i, j: sp.diff(p[i], qd[j]))
+    h = sp.Matrix([
+        sum((sp.diff(p[i], q[k]) * qd[k] for k in range(n) if p[i].has(q[k])), sp.Integer(0))
+        + sp.diff(p[i], system.t) - sp.diff(L, q[i])
+        for i in range(n)])
+    Q = sp.Matrix(list(system.forces) if system.forces else [0] * n)
+    A, F = constraint_jacobian(system)
+    m = len(system.constraints)
+    gamma = sp.Matrix([
+        sum((sp.diff(F[j], q[k]) * qd[k] for k in range(n) if F[j].has(q[k])), sp.Integer(0))
+        + sp.diff(F[j], system.t)
+        for j in range(m)])
+    lam = sp.Matrix(system.multipliers)
+    acc = sp.Matrix(qdd)
+    lhs = M * acc + h - (A.T * lam if m else sp.zeros(n, 1)) - Q
+    return Dynamics(system, M, h, Q, A, gamma, F, tuple(lhs))
+
+
+def _numeric_matrix(expr: sp.Matrix, env: dict) -> np.ndarray:
+    return np.array(expr.subs(env).evalf(), dtype=float)
+
+
+def dependent_constraints(system: System) -> list[tuple[tuple[str, ...], bool]]:
+    """Groups of constraints whose rows of A are linearly dependent.
+
+    A is evaluated at the initial state and at two seeded random states; a group that
+    is dependent at the random states is redundant, one dependent only at the initial
+    state marks a singular configuration (flag True).
+    """
+    if not system.constraints:
+        return []
+    A, _ = constraint_jacobian(system)
+    names = [c.name for c in system.constraints]
+    pv = system.parameter_values
+    init = {s: sp.sympify(e).subs(pv) for s, e in system.initial_state.items()}
+    rng = np.random.default_rng(7)
+    envs = [{**pv, **init, system.t: 0.0}]
+    for _ in range(2):
+        envs.append({**pv, system.t: float(rng.uniform(0.1, 1.0)),
+                     **{s: float(v) + float(rng.uniform(-0.3, 0.3)) for s, v in init.items()}})
+    groups = []
+    for k, env in enumerate(envs):
+        try:
+            a = _numeric_matrix(A, env)
+        except (TypeError, ValueError):
+            continue
+        group = _dependent_group(a, names)
+        if group:
+            groups.append((group, k == 0))
+    if not groups:
+        return []
+    random_groups = [g for g, first in groups if not first]
+    if random_groups:
+        return [(random_groups[0], False)]
+    return [groups[0]]
+
+
+def _dependent_group(a: np.ndarray, names: list[str]) -> tuple[str, ...] | None:
+    """Names of the constraints in one linear dependency among the rows of ``a``."""
+    scale = max(1.0, float(np.abs(a).max(initial=0.0)))
+    u, s, vt = np.linalg.svd(a.T, full_matrices=True)
+    tol = 1e-9 * scale * max(a.shape)
+    rank = int((s > tol).sum())
+    if rank == a.shape[0]:
+        return None
+    null = vt[rank:] if vt.shape[0] > rank else vt[-1:]
+    combo = null[0]
+    return tuple(n for n, c in zip(names, combo) if abs(c) > 1e-6)
+
+
+def kkt_numeric(dyn: Dynamics, state: dict, active: list[int] | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Solve the KKT system numerically at ``state`` (symbols -> numbers, parameters too).
+
+    Returns (q'', lambda) for the ``active`` constraints (all by default).
+
+    Raises
+    ------
+    DegenerateConstraintsError
+        The KKT matrix is singular at this state.
+    """
+    n = len(dyn.system.coordinates)
+    rows = list(range(dyn.A.rows)) if active is None else list(active)
+    M = _numeric_matrix(dyn.M, state)
+    A = _numeric_matrix(dyn.A, state).reshape(dyn.A.rows, n)[rows]
+    rhs_top = _numeric_matrix(dyn.Q - dyn.h, state).reshape(n)
+    g = _numeric_matrix(dyn.gamma, state).reshape(dyn.A.rows)[rows] if rows else np.zeros(0)
+    m = len(rows)
+    K = np.zeros((n + m, n + m))
+    K[:n, :n] = M
+    K[:n, n:] = -A.T
+    K[n:, :n] = A
+    rhs = np.concatenate([rhs_top, -g])
+    cond = np.linalg.cond(K)
+    if not np.isfinite(cond) or cond > 1e13:
+        raise DegenerateConstraintsError(_singular_message(dyn, M, A, rows))
+    sol = np.linalg.solve(K, rhs)
+    return sol[:n], sol[n:]
+
+
+def _singular_message(dyn: Dynamics, M: np.ndarray, A: np.ndarray, rows: list[int]) -> str:
+    names = [dyn.system.constraints[i].name for i in rows]
+    group = _dependent_group(A, names) if rows else None
+    if group:
+        return ("constraints " + " and ".join(f"`{n}`" for n in group)
+                + " are dependent: forces cannot be uniquely determined")
+    coords = [c.name for c in dyn.system.coordinates]
+    # M singular on the motions the constraints allow: name a coordinate without inertia.
+    _, s, vt = np.linalg.svd(M)
+    weak = [coords[int(np.argmax(np.abs(vt[-1])))]] if s[-1] < 1e-12 * max(1, s[0]) else []
+    hint = f" (coordinate `{weak[0]}` has no inertia)" if weak else ""
+    return ("the KKT matrix is singular: the mass matrix gives no inertia to a motion the "
+            f"constraints allow{hint}; add a mass or a constraint")

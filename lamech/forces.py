@@ -1,0 +1,136 @@
+"""Constraint forces: generalized, and Cartesian by virtual work.
+
+Constraint j's generalized force is Q^(j) = lambda_j dF_j/dq' (the canonical equations
+of :mod:`lamech.model`). If that force is a Cartesian force F acting on the material
+point P of a body (with reaction -F on a second body's material point), virtual work
+gives J^T F = Q^(j) with J = J_Pa - J_Pb the partial velocities
+(:func:`lamech.model.partial_velocities`). lamech reports the minimum-norm F, its
+components along the named directions (null where J cannot determine them) and the
+residual |Q^(j) - J^T F|: a nonzero residual means the named point cannot carry that
+constraint's force.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from .derive import Dynamics
+from .model import System, partial_velocities
+from .reduce import Reduction, tidy
+
+__all__ = ["generalized_forces", "cartesian_forces"]
+
+
+def generalized_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
+    """{constraint: {coordinate: Q^(j)_r}} on the manifold, every coordinate listed."""
+    out = {}
+    for j, c in enumerate(dyn.system.constraints):
+        lam = multipliers.get(c.name, c.multiplier)
+        out[c.name] = {coord.name: tidy(red.apply(lam * dyn.A[j, i]))
+                       for i, coord in enumerate(dyn.system.coordinates)}
+    return out
+
+
+def _probe_states(system: System, red: Reduction, count: int = 2) -> list[dict]:
+    """Numeric environments (parameters, independent coordinates) near the initial state."""
+    pv = system.parameter_values
+    rng = np.random.default_rng(11)
+    envs = []
+    for k in range(count):
+        env = dict(pv)
+        env[system.t] = 0.3 * k
+        for c in red.independent:
+            env[c.symbol] = float(sp.sympify(c.initial).subs(pv)) + 0.37 * (k + 1) \
+                + 0.05 * float(rng.standard_normal())
+            env[c.velocity] = 0.4 + 0.1 * k
+        envs.append(env)
+    return envs
+
+
+def cartesian_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
+    """{constraint: {direction: component or None, "residual": norm}} for every
+    constraint with a ``force`` spec; x/y(/z) components when no direction is named."""
+    system = dyn.system
+    out = {}
+    for j, c in enumerate(system.constraints):
+        spec = c.force
+        if spec is None:
+            continue
+        bodies = [system.body(b) for b in spec.bodies]
+        J = partial_velocities(system, bodies[0], spec.at)
+        if len(bodies) == 2:
+            J = J - partial_velocities(system, bodies[1], spec.at)
+        J = J.applyfunc(red.apply)
+        lam = multipliers.get(c.name, c.multiplier)
+        Q = (dyn.A[j, :].T * lam).applyfunc(red.apply)
+        dim = J.rows
+        basis = _range_basis(J, system, red)
+        if basis is None:
+            out[c.name] = {"residual": tidy(sp.sqrt(sum(e**2 for e in Q)))}
+            continue
+        B = basis
+        # F = B y minimises |J^T B y - Q|; F is then the minimum-norm solution.
+        JB = J.T * B
+        G = (JB.T * JB).applyfunc(sp.cancel)
+        y = G.LUsolve(JB.T * Q)
+        F = (B * y).applyfunc(tidy)
+        res_vec = (Q - J.T * F).applyfunc(tidy)
+        residual = tidy(sp.sqrt(sum((e**2 for e in res_vec), sp.Integer(0))))
+        directions = spec.along or tuple(
+            (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
+            for i, axis in enumerate("xyz"[:dim]))
+        comps: dict = {}
+        for name, d in directions:
+            dvec = sp.Matrix(d).applyfunc(red.apply)
+            if not _in_range(B, dvec, system, red):
+                comps[name] = None
+                continue
+            comps[name] = tidy((F.T * dvec)[0] / sp.sqrt(sum(e**2 for e in dvec)))
+        comps["residual"] = residual
+        out[c.name] = comps
+    return out
+
+
+def _numeric(M: sp.Matrix, env: dict) -> np.ndarray | None:
+    try:
+        return np.array(M.subs(env).evalf(), dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
+def _range_basis(J: sp.Matrix, system: System, red: Reduction) -> sp.Matrix | None:
+    """Columns spanning the range of J (d x n): the identity when J has full row rank,
+    otherwise J's own columns chosen independent at probe states."""
+    dim = J.rows
+    envs = _probe_states(system, red)
+    mats = [m for m in (_numeric(J, e) for e in envs) if m is not None]
+    if not mats:
+        return sp.eye(dim)
+    ranks = [np.linalg.matrix_rank(m, tol=1e-9 * max(1.0, np.abs(m).max())) for m in mats]
+    if min(ranks) == dim:
+        return sp.eye(dim)
+    if max(ranks) == 0:
+        return None
+    m = mats[0]
+    chosen: list[int] = []
+    for k in range(m.shape[1]):
+        trial = chosen + [k]
+        if np.linalg.matrix_rank(m[:, trial], tol=1e-9) == len(trial):
+            chosen = trial
+        if len(chosen) == ranks[0]:
+            break
+    return sp.Matrix.hstack(*[J[:, k] for k in chosen])
+
+
+def _in_range(B: sp.Matrix, d: sp.Matrix, system: System, red: Reduction) -> bool:
+    if B.cols == B.rows:
+        return True
+    for env in _probe_states(system, red):
+        b, v = _numeric(B, env), _numeric(d, env)
+        if b is None or v is None:
+            continue
+        coef, *_ = np.linalg.lstsq(b, v, rcond=None)
+        if np.linalg.norm(b @ coef - v) > 1e-8 * (1 + np.linalg.norm(v)):
+            return False
+    return True

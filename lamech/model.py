@@ -1,0 +1,244 @@
+"""The model: a constrained mechanical system as plain frozen data.
+
+A :class:`System` holds SymPy expressions in its own symbols: coordinates ``q`` (real),
+their velocities ``q'`` and accelerations ``q''``, parameters (positive when their value
+is), and time ``t``. It is built by :mod:`lamech.problem` from a problem file or a dict;
+derivations (:mod:`lamech.derive` and after) are pure functions of it.
+
+The canonical equations every other docstring refers to (the lecture's convention)::
+
+    d/dt dL/dq'_r - dL/dq_r - sum_j lambda_j dF_j/dq'_r = Q^nc_r      (r = 1..n)
+
+where for a holonomic constraint f_j(q, t) = 0 the velocity form is F_j = df_j/dt, so
+dF_j/dq'_r = df_j/dq_r, and for a non-holonomic one F_j = g_j = a_j(q,t).q' + b_j(q,t).
+The generalized force of constraint j is Q^(j)_r = lambda_j dF_j/dq'_r. A unilateral
+constraint holds on the side f_j >= 0, where lambda_j >= 0 pushes the system back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+__all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body",
+           "System"]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named constant: symbolic in derivations, ``value`` used for numbers."""
+
+    name: str
+    symbol: sp.Symbol
+    value: sp.Expr          # as written: a number or an expression of other parameters
+    numeric: float          # ``value`` with every parameter substituted
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """A generalized coordinate, its velocity and acceleration symbols, its initial state."""
+
+    name: str
+    symbol: sp.Symbol
+    velocity: sp.Symbol
+    acceleration: sp.Symbol
+    initial: sp.Expr            # expression of parameters
+    initial_velocity: sp.Expr   # expression of parameters
+    keep: bool = False          # never eliminated
+
+
+@dataclass(frozen=True)
+class Friction:
+    """A friction limit: |lambda| <= mu * lambda_normal, ``normal`` a constraint's name."""
+
+    mu: sp.Expr
+    normal: str
+
+
+@dataclass(frozen=True)
+class ForceSpec:
+    """Where a constraint's force acts, for its Cartesian components.
+
+    ``bodies`` is one body name, or two (force on the first, reaction on the second);
+    ``at`` the point (plane or space) in q and t; ``along`` named directions.
+    """
+
+    bodies: tuple[str, ...]
+    at: tuple[sp.Expr, ...]
+    along: tuple[tuple[str, tuple[sp.Expr, ...]], ...]
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One constraint. ``expr`` is f(q, t) (``kind == "holonomic"``) or g(q, q', t)
+    linear in the velocities (``kind == "velocity"``); see the module docstring."""
+
+    name: str
+    expr: sp.Expr
+    kind: str = "holonomic"
+    unilateral: bool = False
+    friction: Friction | None = None
+    force: ForceSpec | None = None
+    restitution: sp.Expr = sp.Integer(0)
+    multiplier: sp.Symbol = field(default=None)  # type: ignore[assignment]
+
+    @property
+    def holonomic(self) -> bool:
+        return self.kind == "holonomic"
+
+
+@dataclass(frozen=True)
+class Body:
+    """A point mass or planar rigid body: centre-of-mass ``position`` (2 or 3 components,
+    y or z up), counterclockwise ``angle`` and ``inertia`` about the centre for rigid bodies."""
+
+    name: str
+    mass: sp.Expr
+    position: tuple[sp.Expr, ...]
+    angle: sp.Expr | None = None
+    inertia: sp.Expr | None = None
+    shape: tuple[str, sp.Expr | None] = ("point", None)
+
+
+@dataclass(frozen=True)
+class System:
+    """A constrained system: the input of every derivation (frozen, self-consistent).
+
+    ``T`` and ``V`` are in coordinates, velocities, parameters and ``t``; ``forces`` is
+    Q^nc, one entry per coordinate. ``notes`` carries warnings found while loading (a T
+    that disagrees with the bodies' kinematics).
+    """
+
+    title: str
+    parameters: tuple[Parameter, ...]
+    coordinates: tuple[Coordinate, ...]
+    T: sp.Expr
+    V: sp.Expr
+    constraints: tuple[Constraint, ...]
+    bodies: tuple[Body, ...] = ()
+    gravity: sp.Expr | None = None
+    forces: tuple[sp.Expr, ...] = ()
+    t: sp.Symbol = sp.Symbol("t", real=True)
+    source: str | None = None
+    notes: tuple[str, ...] = ()
+
+    # ----- views -----------------------------------------------------------------
+    @property
+    def L(self) -> sp.Expr:
+        return self.T - self.V
+
+    @property
+    def q(self) -> list[sp.Symbol]:
+        return [c.symbol for c in self.coordinates]
+
+    @property
+    def qd(self) -> list[sp.Symbol]:
+        return [c.velocity for c in self.coordinates]
+
+    @property
+    def qdd(self) -> list[sp.Symbol]:
+        return [c.acceleration for c in self.coordinates]
+
+    @property
+    def multipliers(self) -> list[sp.Symbol]:
+        return [c.multiplier for c in self.constraints]
+
+    @property
+    def parameter_values(self) -> dict[sp.Symbol, float]:
+        return {p.symbol: p.numeric for p in self.parameters}
+
+    @property
+    def dimension(self) -> int:
+        """2 for a planar system, 3 when any body moves in space; 2 without bodies."""
+        return max((len(b.position) for b in self.bodies), default=2)
+
+    def constraint(self, name: str) -> Constraint:
+        for c in self.constraints:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    def body(self, name: str) -> Body:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def coordinate(self, name: str) -> Coordinate:
+        for c in self.coordinates:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    @property
+    def symbols(self) -> dict[str, sp.Symbol]:
+        """Every symbol by its printed name: parameters, ``x``, ``x'``, ``x''``, ``t``,
+        ``lambda_<constraint>``."""
+        out: dict[str, sp.Symbol] = {"t": self.t}
+        for p in self.parameters:
+            out[p.name] = p.symbol
+        for c in self.coordinates:
+            out[c.name] = c.symbol
+            out[c.name + "'"] = c.velocity
+            out[c.name + "''"] = c.acceleration
+        for c in self.constraints:
+            out[c.multiplier.name] = c.multiplier
+        return out
+
+    @property
+    def initial_state(self) -> dict[sp.Symbol, sp.Expr]:
+        """Initial coordinates and velocities, as expressions of the parameters."""
+        out: dict[sp.Symbol, sp.Expr] = {}
+        for c in self.coordinates:
+            out[c.symbol] = c.initial
+            out[c.velocity] = c.initial_velocity
+        return out
+
+    def numeric(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` with every parameter replaced by its value."""
+        return sp.sympify(expr).subs(self.parameter_values)
+
+
+def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
+    """Total time derivative along the motion: sum dE/dq q' + dE/dq' q'' + dE/dt."""
+    out = sp.sympify(expr)
+    for _ in range(order):
+        total = sp.diff(out, system.t)
+        for c in system.coordinates:
+            if out.has(c.symbol):
+                total += sp.diff(out, c.symbol) * c.velocity
+            if out.has(c.velocity):
+                total += sp.diff(out, c.velocity) * c.acceleration
+        out = total
+    return out
+
+
+def body_energy(system: System, bodies: tuple[Body, ...], gravity: sp.Expr | None
+                ) -> tuple[sp.Expr, sp.Expr]:
+    """Kinetic and gravitational potential energy of ``bodies`` (gravity along -y or -z)."""
+    T = sp.Integer(0)
+    V = sp.Integer(0)
+    for b in bodies:
+        vel = [time_derivative(x, system) for x in b.position]
+        T += b.mass * sum(v**2 for v in vel) / 2
+        if b.angle is not None and b.inertia is not None:
+            T += b.inertia * time_derivative(b.angle, system) ** 2 / 2
+        if gravity is not None:
+            V += b.mass * gravity * b.position[-1]
+    return T, V
+
+
+def partial_velocities(system: System, body: Body, point: tuple[sp.Expr, ...]) -> sp.Matrix:
+    """J_P, shape (dim, n_coords): the partial velocities dr_P/dq of the material point of
+    ``body`` that sits at ``point`` now (rigid planar body: dc/dq + dphi/dq z x (P - c))."""
+    dim = len(body.position)
+    rows = []
+    for c in system.coordinates:
+        col = [sp.diff(x, c.symbol) for x in body.position]
+        if body.angle is not None and dim == 2:
+            w = sp.diff(body.angle, c.symbol)
+            rel = [point[0] - body.position[0], point[1] - body.position[1]]
+            col = [col[0] - w * rel[1], col[1] + w * rel[0]]
+        rows.append(col)
+    return sp.Matrix(rows).T

@@ -1,0 +1,224 @@
+"""Elimination of constrained coordinates and the closed-form KKT solution.
+
+Elimination rule (the contract): for each holonomic constraint in file order, eliminate
+the last-listed coordinate not yet eliminated (and not ``keep``) that the constraint
+can be solved for in closed form (here: f is a polynomial of degree 1 or 2 in it);
+with two roots, take the branch through the initial state, and skip the coordinate
+when the initial state sits on the branch point. Velocity constraints are never used
+for elimination.
+
+The closed forms solve the KKT system of :mod:`lamech.derive` with the eliminated
+coordinates substituted: unknowns are the independent accelerations and every
+multiplier; equations the n Euler-Lagrange equations and the acceleration form of the
+constraints not eliminated. Simplification is bounded by expression size
+(:data:`CLOSED_FORM_LIMIT`, :data:`SIMPLIFY_OPS`) so large systems never hang.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from .derive import Dynamics
+from .model import Coordinate, System, time_derivative
+
+__all__ = ["Reduction", "eliminate", "ClosedForms", "closed_forms", "tidy",
+           "CLOSED_FORM_LIMIT", "SIMPLIFY_OPS"]
+
+CLOSED_FORM_LIMIT = 8
+"""Largest number of unknowns (independent accelerations + multipliers) solved symbolically."""
+SIMPLIFY_OPS = 300
+"""Expressions with more operations than this get only cheap simplification."""
+MAX_OPS = 6000
+"""Expressions larger than this are left as they are."""
+
+
+def tidy(expr: sp.Expr) -> sp.Expr:
+    """Simplify within a size budget: full ``simplify`` for small expressions, a cheap
+    ``cancel``/``trigsimp`` pass for medium ones, nothing for large ones."""
+    expr = sp.sympify(expr)
+    if expr.is_Number or expr.is_Symbol:
+        return expr
+    ops = sp.count_ops(expr)
+    if ops > MAX_OPS:
+        return expr
+    if ops > SIMPLIFY_OPS:
+        try:
+            return sp.together(sp.expand_trig(expr)) if ops < 2 * SIMPLIFY_OPS else expr
+        except (TypeError, ValueError, RecursionError):
+            return expr
+    try:
+        out = sp.simplify(sp.factor_terms(expr))
+        trig = sp.trigsimp(out)
+        if sp.count_ops(trig) < sp.count_ops(out):
+            out = trig
+        return out if sp.count_ops(out) <= ops else expr
+    except (TypeError, ValueError, RecursionError, NotImplementedError):
+        return expr
+
+
+@dataclass(frozen=True)
+class Reduction:
+    """Which coordinates remain, and how the eliminated ones depend on them.
+
+    ``substitution`` maps every eliminated coordinate, velocity and acceleration to an
+    expression of the independent ones (and t); ``eliminated_constraints`` are the
+    constraints satisfied identically by it.
+    """
+
+    independent: tuple[Coordinate, ...]
+    eliminated: tuple[tuple[Coordinate, sp.Expr], ...]
+    substitution: dict
+    eliminated_constraints: tuple[str, ...]
+    notes: tuple[str, ...]
+
+    @property
+    def position_substitution(self) -> dict:
+        return {c.symbol: e for c, e in self.eliminated}
+
+    def apply(self, expr: sp.Expr) -> sp.Expr:
+        return sp.sympify(expr).xreplace(self.substitution) if self.substitution else expr
+
+
+def _initial_numeric(system: System) -> dict:
+    pv = system.parameter_values
+    env = {s: float(sp.sympify(e).subs(pv)) for s, e in system.initial_state.items()}
+    return {**pv, **env, system.t: 0.0}
+
+
+def _solve_closed(f: sp.Expr, x: sp.Symbol) -> list[sp.Expr] | None:
+    """Closed-form roots of f = 0 for x when f is a polynomial of degree 1 or 2 in x."""
+    try:
+        poly = sp.Poly(f, x)
+    except (sp.PolynomialError, sp.GeneratorsNeeded):
+        return None
+    if poly.degree() not in (1, 2) or any(c.has(x) for c in poly.all_coeffs()):
+        return None
+    coeffs = poly.all_coeffs()
+    if poly.degree() == 1:
+        a, b = coeffs
+        return [sp.expand(-b / a)] if a != 0 else None
+    a, b, c = coeffs
+    disc = b**2 - 4 * a * c
+    return [(-b + sp.sqrt(disc)) / (2 * a), (-b - sp.sqrt(disc)) / (2 * a)]
+
+
+def eliminate(system: System) -> Reduction:
+    """Apply the elimination rule of this module's docstring."""
+    env0 = _initial_numeric(system)
+    positions: dict[sp.Symbol, sp.Expr] = {}
+    order: list[Coordinate] = []
+    used: list[str] = []
+    notes: list[str] = []
+    for con in system.constraints:
+        if not con.holonomic:
+            continue
+        f = con.expr.xreplace(positions) if positions else con.expr
+        done = False
+        for coord in reversed(system.coordinates):
+            if coord.keep or coord.symbol in positions or not f.has(coord.symbol):
+                continue
+            roots = _solve_closed(f, coord.symbol)
+            if not roots:
+                continue
+            x0 = env0[coord.symbol]
+            good = []
+            for r in roots:
+                try:
+                    val = complex(r.subs(env0).evalf())
+                except (TypeError, ValueError):
+                    continue
+                if abs(val.imag) < 1e-12 and abs(val.real - x0) <= 1e-8 * (1 + abs(x0)):
+                    good.append(r)
+            if len(good) != 1 or (len(roots) == 2 and _same(roots, env0)):
+                notes.append(f"constraint `{con.name}`: the initial state sits on a branch "
+                             f"point of its solution for `{coord.name}`; kept `{coord.name}`")
+                continue
+            sol = good[0]
+            positions = {k: v.xreplace({coord.symbol: sol}) for k, v in positions.items()}
+            positions[coord.symbol] = sol
+            order.append(coord)
+            used.append(con.name)
+            done = True
+            break
+        if not done:
+            notes.append(f"constraint `{con.name}` was not used to eliminate a coordinate "
+                         "(no closed-form solution); results use the full coordinates")
+    substitution: dict = {}
+    eliminated = []
+    for coord in order:
+        expr = positions[coord.symbol]
+        vel = time_derivative(expr, system)
+        acc = time_derivative(vel, system)
+        substitution[coord.symbol] = expr
+        substitution[coord.velocity] = vel
+        substitution[coord.acceleration] = acc
+        eliminated.append((coord, expr))
+    independent = tuple(c for c in system.coordinates if c.symbol not in positions)
+    return Reduction(independent, tuple(eliminated), substitution, tuple(used), tuple(notes))
+
+
+def _same(roots: list[sp.Expr], env: dict) -> bool:
+    try:
+        a, b = (complex(r.subs(env).evalf()) for r in roots)
+    except (TypeError, ValueError):
+        return False
+    return abs(a - b) <= 1e-9 * (1 + abs(a))
+
+
+@dataclass(frozen=True)
+class ClosedForms:
+    """q'' of the independent coordinates and every multiplier, as functions of the
+    independent coordinates, velocities, t and parameters (or ``None`` where skipped)."""
+
+    accelerations: dict          # Symbol (independent acceleration) -> Expr
+    multipliers: dict            # constraint name -> Expr
+    skipped: str | None = None   # why closed forms were not attempted
+
+
+def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
+    """Solve the substituted KKT system symbolically (bounded; see module docstring)."""
+    system = dyn.system
+    rest = [j for j, c in enumerate(system.constraints) if c.name not in
+            red.eliminated_constraints]
+    unknowns = [c.acceleration for c in red.independent] + system.multipliers
+    if len(unknowns) > CLOSED_FORM_LIMIT:
+        return ClosedForms({}, {}, f"system too large for closed forms ({len(unknowns)} "
+                                   f"unknowns; the limit is {CLOSED_FORM_LIMIT})")
+    qdd = sp.Matrix(system.qdd)
+    eqs = [red.apply(e) for e in dyn.equations]
+    eqs += [red.apply((dyn.A[j, :] * qdd)[0] + dyn.gamma[j]) for j in rest]
+    E = sp.Matrix(eqs)
+    K = E.jacobian(unknowns)
+    rhs = -E.xreplace({u: 0 for u in unknowns})
+    K = K.applyfunc(_pre)
+    rhs = rhs.applyfunc(_pre)
+    try:
+        sol = _solve_linear(K, rhs)
+    except (ValueError, ZeroDivisionError, sp.NonInvertibleMatrixError):
+        return ClosedForms({}, {}, "the substituted KKT matrix is singular symbolically")
+    sol = [tidy(s) for s in sol]
+    nacc = len(red.independent)
+    acc = {c.acceleration: sol[i] for i, c in enumerate(red.independent)}
+    lam = {c.name: sol[nacc + j] for j, c in enumerate(system.constraints)}
+    return ClosedForms(acc, lam)
+
+
+def _pre(e: sp.Expr) -> sp.Expr:
+    e = sp.sympify(e)
+    return sp.cancel(e) if sp.count_ops(e) < SIMPLIFY_OPS else e
+
+
+def _solve_linear(K: sp.Matrix, rhs: sp.Matrix) -> list[sp.Expr]:
+    """Solve K x = rhs, exploiting block structure: small systems by LU with cancel."""
+    n = K.rows
+    if n == 0:
+        return []
+    if n <= 3:
+        det = sp.cancel(K.det(method="berkowitz"))
+        if det == 0:
+            raise sp.NonInvertibleMatrixError("singular")
+        adj = K.adjugate(method="berkowitz")
+        return list((adj * rhs).applyfunc(lambda e: sp.cancel(e / det)))
+    return list(K.LUsolve(rhs).applyfunc(_pre))

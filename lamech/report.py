@@ -1,0 +1,219 @@
+"""Presenting a :class:`~lamech.solve.Solution`: readable text, LaTeX, and JSON.
+
+Nothing is computed here; expressions print in the problem-file grammar
+(:func:`lamech.expr.to_text`) so that JSON strings parse back.
+"""
+
+from __future__ import annotations
+
+import re
+
+import sympy as sp
+
+from .expr import to_text as _expr_text
+
+__all__ = ["to_text", "to_latex", "to_json"]
+
+CONVENTION = ("d/dt dL/dq' - dL/dq - sum_j lambda_j df_j/dq = Q  "
+              "(unilateral: f >= 0 holds while lambda >= 0)")
+
+
+def _t(expr) -> str:
+    if expr is None:
+        return "null"
+    try:
+        return _expr_text(expr)
+    except ValueError:
+        return str(expr)
+
+
+def _json_expr(expr):
+    return None if expr is None else _t(expr)
+
+
+def _initial_text(sol) -> str:
+    parts = []
+    for c in sol.reduction.independent:
+        parts.append(f"{c.name} = {_t(c.initial)}, {c.name}' = {_t(c.initial_velocity)}")
+    return "; ".join(parts)
+
+
+def to_json(sol) -> dict:
+    """The ``--json`` object (schema in the README)."""
+    system = sol.system
+    out: dict = {
+        "title": system.title,
+        "coordinates": sol.coordinates,
+        "independent": sol.independent,
+        "equations": [_t(e) for e in sol.equations],
+        "reduced_equations": [_t(e) for e in sol.reduced_equations],
+        "multipliers": {k: _t(v) for k, v in sol.multipliers.items()},
+        "energy": _json_expr(sol.energy),
+        "conserved": [_t(e) for e in sol.conserved],
+    }
+    if sol.shell is not None:
+        out["on_energy_shell"] = {k: _t(v) for k, v in sol.shell.multipliers.items()}
+    out["vanishes"] = {k: [r.to_json() for r in v] for k, v in sol.vanishes.items()}
+    out["slips"] = {k: [r.to_json() for r in v] for k, v in sol.slips.items()}
+    out["generalized_forces"] = {k: {q: _t(e) for q, e in v.items()}
+                                 for k, v in sol.generalized_forces.items()}
+    out["forces"] = {k: {d: _json_expr(e) for d, e in v.items()} for k, v in sol.forces.items()}
+    if sol.initial_multipliers:
+        out["initial_multipliers"] = sol.initial_multipliers
+    out["notes"] = list(sol.notes)
+    return out
+
+
+def _root_text(r) -> str:
+    deg = f" ({r.degrees:.2f}°)" if r.degrees is not None else ""
+    return f"{r.equation}:  {r.coordinate} = {r.value:.10g}{deg}"
+
+
+def to_text(sol) -> str:
+    """The readable report printed by ``lamech solve``."""
+    s = sol.system
+    lines: list[str] = [s.title, "=" * len(s.title), ""]
+    lines.append("coordinates: " + ", ".join(sol.coordinates)
+                 + (f"   independent: {', '.join(sol.independent)}"
+                    if sol.independent != sol.coordinates else ""))
+    for coord, expr in sol.reduction.eliminated:
+        lines.append(f"  eliminated: {coord.name} = {_t(expr)}")
+    lines += ["", "Euler-Lagrange equations with multipliers", "  convention: " + CONVENTION]
+    width = max((len(c) for c in sol.coordinates), default=1)
+    for name, e in zip(sol.coordinates, sol.equations):
+        lines.append(f"  {name:<{width}} : {_t(e)} = 0")
+    if s.constraints:
+        lines += ["", "Constraints"]
+        for c in s.constraints:
+            tags = []
+            if c.unilateral:
+                tags.append("unilateral, holds while f >= 0")
+            if not c.holonomic:
+                tags.append("non-holonomic")
+            if c.friction is not None:
+                tags.append(f"friction mu = {_t(c.friction.mu)} on `{c.friction.normal}`")
+            tag = f"   ({'; '.join(tags)})" if tags else ""
+            lhs = "f" if c.holonomic else "g"
+            lines.append(f"  {c.name}: {lhs} = {_t(c.expr)} = 0{tag}")
+    if sol.reduced_equations:
+        lines += ["", "Reduced equations of motion"]
+        lines += [f"  {_t(e)} = 0" for e in sol.reduced_equations]
+    if sol.multipliers:
+        lines += ["", "Multipliers (on the constraint manifold)"]
+        lines += [f"  lambda_{k} = {_t(v)}" for k, v in sol.multipliers.items()]
+    elif sol.initial_multipliers:
+        lines += ["", "Multipliers at the initial state (numeric)"]
+        lines += [f"  lambda_{k} = {v:.12g}" for k, v in sol.initial_multipliers.items()]
+    lines += ["", "Conserved quantities"]
+    if sol.energy is not None:
+        label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
+        lines.append(f"  {label}: {_t(sol.energy)}")
+    elif sol.integrals.reason:
+        lines.append(f"  energy: not conserved ({sol.integrals.reason})")
+    for k, p in sol.integrals.momenta.items():
+        lines.append(f"  momentum of cyclic {k}: {_t(p)}")
+    if sol.shell is not None:
+        sh = sol.shell
+        x = sh.coordinate.name
+        lines += ["", f"On the energy shell (initial state {_initial_text(sol)})",
+                  f"  {x}'^2 = {_t(sh.speed_squared)}"]
+        lines += [f"  lambda_{k} = {_t(v)}" for k, v in sh.multipliers.items()]
+        lines += [f"  lambda_{k}: omitted, {why}" for k, why in sh.omitted.items()]
+    if sol.vanishes:
+        lines += ["", "Where a unilateral constraint lets go (lambda = 0)"]
+        for k, roots in sol.vanishes.items():
+            if roots:
+                lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
+                lines += [f"  {' ' * len(k)}  then {_root_text(r)}" for r in roots[1:]]
+            else:
+                why = "" if sol.shell else f" ({sol.shell_reason})"
+                lines.append(f"  {k}: never in the range the motion reaches{why}"
+                             if sol.shell else f"  {k}: not determined{why}")
+    if sol.slips:
+        lines += ["", "Where a friction constraint starts to slip (|lambda| = mu lambda_normal)"]
+        for k, roots in sol.slips.items():
+            if roots:
+                lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
+                lines += [f"  {' ' * len(k)}  then {_root_text(r)}" for r in roots[1:]]
+            else:
+                lines.append(f"  {k}: never in the range the motion reaches" if sol.shell
+                             else f"  {k}: not determined ({sol.shell_reason})")
+    if sol.generalized_forces:
+        lines += ["", "Generalized constraint forces Q^(j) = lambda_j df_j/dq"]
+        for k, comps in sol.generalized_forces.items():
+            body = ", ".join(f"{q}: {_t(e)}" for q, e in comps.items())
+            lines.append(f"  {k}: {body}")
+    if sol.forces:
+        lines += ["", "Cartesian constraint forces (virtual work on the material point)"]
+        for k, comps in sol.forces.items():
+            c = s.constraint(k)
+            where = " on " + " / ".join(c.force.bodies) if c.force else ""
+            lines.append(f"  {k}{where}:")
+            for d, e in comps.items():
+                value = "undetermined (the point's motion cannot do work along it)" \
+                    if e is None else _t(e)
+                lines.append(f"    {d} = {value}")
+    if sol.notes:
+        lines += ["", "Notes"] + [f"  - {n}" for n in sol.notes]
+    return "\n".join(lines) + "\n"
+
+
+def _latex_names(sol) -> dict:
+    names = {}
+    for c in sol.system.coordinates:
+        base = sp.latex(c.symbol)
+        names[c.velocity] = rf"\dot{{{base}}}"
+        names[c.acceleration] = rf"\ddot{{{base}}}"
+    for c in sol.system.constraints:
+        label = c.name.replace("_", r"\_")
+        names[c.multiplier] = rf"\lambda_{{\mathrm{{{label}}}}}"
+    return names
+
+
+def _tex(expr, names) -> str:
+    return sp.latex(expr, symbol_names=names)
+
+
+def to_latex(sol, standalone_math: bool = False) -> str:
+    """A LaTeX fragment (amsmath ``align*``) with the main results; paste into a document."""
+    names = _latex_names(sol)
+    rows: list[str] = []
+
+    def add(label: str, lhs: str, rhs: str) -> None:
+        rows.append(rf"{lhs} &= {rhs} && \text{{{label}}}")
+
+    for name, e in zip(sol.coordinates, sol.equations):
+        add(f"EL, {name}", _tex(e, names), "0")
+    for e in sol.reduced_equations:
+        add("reduced", _tex(e, names), "0")
+    for k, v in sol.multipliers.items():
+        add("multiplier", names[sol.system.constraint(k).multiplier], _tex(v, names))
+    if sol.energy is not None:
+        add("Jacobi integral" if sol.integrals.is_jacobi else "energy", "E", _tex(sol.energy, names))
+    if sol.shell is not None:
+        for k, v in sol.shell.multipliers.items():
+            add("on the energy shell", names[sol.system.constraint(k).multiplier],
+                _tex(v, names))
+    for kind, table in (("lets go", sol.vanishes), ("slips", sol.slips)):
+        for k, roots in table.items():
+            for r in roots:
+                lhs, rhs = r.equation.split(" = ", 1)
+                try:
+                    from .expr import parse
+                    L = parse(lhs, sol.symbols, "output")
+                    R = parse(rhs, sol.symbols, "output")
+                    deg = f", {r.degrees:.2f}^\\circ" if r.degrees is not None else ""
+                    add(f"{k} {kind}: {r.coordinate} = {r.value:.6g}",
+                        _tex(L, names), _tex(R, names) + (rf"\quad({deg[2:]})" if deg else ""))
+                except Exception:  # noqa: BLE001 - presentation only
+                    pass
+    for k, comps in sol.forces.items():
+        for d, e in comps.items():
+            if e is not None:
+                add(f"{k} force", rf"F_{{\mathrm{{{d}}}}}", _tex(e, names))
+    body = " \\\\\n".join(rows)
+    if standalone_math:
+        return "$$\\begin{aligned}\n" + body.replace("&&", "&\\quad") + "\n\\end{aligned}$$"
+    title = re.sub(r"([#$%&_{}])", r"\\\1", sol.system.title)
+    return (f"% lamech: {title}\n% requires \\usepackage{{amsmath}}\n"
+            f"\\subsection*{{{title}}}\n\\begin{{align*}}\n{body}\n\\end{{align*}}\n")

@@ -1,0 +1,152 @@
+"""``solve``: everything the Lagrange-multiplier method gives for a system, in one
+frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from .conditions import Root, slip_points, vanishing_points
+from .derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
+from .forces import cartesian_forces, generalized_forces
+from .integrals import Integrals, Shell, energy_shell, integrals
+from .model import System
+from .reduce import ClosedForms, Reduction, closed_forms, eliminate
+
+__all__ = ["Solution", "solve"]
+
+
+@dataclass(frozen=True)
+class Solution:
+    """The results for one system; expressions are SymPy, in the independent coordinates.
+
+    See :mod:`lamech.model` for the sign convention of every multiplier.
+    """
+
+    system: System
+    dynamics: Dynamics
+    reduction: Reduction
+    closed: ClosedForms
+    integrals: Integrals
+    shell: Shell | None
+    shell_reason: str | None
+    vanishes: dict
+    slips: dict
+    generalized_forces: dict
+    forces: dict
+    initial_multipliers: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    # ----- the public face --------------------------------------------------------
+    @property
+    def symbols(self) -> dict[str, sp.Symbol]:
+        return self.system.symbols
+
+    @property
+    def coordinates(self) -> list[str]:
+        return [c.name for c in self.system.coordinates]
+
+    @property
+    def independent(self) -> list[str]:
+        return [c.name for c in self.reduction.independent]
+
+    @property
+    def equations(self) -> list[sp.Expr]:
+        return list(self.dynamics.equations)
+
+    @property
+    def reduced_equations(self) -> list[sp.Expr]:
+        return [c.acceleration - self.closed.accelerations[c.acceleration]
+                for c in self.reduction.independent
+                if c.acceleration in self.closed.accelerations]
+
+    @property
+    def multipliers(self) -> dict[str, sp.Expr]:
+        return dict(self.closed.multipliers)
+
+    @property
+    def energy(self) -> sp.Expr | None:
+        return self.integrals.energy
+
+    @property
+    def conserved(self) -> list[sp.Expr]:
+        return self.integrals.conserved
+
+    @property
+    def on_energy_shell(self) -> dict[str, sp.Expr]:
+        return dict(self.shell.multipliers) if self.shell else {}
+
+    @property
+    def M(self) -> sp.Matrix:
+        return self.dynamics.M
+
+    @property
+    def h(self) -> sp.Matrix:
+        return self.dynamics.h
+
+    @property
+    def A(self) -> sp.Matrix:
+        return self.dynamics.A
+
+    @property
+    def gamma(self) -> sp.Matrix:
+        return self.dynamics.gamma
+
+    def to_json(self) -> dict:
+        from .report import to_json
+        return to_json(self)
+
+    def to_text(self) -> str:
+        from .report import to_text
+        return to_text(self)
+
+    def to_latex(self) -> str:
+        from .report import to_latex
+        return to_latex(self)
+
+    def _repr_latex_(self) -> str:
+        from .report import to_latex
+        return to_latex(self, standalone_math=True)
+
+    def __repr__(self) -> str:
+        return f"<Solution of {self.system.title!r}: {len(self.coordinates)} coordinates, " \
+               f"{len(self.system.constraints)} constraints>"
+
+
+def solve(system: System) -> Solution:
+    """Derive equations, multipliers, integrals, vanishing/slip points and forces."""
+    dyn = dynamics(system)
+    red = eliminate(system)
+    forms = closed_forms(dyn, red)
+    ints = integrals(dyn, red)
+    notes = list(system.notes) + list(red.notes)
+    initial = {}
+    if forms.skipped:
+        notes.append(forms.skipped + "; M, h, A, gamma are given and the multipliers are "
+                     "evaluated numerically at the initial state")
+        state = {**system.parameter_values, system.t: 0.0}
+        state.update({s: float(sp.sympify(e).subs(system.parameter_values))
+                      for s, e in system.initial_state.items()})
+        try:
+            _, lam = kkt_numeric(dyn, state)
+            initial = {c.name: float(v) for c, v in zip(system.constraints, lam)}
+        except DegenerateConstraintsError as exc:
+            notes.append(str(exc))
+        shell, why = None, "closed forms were skipped"
+    else:
+        shell, why = energy_shell(dyn, red, ints, forms)
+    vanishes: dict[str, list[Root]] = {}
+    slips: dict[str, list[Root]] = {}
+    for c in system.constraints:
+        if c.unilateral:
+            vanishes[c.name] = vanishing_points(system, shell, c.name) if shell else []
+        if c.friction is not None:
+            slips[c.name] = slip_points(system, shell, c.name) if shell else []
+    if shell:
+        for name, reason in shell.omitted.items():
+            notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
+    gen = generalized_forces(dyn, red, forms.multipliers)
+    cart = cartesian_forces(dyn, red, forms.multipliers)
+    return Solution(system, dyn, red, forms, ints, shell, why, vanishes, slips, gen, cart,
+                    initial, tuple(notes))
