@@ -25,12 +25,17 @@ def _parser() -> argparse.ArgumentParser:
     fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
     sub.add_parser("examples", help="list the bundled example problems")
+    from .cli_simulate import add_parser as add_simulate  # light: argparse only
+    add_simulate(sub)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(sys.argv[1:] if argv is None else argv)
     command = args.command or "solve"
+    if command == "simulate":
+        from .cli_simulate import run
+        return run(args)
     if command == "examples":
         from .problem import example_names, load
         for name in example_names():

@@ -30,6 +30,10 @@ CLOSED_FORM_LIMIT = 8
 """Largest number of unknowns (independent accelerations + multipliers) solved symbolically."""
 SIMPLIFY_OPS = 300
 """Expressions with more operations than this get only cheap simplification."""
+KKT_OPS = 1500
+"""Substituted KKT systems larger than this (operations) are not solved symbolically."""
+READABLE_OPS = 1500
+"""Closed forms larger than this (after simplification) are not reported."""
 MAX_OPS = 6000
 """Expressions larger than this are left as they are."""
 
@@ -56,6 +60,19 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         return out if sp.count_ops(out) <= ops else expr
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return expr
+
+
+def present(expr: sp.Expr, velocities: list[sp.Symbol]) -> sp.Expr:
+    """Group a result by powers of the velocities with factored coefficients
+    (m g cos th - m (R1 + R2) th'^2 rather than m (g cos th - R1 th'^2 - R2 th'^2))."""
+    present_v = [v for v in velocities if expr.has(v)]
+    if not present_v or sp.count_ops(expr) > SIMPLIFY_OPS:
+        return expr
+    try:
+        grouped = sp.collect(sp.expand(expr), present_v, func=sp.factor)
+    except (TypeError, ValueError, sp.PolynomialError):
+        return expr
+    return grouped if sp.count_ops(grouped) <= sp.count_ops(expr) + 4 else expr
 
 
 @dataclass(frozen=True)
@@ -143,8 +160,12 @@ def eliminate(system: System) -> Reduction:
             done = True
             break
         if not done:
+            free = [c.name for c in system.coordinates if f.has(c.symbol)
+                    and not c.keep and c.symbol not in positions]
+            why = "no closed-form solution for " + ", ".join(free) if free else \
+                "its coordinates are kept or already eliminated"
             notes.append(f"constraint `{con.name}` was not used to eliminate a coordinate "
-                         "(no closed-form solution); results use the full coordinates")
+                         f"({why}); results keep the full coordinates")
     substitution: dict = {}
     eliminated = []
     for coord in order:
@@ -192,6 +213,10 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     E = sp.Matrix(eqs)
     K = E.jacobian(unknowns)
     rhs = -E.xreplace({u: 0 for u in unknowns})
+    size = sum(sp.count_ops(e) for e in list(K) + list(rhs))
+    if size > KKT_OPS:
+        return ClosedForms({}, {}, f"substituted KKT system too large for closed forms "
+                                   f"({size} operations; the limit is {KKT_OPS})")
     K = K.applyfunc(_pre)
     rhs = rhs.applyfunc(_pre)
     try:
@@ -199,9 +224,15 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     except (ValueError, ZeroDivisionError, sp.NonInvertibleMatrixError):
         return ClosedForms({}, {}, "the substituted KKT matrix is singular symbolically")
     sol = [tidy(s) for s in sol]
+    biggest = max((sp.count_ops(s) for s in sol), default=0)
+    if biggest > READABLE_OPS:
+        return ClosedForms({}, {}, f"closed forms too large to be useful ({biggest} "
+                                   f"operations; the limit is {READABLE_OPS})")
     nacc = len(red.independent)
     acc = {c.acceleration: sol[i] for i, c in enumerate(red.independent)}
-    lam = {c.name: sol[nacc + j] for j, c in enumerate(system.constraints)}
+    velocities = [c.velocity for c in red.independent]
+    lam = {c.name: present(sol[nacc + j], velocities)
+           for j, c in enumerate(system.constraints)}
     return ClosedForms(acc, lam)
 
 

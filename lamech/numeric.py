@@ -1,0 +1,434 @@
+"""Numeric functions of a :class:`~lamech.model.System`, generated from its derivation.
+
+:func:`compile_system` turns :func:`lamech.derive.dynamics` into plain Python source
+(common subexpressions eliminated in one :func:`sympy.cse` pass over all the matrices of
+a function together), compiles it once, and wraps it in a :class:`NumericSystem`:
+
+``dynamics(t, q, v, p)``
+    ``(M, rhs, A, gamma, mu)``: the mass matrix M (n, n), ``rhs = Q - h`` (n,), the
+    constraint rows A (m, n), gamma (m,) (so that A q'' + gamma = 0 along the motion),
+    and the friction coefficients mu (m,) (NaN for a constraint without friction).
+    This is the hot path: one call per right-hand side evaluation.
+``constraints(t, q, p)``
+    ``(f, A, b)``: the holonomic constraint values f (m,) (0 for a velocity
+    constraint), A (m, n), and b (m,) so that the velocity form is F = A v + b.
+``energy(t, q, v, p)``
+    ``(T, V)``.
+``restitution(t, q, p)``
+    the coefficients of restitution e (m,).
+``force_jacobians(t, q, p)``
+    for each constraint with a ``force`` spec, ``(J, D)``: the partial velocities
+    J = J_Pa - J_Pb (dim, n) of the material point(s) it acts on, and the named
+    directions D (k, dim) (unit length not assumed).
+
+Arguments: ``t`` a float, ``q`` and ``v`` sequences of n floats in the order of
+``system.coordinates``, ``p`` a sequence of floats in the order of
+``system.parameters`` (so a sweep passes a different ``p`` without regenerating
+anything). The generated source (``NumericSystem.source``) names the order in each
+function's docstring. Only code printed by SymPy from the derived expressions is ever
+compiled; no user text reaches ``exec``.
+
+When numba is installed, ``compile_system(system, jit=True)`` JIT-compiles the same
+source; the NumPy/``math`` version is the reference and gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from .derive import Dynamics, dynamics as derive_dynamics
+from .model import System, partial_velocities
+
+__all__ = ["NumericSystem", "compile_system", "numba_available"]
+
+
+class _Printer(PythonCodePrinter):
+    """Python source with the ``math`` module; floats printed exactly (repr)."""
+
+    def __init__(self):
+        super().__init__({"fully_qualified_modules": True, "standard": "python3"})
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+    def _print_Rational(self, expr):
+        return f"({int(expr.p)}/{int(expr.q)})"
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.as_base_exp()
+        if exp.is_Integer and 1 < int(exp) <= 4:
+            b = self.parenthesize(base, 1000)  # x*x*x is faster than x**3 for floats
+            return "(" + "*".join([b] * int(exp)) + ")"
+        if exp == sp.Rational(1, 2):
+            return f"math.sqrt({self._print(base)})"
+        if exp == -1:
+            return f"(1.0/{self.parenthesize(base, 1000)})"
+        return super()._print_Pow(expr, rational=rational)
+
+
+def numba_available() -> bool:
+    try:
+        import numba  # noqa: F401
+    except Exception:  # pragma: no cover - depends on the machine
+        return False
+    return True
+
+
+@dataclass
+class NumericSystem:
+    """Compiled numeric functions of one system (see the module docstring)."""
+
+    system: System
+    dyn: Dynamics
+    coordinate_names: list[str]
+    constraint_names: list[str]
+    parameter_names: list[str]
+    parameters: np.ndarray
+    dynamics: object
+    constraints: object
+    energy: object
+    restitution: object
+    force_jacobians: object
+    force_specs: list = field(default_factory=list)  # [(constraint index, [direction names])]
+    rhs_kernel: object = None
+    source: str = ""
+    jit: bool = False
+    time_dependent: bool = False
+    conservative: bool = True
+    generation_seconds: float = 0.0
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinate_names)
+
+    @property
+    def m(self) -> int:
+        return len(self.constraint_names)
+
+    def parameter_vector(self, overrides: dict | None = None) -> np.ndarray:
+        """The parameter array with ``overrides`` {name: value}; parameters whose value is
+        an expression of others are recomputed from the overridden ones."""
+        if not overrides:
+            return self.parameters.copy()
+        unknown = set(overrides) - set(self.parameter_names)
+        if unknown:
+            raise KeyError(f"unknown parameter(s) {sorted(unknown)}; known: "
+                           f"{', '.join(self.parameter_names)}")
+        env = {p.symbol: sp.Float(float(overrides[p.name])) for p in self.system.parameters
+               if p.name in overrides}
+        out = []
+        for p in self.system.parameters:
+            if p.name in overrides:
+                out.append(float(overrides[p.name]))
+                continue
+            val = sp.sympify(p.value)
+            for _ in range(len(self.system.parameters) + 1):
+                nxt = val.subs(env)
+                if nxt == val:
+                    break
+                val = nxt
+            val = val.subs(self.system.parameter_values)
+            out.append(float(val))
+        return np.array(out, dtype=float)
+
+    def initial_state(self, p: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(q0, v0) from the coordinates' initial expressions at parameters ``p``."""
+        p = self.parameters if p is None else p
+        env = {par.symbol: float(val) for par, val in zip(self.system.parameters, p)}
+        q0 = np.array([float(sp.sympify(c.initial).subs(env)) for c in self.system.coordinates])
+        v0 = np.array([float(sp.sympify(c.initial_velocity).subs(env))
+                       for c in self.system.coordinates])
+        return q0, v0
+
+
+def _kkt_kernel_numpy(dyn):
+    """rhs(t, y, p, rows, slip_j, slip_k, slip_c) -> (y', ok): the state derivative from
+    the KKT solve on the active ``rows``; a slipping friction row j on normal row k
+    (position ``slip_k`` among ``rows``) adds ``mu_j * slip_c`` A_j^T to that column."""
+
+    def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
+        n = y.shape[0] // 2
+        q, v = y[:n], y[n:]
+        M, rhs, A, gam, mu = dyn(t, q, v, p)
+        na = rows.shape[0]
+        if na:
+            K = np.zeros((n + na, n + na))
+            K[:n, :n] = M
+            Ar = A[rows]
+            K[:n, n:] = -Ar.T
+            K[n:, :n] = Ar
+            for s in range(slip_j.shape[0]):
+                K[:n, n + slip_k[s]] += mu[slip_j[s]] * slip_c[s] * A[slip_j[s]]
+            r = np.concatenate((rhs, -gam[rows]))
+        else:
+            K, r = M, rhs
+        out = np.empty(2 * n)
+        out[:n] = v
+        try:
+            out[n:] = np.linalg.solve(K, r)[:n]
+        except np.linalg.LinAlgError:
+            out[n:] = np.nan
+        return out
+
+    return rhs_kernel
+
+
+def _jit_functions(dyn, cons):
+    import numba
+
+    _gauss_solve = numba.njit(cache=False)(_gauss_solve_py)
+    jd = numba.njit(cache=False)(dyn)
+    jc = numba.njit(cache=False)(cons)
+
+    @numba.njit(cache=False)
+    def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
+        n = y.shape[0] // 2
+        q = y[:n].copy()
+        v = y[n:].copy()
+        M, rhs, A, gam, mu = jd(t, q, v, p)
+        na = rows.shape[0]
+        K = np.zeros((n + na, n + na))
+        r = np.zeros(n + na)
+        for i in range(n):
+            r[i] = rhs[i]
+            for k in range(n):
+                K[i, k] = M[i, k]
+        for a in range(na):
+            j = rows[a]
+            r[n + a] = -gam[j]
+            for i in range(n):
+                K[i, n + a] = -A[j, i]
+                K[n + a, i] = A[j, i]
+        for s in range(slip_j.shape[0]):
+            j = slip_j[s]
+            c = mu[j] * slip_c[s]
+            for i in range(n):
+                K[i, n + slip_k[s]] += c * A[j, i]
+        out = np.empty(2 * n)
+        for i in range(n):
+            out[i] = v[i]
+        sol = _gauss_solve(K, r)
+        for i in range(n):
+            out[n + i] = sol[i]
+        return out
+
+    return jd, jc, rhs_kernel
+
+
+def _gauss_solve_py(K, r):
+    """Gaussian elimination with partial pivoting (NaN when singular); compiled by numba."""
+    N = r.shape[0]
+    K = K.copy()
+    x = r.copy()
+    for c in range(N):
+        piv = c
+        big = abs(K[c, c])
+        for i in range(c + 1, N):
+            if abs(K[i, c]) > big:
+                big = abs(K[i, c])
+                piv = i
+        if big == 0.0:
+            x[:] = np.nan
+            return x
+        if piv != c:
+            for k in range(N):
+                tmp = K[c, k]
+                K[c, k] = K[piv, k]
+                K[piv, k] = tmp
+            tmp = x[c]
+            x[c] = x[piv]
+            x[piv] = tmp
+        for i in range(c + 1, N):
+            f = K[i, c] / K[c, c]
+            if f != 0.0:
+                for k in range(c, N):
+                    K[i, k] -= f * K[c, k]
+                x[i] -= f * x[c]
+    for i in range(N - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, N):
+            s -= K[i, k] * x[k]
+        x[i] = s / K[i, i]
+    return x
+
+
+def _rename(system: System):
+    """Map every symbol to a safe identifier: q_i, v_i, p_i, t."""
+    mapping: dict[sp.Symbol, sp.Symbol] = {}
+    for i, s in enumerate(system.q):
+        mapping[s] = sp.Symbol(f"q_{i}", real=True)
+    for i, s in enumerate(system.qd):
+        mapping[s] = sp.Symbol(f"v_{i}", real=True)
+    for i, par in enumerate(system.parameters):
+        mapping[par.symbol] = sp.Symbol(f"p_{i}", real=True)
+    mapping[system.t] = sp.Symbol("t", real=True)
+    return mapping
+
+
+_VECTORS = {"rhs", "gamma", "mu", "f", "b", "E", "e"}
+
+
+def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp.Matrix]],
+                     mapping: dict, n: int, m: int, used_inputs: tuple[str, ...]) -> str:
+    """Source of one function computing several matrices with a shared CSE."""
+    printer = _Printer()
+    exprs: list[sp.Expr] = []
+    slots: list[tuple[str, int, int]] = []
+    for oname, mat in outputs:
+        for i in range(mat.rows):
+            for j in range(mat.cols):
+                e = sp.sympify(mat[i, j]).xreplace(mapping)
+                if e != 0 or oname in ("mu",):
+                    exprs.append(e)
+                    slots.append((oname, i, j))
+    allowed = set(mapping.values())
+    for e in exprs:
+        extra = e.free_symbols - allowed
+        if extra:
+            raise ValueError(f"{name}: unexpected symbols {sorted(map(str, extra))} in the "
+                             "derived expressions")
+    repl, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c_"), optimizations="basic")
+    lines = [f"def {name}({args}):", f'    """{doc}"""']
+    for var in used_inputs:
+        count = n if var in ("q", "v") else None
+        if var == "q" or var == "v":
+            for i in range(count):
+                lines.append(f"    {var}_{i} = {var}[{i}]")
+        elif var == "p":
+            for i in range(len([s for s in mapping.values() if s.name.startswith('p_')])):
+                lines.append(f"    p_{i} = p[{i}]")
+    for sym, e in repl:
+        lines.append(f"    {sym} = {printer.doprint(e)}")
+    for oname, mat in outputs:
+        shape = (mat.rows, mat.cols)
+        if oname == "mu":
+            lines.append(f"    {oname} = numpy.full({shape[0]}, numpy.nan)")
+        elif oname in _VECTORS:
+            lines.append(f"    {oname} = numpy.zeros({shape[0]})")
+        else:
+            lines.append(f"    {oname} = numpy.zeros(({shape[0]}, {shape[1]}))")
+    for (oname, i, j), e in zip(slots, reduced):
+        mat = dict(outputs)[oname]
+        if oname == "mu" and e is sp.nan:
+            continue
+        target = f"{oname}[{i}]" if oname in _VECTORS else f"{oname}[{i}, {j}]"
+        lines.append(f"    {target} = {printer.doprint(e)}")
+    lines.append(f"    return {', '.join(o for o, _ in outputs)}")
+    return "\n".join(lines)
+
+
+def compile_system(system: System, jit: bool = False) -> NumericSystem:
+    """Generate and compile the numeric functions of ``system`` (see the module docstring).
+
+    ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise).
+    """
+    import time as _time
+
+    t0 = _time.perf_counter()
+    dyn = derive_dynamics(system)
+    n, m = len(system.coordinates), len(system.constraints)
+    mapping = _rename(system)
+    qd0 = {v: 0 for v in system.qd}
+    F = dyn.velocity_forms
+    A = dyn.A if m else sp.zeros(0, n)
+    b = sp.Matrix([F[j].subs(qd0) for j in range(m)]) if m else sp.zeros(0, 1)
+    f = sp.Matrix([c.expr if c.holonomic else 0 for c in system.constraints]) \
+        if m else sp.zeros(0, 1)
+    mu = sp.Matrix([c.friction.mu if c.friction is not None else sp.nan
+                    for c in system.constraints]) if m else sp.zeros(0, 1)
+    e = sp.Matrix([c.restitution for c in system.constraints]) if m else sp.zeros(0, 1)
+    rhs = dyn.Q - dyn.h
+    order = (f"q = [{', '.join(c.name for c in system.coordinates)}]; "
+             f"v = [{', '.join(c.name + chr(39) for c in system.coordinates)}]; "
+             f"p = [{', '.join(p.name for p in system.parameters)}]; "
+             f"constraints = [{', '.join(c.name for c in system.constraints)}]")
+    srcs = [
+        _function_source("dynamics", "t, q, v, p",
+                         "(M, rhs = Q - h, A, gamma, mu) of '" + system.title.replace('"', "'")
+                         + "'. " + order,
+                         [("M", dyn.M), ("rhs", rhs), ("A", A), ("gamma", dyn.gamma
+                                                                if m else sp.zeros(0, 1)),
+                          ("mu", mu)], mapping, n, m, ("q", "v", "p")),
+        _function_source("constraints", "t, q, p", "(f, A, b) with F = A v + b. " + order,
+                         [("f", f), ("A", A), ("b", b)], mapping, n, m, ("q", "p")),
+        _function_source("energy", "t, q, v, p", "(T, V). " + order,
+                         [("E", sp.Matrix([system.T, system.V]))], mapping, n, m,
+                         ("q", "v", "p")),
+        _function_source("restitution", "t, q, p", "e per constraint. " + order,
+                         [("e", e)], mapping, n, m, ("q", "p")),
+    ]
+    # Cartesian force geometry
+    force_specs = []
+    jac_outputs = []
+    for j, c in enumerate(system.constraints):
+        spec = c.force
+        if spec is None:
+            continue
+        bodies = [system.body(bn) for bn in spec.bodies]
+        J = partial_velocities(system, bodies[0], spec.at)
+        if len(bodies) == 2:
+            J = J - partial_velocities(system, bodies[1], spec.at)
+        dim = J.rows
+        dirs = spec.along or tuple(
+            (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
+            for i, axis in enumerate("xyz"[:dim]))
+        D = sp.Matrix([list(d) for _, d in dirs])
+        k = len(force_specs)
+        force_specs.append((j, [name for name, _ in dirs]))
+        jac_outputs += [(f"J{k}", J), (f"D{k}", D)]
+    if jac_outputs:
+        srcs.append(_function_source("force_jacobians_flat", "t, q, p",
+                                     "J0, D0, J1, D1, ... " + order, jac_outputs, mapping,
+                                     n, m, ("q", "p")))
+    else:
+        srcs.append("def force_jacobians_flat(t, q, p):\n    return ()")
+    source = "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n"
+    namespace: dict = {"math": math, "numpy": np}
+    exec(compile(source, f"<lamech generated: {system.title}>", "exec"), namespace)
+
+    fns = {k: namespace[k] for k in ("dynamics", "constraints", "energy", "restitution",
+                                     "force_jacobians_flat")}
+    used_jit = False
+    kernel = _kkt_kernel_numpy(fns["dynamics"])
+    if jit and numba_available():
+        try:
+            jd, jc, kernel = _jit_functions(fns["dynamics"], fns["constraints"])
+            q0 = np.zeros(n)
+            p0 = np.array([p.numeric for p in system.parameters], dtype=float)
+            jd(0.0, q0, q0, p0)  # compile now: a numba failure shows here, not mid-run
+            jc(0.0, q0, p0)
+            kernel(0.0, np.zeros(2 * n), p0, np.zeros(0, dtype=np.int64),
+                   np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
+            fns["dynamics"], fns["constraints"] = jd, jc
+            used_jit = True
+        except Exception:  # pragma: no cover - numba refused the source
+            kernel = _kkt_kernel_numpy(fns["dynamics"])
+            used_jit = False
+
+    flat = fns["force_jacobians_flat"]
+
+    def force_jacobians(t, q, p):
+        out = flat(t, q, p)
+        return [(out[2 * k], out[2 * k + 1]) for k in range(len(out) // 2)]
+
+    t_sym = system.t
+    time_dependent = bool(system.L.has(t_sym) or any(c.expr.has(t_sym)
+                                                     for c in system.constraints))
+    conservative = all(sp.sympify(x) == 0 for x in (system.forces or ()))
+    params = np.array([p.numeric for p in system.parameters], dtype=float)
+    return NumericSystem(
+        system=system, dyn=dyn,
+        coordinate_names=[c.name for c in system.coordinates],
+        constraint_names=[c.name for c in system.constraints],
+        parameter_names=[p.name for p in system.parameters],
+        parameters=params,
+        dynamics=fns["dynamics"], constraints=fns["constraints"], energy=fns["energy"],
+        restitution=fns["restitution"], force_jacobians=force_jacobians,
+        force_specs=force_specs, source=source, jit=used_jit, rhs_kernel=kernel,
+        time_dependent=time_dependent, conservative=conservative,
+        generation_seconds=_time.perf_counter() - t0)

@@ -1,0 +1,61 @@
+"""Plots of a :class:`~lamech.trajectory.Trajectory` (matplotlib, Agg backend)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot_trajectory"]
+
+_EVENT_COLOURS = {"lift-off": "tab:red", "contact": "tab:green", "impact": "tab:purple",
+                  "slip": "tab:orange", "stick": "tab:blue"}
+
+
+def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
+    """Two panels: multipliers (and Cartesian forces) against time with the events marked
+    and labelled; the coordinates against time."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True,
+                                   gridspec_kw={"height_ratios": [3, 2]})
+    t = traj.t
+    for j, name in enumerate(traj.constraints):
+        lam = traj.lambdas[:, j]
+        if np.any(np.isfinite(lam)):
+            ax1.plot(t, lam, lw=1.6, label=f"λ {name}")
+    for key, arr in traj.forces.items():
+        c, d = key.split(":", 1)
+        j = traj.constraints.index(c)
+        if np.any(np.isfinite(arr)) and not np.allclose(arr, traj.lambdas[:, j],
+                                                         equal_nan=True):
+            ax1.plot(t, arr, lw=1.0, ls="--", label=f"{c} force along {d}")
+    ax1.axhline(0.0, color="0.6", lw=0.8)
+    ax1.set_ylabel("multiplier / force (problem units)")
+    ax1.set_title(title or traj.title or "lamech simulation")
+    seen = set()
+    ymax = ax1.get_ylim()[1]
+    for e in traj.events:
+        colour = _EVENT_COLOURS.get(e["kind"], "k")
+        for ax in (ax1, ax2):
+            ax.axvline(e["t"], color=colour, lw=0.9, ls=":")
+        if len(traj.events) <= 12 or e["kind"] not in seen:
+            ax1.annotate(f"{e['kind']} ({e['constraint']})\nt = {e['t']:.4g}",
+                         xy=(e["t"], ymax), xytext=(3, -3), textcoords="offset points",
+                         fontsize=7.5, color=colour, va="top", rotation=90)
+        seen.add(e["kind"])
+    ax1.legend(fontsize=8, loc="best")
+    ax1.grid(alpha=0.25)
+    for i, name in enumerate(traj.coordinates):
+        ax2.plot(t, traj.q[:, i], lw=1.3, label=name)
+    ax2.set_xlabel("time t (s)")
+    ax2.set_ylabel("coordinates")
+    ax2.legend(fontsize=8, loc="best")
+    ax2.grid(alpha=0.25)
+    if traj.status != "ok":
+        fig.text(0.01, 0.005, f"{traj.status}: {traj.message}"[:160], fontsize=7, color="red")
+    fig.tight_layout()
+    fig.savefig(str(path), dpi=120)
+    plt.close(fig)

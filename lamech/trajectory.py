@@ -1,0 +1,188 @@
+"""The result of a simulation: sampled states, multipliers, forces, energy, residuals and
+the event log (see :func:`lamech.simulate.simulate`)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Trajectory"]
+
+
+def _fmt(x: float) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "nan"
+    return f"{float(x):.17g}"
+
+
+@dataclass
+class Trajectory:
+    """Arrays sampled at ``t`` (dense output, not the integrator's steps).
+
+    ``q``, ``qd``: (N, n); ``lambdas``: (N, m) in the sign convention and scaling of
+    ``lamech solve`` (NaN while a unilateral constraint is released or a friction
+    constraint is off; while a friction constraint slips, its column holds the kinetic
+    friction -mu N sign(slip velocity) that replaces its multiplier); ``forces``:
+    {"<constraint>:<direction>": (N,)} Cartesian components by virtual work;
+    ``energy`` T + V; ``residual_position`` max |f| and ``residual_velocity`` max |F|
+    of the active constraints; ``residual`` their max. ``events`` is the log
+    [{"t", "kind", "constraint", "coordinates"}]; ``status`` is "ok", "failed" or
+    "interrupted" with ``message`` saying when, why and what to try.
+    """
+
+    coordinates: list[str]
+    constraints: list[str]
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    lambdas: np.ndarray
+    forces: dict
+    energy: np.ndarray
+    residual_position: np.ndarray
+    residual_velocity: np.ndarray
+    events: list = field(default_factory=list)
+    status: str = "ok"
+    message: str = ""
+    t_end: float = 0.0
+    final_time: float = 0.0
+    final_q: np.ndarray | None = None
+    final_qd: np.ndarray | None = None
+    energy_conserved: bool = True
+    max_projection: float = 0.0
+    steps: int = 0
+    evaluations: int = 0
+    notes: list = field(default_factory=list)
+    title: str = ""
+    kinetic: np.ndarray | None = None
+
+    # ----- views ------------------------------------------------------------------
+    @property
+    def residual(self) -> np.ndarray:
+        return np.maximum(self.residual_position, self.residual_velocity)
+
+    def coordinate(self, name: str) -> np.ndarray:
+        return self.q[:, self.coordinates.index(name)]
+
+    def velocity(self, name: str) -> np.ndarray:
+        return self.qd[:, self.coordinates.index(name.rstrip("'"))]
+
+    def multiplier(self, name: str) -> np.ndarray:
+        return self.lambdas[:, self.constraints.index(name)]
+
+    @property
+    def energy_error(self) -> float | None:
+        """max |E - E0| / max(|E0|, max T) for a conservative, time-independent run
+        (no driving force, no explicit t, no slip or inelastic impact); None otherwise."""
+        if not self.energy_conserved or len(self.energy) == 0:
+            return None
+        e = self.energy[np.isfinite(self.energy)]
+        if len(e) == 0:
+            return None
+        scale = max(abs(e[0]), float(np.nanmax(self.kinetic)) if self.kinetic is not None
+                    and len(self.kinetic) else 0.0)
+        if scale == 0:
+            return 0.0
+        return float(np.max(np.abs(e - e[0])) / scale)
+
+    # ----- tables -----------------------------------------------------------------
+    def columns(self) -> list[tuple[str, np.ndarray]]:
+        cols = [("t", self.t)]
+        cols += [(c, self.q[:, i]) for i, c in enumerate(self.coordinates)]
+        cols += [(c + "'", self.qd[:, i]) for i, c in enumerate(self.coordinates)]
+        cols += [("lambda:" + c, self.lambdas[:, j]) for j, c in enumerate(self.constraints)]
+        cols += [("force:" + k, v) for k, v in self.forces.items()]
+        cols += [("energy", self.energy), ("residual", self.residual)]
+        return cols
+
+    def to_csv(self, path: str | Path | None = None) -> str | None:
+        """Write the CSV (17 significant digits) to ``path``; return the text when None."""
+        cols = self.columns()
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow([name for name, _ in cols])
+        for k in range(len(self.t)):
+            w.writerow([_fmt(arr[k]) for _, arr in cols])
+        text = buf.getvalue()
+        if path is None:
+            return text
+        Path(path).write_text(text, encoding="utf-8")
+        return None
+
+    def to_dataframe(self):
+        """A pandas DataFrame with the CSV's columns (pandas must be installed)."""
+        try:
+            import pandas as pd
+        except ImportError:  # pragma: no cover - optional dependency
+            raise ImportError("to_dataframe needs pandas: pip install pandas") from None
+        return pd.DataFrame({name: arr for name, arr in self.columns()})
+
+    # ----- summary ----------------------------------------------------------------
+    def summary(self) -> dict:
+        """The ``--json`` summary of the run."""
+        rp = float(np.nanmax(self.residual_position)) if len(self.t) else None
+        rv = float(np.nanmax(self.residual_velocity)) if len(self.t) else None
+        final = {}
+        if self.final_q is not None:
+            for i, c in enumerate(self.coordinates):
+                final[c] = float(self.final_q[i])
+            for i, c in enumerate(self.coordinates):
+                final[c + "'"] = float(self.final_qd[i])
+        return {
+            "title": self.title,
+            "t_end": self.t_end,
+            "final_time": self.final_time,
+            "events": [_json_event(e) for e in self.events],
+            "final": final,
+            "max_residual": None if rp is None else max(rp, rv),
+            "max_residual_position": rp,
+            "max_residual_velocity": rv,
+            "max_projection": self.max_projection,
+            "energy_error": self.energy_error,
+            "steps": self.steps,
+            "evaluations": self.evaluations,
+            "samples": int(len(self.t)),
+            "status": self.status,
+            "message": self.message,
+            "notes": list(self.notes),
+        }
+
+    def to_text(self) -> str:
+        s = self.summary()
+        lines = [f"{self.title}" if self.title else "simulation",
+                 f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
+                 f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
+                 f"{s['evaluations']} dynamics evaluations, {s['samples']} samples"]
+        for note in s["notes"]:
+            lines.append(f"  note: {note}")
+        lines.append(f"  events: {len(s['events'])}")
+        for e in s["events"]:
+            coords = ", ".join(f"{k} = {v:.10g}" for k, v in e["coordinates"].items()
+                               if not k.endswith("'"))
+            lines.append(f"    t = {e['t']:.12g}  {e['kind']:<8} {e['constraint']}: {coords}")
+        lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}"
+                                                   for k, v in s["final"].items()))
+        lines.append(f"  max residual: |f| {_g(s['max_residual_position'])}, "
+                     f"|f'| {_g(s['max_residual_velocity'])}"
+                     f" (largest projection {_g(s['max_projection'])})")
+        ee = s["energy_error"]
+        lines.append("  energy error: " + (_g(ee) + " (relative)" if ee is not None else
+                                           "n/a (driven, time-dependent or dissipative)"))
+        return "\n".join(lines) + "\n"
+
+
+def _g(x) -> str:
+    return "n/a" if x is None else f"{x:.3g}"
+
+
+def _json_event(e: dict) -> dict:
+    out = {"t": float(e["t"]), "kind": e["kind"], "constraint": e["constraint"],
+           "coordinates": {k: float(v) for k, v in e["coordinates"].items()}}
+    for k, v in e.items():
+        if k not in out:
+            out[k] = v
+    return out

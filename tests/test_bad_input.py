@@ -1,0 +1,157 @@
+"""Bad problem files: each gives a clear ProblemFileError, executes nothing, and returns fast.
+
+Every ``tests/bad/NN-name.toml`` has one thing wrong and starts with header comments:
+
+``# expect: <text>``  (one or more) text the message must contain, case-insensitive;
+``# reject: <text>``  text it must not contain (a misleading follow-on error);
+``# line: <n>``       the 1-based line the message must name, as ``:<n>:``;
+``# xfail: <why>``    a known loader problem: the test is expected to fail (strictly,
+                      so a fix shows up as XPASS and the header line is then removed).
+
+``tests/bad/valid/`` holds the files the bad ones were made from; they must load, so
+that each bad file fails for its own reason.
+"""
+
+from __future__ import annotations
+
+import re
+import signal
+from contextlib import contextmanager
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+
+import lamech
+
+BAD = Path(__file__).parent / "bad"
+FILES = sorted(BAD.glob("*.toml"))
+VALID = sorted((BAD / "valid").glob("*.toml"))
+TIME_LIMIT = 10  # seconds per file: a hang is a failure, not a stuck suite
+
+
+class Header(NamedTuple):
+    expects: list[str]
+    rejects: list[str]
+    line: int | None
+    xfail: str | None
+
+
+def header(path: Path) -> Header:
+    """What a bad file's header comments say its error must (not) contain."""
+    fields: dict[str, list[str]] = {"expect": [], "reject": [], "line": [], "xfail": []}
+    for raw in path.read_text(encoding="utf-8").splitlines():
+        if not raw.startswith("#"):
+            break
+        if m := re.match(r"#\s*(expect|reject|line|xfail):\s*(.*?)\s*$", raw):
+            fields[m.group(1)].append(m.group(2))
+    line = int(fields["line"][0]) if fields["line"] else None
+    xfail = fields["xfail"][0] if fields["xfail"] else None
+    return Header(fields["expect"], fields["reject"], line, xfail)
+
+
+def cases(paths):
+    for path in paths:
+        xfail = header(path).xfail
+        marks = [pytest.mark.xfail(strict=True, reason=xfail)] if xfail else []
+        yield pytest.param(path, id=path.stem, marks=marks)
+
+
+class Timeout(Exception):
+    pass
+
+
+@contextmanager
+def time_limit(seconds: float):
+    def on_alarm(signum, frame):
+        raise Timeout(f"no answer within {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def tree(path: Path) -> set[str]:
+    return {str(p.relative_to(path)) for p in path.rglob("*")}
+
+
+def load_error(load, *args, tmp_path: Path, monkeypatch, capfd) -> lamech.ProblemFileError:
+    """Run ``load(*args)`` in an empty working directory; it must raise, create nothing, print nothing."""
+    monkeypatch.chdir(tmp_path)
+    before = tree(BAD)
+    with time_limit(TIME_LIMIT):
+        with pytest.raises(lamech.ProblemFileError) as info:
+            load(*args)
+    assert list(tmp_path.iterdir()) == [], "loading created files"
+    assert tree(BAD) == before, "loading changed tests/bad"
+    out, err = capfd.readouterr()
+    assert out == "" and err == "", f"loading printed: {out!r} {err!r}"
+    return info.value
+
+
+def check_message(message: str, name: str, expected: Header) -> None:
+    assert name in message, f"the message does not name the file {name}:\n{message}"
+    # The file name must not satisfy an expectation by itself ("...-residual.toml").
+    body = message.replace(name, "").lower()
+    for text in expected.expects:
+        assert text.lower() in body, f"expected {text!r} in:\n{message}"
+    for text in expected.rejects:
+        assert text.lower() not in body, f"misleading {text!r} in:\n{message}"
+    if expected.line is not None:
+        line = expected.line
+        assert f":{line}:" in message, f"expected line {line} (`:{line}:`) in:\n{message}"
+
+
+def test_corpus_is_complete():
+    assert len(FILES) >= 35
+    for path in FILES:
+        assert re.fullmatch(r"\d\d-[a-z0-9-]+-?[A-Za-z0-9-]*\.toml", path.name), path.name
+        assert header(path).expects, f"{path.name} has no '# expect:' line"
+
+
+def test_problem_file_error_is_a_value_error():
+    assert issubclass(lamech.ProblemFileError, ValueError)
+
+
+@pytest.mark.parametrize("path", VALID, ids=lambda p: p.stem)
+def test_valid_bases_load(path, tmp_path, monkeypatch):
+    """The files the corpus was made from load: each bad file has exactly its own fault."""
+    monkeypatch.chdir(tmp_path)
+    with time_limit(TIME_LIMIT):
+        lamech.load(path)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("path", cases(FILES))
+def test_bad_file(path, tmp_path, monkeypatch, capfd):
+    error = load_error(lamech.load, path, tmp_path=tmp_path, monkeypatch=monkeypatch,
+                       capfd=capfd)
+    check_message(str(error), path.name, header(path))
+
+
+@pytest.mark.parametrize("stem", ["05-unknown-name-in-f", "11-velocity-in-V",
+                                  "27-inject-import-os", "35-exponent-tower",
+                                  "01-toml-unclosed-string"])
+def test_bad_text_through_loads(stem, tmp_path, monkeypatch, capfd):
+    """The Python API gives the same error for the same text, under the name it is given."""
+    path = BAD / f"{stem}.toml"
+    error = load_error(lamech.loads, path.read_text(encoding="utf-8"), "x.toml",
+                       tmp_path=tmp_path, monkeypatch=monkeypatch, capfd=capfd)
+    check_message(str(error), "x.toml", header(path))
+
+
+def test_load_accepts_a_string_path(tmp_path, monkeypatch, capfd):
+    path = BAD / "05-unknown-name-in-f.toml"
+    error = load_error(lamech.load, str(path), tmp_path=tmp_path, monkeypatch=monkeypatch,
+                       capfd=capfd)
+    check_message(str(error), path.name, header(path))
+
+
+def test_missing_file(tmp_path, monkeypatch, capfd):
+    error = load_error(lamech.load, tmp_path / "nowhere.toml", tmp_path=tmp_path,
+                       monkeypatch=monkeypatch, capfd=capfd)
+    assert "nowhere.toml" in str(error)

@@ -1,0 +1,360 @@
+"""Simulation against independent truths: closed forms, invariants, convergence order."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.optimize import brentq
+from scipy.special import ellipk
+
+import lamech
+from lamech.numeric import compile_system, numba_available
+from lamech.simulate import SimulationError, simulate
+
+G = 9.81
+
+
+def _example_text(name: str) -> str:
+    return (resources.files("lamech") / "examples" / f"{name}.toml").read_text()
+
+
+def _pendulum_period(theta0: float, g: float = G, l: float = 1.0) -> float:
+    return 4 * math.sqrt(l / g) * ellipk(math.sin(theta0 / 2) ** 2)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return compile_system(lamech.load("pendulum"))
+
+
+def _check_pendulum(tr, theta0=0.5):
+    assert tr.status == "ok", tr.message
+    assert np.max(tr.residual_position) <= 1e-10
+    assert tr.energy_error is not None and tr.energy_error <= 1e-9
+    th = tr.coordinate("theta")
+    ref = G * (3 * np.cos(th) - 2 * math.cos(theta0))   # m = 1
+    rel = np.max(np.abs(tr.multiplier("string") - ref) / np.abs(ref))
+    assert rel <= 1e-8, rel
+    # the Cartesian tension equals the multiplier (f = l - r, unit radial direction)
+    assert np.allclose(tr.forces["string:tension"], tr.multiplier("string"), rtol=1e-12)
+
+
+def test_pendulum_20_periods(pendulum):
+    tr = simulate(pendulum, 20 * _pendulum_period(0.5), samples=4001)
+    _check_pendulum(tr)
+    assert tr.events == []
+
+
+@pytest.mark.slow
+def test_pendulum_1000_periods(pendulum):
+    tr = simulate(pendulum, 1000 * _pendulum_period(0.5), samples=20001)
+    _check_pendulum(tr)
+    # back at the release point after a whole number of periods
+    assert abs(tr.q[-1, 1] - 0.5) < 1e-7
+
+
+def _cylinder(mu: str | None) -> lamech.System:
+    text = _example_text("cylinder")
+    old = 'friction = { mu = 0.3, normal = "contact" }'
+    assert old in text
+    if mu is None:
+        text = text.replace(old + "\n", "")
+    else:
+        text = text.replace(old, f'friction = {{ mu = {mu}, normal = "contact" }}')
+    return lamech.loads(text)
+
+
+THS = 0.01   # start angle: at rest slightly off the top
+
+
+def test_cylinder_multipliers_match_closed_form():
+    system = lamech.load("cylinder")
+    sol = lamech.solve(system)
+    syms = system.symbols
+    args = [syms["theta1"], syms["theta1'"]]
+    pv = system.parameter_values
+    tr = simulate(system, 2.2, q0={"theta1": THS, "theta2": 3 * THS}, samples=2201)
+    assert tr.status == "ok", tr.message
+    assert tr.events == []          # rolls the whole time (slips at t = 2.28)
+    th, thd = tr.coordinate("theta1"), tr.velocity("theta1")
+    for name in ("contact", "rolling"):
+        expr = sp.sympify(sol.multipliers[name]).subs(pv)
+        assert expr.free_symbols <= set(args)
+        f = sp.lambdify(args, expr, "numpy")
+        ref = np.broadcast_to(f(th, thd), th.shape)
+        err = np.max(np.abs(tr.multiplier(name) - ref)) / (1.0 * G)
+        assert err <= 1e-8, (name, err)
+
+
+def test_cylinder_lift_off_angle():
+    tr = simulate(_cylinder(None), 3.0, q0={"theta1": THS, "theta2": 3 * THS}, samples=301)
+    assert tr.status == "ok", tr.message
+    kinds = [(e["kind"], e["constraint"]) for e in tr.events]
+    assert kinds == [("lift-off", "contact")]
+    theta = tr.events[0]["coordinates"]["theta1"]
+    assert abs(theta - math.acos(4 / 7 * math.cos(THS))) <= 1e-9
+    # flies free afterwards: the gap opens, the contact multiplier is NaN
+    after = tr.t > tr.events[0]["t"] + 0.05
+    assert np.all(tr.coordinate("r")[after] > 1.5)
+    assert np.all(np.isnan(tr.multiplier("contact")[after]))
+
+
+def test_cylinder_slips_where_closed_form_says():
+    mu = 0.3
+    tr = simulate(lamech.load("cylinder"), 3.0, q0={"theta1": THS, "theta2": 3 * THS},
+                  samples=301)
+    assert tr.status == "ok", tr.message
+    kinds = [(e["kind"], e["constraint"]) for e in tr.events]
+    assert kinds[:2] == [("slip", "rolling"), ("lift-off", "contact")]
+    ref = brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(THS)),
+                 0.05, 0.9, xtol=1e-15)
+    assert abs(tr.events[0]["coordinates"]["theta1"] - ref) <= 1e-9
+    # while slipping the friction column holds the kinetic friction -mu N
+    k = np.nonzero((tr.t > tr.events[0]["t"]) & (tr.t < tr.events[1]["t"]))[0]
+    assert len(k)
+    assert np.allclose(tr.multiplier("rolling")[k], -mu * tr.multiplier("contact")[k],
+                       rtol=1e-12)
+
+
+BALL = """
+title = "Ball bouncing on a floor"
+[parameters]
+m = 1.0
+g = 9.81
+e = 0.5
+[coordinates]
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*y'^2"
+V = "m*g*y"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+restitution = "e"
+"""
+
+
+def test_ball_bounce_heights():
+    h, e = 1.0, 0.5
+    tr = simulate(lamech.loads(BALL), 2.0, q0={"y": h}, samples=2001)
+    assert tr.status == "ok", tr.message
+    impacts = [ev for ev in tr.events if ev["kind"] == "impact"]
+    assert len(impacts) >= 8
+    t1 = math.sqrt(2 * h / G)
+    t_k = t1
+    for k, ev in enumerate(impacts[:8], start=1):
+        up = ev["coordinates"]["y'"]                  # velocity after the impact
+        assert abs(up ** 2 / (2 * G) - e ** (2 * k) * h) <= 1e-9 * h
+        assert abs(ev["t"] - t_k) <= 1e-9
+        assert abs(ev["velocity_before"] + up / e) <= 1e-9
+        t_k += 2 * e ** k * t1
+    # Zeno: the bounces accumulate at t1 (1 + e)/(1 - e), then it rests on the floor
+    assert tr.events[-1]["kind"] == "contact"
+    assert abs(tr.events[-1]["t"] - t1 * (1 + e) / (1 - e)) < 1e-4
+    rest = tr.t > tr.events[-1]["t"]
+    assert np.allclose(tr.multiplier("floor")[rest], G, rtol=1e-12)
+    # the sampled apex of the first bounce
+    first = (tr.t > impacts[0]["t"]) & (tr.t < impacts[1]["t"])
+    assert abs(tr.coordinate("y")[first].max() - e ** 2 * h) < 1e-5
+
+
+def test_disk_on_steep_incline_slips_at_once():
+    mu, alpha, R, T = 0.1, 0.5, 0.2, 1.0
+    assert math.tan(alpha) > 3 * mu
+    text = _example_text("incline_disk").replace("mu = 0.3", f"mu = {mu}")
+    tr = simulate(lamech.loads(text), T, samples=101)
+    assert tr.status == "ok", tr.message
+    assert [(e["kind"], e["t"]) for e in tr.events] == [("slip", 0.0)]
+    t = tr.t
+    s_ref = 0.5 * G * (math.sin(alpha) - mu * math.cos(alpha)) * t ** 2
+    th_ref = 0.5 * (2 * mu * G * math.cos(alpha) / R) * t ** 2
+    assert np.max(np.abs(tr.coordinate("s") - s_ref)) <= 1e-9
+    assert np.max(np.abs(tr.coordinate("theta") - th_ref)) <= 1e-8
+    assert np.allclose(tr.multiplier("rolling"), -mu * G * math.cos(alpha), rtol=1e-12)
+
+
+def test_sliding_disk_sticks_when_it_rolls():
+    v0, mu = 2.0, 0.3
+    text = _example_text("incline_disk").replace("alpha = 0.5", "alpha = 0.0")
+    tr = simulate(lamech.loads(text), 1.0, qd0={"s": v0}, samples=101)
+    assert tr.status == "ok", tr.message
+    kinds = [e["kind"] for e in tr.events]
+    assert kinds == ["slip", "stick"]
+    t_stick = v0 / (3 * mu * G)                     # v = v0 - mu g t meets R w = 2 mu g t
+    assert abs(tr.events[1]["t"] - t_stick) <= 1e-9
+    assert abs(tr.qd[-1, 0] - 2 * v0 / 3) <= 1e-9
+    assert np.max(tr.residual) < 1e-9
+
+
+def test_convergence_order(pendulum):
+    theta0 = 0.5
+    P = _pendulum_period(theta0)
+    steps, errs = [], []
+    for rtol in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9):
+        tr = simulate(pendulum, 10 * P, samples=2, rtol=rtol, atol=rtol * 1e-2)
+        steps.append(tr.steps)
+        errs.append(abs(tr.q[-1, 1] - theta0) + 0.3 * abs(tr.qd[-1, 1]))
+    slope_steps = np.polyfit(np.log(steps), np.log(errs), 1)[0]
+    slope_tol = np.polyfit(np.log([1e-5, 1e-6, 1e-7, 1e-8, 1e-9]), np.log(errs), 1)[0]
+    assert -10 < slope_steps < -6.5, slope_steps      # DOP853: order 8
+    assert 0.8 < slope_tol < 1.3, slope_tol           # error proportional to tolerance
+    assert errs[-1] < errs[0] * 1e-3
+
+
+def test_initial_state_off_the_constraints(pendulum):
+    with pytest.raises(SimulationError, match="violates"):
+        simulate(pendulum, 1.0, q0={"r": 1.001})
+    tr = simulate(pendulum, 1.0, q0={"r": 1.001}, qd0={"r": 0.2}, project_initial=True,
+                  samples=11)
+    assert tr.status == "ok"
+    assert abs(tr.q[0, 0] - 1.0) < 1e-14 and abs(tr.qd[0, 0]) < 1e-14
+    assert tr.notes and "projected" in tr.notes[0]
+
+
+def test_bad_options(pendulum):
+    for kwargs in ({"t_end": -1.0}, {"t_end": float("nan")}, {"t_end": 1.0, "rtol": 0.0},
+                   {"t_end": 1.0, "rtol": -1e-8}, {"t_end": 1.0, "atol": 0.0},
+                   {"t_end": 1.0, "samples": 1}, {"t_end": 1.0, "dt": -0.1},
+                   {"t_end": 1.0, "samples": 10, "dt": 0.1}):
+        with pytest.raises(SimulationError):
+            simulate(pendulum, **kwargs)
+
+
+def test_csv_and_summary(pendulum):
+    tr = simulate(pendulum, 1.0, samples=2)
+    assert list(tr.t) == [0.0, 1.0]
+    text = tr.to_csv()
+    rows = list(csv.reader(io.StringIO(text)))
+    assert rows[0] == ["t", "r", "theta", "r'", "theta'", "lambda:string",
+                       "force:string:tension", "energy", "residual"]
+    assert len(rows) == 3
+    assert float(rows[2][2]) == tr.q[-1, 1]          # 17 significant digits round-trip
+    s = tr.summary()
+    for key in ("events", "final", "max_residual", "max_residual_position",
+                "max_residual_velocity", "energy_error", "status", "message"):
+        assert key in s
+    assert set(s["final"]) == {"r", "theta", "r'", "theta'"}
+    assert s["status"] == "ok"
+    tr2 = simulate(pendulum, 1.0, dt=0.25)
+    assert np.allclose(tr2.t, [0, 0.25, 0.5, 0.75, 1.0])
+
+
+def test_parameters_as_arguments(pendulum):
+    """A sweep changes parameters without regenerating code."""
+    tr = simulate(pendulum, 1.0, params={"theta0": 0.3, "g": 9.0}, samples=101)
+    th = tr.coordinate("theta")
+    assert abs(th[0] - 0.3) < 1e-15
+    ref = 9.0 * (3 * np.cos(th) - 2 * math.cos(0.3))
+    assert np.max(np.abs(tr.multiplier("string") - ref) / ref) < 1e-8
+
+
+def test_rheonomic_hoop_keeps_its_jacobi_integral():
+    system = lamech.load("hoop_bead")
+    tr = simulate(system, 3.0, samples=301)
+    assert tr.status == "ok", tr.message
+    assert tr.energy_error is None            # the drive does work
+    m, g, R, w = 1.0, 9.81, 0.5, 6.0
+    th, thd = tr.coordinate("theta"), tr.velocity("theta")
+    h = m * R**2 * thd**2 / 2 - m * R**2 * w**2 * np.sin(th)**2 / 2 - m * g * R * np.cos(th)
+    assert np.max(np.abs(h - h[0])) <= 1e-9 * abs(h[0])
+    assert np.max(np.abs(tr.coordinate("phi") - w * tr.t)) < 1e-10
+
+
+def test_knife_edge_nonholonomic_invariants():
+    tr = simulate(lamech.load("knife_edge"), 5.0, samples=201)
+    assert tr.status == "ok", tr.message
+    assert np.max(tr.residual_velocity) < 1e-10
+    assert np.allclose(tr.velocity("phi"), 1.5, rtol=1e-10)
+    assert tr.energy_error < 1e-10
+    # the lateral force is the centripetal force m v phi' = 1 * 2 * 1.5
+    assert np.allclose(tr.forces["blade:lateral"], 3.0, rtol=1e-8)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_jit_gives_the_same_numbers():
+    system = lamech.load("cylinder")
+    a = simulate(compile_system(system), 3.0, q0={"theta1": THS, "theta2": 3 * THS})
+    ns = compile_system(system, jit=True)
+    assert ns.jit
+    b = simulate(ns, 3.0, q0={"theta1": THS, "theta2": 3 * THS})
+    assert [e["kind"] for e in a.events] == [e["kind"] for e in b.events]
+    assert np.allclose(a.q, b.q, rtol=0, atol=1e-12)
+    assert np.allclose(np.nan_to_num(a.lambdas), np.nan_to_num(b.lambdas), atol=1e-10)
+
+
+def test_ladder_leaves_the_wall_at_two_thirds_height():
+    tr = simulate(lamech.load("ladder"), 1.0, samples=101)
+    assert tr.status == "ok", tr.message
+    assert [(e["kind"], e["constraint"]) for e in tr.events] == [("lift-off", "wall")]
+    phi = tr.events[0]["coordinates"]["phi"]
+    assert abs(phi - math.asin(2 / 3 * math.sin(1.2))) <= 1e-9
+    assert tr.energy_error < 1e-9          # frictionless: lift-off dissipates nothing
+
+
+def test_cli_simulate(tmp_path, capsys):
+    import argparse
+    import json
+
+    from lamech.cli_simulate import add_parser, run
+    parser = argparse.ArgumentParser(prog="lamech")
+    add_parser(parser.add_subparsers(dest="command"))
+    out, png = tmp_path / "traj.csv", tmp_path / "forces.png"
+    args = parser.parse_args(["simulate", "ladder", "--t-end", "1", "--samples", "51",
+                              "--out", str(out), "--json", "--plot", str(png)])
+    assert run(args) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["status"] == "ok"
+    assert summary["events"][0]["kind"] == "lift-off"
+    assert len(out.read_text().splitlines()) == 52
+    assert png.stat().st_size > 10_000
+    with pytest.raises(SystemExit):
+        parser.parse_args(["simulate", "ladder", "--t-end", "-1"])
+
+
+INVERSE_SQUARE = """
+title = "inverse-square attraction along a line"
+[parameters]
+k = 1.0
+[coordinates]
+x = { initial = 2, velocity = 0 }
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "x'^2/2 + y'^2/2"
+V = "-k/x - k/x^3 + x^(5/2)"
+[[constraints]]
+name = "c"
+f = "y"
+"""
+
+
+@pytest.mark.parametrize("name", lamech.example_names() + ["<inverse-square>"])
+def test_generated_code_matches_sympy(name):
+    """The generated numeric functions against SymPy's own evaluation at random states."""
+    from lamech.derive import dynamics
+    system = lamech.loads(INVERSE_SQUARE) if name.startswith("<") else lamech.load(name)
+    ns = compile_system(system)
+    dyn = dynamics(system)
+    rng = np.random.default_rng(3)
+    p = ns.parameters
+    for _ in range(3):
+        q = rng.uniform(0.2, 1.5, ns.n)
+        v = rng.uniform(-1.0, 1.0, ns.n)
+        t = float(rng.uniform(0, 2))
+        env = {**system.parameter_values, system.t: t,
+               **dict(zip(system.q, q)), **dict(zip(system.qd, v))}
+        M, rhs, A, gam, _ = ns.dynamics(t, q, v, p)
+        for got, expr in ((M, dyn.M), (rhs, dyn.Q - dyn.h), (A, dyn.A), (gam, dyn.gamma)):
+            ref = np.array(sp.Matrix(expr).subs(env).evalf(), dtype=float).reshape(
+                np.shape(got))
+            assert np.allclose(got, ref, rtol=1e-13, atol=1e-13), (name, got, ref)
+        T, V = ns.energy(t, q, v, p)
+        assert math.isclose(T, float(system.T.subs(env)), rel_tol=1e-13, abs_tol=1e-13)
+        assert math.isclose(V, float(system.V.subs(env)), rel_tol=1e-13, abs_tol=1e-13)
