@@ -122,7 +122,19 @@ def _solve_closed(f: sp.Expr, x: sp.Symbol) -> list[sp.Expr] | None:
 
 
 def eliminate(system: System) -> Reduction:
-    """Apply the elimination rule of this module's docstring."""
+    """Apply the elimination rule of this module's docstring.
+
+    Nothing is eliminated when even a full elimination would leave more unknowns than
+    :data:`CLOSED_FORM_LIMIT`: the reduced expressions (nested radicals for a chain in
+    maximal coordinates) would cost minutes and be read by no one.
+    """
+    n, m = len(system.coordinates), len(system.constraints)
+    m_hol = sum(1 for c in system.constraints if c.holonomic)
+    if n - m_hol + m > CLOSED_FORM_LIMIT:
+        note = (f"{n} coordinates and {m} constraints: too large for closed forms (at least "
+                f"{n - m_hol + m} unknowns; the limit is {CLOSED_FORM_LIMIT}), so no "
+                "coordinate was eliminated")
+        return Reduction(tuple(system.coordinates), (), {}, (), (note,))
     env0 = _initial_numeric(system)
     positions: dict[sp.Symbol, sp.Expr] = {}
     order: list[Coordinate] = []

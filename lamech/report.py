@@ -124,7 +124,8 @@ def to_text(sol) -> str:
         for k, roots in sol.vanishes.items():
             if roots:
                 lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
-                lines += [f"  {' ' * len(k)}  then {_root_text(r)}" for r in roots[1:]]
+                lines += [f"  {' ' * len(k)}  later, had it still held: {_root_text(r)}"
+                          for r in roots[1:]]
             else:
                 why = "" if sol.shell else f" ({sol.shell_reason})"
                 lines.append(f"  {k}: never in the range the motion reaches{why}"
@@ -134,7 +135,8 @@ def to_text(sol) -> str:
         for k, roots in sol.slips.items():
             if roots:
                 lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
-                lines += [f"  {' ' * len(k)}  then {_root_text(r)}" for r in roots[1:]]
+                lines += [f"  {' ' * len(k)}  later, had it still held: {_root_text(r)}"
+                          for r in roots[1:]]
             else:
                 lines.append(f"  {k}: never in the range the motion reaches" if sol.shell
                              else f"  {k}: not determined ({sol.shell_reason})")
