@@ -70,10 +70,16 @@ def cartesian_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
             out[c.name] = {"residual": tidy(sp.sqrt(sum(e**2 for e in Q)))}
             continue
         B = basis
-        # F = B y minimises |J^T B y - Q|; F is then the minimum-norm solution.
-        JB = J.T * B
-        G = (JB.T * JB).applyfunc(sp.cancel)
-        y = G.LUsolve(JB.T * Q)
+        # F = B y minimises |J^T B y - Q|; F is then the minimum-norm solution. B holds
+        # columns of J itself, so J^T B is a block of the metric J^T J (partial velocities
+        # dotted together), which simplifies to short forms (diag(1, r^2, r^2 sin^2)
+        # for spherical coordinates) where the Cartesian Gram matrix J J^T does not.
+        JB = (J.T * B).applyfunc(tidy)
+        if JB.rows == JB.cols:
+            y = JB.LUsolve(Q).applyfunc(tidy)
+        else:
+            G = (JB.T * JB).applyfunc(tidy)
+            y = G.LUsolve(JB.T * Q).applyfunc(tidy)
         F = (B * y).applyfunc(tidy)
         res_vec = (Q - J.T * F).applyfunc(tidy)
         residual = tidy(sp.sqrt(sum((e**2 for e in res_vec), sp.Integer(0))))
@@ -100,16 +106,14 @@ def _numeric(M: sp.Matrix, env: dict) -> np.ndarray | None:
 
 
 def _range_basis(J: sp.Matrix, system: System, red: Reduction) -> sp.Matrix | None:
-    """Columns spanning the range of J (d x n): the identity when J has full row rank,
-    otherwise J's own columns chosen independent at probe states."""
+    """Columns of J (d x n) itself spanning its range, chosen independent at probe
+    states (None when J vanishes)."""
     dim = J.rows
     envs = _probe_states(system, red)
     mats = [m for m in (_numeric(J, e) for e in envs) if m is not None]
     if not mats:
         return sp.eye(dim)
     ranks = [np.linalg.matrix_rank(m, tol=1e-9 * max(1.0, np.abs(m).max())) for m in mats]
-    if min(ranks) == dim:
-        return sp.eye(dim)
     if max(ranks) == 0:
         return None
     m = mats[0]

@@ -531,10 +531,6 @@ def test_hoop_bead_cartesian_forces():
     assert_same(s.forces["drive"]["residual"], 0)
 
 
-@pytest.mark.xfail(reason="core: Cartesian forces of bodies in space (3 components) are "
-                          "left unsimplified: 10-40 kB expressions for m*(...)-sized "
-                          "answers, and a residual that is 0 only numerically",
-                   strict=True)
 def test_space_forces_are_readable():
     for name, constraint in [("hoop_bead", "hoop"), ("spherical_pendulum", "string")]:
         j = solved(name).to_json()["forces"][constraint]
