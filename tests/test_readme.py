@@ -1,0 +1,36 @@
+"""The README tells the truth: its tour output is what `lamech` prints, and its Python
+snippets run and print what they say."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+from pathlib import Path
+
+import pytest
+
+import lamech
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _blocks(kind: str) -> list[str]:
+    return re.findall(rf"```{kind}\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
+
+
+def test_tour_output_is_what_lamech_prints():
+    tour = next(b for b in _blocks("text") if b.startswith("Solid cylinder rolling"))
+    actual = lamech.solve(lamech.load("cylinder")).to_text()
+    assert tour.strip() == actual.strip()
+
+
+@pytest.mark.parametrize("snippet", [b for b in _blocks("python") if "from_dict" in b])
+def test_python_snippet_prints_what_its_comments_say(snippet):
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(snippet, "README.md", "exec"), {})   # our own README, not user text
+    printed = out.getvalue().splitlines()
+    comments = [line.split("#", 1)[1].strip() for line in snippet.splitlines()
+                if line.startswith("print(") and "#" in line]
+    assert printed == comments
