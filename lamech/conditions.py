@@ -161,9 +161,6 @@ def _symbolic_solutions(num: sp.Expr, x: sp.Symbol) -> list[tuple[sp.Expr, sp.Ex
 
 def _label(system, x, root: float, equation: str) -> Root:
     angle = is_angle(system, x.symbol)
-    if angle:  # report an angle in (-180, 180] degrees, as a physicist reads it
-        root = math.remainder(root, 2 * math.pi)
-        root = math.pi if root == -math.pi else root
     return Root(equation, x.name, root, math.degrees(root) if angle else None)
 
 
