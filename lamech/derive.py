@@ -97,7 +97,10 @@ def dynamics(system: System) -> Dynamics:
 
 
 def _numeric_matrix(expr: sp.Matrix, env: dict) -> np.ndarray:
-    return np.array(expr.subs(env).evalf(), dtype=float)
+    # xreplace with numbers, not subs: subs re-simplifies at every node (10 s for the
+    # 30-link chain's A against 0.1 s).
+    values = {s: sp.Float(v, 30) if not isinstance(v, sp.Basic) else v for s, v in env.items()}
+    return np.array(expr.xreplace(values).evalf(), dtype=float)
 
 
 def dependent_constraints(system: System) -> list[tuple[tuple[str, ...], bool]]:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import ast
 import math
 import re
+import warnings
 from collections.abc import Mapping
 
 import sympy as sp
@@ -60,11 +61,14 @@ FUNCTIONS: dict[str, object] = {
 }
 _ARITY = {name: (2 if name == "atan2" else 1) for name in FUNCTIONS}
 RESERVED = frozenset(FUNCTIONS) | {"t", "pi"}
+_GROUP = {ast.Add: "+", ast.Sub: "+", ast.Mult: "*", ast.Div: "*"}
+
+_DECIMAL = re.compile(r"((?:[0-9]+\.?[0-9]*|\.[0-9]+))(?:[eE]([+-]?[0-9]+))?")
+_UNDEFINED = (sp.nan, sp.zoo, sp.oo, -sp.oo)
 
 _VEL_SUFFIX = "__vel"
 _ACC_SUFFIX = "__acc"
-_PRIME2 = re.compile(r"([A-Za-z_][A-Za-z_0-9]*)\s*''")
-_PRIME1 = re.compile(r"([A-Za-z_][A-Za-z_0-9]*)\s*'")
+_PRIME = re.compile(r"([A-Za-z_][A-Za-z_0-9]*)\s*(''?)")
 
 
 def velocity_name(name: str) -> str:
@@ -77,16 +81,43 @@ def acceleration_name(name: str) -> str:
     return name + "''"
 
 
-def _lex(text: str) -> str:
-    """Rewrite ``x''``/``x'`` to identifiers and ``^`` to ``**``; nothing else changes."""
-    out = _PRIME2.sub(lambda m: m.group(1) + _ACC_SUFFIX, text)
-    out = _PRIME1.sub(lambda m: m.group(1) + _VEL_SUFFIX, out)
-    if "'" in out or '"' in out:
-        col = (out.find("'") if "'" in out else out.find('"')) + 1
+def _lex(text: str) -> tuple[str, list[int]]:
+    """Rewrite ``x''``/``x'`` to identifiers and ``^`` to ``**``; nothing else changes.
+
+    Returns the rewritten text and, for each of its characters, the 0-based index of the
+    character of ``text`` it came from, so that errors point into the user's own text.
+    """
+    out: list[str] = []
+    origin: list[int] = []
+    pos = 0
+    for match in _PRIME.finditer(text):
+        for k in range(pos, match.start()):
+            out.append(text[k])
+            origin.append(k)
+        name, primes = match.group(1), match.group(2)
+        piece = name + (_ACC_SUFFIX if len(primes) == 2 else _VEL_SUFFIX)
+        out.extend(piece)
+        origin.extend(match.start() + min(i, len(name) - 1) for i in range(len(piece)))
+        pos = match.end()
+    for k in range(pos, len(text)):
+        out.append(text[k])
+        origin.append(k)
+    src = "".join(out)
+    if "'" in src or '"' in src:
+        col = origin[src.find("'") if "'" in src else src.find('"')] + 1
         raise ExpressionError(
             "a quote may only follow a coordinate name (x' is the velocity of x); "
             "strings are not allowed in expressions", text, col)
-    return out.replace("^", "**")
+    final: list[str] = []
+    final_origin: list[int] = []
+    for ch, k in zip(src, origin):
+        if ch == "^":
+            final.append("**")
+            final_origin.extend((k, k))
+        else:
+            final.append(ch)
+            final_origin.append(k)
+    return "".join(final), final_origin
 
 
 def _depth(text: str) -> int:
@@ -119,17 +150,27 @@ def _describe(node: ast.AST) -> str:
     return type(node).__name__
 
 
+def _plain(expr: sp.Expr) -> str:
+    try:
+        return to_text(expr)
+    except ValueError:
+        return str(expr)
+
+
 class _Builder:
     """Walk a whitelisted ``ast`` tree and build SymPy, with bounds on every number."""
 
-    def __init__(self, text: str, names: Mapping[str, sp.Expr], what: str):
+    def __init__(self, text: str, names: Mapping[str, sp.Expr], what: str, src: str,
+                 column_of):
         self.text = text
         self.names = names
         self.what = what
+        self.src = src
+        self.column_of = column_of
 
     def fail(self, message: str, node: ast.AST | None = None) -> ExpressionError:
         col = getattr(node, "col_offset", None)
-        return ExpressionError(message, self.text, None if col is None else col + 1)
+        return ExpressionError(message, self.text, None if col is None else self.column_of(col))
 
     def build(self, node: ast.AST) -> sp.Expr:
         method = getattr(self, "_" + type(node).__name__, None)
@@ -146,16 +187,24 @@ class _Builder:
         value = node.value
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.fail(f"{_describe(node)} is not a number", node)
+        segment = (ast.get_source_segment(self.src, node) or repr(value)).replace("_", "")
+        match = _DECIMAL.fullmatch(segment)
+        if match is None:
+            raise self.fail(f"`{segment}` is not a decimal number (write numbers like 3, "
+                            "0.25 or 1.5e-3)", node)
+        # Bound the size of the exact number before building it: '1e-999999999' would
+        # otherwise ask for a billion-digit integer.
+        mantissa, exponent = match.group(1), int(match.group(2) or 0)
+        digits = len(mantissa.replace(".", "").lstrip("0")) or 1
+        point = mantissa.find(".")
+        magnitude = (len(mantissa) - point - 1 if point >= 0 else 0) - exponent
+        if digits + abs(magnitude) > MAX_NUMBER_DIGITS:
+            raise self.fail(f"number `{segment}` is out of range (more than "
+                            f"{MAX_NUMBER_DIGITS} digits written out)", node)
         if isinstance(value, int):
             return sp.Integer(value)
-        if not math.isfinite(value):
-            raise self.fail("number out of range", node)
         # Exact decimal: 0.3 means 3/10, so results print as exact rationals.
-        segment = ast.get_source_segment(self.src, node) or repr(value)
-        try:
-            return sp.Rational(segment.replace("_", ""))
-        except (TypeError, ValueError):
-            return sp.Rational(repr(value))
+        return sp.Rational(segment)
 
     def _Name(self, node: ast.Name) -> sp.Expr:
         ident = node.id
@@ -191,21 +240,34 @@ class _Builder:
             symbol = {ast.Mod: "%", ast.FloorDiv: "//", ast.BitAnd: "&", ast.BitOr: "|",
                       ast.LShift: "<<", ast.RShift: ">>", ast.MatMult: "@"}.get(type(op), "?")
             raise self.fail(f"operator `{symbol}` is not allowed; use + - * / ^", node)
-        left = self.build(node.left)
-        right = self.build(node.right)
-        if isinstance(op, ast.Add):
-            out = left + right
-        elif isinstance(op, ast.Sub):
-            out = left - right
-        elif isinstance(op, ast.Mult):
-            out = left * right
-        elif isinstance(op, ast.Div):
-            if right == 0:
-                raise self.fail("division by zero", node)
-            out = left / right
-        else:
-            out = self._power(left, right, node)
-        self._check_size(out, node)
+        if isinstance(op, ast.Pow):
+            out = self._power(self.build(node.left), self.build(node.right), node)
+            self._check_size(out, node)
+            return out
+        # A long sum (a + b - c + ...) is one chain, not deep nesting: walk it iteratively.
+        group = _GROUP[type(op)]
+        items: list[tuple[ast.AST | None, ast.AST]] = []   # (operator's node, operand)
+        current: ast.AST = node
+        while isinstance(current, ast.BinOp) and _GROUP.get(type(current.op)) == group:
+            items.append((current, current.right))
+            current = current.left
+        items.append((None, current))
+        items.reverse()
+        out = self.build(items[0][1])
+        for owner, operand in items[1:]:
+            value = self.build(operand)
+            kind = type(owner.op)
+            if kind is ast.Add:
+                out = out + value
+            elif kind is ast.Sub:
+                out = out - value
+            elif kind is ast.Mult:
+                out = out * value
+            else:
+                if value == 0:
+                    raise self.fail("division by zero", owner)
+                out = out / value
+            self._check_size(out, owner)
         return out
 
     def _power(self, base: sp.Expr, exponent: sp.Expr, node: ast.AST) -> sp.Expr:
@@ -222,7 +284,11 @@ class _Builder:
                                     f"{MAX_NUMBER_DIGITS} digits", node)
             if base == 0 and exponent.is_negative:
                 raise self.fail("division by zero (0 to a negative power)", node)
-        return sp.Pow(base, exponent)
+        out = sp.Pow(base, exponent)
+        if out.has(*_UNDEFINED):
+            raise self.fail(f"undefined: {_plain(base)}^({_plain(exponent)}) has no value "
+                            "(0 to a power that may be negative)", node)
+        return out
 
     def _check_size(self, out: sp.Expr, node: ast.AST) -> None:
         if out.is_Rational and not out.is_Integer:
@@ -250,7 +316,11 @@ class _Builder:
         args = [self.build(a) for a in node.args]
         if name == "log" and args[0] == 0:
             raise self.fail("log(0) is undefined", node)
-        return FUNCTIONS[name](*args)  # type: ignore[operator]
+        out = FUNCTIONS[name](*args)  # type: ignore[operator]
+        if out.has(*_UNDEFINED):
+            raise self.fail(f"undefined: {name}({', '.join(_plain(a) for a in args)}) has no "
+                            "value (a pole, or atan2(0, 0))", node)
+        return out
 
 
 def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expression") -> sp.Expr:
@@ -296,22 +366,34 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
         ch = next(c for c in "\\#;\n" if c in text)
         raise ExpressionError(f"character {ch!r} is not allowed in an expression", text,
                               text.index(ch) + 1)
-    src = _lex(text)
+    src, origin = _lex(text)
+    lead = len(src) - len(src.lstrip())
+    src = src.strip()
+
+    def column_of(offset: int) -> int:
+        """1-based column in the user's text of 0-based ``offset`` in ``src``."""
+        index = lead + offset
+        if index >= len(origin):
+            return max(len(text), 1)
+        return origin[max(index, 0)] + 1
+
     if _depth(src) > MAX_DEPTH:
         raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)",
                               text)
     try:
-        tree = ast.parse(src.strip(), mode="eval")
+        with warnings.catch_warnings():
+            # Python warns on stderr about text like '0x1Fin'; the error below says it.
+            warnings.simplefilter("ignore")
+            tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
-        col = exc.offset
+        col = column_of((exc.offset or 1) - 1) if (exc.lineno or 1) == 1 else None
         raise ExpressionError(f"syntax error: {exc.msg}", text, col) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression too complex to parse", text) from None
     if _tree_depth(tree) > MAX_DEPTH:
         raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)",
                               text)
-    builder = _Builder(text, names, what)
-    builder.src = src.strip()
+    builder = _Builder(text, names, what, src, column_of)
     try:
         return builder.build(tree)
     except RecursionError:
@@ -319,6 +401,7 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
 
 
 def _tree_depth(node: ast.AST) -> int:
+    """Nesting depth of the tree; a chain of + - (or of * /) counts as one level."""
     best = 0
     stack = [(node, 1)]
     while stack:
@@ -326,7 +409,11 @@ def _tree_depth(node: ast.AST) -> int:
         best = max(best, d)
         if d > MAX_DEPTH + 1:
             return d
-        stack.extend((child, d + 1) for child in ast.iter_child_nodes(current))
+        group = _GROUP.get(type(current.op)) if isinstance(current, ast.BinOp) else None
+        for child in ast.iter_child_nodes(current):
+            same = (group is not None and isinstance(child, ast.BinOp)
+                    and _GROUP.get(type(child.op)) == group)
+            stack.append((child, d if same else d + 1))
     return best
 
 

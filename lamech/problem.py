@@ -55,6 +55,17 @@ class Problem:
         return out
 
 
+def _value(expr, env: dict) -> float:
+    """``expr`` at the numbers ``env`` ({symbol: value}), as a float.
+
+    ``xreplace`` with Floats, not ``subs``: subs walks the whole expression once per
+    entry of ``env`` (7 s for the initial check of a 30-link chain, against 0.05 s).
+    Raises TypeError when the value is complex or undefined.
+    """
+    values = {s: v if isinstance(v, sp.Basic) else sp.Float(v, 30) for s, v in env.items()}
+    return float(sp.sympify(expr).xreplace(values).evalf(30))
+
+
 class ProblemFileError(ValueError):
     """A problem file (or dict) cannot be used; ``problems`` lists everything wrong."""
 
@@ -712,7 +723,7 @@ class _Loader:
 
     def _check_initial(self, system: System) -> None:
         values = {**system.parameter_values}
-        state = {s: float(sp.sympify(e).subs(values)) for s, e in system.initial_state.items()}
+        state = {s: _value(e, values) for s, e in system.initial_state.items()}
         scale = 1 + max((abs(v) for v in state.values()), default=0.0)
         env = {**values, **state, system.t: 0.0}
         for i, c in enumerate(system.constraints):
@@ -720,10 +731,10 @@ class _Loader:
             where = f"constraints[{i + 1}] `{c.name}`"
             try:
                 if c.holonomic:
-                    res = float(c.expr.subs(env))
-                    vres = float(time_derivative(c.expr, system).subs(env))
+                    res = _value(c.expr, env)
+                    vres = _value(time_derivative(c.expr, system), env)
                 else:
-                    res, vres = 0.0, float(c.expr.subs(env))
+                    res, vres = 0.0, _value(c.expr, env)
             except (TypeError, ValueError):
                 self.problem(where, "cannot evaluate the constraint at the initial state "
                              "(complex or undefined value)", loc)
