@@ -27,6 +27,8 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_parser("examples", help="list the bundled example problems")
     from .cli_simulate import add_parser as add_simulate  # light: argparse only
     add_simulate(sub)
+    from .cli_sweep import add_parser as add_sweep  # light: argparse only
+    add_sweep(sub)
     return p
 
 
@@ -36,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
     if command == "simulate":
         from .cli_simulate import run
         return run(args)
+    if command == "sweep":
+        from .cli_sweep import run as run_sweep
+        return run_sweep(args)
     if command == "examples":
         from .problem import example_names, load
         for name in example_names():

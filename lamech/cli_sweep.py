@@ -1,0 +1,155 @@
+"""``lamech sweep FILE --param NAME=A:B:N ... --measure liftoff --t-end T``: the
+command-line face of :mod:`lamech.sweep` (imports are lazy so that ``lamech --help``
+stays instant)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+__all__ = ["add_parser", "run"]
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(x) or x <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive finite number (got {text})")
+    return x
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 (got {n})")
+    return n
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    s = subparsers.add_parser(
+        "sweep", help="simulate every combination of parameter values; a table of measures",
+        description="Simulate every combination of the swept parameter values (one compiled "
+                    "system, a different parameter vector per case) and measure each case: "
+                    "the first lift-off/slip (time and coordinates), the max/min of a "
+                    "multiplier or force, the final value of a coordinate. Rows are appended "
+                    "to the table as cases finish; --resume skips the cases already there.")
+    s.add_argument("problem", help="a .toml problem file or a bundled example name")
+    s.add_argument("--param", action="append", default=[], metavar="NAME=VALUES",
+                   required=True,
+                   help="a parameter (or `mu`/`mu:<constraint>`, a friction coefficient) and "
+                        "its values: A:B:N (N values, both ends included), a,b,c or one "
+                        "value; repeat for a grid")
+    s.add_argument("--measure", action="append", default=[], metavar="MEASURE",
+                   help="liftoff, slip, stick, contact, impact (each optionally "
+                        ":<constraint>), max:<series>, min:<series>, final:<series>; a "
+                        "series is x, x', lambda:<constraint>, force:<constraint>:<dir>, "
+                        "energy or residual (default: liftoff)")
+    s.add_argument("--t-end", type=_positive_float, required=True, metavar="T",
+                   help="end time of every simulation (start at t = 0)")
+    s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE",
+                   help="set an initial coordinate (or velocity x') for every case; the "
+                        "other coordinates move to meet the constraints")
+    s.add_argument("--out", metavar="TABLE",
+                   help="the table: CSV, or Parquet when it ends .parquet (needs pyarrow); "
+                        "default: CSV on standard output")
+    s.add_argument("--plot", metavar="PNG",
+                   help="a line plot (one swept parameter) or heat maps (two)")
+    s.add_argument("--workers", type=_positive_int, metavar="N",
+                   help="local worker processes (default: the CPU count)")
+    s.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a Dask cluster (dask.distributed scheduler address, e.g. "
+                        "tcp://host:8786)")
+    s.add_argument("--resume", action="store_true",
+                   help="keep the cases already in --out and run only the missing ones")
+    s.add_argument("--samples", type=_positive_int, default=1001, metavar="N",
+                   help="output samples per run, for max/min/final (default %(default)s)")
+    s.add_argument("--rtol", type=_positive_float, default=None,
+                   help="relative tolerance (default 1e-11)")
+    s.add_argument("--atol", type=_positive_float, default=None,
+                   help="absolute tolerance (default 1e-12)")
+    s.add_argument("--max-step", type=_positive_float, default=None,
+                   help="largest integrator step (default: unlimited)")
+    return s
+
+
+def run(args) -> int:
+    """Run ``lamech sweep``; exit status 0 every case ok, 1 some case failed (the table
+    says which and why), 2 bad input, 130 interrupted (rerun with --resume)."""
+    from .derive import DegenerateConstraintsError
+    from .problem import ProblemFileError
+    from .sweep import SweepError, parse_assignment, plot_sweep, run_sweep
+
+    try:
+        params = dict(parse_assignment(p, "--param") for p in args.param)
+        if len(params) != len(args.param):
+            raise SweepError("a parameter is given twice: " + ", ".join(args.param))
+        initial = dict(parse_assignment(p, "--initial") for p in args.initial)
+        if args.resume and not args.out:
+            raise SweepError("--resume needs --out (the table to resume)")
+        if args.out and args.out.lower().endswith(".parquet"):
+            try:
+                import pyarrow  # noqa: F401
+            except ImportError:
+                raise SweepError("a .parquet table needs pyarrow (and pandas): pip install "
+                                 "pyarrow pandas; or write a .csv") from None
+        result = run_sweep(args.problem, params, args.measure or ["liftoff"],
+                           t_end=args.t_end, initial=initial, out=args.out,
+                           resume=args.resume, workers=args.workers,
+                           scheduler=args.scheduler, samples=args.samples, rtol=args.rtol,
+                           atol=args.atol, max_step=args.max_step)
+    except ProblemFileError as exc:
+        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        return 2
+    except (SweepError, DegenerateConstraintsError) as exc:
+        print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"lamech: {exc}", file=sys.stderr)
+        return 2
+    if result.interrupted:
+        print(f"lamech: interrupted: {len(result.rows)} of "
+              f"{_total(result)} cases done"
+              + (f" and kept in {args.out}; rerun with --resume to finish" if args.out
+                 else ""), file=sys.stderr)
+        return 130
+    if not args.out:
+        _print_csv(result)
+    out = sys.stdout if args.out else sys.stderr
+    counts = ", ".join(f"{k} {v}" for k, v in sorted(result.counts.items()))
+    sizes = ", ".join(f"{n}: {len(a)}" for n, a in result.parameters.items())
+    print(f"{len(result.rows)} cases ({sizes}): {counts}; ran {result.ran}"
+          + (f", kept {result.kept} from the table" if result.kept else "")
+          + f" in {result.seconds:.3g} s on {result.backend}", file=out)
+    if args.out:
+        print(f"  wrote {args.out}", file=out)
+    if args.plot:
+        try:
+            plot_sweep(result, args.plot)
+        except SweepError as exc:
+            print(f"lamech: --plot: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:
+            print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
+            return 2
+        print(f"  wrote {args.plot}", file=out)
+    return 0 if set(result.counts) <= {"ok"} else 1
+
+
+def _total(result) -> int:
+    return math.prod(len(a) for a in result.parameters.values())
+
+
+def _print_csv(result) -> None:
+    import csv
+
+    from .sweep import _fmt
+    w = csv.writer(sys.stdout, lineterminator="\n")
+    w.writerow(result.columns)
+    for row in result.rows:
+        w.writerow([_fmt(row[c]) for c in result.columns])
