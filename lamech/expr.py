@@ -286,8 +286,8 @@ class _Builder:
                 raise self.fail("division by zero (0 to a negative power)", node)
         out = sp.Pow(base, exponent)
         if out.has(*_UNDEFINED):
-            raise self.fail(f"undefined: {_plain(base)}^({_plain(exponent)}) has no value "
-                            "(0 to a power that may be negative)", node)
+            raise self.fail(f"undefined: {_plain(base)}^({_plain(exponent)}) is not a finite "
+                            "number (0 to a power that may be negative)", node)
         return out
 
     def _check_size(self, out: sp.Expr, node: ast.AST) -> None:
@@ -318,8 +318,8 @@ class _Builder:
             raise self.fail("log(0) is undefined", node)
         out = FUNCTIONS[name](*args)  # type: ignore[operator]
         if out.has(*_UNDEFINED):
-            raise self.fail(f"undefined: {name}({', '.join(_plain(a) for a in args)}) has no "
-                            "value (a pole, or atan2(0, 0))", node)
+            raise self.fail(f"undefined: {name}({', '.join(_plain(a) for a in args)}) is not a "
+                            "finite number (a pole, or atan2(0, 0))", node)
         return out
 
 

@@ -55,6 +55,58 @@ class Problem:
         return out
 
 
+_KEY_LINE = re.compile(r"""^\s*("[^"]*"|'[^']*'|[A-Za-z0-9_.\-]+)\s*=""")
+_TABLE_LINE = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?")
+
+
+def _repeated_key(text: str) -> tuple[int, str, int] | None:
+    """(line, key, first line) of a key repeated within one table, for the message only.
+
+    tomllib says "Cannot overwrite a value", sometimes "at end of document": this scan
+    finds which key and where. The file is still parsed by tomllib alone.
+    """
+    seen: dict[str, int] = {}
+    tables: dict[str, int] = {}
+    for number, line in enumerate(text.splitlines(), 1):
+        if m := _TABLE_LINE.match(line):
+            name = m.group(1)
+            if not line.lstrip().startswith("[[") and name in tables:
+                return number, f"[{name}]", tables[name]
+            tables[name] = number
+            seen = {}
+        elif m := _KEY_LINE.match(line):
+            key = m.group(1).strip("\"'")
+            if key in seen:
+                return number, key, seen[key]
+            seen[key] = number
+    return None
+
+
+def open_at_start(system: System) -> dict[str, float]:
+    """Unilateral contacts open (f > 0) or opening (f = 0, df/dt > 0) at the initial state.
+
+    {constraint name: f at the start}. The symbolic results (multipliers, forces) hold
+    while a contact is closed; energy shells from an open start do not.
+    """
+    values = dict(system.parameter_values)
+    state = {s: _value(e, values) for s, e in system.initial_state.items()}
+    scale = 1 + max((abs(v) for v in state.values()), default=0.0)
+    env = {**values, **state, system.t: 0.0}
+    out = {}
+    for c in system.constraints:
+        if not (c.unilateral and c.holonomic):
+            continue
+        try:
+            res = _value(c.expr, env)
+            vres = _value(time_derivative(c.expr, system), env)
+        except (TypeError, ValueError):
+            continue
+        tol = INITIAL_TOLERANCE * scale
+        if res > tol or (abs(res) <= tol and vres > tol):
+            out[c.name] = res
+    return out
+
+
 def _value(expr, env: dict) -> float:
     """``expr`` at the numbers ``env`` ({symbol: value}), as a float.
 
@@ -151,11 +203,18 @@ def loads(text: str, name: str = "<string>") -> System:
         m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
         line = int(m.group(1)) if m else None
         bare = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
+        hint = "check quoting (expressions go in double quotes) and that each line is " \
+            "`key = value`"
+        if "overwrite" in bare or "twice" in bare:
+            found = _repeated_key(text)
+            if found:
+                line, key, first = found
+                bare = f"`{key}` is defined twice (first on line {first})"
+                hint = "each key may appear once in a table: remove or rename one of them"
         offending = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) \
             else None
         raise ProblemFileError(name, [Problem(
-            "", f"TOML syntax error: {bare}; check quoting (expressions go in double quotes) "
-                f"and that each line is `key = value`", line, offending)]) from None
+            "", f"TOML syntax error: {bare}; {hint}", line, offending)]) from None
     return from_dict(data, name=name, text=text)
 
 
@@ -326,10 +385,13 @@ class _Loader:
                 self.problem("parameters", f"parameter values refer to each other in a cycle "
                              f"({cyc}); give at least one of them a number",
                              ("parameters", None, sorted(pending)[0]))
-                return []
+                break
         out = []
         for n in raw:
             if n not in numeric:
+                # Its error is recorded; keep the name known so that later expressions
+                # using it do not report a misleading 'unknown name'.
+                out.append(Parameter(n, symbols[n], symbols[n], 1.0))
                 continue
             v = numeric[n]
             sym = sp.Symbol(n, positive=True) if v > 0 else (
@@ -411,6 +473,7 @@ class _Loader:
 
     def _bodies(self, pos_names: dict[str, sp.Expr], names: dict[str, sp.Expr]) -> list[Body]:
         raw = self.data.get("bodies", [])
+        self.broken_bodies: set[str] = set()
         if not isinstance(raw, list):
             self.problem("bodies", "bodies are an array of tables: each starts with "
                          "`[[bodies]]`", (None, None, "bodies"))
@@ -436,6 +499,7 @@ class _Loader:
                              "mass, position, angle, inertia, shape", loc0)
             if "mass" not in spec:
                 self.problem(where, "missing `mass`", loc0)
+                self.broken_bodies.add(name)
                 continue
             mass = self.expr(spec["mass"], pnames, where + " mass", ("bodies", i, "mass"),
                              "masses (parameters only)")
@@ -461,6 +525,7 @@ class _Loader:
                 self.problem(where, "rigid bodies (with an angle) must be planar: give a "
                              "2-component position", ("bodies", i, "angle"))
             if mass is None or position is None:
+                self.broken_bodies.add(name)   # reported above; forces naming it stay quiet
                 continue
             out.append(Body(name, mass, position, angle, inertia, shape))
         dims = {len(b.position) for b in out}
@@ -642,6 +707,15 @@ class _Loader:
                        where + " friction.mu", loc, "mu")
         if mu is None:
             return None
+        if mu.free_symbols <= {p.symbol for p in self.params}:
+            try:
+                value = _value(mu, {p.symbol: p.numeric for p in self.params})
+            except (TypeError, ValueError):
+                value = float("nan")
+            if not (math.isfinite(value) and value >= 0):
+                self.problem(where, f"friction.mu must be a coefficient of friction >= 0, got "
+                             f"{value:g}", loc)
+                return None
         return Friction(mu, normal)
 
     def _force_spec(self, spec, bodies, dim, pos_names, where, loc) -> ForceSpec | None:
@@ -653,6 +727,8 @@ class _Loader:
                          "along = { name = [dx, dy] } }", loc)
             return None
         names = spec["body"] if isinstance(spec["body"], list) else [spec["body"]]
+        if any(isinstance(n, str) and n in self.broken_bodies for n in names):
+            return None   # the body's own error says what is wrong
         if len(names) not in (1, 2) or any(n not in bodies for n in names):
             known = ", ".join(bodies) or "(none: declare [[bodies]])"
             self.problem(where, f"force.body {spec['body']!r}: unknown body; known: {known}",
@@ -674,7 +750,11 @@ class _Loader:
                 continue
             v = self._vector(vec, pos_names, where + f" force.along.{dname}", loc, "directions",
                              (body_dim,))
-            if v is not None:
+            if v is not None and all(c.is_zero for c in v):
+                self.problem(where, f"force.along.{dname} is the zero vector; give the "
+                             "direction to project the force on, e.g. [\"sin(x)\", "
+                             "\"cos(x)\"]", loc)
+            elif v is not None:
                 along.append((dname, v))
         if at is None:
             return None
@@ -739,7 +819,14 @@ class _Loader:
                 self.problem(where, "cannot evaluate the constraint at the initial state "
                              "(complex or undefined value)", loc)
                 continue
-            if abs(res) > INITIAL_TOLERANCE * scale:
+            tol = INITIAL_TOLERANCE * scale
+            if c.unilateral and c.holonomic and (res > tol or (abs(res) <= tol and vres > tol)):
+                continue   # an open (or opening) contact: allowed, see open_at_start
+            if c.unilateral and c.holonomic and res < -tol:
+                self.problem(where, f"the initial state is on the forbidden side of the "
+                             f"unilateral constraint: f = {res:.6g} < 0 (f >= 0 is allowed); "
+                             "change the coordinates' initial values", loc)
+            elif abs(res) > tol:
                 self.problem(where, f"the initial state violates the constraint: f = {res:.6g} "
                              "(should be 0); change the coordinates' initial values", loc)
             elif abs(vres) > INITIAL_TOLERANCE * scale:

@@ -135,6 +135,8 @@ def eliminate(system: System) -> Reduction:
                 f"{n - m_hol + m} unknowns; the limit is {CLOSED_FORM_LIMIT}), so no "
                 "coordinate was eliminated")
         return Reduction(tuple(system.coordinates), (), {}, (), (note,))
+    from .problem import open_at_start   # problem imports this module's users
+    opened = open_at_start(system)
     env0 = _initial_numeric(system)
     positions: dict[sp.Symbol, sp.Expr] = {}
     order: list[Coordinate] = []
@@ -160,7 +162,16 @@ def eliminate(system: System) -> Reduction:
                     continue
                 if abs(val.imag) < 1e-12 and abs(val.real - x0) <= 1e-8 * (1 + abs(x0)):
                     good.append(r)
-            if len(good) != 1 or (len(roots) == 2 and _same(roots, env0)):
+            if con.name in opened:
+                # Off the contact at the start: no branch passes through the initial
+                # state; a single root is still the contact's, two are ambiguous.
+                good = roots if len(roots) == 1 else []
+                if not good:
+                    notes.append(f"constraint `{con.name}` is open at the start, so the "
+                                 f"branch of its solution for `{coord.name}` is unknown; "
+                                 f"kept `{coord.name}`")
+                    continue
+            elif len(good) != 1 or (len(roots) == 2 and _same(roots, env0)):
                 notes.append(f"constraint `{con.name}`: the initial state sits on a branch "
                              f"point of its solution for `{coord.name}`; kept `{coord.name}`")
                 continue

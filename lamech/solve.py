@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .conditions import Root, slip_points, vanishing_points
+from .problem import open_at_start
 from .derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from .forces import cartesian_forces, generalized_forces
 from .integrals import Integrals, Shell, energy_shell, integrals
@@ -136,6 +137,14 @@ def solve(system: System) -> Solution:
         shell, why = None, "closed forms were skipped"
     else:
         shell, why = energy_shell(dyn, red, ints, forms)
+    opened = open_at_start(system)
+    if opened:
+        listed = ", ".join(f"`{k}` (f = {v:.6g})" for k, v in opened.items())
+        notes.append(f"contact {listed} is open at the start: the equations, multipliers and "
+                     "forces hold while it is closed; the energy shell, lift-off and slip "
+                     "points need a start in contact (lamech simulate follows the motion "
+                     "through the landing)")
+        shell, why = None, "a unilateral contact is open at the start"
     vanishes: dict[str, list[Root]] = {}
     slips: dict[str, list[Root]] = {}
     for c in system.constraints:

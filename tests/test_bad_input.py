@@ -126,7 +126,7 @@ def test_valid_bases_load(path, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("path", cases(FILES))
+@pytest.mark.parametrize("path", list(cases(FILES)))
 def test_bad_file(path, tmp_path, monkeypatch, capfd):
     error = load_error(lamech.load, path, tmp_path=tmp_path, monkeypatch=monkeypatch,
                        capfd=capfd)

@@ -216,3 +216,28 @@ def test_cli_examples_lists_every_bundled_problem():
     assert out.returncode == 0
     for name in ["cylinder", "pendulum", "knife_edge", "atwood"]:
         assert name in out.stdout
+
+
+def test_open_contact_at_the_start_loads_and_is_said():
+    """A unilateral contact may start open (f > 0): a ball dropped on a floor."""
+    text = """
+title = "Ball above a floor"
+[parameters]
+m = 2.0
+g = 9.81
+[coordinates]
+y = { initial = 1.5, velocity = 0 }
+[lagrangian]
+T = "m/2*y'^2"
+V = "m*g*y"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+"""
+    sol = lamech.solve(lamech.loads(text))
+    assert str(sol.multipliers["floor"]) == "g*m"
+    assert sol.vanishes["floor"] == []
+    assert any("open at the start" in n for n in sol.notes)
+    with pytest.raises(lamech.ProblemFileError, match="forbidden side"):
+        lamech.loads(text.replace("initial = 1.5", "initial = -0.5"))
