@@ -118,6 +118,12 @@ def run(args) -> int:
               + (f" and kept in {args.out}; rerun with --resume to finish" if args.out
                  else ""), file=sys.stderr)
         return 130
+    if result.stopped:
+        print(f"lamech: the sweep stopped ({result.stopped}): {len(result.rows)} of "
+              f"{_total(result)} cases done"
+              + (f" and kept in {args.out}; rerun with --resume to finish" if args.out
+                 else ""), file=sys.stderr)
+        return 1
     if not args.out:
         _print_csv(result)
     out = sys.stdout if args.out else sys.stderr

@@ -309,7 +309,7 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
         traj = simulate(ns, plan.t_end, params=dict(values), q0=q0, qd0=v0,
                         samples=plan.samples, rtol=plan.rtol, atol=plan.atol,
                         max_step=plan.max_step)
-    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+    except Exception as exc:    # a bad case is a row with its reason, not a dead sweep
         for m in plan.measures:
             for col in m.columns(coords):
                 row[col] = math.nan
@@ -455,7 +455,9 @@ class SweepRun:
     """The result of :func:`run_sweep`: rows sorted by case, and how they were obtained.
 
     ``ran`` cases were simulated now, ``kept`` read back from the table (resume);
-    ``interrupted`` is True when the run was stopped before every case was done.
+    ``interrupted`` is True after Ctrl-C; ``stopped`` says why a run ended before every
+    case was done otherwise (a worker process died, the cluster failed); in both cases
+    the table on disk holds the finished rows and ``resume=True`` completes it.
     """
 
     parameters: dict[str, np.ndarray]
@@ -468,6 +470,7 @@ class SweepRun:
     compile_seconds: float = 0.0
     backend: str = ""
     interrupted: bool = False
+    stopped: str = ""
     path: Path | None = None
     notes: list[str] = field(default_factory=list)
 
@@ -608,6 +611,12 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
                  DEFAULT_RTOL if rtol is None else float(rtol),
                  DEFAULT_ATOL if atol is None else float(atol), max_step, tuple(columns))
 
+    if scheduler is not None and isinstance(scheduler, str):
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise SweepError("a Dask scheduler needs dask.distributed: "
+                             "pip install 'lamech[dask]'") from None
     path = Path(out) if out is not None else None
     table = _Table(path, columns)
     done = table.read(cases, list(values)) if resume else {}
@@ -661,6 +670,8 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
                                     record)
     except KeyboardInterrupt:
         run.interrupted = True
+    except Exception as exc:    # a worker process died, the scheduler went away, ...
+        run.stopped = (f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
     finally:
         if isinstance(bar, _Bar):
             bar.close()
@@ -726,15 +737,22 @@ def sweep(problem, params: Mapping[str, object], measures: Sequence[str] = ("lif
     dicts), ``"dataframe"``, ``"records"``, or ``"xarray"`` (a Dataset with one dimension
     per parameter).
     """
+    if output not in ("auto", "dataframe", "records", "xarray"):
+        raise SweepError(f"unknown output {output!r}; one of auto, dataframe, records, xarray")
     run = run_sweep(problem, params, measures, **options)
+    if run.interrupted:
+        raise KeyboardInterrupt
+    if run.stopped:
+        where = f"; the finished rows are in {run.path}, resume=True completes it" \
+            if run.path else ""
+        raise SweepError(f"the sweep stopped ({run.stopped}) after {len(run.rows)} of "
+                         f"{math.prod(len(a) for a in run.parameters.values())} cases{where}")
     if output == "records":
         return run.records()
     if output == "xarray":
         return run.to_xarray()
     if output == "dataframe":
         return run.to_dataframe()
-    if output != "auto":
-        raise SweepError(f"unknown output {output!r}; one of auto, dataframe, records, xarray")
     try:
         return run.to_dataframe()
     except ImportError:

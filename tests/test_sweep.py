@@ -233,3 +233,31 @@ def test_cli_table_plot_and_errors(tmp_path, capsys):
     assert rc == 2 and "unknown parameter `R3`" in err and "known: m, g, R1, R2" in err
     rc = main(["sweep", "cylinder", "--param", "mu=0.3", "--t-end", "1", "--resume"])
     assert rc == 2 and "--resume needs --out" in capsys.readouterr().err
+
+
+def test_a_dead_worker_keeps_finished_rows_and_resume_completes(tmp_path, monkeypatch):
+    import multiprocessing
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("needs fork start method to plant the crash in the worker processes")
+    params = {"mu": [0.15, 0.2, 0.3, 0.4, 0.5]}
+    real = sw._run_case
+
+    def crash_on_case_3(ns, plan, case, values):
+        if case == 3:
+            import os
+            os._exit(9)          # the worker process dies (as with a segfault or OOM kill)
+        return real(ns, plan, case, values)
+
+    out = tmp_path / "t.csv"
+    monkeypatch.setattr(sw, "_run_case", crash_on_case_3)
+    run = _cylinder(params, ["slip"], out=out, workers=2)
+    assert "BrokenProcessPool" in run.stopped and len(run.rows) < 5
+    with open(out, newline="") as fh:
+        kept = {int(r["case"]) for r in csv.DictReader(fh)}
+    assert kept == {r["case"] for r in run.rows} and 3 not in kept
+    monkeypatch.setattr(sw, "_run_case", real)
+    again = _cylinder(params, ["slip"], out=out, resume=True)
+    assert again.ran == 5 - len(kept) and not again.stopped
+    fresh = tmp_path / "f.csv"
+    _cylinder(params, ["slip"], out=fresh)
+    assert _read(out) == _read(fresh)
