@@ -143,7 +143,7 @@ def test_local_processes_match_in_process(tmp_path):
     assert two.rows == one.rows
 
 
-def test_dask_local_cluster_matches_in_process():
+def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
     params = {"mu": [0.15, 0.3, 0.45]}
@@ -154,6 +154,23 @@ def test_dask_local_cluster_matches_in_process():
         run = _cylinder(params, ["slip"], scheduler=client)
     assert run.backend.startswith("Dask") and "(2 workers)" in run.backend
     assert run.rows == one.rows
+
+
+def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
+    distributed = pytest.importorskip(
+        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
+    args = ["sweep", "cylinder", "--param", "mu=0.1:0.6:4", "--param", "R2=0.3,0.5",
+            "--initial", "theta1=0.01", "--measure", "slip", "--measure", "liftoff",
+            "--t-end", "2.7", "--samples", "11"]
+    local = tmp_path / "local.csv"
+    assert main(args + ["--workers", "1", "--out", str(local)]) == 0
+    remote = tmp_path / "dask.csv"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        rc = main(args + ["--scheduler", cluster.scheduler_address, "--out", str(remote)])
+    text = capsys.readouterr().out
+    assert rc == 0 and "on Dask at tcp://" in text and "(2 workers)" in text, text
+    assert _read(remote) == _read(local)
 
 
 def test_python_api_table():
