@@ -652,6 +652,8 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
     def record(row: dict) -> None:
         if row["status"] == "interrupted":
             raise KeyboardInterrupt
+        if row["case"] in results:    # recomputed after a worker died: already recorded
+            return
         results[row["case"]] = row
         table.append(row)
         run.ran += 1
@@ -661,13 +663,12 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
     try:
         if scheduler is not None:
             run.backend = _run_dask(scheduler, token, plan, cases, todo, record)
-        elif (workers or os.cpu_count() or 1) <= 1 or len(todo) <= 1:
+        elif (workers or _cpus()) <= 1 or len(todo) <= 1:
             run.backend = "this process"
             for i in todo:
                 record(_run_case(ns, plan, i, cases[i]))
         else:
-            run.backend = _run_pool(workers or os.cpu_count() or 1, token, plan, cases, todo,
-                                    record)
+            run.backend = _run_pool(workers or _cpus(), token, plan, cases, todo, record)
     except KeyboardInterrupt:
         run.interrupted = True
     except Exception as exc:    # a worker process died, the scheduler went away, ...
@@ -683,6 +684,14 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
             table.close()
         run.seconds = time.perf_counter() - t0
     return run
+
+
+def _cpus() -> int:
+    """The CPUs this process may use (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+        return os.cpu_count() or 1
 
 
 def _run_pool(workers: int, token: str, plan: _Plan, cases, todo, record) -> str:
@@ -719,6 +728,7 @@ def _run_dask(scheduler, token: str, plan: _Plan, cases, todo, record) -> str:
         try:
             for fut in as_completed(futures):
                 record(fut.result())
+                fut.release()
         except BaseException:
             client.cancel(futures)
             raise

@@ -173,6 +173,30 @@ def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
     assert _read(remote) == _read(local)
 
 
+def test_dask_worker_killed_mid_sweep_is_rescheduled(tmp_path):
+    distributed = pytest.importorskip(
+        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
+    import os
+    params = {"mu": [0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45]}
+    one = _cylinder(params, ["slip"])
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        killed = []
+
+        def kill_a_worker(done, total):
+            if done == 2 and not killed:
+                victim = sorted(client.scheduler_info()["workers"])[0]
+                killed.append(victim)
+                with pytest.raises(Exception):          # its connection drops
+                    client.run(os._exit, 1, workers=[victim])
+
+        run = _cylinder(params, ["slip"], scheduler=client, progress=kill_a_worker,
+                        out=tmp_path / "t.csv")
+    assert killed and not run.stopped and run.ran == 8
+    assert run.rows == one.rows
+
+
 def test_python_api_table():
     pd = pytest.importorskip("pandas", reason="pandas not installed")
     df = lamech.sweep("cylinder", {"mu": [0.2, 0.3]}, ["slip"], t_end=2.7, samples=11,
