@@ -132,6 +132,13 @@ def run(args) -> int:
     print(f"{len(result.rows)} cases ({sizes}): {counts}; ran {result.ran}"
           + (f", kept {result.kept} from the table" if result.kept else "")
           + f" in {result.seconds:.3g} s on {result.backend}", file=out)
+    failed = [r for r in result.rows if r["status"] != "ok"]
+    for r in failed[:3]:
+        where = ", ".join(f"{n} = {r[n]:g}" for n in result.parameters)
+        print(f"  case {r['case']} ({where}): {r['status']}: {r['message']}", file=sys.stderr)
+    if len(failed) > 3:
+        print(f"  ... and {len(failed) - 3} more (see the status and message columns)",
+              file=sys.stderr)
     if args.out:
         print(f"  wrote {args.out}", file=out)
     if args.plot:

@@ -627,8 +627,7 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
     from .numeric import compile_system
     ns = _COMPILED[token] = compile_system(system)   # checks the model; forked workers reuse it
     compile_seconds = time.perf_counter() - t0
-    # parameters and initial values checked once, here, before any worker starts
-    ns.parameter_vector(cases[0])
+    ns.parameter_vector(cases[0])     # overrides checked once, before any worker starts
     run = SweepRun(values, ms, columns, [], kept=len(done), path=path,
                    compile_seconds=compile_seconds)
     if progress is None:
