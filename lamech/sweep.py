@@ -97,7 +97,8 @@ def parse_values(text: str, name: str = "value") -> np.ndarray:
             raise SweepError(f"{what}: range {text!r} needs a count >= 2 (or A = B)")
         if count > MAX_CASES:
             raise SweepError(f"{what}: count {count} exceeds {MAX_CASES}")
-        return np.linspace(a, b, count)
+        # 15 significant digits: 0.3, not linspace's 0.30000000000000004
+        return np.array([float(f"{x:.15g}") for x in np.linspace(a, b, count)])
     values = [_number(part, what) for part in text.split(",")]
     return np.array(values, dtype=float)
 
