@@ -535,17 +535,18 @@ class _Bar:
 
     def __init__(self, total: int, kept: int):
         self.total, self.done, self.start = total, kept, time.monotonic()
-        self.shown = False
+        self.shown, self.last = False, 0.0
 
     def __call__(self, n: int = 1) -> None:
         self.done += n
+        now = time.monotonic()
+        if self.shown and now - self.last < 0.1 and self.done < self.total:
+            return      # at most ten redraws a second
+        self.last = now
         frac = self.done / self.total if self.total else 1.0
         bar = "#" * int(25 * frac)
-        rate = ""
-        el = time.monotonic() - self.start
-        if el > 0:
-            rate = f"  {el:.0f} s"
-        sys.stderr.write(f"\r  sweep [{bar:<25}] {self.done}/{self.total}{rate}")
+        elapsed = now - self.start
+        sys.stderr.write(f"\r  sweep [{bar:<25}] {self.done}/{self.total}  {elapsed:.0f} s")
         sys.stderr.flush()
         self.shown = True
 
