@@ -31,6 +31,34 @@ def _samples(text: str) -> int:
     return n
 
 
+def _assignment(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"{text!r}: write NAME=VALUE, e.g. theta1=0.01")
+    return name.strip(), value.strip()
+
+
+def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:
+    """{name: value} from NAME=VALUE pairs; each VALUE a number or an expression of the
+    problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
+    evaluated at ``env`` (default: the file's parameter values)."""
+    from .expr import ExpressionError, parse
+    names = {p.name: p.symbol for p in system.parameters}
+    env = system.parameter_values if env is None else env
+    out = {}
+    for name, text in pairs:
+        try:
+            value = float(parse(text, names, f"{option} {name}").xreplace(env).evalf())
+        except ExpressionError as exc:
+            raise ValueError(f"{option} {name}={text}: {exc.message}") from None
+        except TypeError:
+            raise ValueError(f"{option} {name}={text}: not a real number") from None
+        if not math.isfinite(value):
+            raise ValueError(f"{option} {name}={text}: not a finite number")
+        out[name] = value
+    return out
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     from_defaults = "(default %(default)s)"
     s = subparsers.add_parser(
@@ -42,6 +70,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
     s.add_argument("--t-end", type=_positive_float, required=True, metavar="T",
                    help="end time (start at t = 0)")
+    s.add_argument("--initial", action="append", default=[], type=_assignment,
+                   metavar="NAME=VALUE",
+                   help="start with coordinate (or velocity x') NAME at VALUE (a number or an "
+                        "expression of parameters); the other coordinates move to meet the "
+                        "constraints. Repeatable. E.g. --initial theta1=0.01")
+    s.add_argument("--param", action="append", default=[], type=_assignment,
+                   metavar="NAME=VALUE",
+                   help="override a parameter (or `mu`/`mu:<constraint>`, a friction "
+                        "coefficient). Repeatable")
     s.add_argument("--out", metavar="CSV", help="write the sampled trajectory (t, coordinates, "
                    "velocities x', lambda:<c>, force:<c>:<dir>, energy, residual)")
     grid = s.add_mutually_exclusive_group()
@@ -81,9 +118,18 @@ def run(args) -> int:
     except DegenerateConstraintsError as exc:
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
+    try:
+        params = evaluate_assignments(args.param, system, "--param")
+        env = dict(system.parameter_values)
+        env.update({p.symbol: params[p.name] for p in system.parameters if p.name in params})
+        initial = evaluate_assignments(args.initial, system, "--initial", env)
+    except ValueError as exc:
+        print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
+        return 2
     progress = _Progress(args.t_end) if sys.stderr.isatty() and not args.json else None
     try:
         traj = simulate(system, args.t_end, samples=args.samples, dt=args.dt,
+                        params=params or None, initial=initial or None,
                         rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
                         atol=args.atol if args.atol is not None else DEFAULT_ATOL,
                         max_step=args.max_step, project_initial=args.project_initial,

@@ -8,17 +8,9 @@ import argparse
 import math
 import sys
 
+from .cli_simulate import _positive_float
+
 __all__ = ["add_parser", "run"]
-
-
-def _positive_float(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(x) or x <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive finite number (got {text})")
-    return x
 
 
 def _positive_int(text: str) -> int:

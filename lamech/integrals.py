@@ -86,7 +86,6 @@ def integrals(dyn: Dynamics, red: Reduction) -> Integrals:
     """Find the energy (or Jacobi) integral and the cyclic momenta; see module docstring."""
     system = dyn.system
     Lr = red.apply(system.L)
-    q = [c.symbol for c in red.independent]
     qd = [c.velocity for c in red.independent]
     t = system.t
     rest = _remaining(dyn, red)

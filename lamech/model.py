@@ -195,6 +195,20 @@ class System:
             out[c.velocity] = c.initial_velocity
         return out
 
+    # ----- actions -----------------------------------------------------------------
+    def solve(self):
+        """Equations, multipliers, integrals, lift-off/slip points and forces:
+        :func:`lamech.solve`."""
+        from .solve import solve
+        return solve(self)
+
+    def simulate(self, t_end: float, **options):
+        """The motion from the initial state to ``t_end``: :func:`lamech.simulate.simulate`
+        (options ``samples``, ``dt``, ``rtol``, ``atol``, ``params``, ``initial``, ...);
+        returns a :class:`~lamech.trajectory.Trajectory`."""
+        from .simulate import simulate
+        return simulate(self, t_end, **options)
+
     def numeric(self, expr: sp.Expr) -> sp.Expr:
         """``expr`` with every parameter replaced by its value."""
         return sp.sympify(expr).subs(self.parameter_values)

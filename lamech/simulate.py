@@ -31,14 +31,17 @@ the step's dense output:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Iterable, Sequence
 
 import numpy as np
+import sympy as sp
 from scipy.integrate import DOP853, RK45, Radau
 from scipy.optimize import brentq
 
-from .model import System
+from .model import Parameter, System
 from .numeric import NumericSystem, compile_system
 from .trajectory import Trajectory
 
@@ -47,6 +50,8 @@ __all__ = ["simulate", "SimulationError", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 DEFAULT_RTOL = 1e-11
 DEFAULT_ATOL = 1e-12
 INITIAL_TOLERANCE = 1e-10
+BLOW_UP = 1e12
+"""A run stops as failed when max(|q|, |q'|) exceeds BLOW_UP (1 + its size at the start)."""
 _METHODS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
 
 
@@ -435,6 +440,102 @@ class _Engine:
         return y
 
 
+# ----- overrides: parameters, friction coefficients, initial values -------------------
+def friction_names(system: System) -> dict[str, str]:
+    """Sweepable friction names -> constraint name."""
+    fr = [c.name for c in system.constraints if c.friction is not None]
+    out = {f"mu:{c}": c for c in fr}
+    if len(fr) == 1 and "mu" not in {p.name for p in system.parameters}:
+        out["mu"] = fr[0]
+    return out
+
+
+def with_friction_parameters(system: System, names: Iterable[str]) -> System:
+    """``system`` with the friction coefficients named in ``names`` made parameters."""
+    params = {p.name for p in system.parameters}
+    friction = friction_names(system)
+    known = [p.name for p in system.parameters] + list(friction)
+    unknown = [n for n in names if n not in params and n not in friction]
+    if unknown:
+        raise ValueError(f"unknown parameter{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join('`%s`' % n for n in unknown)}; known: {', '.join(known)}")
+    new_params = list(system.parameters)
+    constraints = list(system.constraints)
+    taken = {str(s) for s in system.symbols.values()}
+    done: set[str] = set()
+    for name in names:
+        if name in params or friction[name] in done:
+            continue
+        cname = friction[name]
+        done.add(cname)
+        j = next(i for i, c in enumerate(constraints) if c.name == cname)
+        c = constraints[j]
+        sym_name = f"mu_{cname}"
+        while sym_name in taken:
+            sym_name += "_"
+        taken.add(sym_name)
+        sym = sp.Symbol(sym_name, positive=True)
+        value = c.friction.mu
+        new_params.append(Parameter(name, sym, value, float(system.numeric(value))))
+        constraints[j] = dataclasses.replace(
+            c, friction=dataclasses.replace(c.friction, mu=sym))
+    if not done:
+        return system
+    return dataclasses.replace(system, parameters=tuple(new_params),
+                               constraints=tuple(constraints))
+
+
+def consistent_initial(ns, p: np.ndarray, initial: Sequence[tuple[str, float]]):
+    """The initial state at ``p`` with the named coordinates/velocities set and held; the
+    other coordinates moved (least squares, Gauss-Newton) to meet the constraints that
+    the problem's own initial state meets, and likewise the velocities."""
+    q, v = ns.initial_state(p)
+    if not initial:
+        return q, v
+    names = ns.coordinate_names
+    n = len(names)
+    f0, A0, b0 = ns.constraints(0.0, q, p)
+    F0 = A0 @ v + b0
+    tol = 1e-10 * (1 + float(np.max(np.abs(q), initial=0.0)))
+    hol = [c.holonomic for c in ns.system.constraints]
+    rows_q = [j for j in range(ns.m) if hol[j] and abs(f0[j]) <= tol]
+    rows_v = [j for j in range(ns.m) if abs(F0[j]) <= tol and (not hol[j] or j in rows_q)]
+    fixed_q, fixed_v = set(), set()
+    for name, value in initial:
+        if name.endswith("'"):
+            i = names.index(name[:-1])
+            v[i] = value
+            fixed_v.add(i)
+        else:
+            i = names.index(name)
+            q[i] = value
+            fixed_q.add(i)
+    free_q = [i for i in range(n) if i not in fixed_q]
+    if rows_q and free_q:
+        for _ in range(60):
+            f, A, _ = ns.constraints(0.0, q, p)
+            rows = [j for j in rows_q if np.any(A[j, free_q] != 0)]
+            if not rows:
+                break
+            r = f[rows]
+            if np.max(np.abs(r)) <= 1e-15 * (1 + float(np.max(np.abs(q)))):
+                break
+            dq, *_ = np.linalg.lstsq(A[np.ix_(rows, free_q)], -r, rcond=None)
+            q[free_q] += dq
+            if np.max(np.abs(dq)) <= 1e-16 * (1 + float(np.max(np.abs(q)))):
+                break
+    free_v = [i for i in range(n) if i not in fixed_v]
+    if rows_v and free_v:
+        _, A, b = ns.constraints(0.0, q, p)
+        rows = [j for j in rows_v if np.any(A[j, free_v] != 0)]
+        if rows:
+            r = A[rows] @ v + b[rows]
+            dv, *_ = np.linalg.lstsq(A[np.ix_(rows, free_v)], -r, rcond=None)
+            v[free_v] += dv
+    return q, v
+
+
+
 def _as_vector(value, names: list[str], what: str) -> np.ndarray | None:
     if value is None:
         return None
@@ -478,13 +579,19 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
              samples: int | None = None, dt: float | None = None,
              rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
              max_step: float | None = None, params: dict | None = None,
-             q0=None, qd0=None, project_initial: bool = False, method: str = "DOP853",
+             q0=None, qd0=None, initial: dict | None = None,
+             project_initial: bool = False, method: str = "DOP853",
              progress=None, jit: bool = False) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
 
     ``samples`` (default 1001, both ends counted) or ``dt`` set the output times (dense
     output). ``params`` overrides parameter values by name; ``q0``/``qd0`` override the
-    initial state (dicts by coordinate name, or arrays in coordinate order). An initial
+    initial state (dicts by coordinate name, or arrays in coordinate order), as given.
+    ``initial`` {coordinate or ``x'``: value} sets those values and holds them while the
+    other coordinates and velocities move (least squares) to meet the constraints the
+    problem's own initial state meets: ``initial={"theta1": 0.01}`` starts the cylinder
+    just off the top, with r and theta2 following. ``params`` may also name a friction
+    coefficient (``"mu:<constraint>"``, or ``"mu"`` when there is one). An initial
     state off the constraints (|f| or |F| > 1e-10 (1 + max |q|)) raises
     :class:`SimulationError` unless ``project_initial``, which moves it to the nearest
     consistent state (mass-matrix metric) and says what changed in ``notes``. A
@@ -497,10 +604,36 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
     _check_options(t_end, t0, rtol, atol, max_step, samples, dt)
     if method not in _METHODS:
         raise SimulationError(f"unknown method {method!r}; one of {', '.join(_METHODS)}")
+    if params and not isinstance(system, NumericSystem):
+        extra = [k for k in params if k not in {par.name for par in system.parameters}]
+        if extra:
+            try:
+                system = with_friction_parameters(system, extra)
+            except ValueError as exc:
+                raise SimulationError(str(exc)) from None
     ns = system if isinstance(system, NumericSystem) else compile_system(system, jit=jit)
-    p = ns.parameter_vector(params)
+    try:
+        p = ns.parameter_vector(params)
+    except KeyError as exc:
+        raise SimulationError(str(exc.args[0])) from None
+    except (TypeError, ValueError) as exc:
+        raise SimulationError(f"parameter values must be numbers: {exc}") from None
     n = ns.n
-    qi, vi = ns.initial_state(p)
+    if initial:
+        known = list(ns.coordinate_names) + [c + "'" for c in ns.coordinate_names]
+        held = []
+        for name, value in initial.items():
+            if name not in known:
+                raise SimulationError(f"initial value for unknown coordinate `{name}`; "
+                                      f"known: {', '.join(known)}")
+            try:
+                held.append((name, float(value)))
+            except (TypeError, ValueError):
+                raise SimulationError(f"initial value of `{name}` must be a number, "
+                                      f"got {value!r}") from None
+        qi, vi = consistent_initial(ns, p, held)
+    else:
+        qi, vi = ns.initial_state(p)
     for arr, val, names, what in ((qi, q0, ns.coordinate_names, "coordinates"),
                                   (vi, qd0, ns.coordinate_names, "velocities")):
         val = _as_vector(val, names, what)
@@ -540,6 +673,9 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
     try:
         y = eng.settle(t0, y)
         record(t0, y)
+        # A state 1e12 times its start (in size) is a blow-up, not physics to follow with
+        # ever smaller steps (a 1/(1 - t)^3 force took 175 000 steps to fail otherwise).
+        blow_up = BLOW_UP * (1.0 + float(np.max(np.abs(y), initial=0.0)))
         k = 1
         last_event_t, burst = None, 0
         while t < t_end and k < len(times):
@@ -553,6 +689,11 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
                 if solver.status == "failed":
                     raise _Stop(_diagnose_failure(eng, solver.t, solver.y, msg))
                 t_a, t_b = solver.t_old, solver.t
+                big = float(np.max(np.abs(solver.y)))
+                if not math.isfinite(big) or big > blow_up:
+                    raise _Stop(f"the state grows without bound at t = {t_b:.12g} (max |q|, "
+                                f"|q'| = {big:.3g}): a force or a singularity that blows up; "
+                                "check [forces], the parameters and the initial state")
                 yb, moved = eng.project(t_b, solver.y)
                 max_proj = max(max_proj, moved)
                 qdd, lam, A, gam, mu, K = eng.kkt(t_b, yb[:n], yb[n:])

@@ -32,7 +32,6 @@ case, so a resumed sweep gives the same file as a fresh one.
 from __future__ import annotations
 
 import csv
-import dataclasses
 import itertools
 import math
 import os
@@ -45,9 +44,9 @@ from pathlib import Path
 from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
-import sympy as sp
 
-from .model import Parameter, System
+from .model import System
+from .simulate import consistent_initial, friction_names, with_friction_parameters
 
 __all__ = ["sweep", "run_sweep", "SweepRun", "SweepError", "Measure", "parse_values",
            "parse_measure", "parse_assignment", "plot_sweep", "EVENT_MEASURES"]
@@ -157,52 +156,15 @@ def parse_measure(text: str, system: System) -> Measure:
 
 
 # ----- the system prepared for sweeping ---------------------------------------------
-def _friction_names(system: System) -> dict[str, str]:
-    """Sweepable friction names -> constraint name."""
-    fr = [c.name for c in system.constraints if c.friction is not None]
-    out = {f"mu:{c}": c for c in fr}
-    if len(fr) == 1 and "mu" not in {p.name for p in system.parameters}:
-        out["mu"] = fr[0]
-    return out
-
-
 def sweepable_names(system: System) -> list[str]:
-    return [p.name for p in system.parameters] + list(_friction_names(system))
+    return [p.name for p in system.parameters] + list(friction_names(system))
 
 
 def _with_friction_parameters(system: System, names: Iterable[str]) -> System:
-    """``system`` with the friction coefficients named in ``names`` made parameters."""
-    params = {p.name for p in system.parameters}
-    friction = _friction_names(system)
-    known = sweepable_names(system)
-    unknown = [n for n in names if n not in params and n not in friction]
-    if unknown:
-        raise SweepError(f"unknown parameter{'s' if len(unknown) > 1 else ''} "
-                         f"{', '.join('`%s`' % n for n in unknown)}; known: {', '.join(known)}")
-    new_params = list(system.parameters)
-    constraints = list(system.constraints)
-    taken = {str(s) for s in system.symbols.values()}
-    done: set[str] = set()
-    for name in names:
-        if name in params or friction[name] in done:
-            continue
-        cname = friction[name]
-        done.add(cname)
-        j = next(i for i, c in enumerate(constraints) if c.name == cname)
-        c = constraints[j]
-        sym_name = f"mu_{cname}"
-        while sym_name in taken:
-            sym_name += "_"
-        taken.add(sym_name)
-        sym = sp.Symbol(sym_name, positive=True)
-        value = c.friction.mu
-        new_params.append(Parameter(name, sym, value, float(system.numeric(value))))
-        constraints[j] = dataclasses.replace(
-            c, friction=dataclasses.replace(c.friction, mu=sym))
-    if not done:
-        return system
-    return dataclasses.replace(system, parameters=tuple(new_params),
-                               constraints=tuple(constraints))
+    try:
+        return with_friction_parameters(system, names)
+    except ValueError as exc:
+        raise SweepError(str(exc)) from None
 
 
 # ----- one case -----------------------------------------------------------------------
@@ -232,56 +194,6 @@ def _numeric(token: str, plan: _Plan):
     return ns
 
 
-def _consistent_initial(ns, p: np.ndarray, initial: Sequence[tuple[str, float]]):
-    """The initial state at ``p`` with the named coordinates/velocities set and held; the
-    other coordinates moved (least squares, Gauss-Newton) to meet the constraints that
-    the problem's own initial state meets, and likewise the velocities."""
-    q, v = ns.initial_state(p)
-    if not initial:
-        return q, v
-    names = ns.coordinate_names
-    n = len(names)
-    f0, A0, b0 = ns.constraints(0.0, q, p)
-    F0 = A0 @ v + b0
-    tol = 1e-10 * (1 + float(np.max(np.abs(q), initial=0.0)))
-    hol = [c.holonomic for c in ns.system.constraints]
-    rows_q = [j for j in range(ns.m) if hol[j] and abs(f0[j]) <= tol]
-    rows_v = [j for j in range(ns.m) if abs(F0[j]) <= tol and (not hol[j] or j in rows_q)]
-    fixed_q, fixed_v = set(), set()
-    for name, value in initial:
-        if name.endswith("'"):
-            i = names.index(name[:-1])
-            v[i] = value
-            fixed_v.add(i)
-        else:
-            i = names.index(name)
-            q[i] = value
-            fixed_q.add(i)
-    free_q = [i for i in range(n) if i not in fixed_q]
-    if rows_q and free_q:
-        for _ in range(60):
-            f, A, _ = ns.constraints(0.0, q, p)
-            rows = [j for j in rows_q if np.any(A[j, free_q] != 0)]
-            if not rows:
-                break
-            r = f[rows]
-            if np.max(np.abs(r)) <= 1e-15 * (1 + float(np.max(np.abs(q)))):
-                break
-            dq, *_ = np.linalg.lstsq(A[np.ix_(rows, free_q)], -r, rcond=None)
-            q[free_q] += dq
-            if np.max(np.abs(dq)) <= 1e-16 * (1 + float(np.max(np.abs(q)))):
-                break
-    free_v = [i for i in range(n) if i not in fixed_v]
-    if rows_v and free_v:
-        _, A, b = ns.constraints(0.0, q, p)
-        rows = [j for j in rows_v if np.any(A[j, free_v] != 0)]
-        if rows:
-            r = A[rows] @ v + b[rows]
-            dv, *_ = np.linalg.lstsq(A[np.ix_(rows, free_v)], -r, rcond=None)
-            v[free_v] += dv
-    return q, v
-
-
 def _measure_values(m: Measure, traj, coords: Sequence[str], series: dict) -> list[float]:
     if m.kind in EVENT_MEASURES:
         kind = EVENT_MEASURES[m.kind]
@@ -306,7 +218,7 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
     row: dict = {"case": case, **{k: float(x) for k, x in values.items()}}
     try:
         p = ns.parameter_vector(dict(values))
-        q0, v0 = _consistent_initial(ns, p, plan.initial)
+        q0, v0 = consistent_initial(ns, p, plan.initial)
         traj = simulate(ns, plan.t_end, params=dict(values), q0=q0, qd0=v0,
                         samples=plan.samples, rtol=plan.rtol, atol=plan.atol,
                         max_step=plan.max_step)

@@ -14,6 +14,13 @@ import numpy as np
 __all__ = ["Trajectory"]
 
 
+def _index(names, name: str, what: str) -> int:
+    try:
+        return list(names).index(name)
+    except ValueError:
+        raise KeyError(f"no {what} `{name}`; known: {', '.join(names)}") from None
+
+
 def _fmt(x: float) -> str:
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "nan"
@@ -66,13 +73,16 @@ class Trajectory:
         return np.maximum(self.residual_position, self.residual_velocity)
 
     def coordinate(self, name: str) -> np.ndarray:
-        return self.q[:, self.coordinates.index(name)]
+        """The samples of coordinate ``name``."""
+        return self.q[:, _index(self.coordinates, name, "coordinate")]
 
     def velocity(self, name: str) -> np.ndarray:
-        return self.qd[:, self.coordinates.index(name.rstrip("'"))]
+        """The samples of the velocity of ``name`` (``x`` or ``x'``)."""
+        return self.qd[:, _index(self.coordinates, name.rstrip("'"), "coordinate")]
 
     def multiplier(self, name: str) -> np.ndarray:
-        return self.lambdas[:, self.constraints.index(name)]
+        """The samples of the multiplier of constraint ``name`` (0 while it is released)."""
+        return self.lambdas[:, _index(self.constraints, name, "constraint")]
 
     @property
     def energy_error(self) -> float | None:

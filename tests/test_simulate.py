@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 from importlib import resources
 
@@ -358,3 +359,90 @@ def test_generated_code_matches_sympy(name):
         T, V = ns.energy(t, q, v, p)
         assert math.isclose(T, float(system.T.subs(env)), rel_tol=1e-13, abs_tol=1e-13)
         assert math.isclose(V, float(system.V.subs(env)), rel_tol=1e-13, abs_tol=1e-13)
+
+
+def test_initial_values_held_and_friction_as_parameter():
+    """--initial / initial=: the named value is held, the others meet the constraints;
+    the slip angle then follows the energy integral from that start."""
+    cyl = lamech.load("cylinder")
+    theta_s, mu = 0.02, 0.1
+    tr = cyl.simulate(3.0, initial={"theta1": theta_s}, params={"mu": mu}, samples=11)
+    assert tr.status == "ok", tr.message
+    R1, R2 = 1.0, 0.5
+    assert tr.coordinate("theta1")[0] == theta_s
+    assert abs(tr.coordinate("r")[0] - (R1 + R2)) < 1e-15
+    assert abs(tr.coordinate("theta2")[0] - (R1 + R2) / R2 * theta_s) < 1e-14
+    slip = next(e for e in tr.events if e["kind"] == "slip")
+    # N = m g (7 cos θ - 4 cos θs)/3, F = -m g sin θ / 3: slip where sin θ = μ (7 cos θ - 4 cos θs)
+    root = brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(theta_s)),
+                  theta_s, 1.0)
+    assert abs(slip["coordinates"]["theta1"] - root) < 1e-9
+    with pytest.raises(SimulationError, match="unknown coordinate `phi`"):
+        cyl.simulate(1.0, initial={"phi": 1.0})
+    with pytest.raises(SimulationError, match="known: .*mu:rolling"):
+        cyl.simulate(1.0, params={"nu": 1.0})
+
+
+def test_trajectory_as_dataframe():
+    pd = pytest.importorskip("pandas", reason="pandas not installed")
+    tr = lamech.load("pendulum").simulate(1.0, samples=5)
+    df = tr.to_dataframe()
+    assert isinstance(df, pd.DataFrame)
+    assert list(df["t"]) == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert {"theta", "theta'", "lambda:string", "energy", "residual"} <= set(df.columns)
+
+
+BLOW_UP = """
+title = "Bead pushed ever harder"
+[parameters]
+m = 1.0
+[coordinates]
+x = { initial = 0, velocity = 0 }
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+[[constraints]]
+name = "rail"
+f = "y - x/2"
+[forces]
+x = "1/(1 - t)^3"
+"""
+
+
+def test_a_failed_run_keeps_what_it_computed(tmp_path):
+    tr = lamech.loads(BLOW_UP).simulate(2.0, samples=21)
+    assert tr.status == "failed"
+    assert "t = 0.9999" in tr.message and "grows without bound" in tr.message
+    assert list(tr.t) == pytest.approx([0.1 * k for k in range(10)])
+    # The force is 1/(1-t)^3 on x along the rail y = x/2 (mass m (1 + 1/4) along x):
+    # x'' = 1/(1.25 (1-t)^3), so x' = (1/(1-t)^2 - 1)/2.5 — the computed part is right.
+    t = tr.t
+    assert np.allclose(tr.velocity("x"), (1 / (1 - t) ** 2 - 1) / 2.5, rtol=1e-9, atol=1e-12)
+    path = tmp_path / "partial.csv"
+    tr.to_csv(path)
+    rows = list(csv.DictReader(path.open()))
+    assert len(rows) == 10 and float(rows[-1]["t"]) == pytest.approx(0.9)
+
+
+def test_ctrl_c_keeps_the_trajectory():
+    def progress(t):
+        if t > 0.5:
+            raise KeyboardInterrupt
+
+    tr = lamech.load("pendulum").simulate(5.0, samples=51, progress=progress)
+    assert tr.status == "interrupted"
+    assert "interrupted at t = " in tr.message
+    assert 0 < len(tr.t) < 51 and tr.t[-1] <= 0.6 + 1e-12
+    assert np.all(np.isfinite(tr.multiplier("string")))
+
+
+def test_cli_initial_and_param(capsys):
+    from lamech.cli import main
+    code = main(["simulate", "cylinder", "--t-end", "2.6", "--samples", "3",
+                 "--initial", "theta1=pi/200", "--param", "mu=0.1", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["status"] == "ok"
+    assert [e["kind"] for e in out["events"]][:2] == ["slip", "lift-off"]
+    code = main(["simulate", "cylinder", "--t-end", "1", "--initial", "theta1=__import__"])
+    assert code == 2
+    assert "unknown name" in capsys.readouterr().err
