@@ -94,6 +94,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     s.add_argument("--plot", metavar="PNG", help="plot multipliers/forces with the events "
                    "marked, and the coordinates (matplotlib)")
+    s.add_argument("--animate", metavar="FILE",
+                   help="write an animation: .gif, .mp4 (needs ffmpeg) or .html (one "
+                        "self-contained page): the bodies, their trails, the constraint "
+                        "forces as arrows, the events")
     s.add_argument("--project-initial", action="store_true",
                    help="move an initial state that violates the constraints to the nearest "
                         "consistent one (mass-matrix metric) instead of failing")
@@ -158,6 +162,16 @@ def run(args) -> int:
         except OSError as exc:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
+    if args.animate:
+        from .animate import animate
+        try:
+            animate(traj, system, args.animate, params=params or None)
+        except ValueError as exc:
+            print(f"lamech: --animate: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:
+            print(f"lamech: cannot write {args.animate}: {exc}", file=sys.stderr)
+            return 2
     if args.json:
         print(json.dumps(traj.summary(), indent=2, ensure_ascii=False,
                          default=_json_default))
@@ -167,6 +181,8 @@ def run(args) -> int:
             print(f"  wrote {args.out}")
         if args.plot:
             print(f"  wrote {args.plot}")
+        if args.animate:
+            print(f"  wrote {args.animate}")
     if traj.status == "interrupted":
         return 130
     return 0 if traj.status == "ok" else 1

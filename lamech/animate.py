@@ -1,0 +1,241 @@
+"""Animations of a :class:`~lamech.trajectory.Trajectory` (matplotlib, Agg backend).
+
+Everything drawn comes from the problem file, for any problem: each body by its
+``shape`` (a circle with a radius line that turns with ``angle``, a rod along ``angle``,
+a point), a trail of each body's centre, the Cartesian force of every active constraint
+that names a point (``force = { at, along }``) as an arrow there, the track of each
+contact point while the contact holds (the part of the fixed surface the motion
+touches), the time, and each event (lift-off, impact, slip, ...) flashed as it happens.
+The view is fitted once to the whole motion. Bodies in space are drawn in side view
+(x–z).
+
+Writers: ``.gif`` (Pillow), ``.mp4`` (ffmpeg, when it is on PATH), ``.html`` (one
+self-contained page, matplotlib's ``to_jshtml``).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+__all__ = ["animate", "FORMATS"]
+
+FORMATS = (".gif", ".mp4", ".html")
+_EVENT_COLOURS = {"lift-off": "tab:red", "contact": "tab:green", "impact": "tab:purple",
+                  "slip": "tab:orange", "stick": "tab:blue"}
+
+
+def _lambdify(system, params: dict | None, exprs):
+    """A numeric function f(t, q) of ``exprs`` with the parameter values substituted."""
+    values = dict(system.parameter_values)
+    for p in system.parameters:
+        if params and p.name in params:
+            values[p.symbol] = float(params[p.name])
+    q = [c.symbol for c in system.coordinates]
+    body = [sp.sympify(e).xreplace(values) for e in exprs]
+    return sp.lambdify((system.t, q), body, modules="numpy")
+
+
+def _series(fn, t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """fn evaluated at every sample: shape (N, k)."""
+    out = [np.broadcast_to(np.asarray(fn(ti, qi), dtype=float), (len(fn(ti, qi)),))
+           for ti, qi in zip(t, q)]
+    return np.array(out, dtype=float)
+
+
+def _plane(points: np.ndarray) -> np.ndarray:
+    """(N, 2) plane coordinates: x, y as given; in space the side view x, z."""
+    return points[:, [0, 2]] if points.shape[1] == 3 else points[:, :2]
+
+
+class _Scene:
+    """Numbers for every frame, computed once: body poses, force arrows, contact tracks."""
+
+    def __init__(self, traj, system, params, frames: np.ndarray):
+        self.traj = traj
+        self.frames = frames
+        t, q = traj.t[frames], traj.q[frames]
+        self.t = t
+        self.space = bool(system.bodies) and len(system.bodies[0].position) == 3
+        self.bodies = []
+        for b in system.bodies:
+            pos = _plane(_series(_lambdify(system, params, b.position), t, q))
+            angle = (_series(_lambdify(system, params, [b.angle]), t, q)[:, 0]
+                     if b.angle is not None and not self.space else None)
+            kind, size = b.shape
+            size = (float(np.asarray(_lambdify(system, params, [size])(t[0], q[0]))[0])
+                    if size is not None and kind in ("circle", "rod") else 0.0)
+            if kind == "rod" and angle is None:
+                kind = "point"      # a rod needs an angle to be drawn as one
+            self.bodies.append((b.name, kind, size, pos, angle))
+        self.arrows = []             # (name, points (F,2), vectors (F,2))
+        self.tracks = []             # (name, points (F,2)) while engaged
+        for j, c in enumerate(system.constraints):
+            spec = c.force
+            if spec is None:
+                continue
+            at = _plane(_series(_lambdify(system, params, spec.at), t, q))
+            lam = traj.lambdas[frames, j]
+            engaged = np.isfinite(lam)
+            if c.unilateral:
+                track = np.where(engaged[:, None], at, np.nan)
+                self.tracks.append((c.name, track))
+            if not spec.along:
+                continue
+            dirs = [_plane(_series(_lambdify(system, params, d), t, q))
+                    for _, d in spec.along]
+            comps = np.column_stack([traj.forces.get(f"{c.name}:{name}",
+                                                     np.full(len(traj.t), np.nan))[frames]
+                                     for name, _ in spec.along])
+            vec = np.full((len(frames), 2), np.nan)
+            for k in range(len(frames)):
+                D = np.array([d[k] / (np.linalg.norm(d[k]) or 1.0) for d in dirs])
+                ck = comps[k]
+                ok = np.isfinite(ck)
+                if ok.any() and engaged[k]:
+                    # components are F·d/|d|: F is the least-squares solution over them
+                    vec[k], *_ = np.linalg.lstsq(D[ok], ck[ok], rcond=None)
+            self.arrows.append((c.name, at, vec))
+
+    def limits(self) -> tuple[float, float, float, float]:
+        xs, ys = [], []
+        for _, kind, size, pos, _ in self.bodies:
+            pad = size if kind == "circle" else size / 2 if kind == "rod" else 0.0
+            xs += [np.nanmin(pos[:, 0]) - pad, np.nanmax(pos[:, 0]) + pad]
+            ys += [np.nanmin(pos[:, 1]) - pad, np.nanmax(pos[:, 1]) + pad]
+        for _, track in self.tracks:
+            if np.isfinite(track).any():
+                xs += [np.nanmin(track[:, 0]), np.nanmax(track[:, 0])]
+                ys += [np.nanmin(track[:, 1]), np.nanmax(track[:, 1])]
+        if not xs:
+            return -1.0, 1.0, -1.0, 1.0
+        x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+        span = max(x1 - x0, y1 - y0, 1e-9)
+        m = 0.12 * span
+        return x0 - m, x1 + m, y0 - m, y1 + m
+
+
+def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: int = 30,
+            max_frames: int = 300, dpi: int = 100, title: str | None = None) -> Path:
+    """Write an animation of ``traj`` (a run of ``system``) to ``path``.
+
+    ``params`` are the parameter overrides the run used (sizes and positions depend on
+    them). Frames are evenly spaced in time, at most ``max_frames``. Raises ValueError for
+    an extension other than .gif, .mp4, .html, or .mp4 without ffmpeg.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib import animation
+    from matplotlib.patches import Circle, FancyArrowPatch
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise ValueError(f"cannot write an animation as {path.name!r}: use a name ending "
+                         f"in {', '.join(FORMATS)}")
+    if suffix == ".mp4" and shutil.which("ffmpeg") is None:
+        raise ValueError("writing .mp4 needs ffmpeg on PATH (e.g. apt install ffmpeg); "
+                         "or write .gif or .html")
+    if not system.bodies:
+        raise ValueError("nothing to draw: the problem declares no [[bodies]] (add them "
+                         "with position and shape to animate it)")
+    if len(traj.t) < 2:
+        raise ValueError("the trajectory has fewer than 2 samples: nothing to animate")
+    count = int(min(len(traj.t), max(2, max_frames)))
+    frames = np.unique(np.linspace(0, len(traj.t) - 1, count).round().astype(int))
+    scene = _Scene(traj, system, params, frames)
+
+    fig, ax = plt.subplots(figsize=(6.4, 6.4), dpi=dpi)
+    x0, x1, y0, y1 = scene.limits()
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal")
+    ax.grid(True, alpha=0.25)
+    ax.set_xlabel("x")
+    ax.set_ylabel("z (side view)" if scene.space else "y")
+    heading = title or system.title
+    ax.set_title(heading + (" — side view (x, z)" if scene.space else ""), fontsize=10)
+    span = max(x1 - x0, y1 - y0)
+
+    for name, track in scene.tracks:
+        ax.plot(track[:, 0], track[:, 1], color="0.55", lw=3, alpha=0.6, zorder=1)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    artists = []
+    for i, (name, kind, size, pos, angle) in enumerate(scene.bodies):
+        colour = colours[i % len(colours)]
+        trail, = ax.plot([], [], color=colour, lw=1, alpha=0.5, zorder=2)
+        if kind == "circle":
+            patch = Circle((pos[0, 0], pos[0, 1]), size, fill=False, lw=2, color=colour,
+                           zorder=3)
+            ax.add_patch(patch)
+            spoke, = ax.plot([], [], color=colour, lw=1.5, zorder=3)
+            artists.append(("circle", patch, spoke, trail))
+        elif kind == "rod":
+            line, = ax.plot([], [], color=colour, lw=4, solid_capstyle="round", zorder=3)
+            artists.append(("rod", line, None, trail))
+        else:
+            dot, = ax.plot([], [], "o", color=colour, ms=9, zorder=3)
+            artists.append(("point", dot, None, trail))
+    peak = max((np.nanmax(np.linalg.norm(v, axis=1)) for _, _, v in scene.arrows
+                if np.isfinite(v).any()), default=0.0)
+    scale = 0.15 * span / peak if peak > 0 else 0.0
+    quivers = []
+    for name, at, vec in scene.arrows:
+        arrow = FancyArrowPatch((0, 0), (0, 0), arrowstyle="-|>", mutation_scale=14,
+                                color="tab:red", lw=2, zorder=4, visible=False)
+        ax.add_patch(arrow)
+        quivers.append((arrow, at, vec))
+    clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
+    flash = ax.text(0.98, 0.97, "", transform=ax.transAxes, va="top", ha="right",
+                    fontsize=10, fontweight="bold")
+    events = [(e["t"], e["kind"], e.get("constraint", "")) for e in traj.events
+              if not e.get("initial")]
+    hold = 0.06 * (scene.t[-1] - scene.t[0])
+
+    def draw(k: int):
+        for (kind, main, spoke, trail), (_, _, size, pos, angle) in zip(artists, scene.bodies):
+            x, y = pos[k]
+            trail.set_data(pos[: k + 1, 0], pos[: k + 1, 1])
+            if kind == "circle":
+                main.center = (x, y)
+                a = angle[k] if angle is not None else 0.0
+                spoke.set_data([x, x + size * np.cos(a)], [y, y + size * np.sin(a)])
+            elif kind == "rod":
+                dx, dy = 0.5 * size * np.cos(angle[k]), 0.5 * size * np.sin(angle[k])
+                main.set_data([x - dx, x + dx], [y - dy, y + dy])
+            else:
+                main.set_data([x], [y])
+        for arrow, at, vec in quivers:
+            v = vec[k] * scale
+            visible = bool(np.isfinite(v).all() and np.isfinite(at[k]).all()
+                           and np.hypot(*v) > 1e-3 * span)
+            arrow.set_visible(visible)
+            if visible:
+                arrow.set_positions(tuple(at[k]), tuple(at[k] + v))
+        tk = scene.t[k]
+        clock.set_text(f"t = {tk:.3f}")
+        recent = [e for e in events if e[0] <= tk < e[0] + hold]
+        if recent:
+            te, kind, con = recent[-1]
+            flash.set_text(f"{kind} ({con})" if con else kind)
+            flash.set_color(_EVENT_COLOURS.get(kind, "black"))
+        else:
+            flash.set_text("")
+        return []
+
+    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
+                                   blit=False)
+    try:
+        if suffix == ".gif":
+            anim.save(str(path), writer=animation.PillowWriter(fps=fps), dpi=dpi)
+        elif suffix == ".mp4":
+            anim.save(str(path), writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
+        else:
+            path.write_text(anim.to_jshtml(fps=fps, default_mode="once"), encoding="utf-8")
+    finally:
+        plt.close(fig)
+    return path

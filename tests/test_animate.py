@@ -1,0 +1,79 @@
+"""Animations: written in each format, with the frames and markup they should have."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+import lamech
+from lamech.animate import _Scene, animate
+
+PIL = pytest.importorskip("PIL.Image", reason="Pillow (a matplotlib dependency) missing")
+
+
+@pytest.fixture(scope="module")
+def cylinder_run():
+    system = lamech.load("cylinder")
+    return system, system.simulate(2.7, initial={"theta1": 0.05}, samples=61)
+
+
+def test_gif_has_frames(tmp_path, cylinder_run):
+    system, traj = cylinder_run
+    out = animate(traj, system, tmp_path / "c.gif", max_frames=12, dpi=40)
+    with PIL.open(out) as im:
+        assert im.n_frames == 12
+        assert im.size == (256, 256)          # 6.4 in at 40 dpi
+
+
+def test_scene_follows_the_bodies_and_forces(cylinder_run):
+    """What is drawn is the problem's geometry: the wheel's centre at r (sin θ, cos θ),
+    the normal force along the contact normal with the magnitude of λ_contact."""
+    system, traj = cylinder_run
+    frames = np.arange(len(traj.t))
+    scene = _Scene(traj, system, None, frames)
+    name, kind, size, pos, angle = scene.bodies[0]
+    assert (name, kind, size) == ("wheel", "circle", 0.5)
+    r, th = traj.coordinate("r"), traj.coordinate("theta1")
+    assert np.allclose(pos, np.column_stack((r * np.sin(th), r * np.cos(th))), atol=1e-12)
+    assert np.allclose(angle, -traj.coordinate("theta2"))
+    (_, at, normal), _ = scene.arrows
+    on = np.isfinite(traj.multiplier("contact"))
+    assert np.allclose(np.linalg.norm(normal[on], axis=1), np.abs(traj.multiplier("contact")[on]),
+                       rtol=1e-9)
+    assert np.allclose(at[on], np.column_stack((np.sin(th), np.cos(th)))[on], atol=1e-12)
+    # after lift-off there is no contact force and no contact track
+    assert not np.isfinite(normal[~on]).any()
+
+
+def test_html_is_self_contained(tmp_path):
+    system = lamech.load("pendulum")
+    traj = system.simulate(1.0, samples=6)
+    out = animate(traj, system, tmp_path / "p.html", max_frames=6, dpi=30)
+    text = out.read_text()
+    assert "<script" in text and text.count("data:image/png;base64") == 6
+
+
+def test_bad_extension_and_missing_ffmpeg(tmp_path, cylinder_run, monkeypatch):
+    system, traj = cylinder_run
+    with pytest.raises(ValueError, match=r"\.gif, \.mp4, \.html"):
+        animate(traj, system, tmp_path / "c.avi")
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    with pytest.raises(ValueError, match="ffmpeg"):
+        animate(traj, system, tmp_path / "c.mp4")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_animate(tmp_path, capsys):
+    from lamech.cli import main
+    out = tmp_path / "pend.gif"
+    code = main(["simulate", "pendulum", "--t-end", "0.5", "--samples", "5",
+                 "--animate", str(out)])
+    assert code == 0, capsys.readouterr().err
+    assert f"wrote {out}" in capsys.readouterr().out
+    with PIL.open(out) as im:
+        assert im.n_frames == 5
+    assert main(["simulate", "pendulum", "--t-end", "0.5", "--animate",
+                 str(tmp_path / "x.bmp")]) == 2
+    assert "use a name ending in" in capsys.readouterr().err
