@@ -1,0 +1,1 @@
+"""lamech benchmarks: python -m bench [--quick]; see bench/run.py."""

@@ -1,0 +1,519 @@
+"""lamech's benchmarks, each side by side with its peers in this one process.
+
+    .venv/bin/python -m bench            # the full suite (about 15 minutes on 2 cores)
+    .venv/bin/python -m bench --quick    # smaller sizes and caps (about 2 minutes)
+
+Needs the optional extra ``bench`` (``pip install -e '.[bench]'``: mujoco, numba). The
+model everywhere is the planar N-link pendulum chain (point masses m = 1, links l = 1,
+g = 9.81, all links 30° from the vertical at rest): in maximal coordinates (x_i, y_i, one
+length constraint per link) for lamech and SymPy, as a hinge chain for MuJoCo.
+
+B1  derivation + code generation: model -> first numeric (q'', lambda).
+B2  one dynamics evaluation (q'' and lambda), microseconds per call.
+B3  work-precision: wall time against the error of the rod tensions and the positions
+    at t = 10 s, against a tight lamech reference run (rtol 1e-13).
+B4  ensembles: trajectories per second over many initial conditions.
+
+Results go to stdout (with lamech/peer ratios) and to bench/RESULTS.md (date, CPU,
+versions); B3 also draws bench/work_precision.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import math
+import multiprocessing as mp
+import os
+import platform
+import sys
+import time
+import timeit
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+L, G = 1.0, 9.81
+ANGLE = math.radians(30.0)
+
+
+# ----- models -------------------------------------------------------------------------
+def lamech_chain(n: int):
+    import lamech
+    from lamech.examples_gen import chain_toml
+    return lamech.loads(chain_toml(n))
+
+
+def sympy_chain(n: int):
+    """The same chain for sympy.physics.mechanics: (LagrangesMethod, q, params)."""
+    import sympy as sp
+    from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols
+    x = dynamicsymbols(f"x1:{n + 1}")
+    y = dynamicsymbols(f"y1:{n + 1}")
+    m, g, l = sp.symbols("m g l", positive=True)
+    t = dynamicsymbols._t
+    T = m / 2 * sum(sp.diff(a, t) ** 2 + sp.diff(b, t) ** 2 for a, b in zip(x, y))
+    V = m * g * sum(y)
+    hol = [(x[i] - (x[i - 1] if i else 0)) ** 2 + (y[i] - (y[i - 1] if i else 0)) ** 2 - l ** 2
+           for i in range(n)]
+    q = [c for pair in zip(x, y) for c in pair]
+    return LagrangesMethod(T - V, q, hol_coneqs=hol), q, (m, g, l)
+
+
+def chain_state(n: int, angles=None):
+    """Positions (x1, y1, x2, y2, ...) of the chain with link angles ``angles`` (from the
+    vertical), at rest."""
+    angles = np.full(n, ANGLE) if angles is None else np.asarray(angles, float)
+    xs = np.cumsum(L * np.sin(angles))
+    ys = -np.cumsum(L * np.cos(angles))
+    return np.column_stack((xs, ys)).ravel()
+
+
+def mujoco_chain(n: int, integrator: str = "RK4", dt: float = 1e-3):
+    """A hinge chain in the x-z plane: each body's joint at the previous mass, its mass
+    (1, inertia 1e-12: a point) one unit further down."""
+    import mujoco
+    body = ""
+    for i in range(n, 0, -1):
+        pos = "0 0 0" if i == 1 else "0 0 -1"
+        body = (f'<body name="b{i}" pos="{pos}"><joint type="hinge" axis="0 1 0"/>'
+                f'<inertial pos="0 0 -1" mass="1" diaginertia="1e-12 1e-12 1e-12"/>{body}</body>')
+    xml = (f'<mujoco><option gravity="0 0 -{G}" timestep="{dt}" integrator="{integrator}">'
+           f'<flag contact="disable"/></option><worldbody>{body}</worldbody></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    return model, mujoco.MjData(model)
+
+
+def mujoco_angles(angles: np.ndarray) -> np.ndarray:
+    """Hinge angles (relative, about +y) for absolute link angles from the vertical
+    (lamech's x = +sin: a rotation about +y by -a)."""
+    a = -np.asarray(angles, float)
+    return np.concatenate(([a[0]], np.diff(a)))
+
+
+def mujoco_masses(model, data, n: int) -> np.ndarray:
+    return np.array([data.xpos[i] + data.xmat[i].reshape(3, 3) @ (0.0, 0.0, -1.0)
+                     for i in range(1, n + 1)])
+
+
+def mujoco_tensions(model, data, n: int) -> np.ndarray:
+    """Rod tensions from the joint reactions: cfrc_int (force part) of each body, the
+    force its parent exerts on it, projected on the link towards the pivot. With a
+    massless link and a hinge that force lies along the link."""
+    import mujoco
+    mujoco.mj_forward(model, data)          # accelerations at this state (after RK4, the
+    mujoco.mj_rnePostConstraint(model, data)  # stored ones are from the last stage)
+    P = mujoco_masses(model, data, n)
+    pivots = np.vstack(([0.0, 0.0, 0.0], P[:-1]))
+    out = np.empty(n)
+    for i in range(n):
+        u = pivots[i] - P[i]
+        out[i] = data.cfrc_int[i + 1][3:6] @ (u / np.linalg.norm(u))
+    return out
+
+
+# ----- helpers ------------------------------------------------------------------------
+def _capped(fn, args, cap: float):
+    """Run fn(*args) in a forked process; (result, seconds) or (None, None) past ``cap``."""
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+
+    def target():
+        t0 = time.perf_counter()
+        try:
+            res = fn(*args)
+        except Exception as exc:  # report, don't hang
+            queue.put(("error", repr(exc), time.perf_counter() - t0))
+            return
+        queue.put(("ok", res, time.perf_counter() - t0))
+
+    proc = ctx.Process(target=target)
+    proc.start()
+    proc.join(cap)
+    if proc.is_alive():
+        proc.kill()
+        proc.join()
+        return None, None
+    kind, res, sec = queue.get(timeout=5)
+    if kind == "error":
+        raise RuntimeError(res)
+    return res, sec
+
+
+def _fmt_s(x):
+    return "—" if x is None else (f"{x:.3g} s" if x >= 0.01 else f"{x * 1e3:.3g} ms")
+
+
+def _kernel_inputs(ns):
+    n, m = ns.n, ns.m
+    q, v = ns.initial_state()
+    y = np.concatenate((q, v))
+    rows = np.arange(m, dtype=np.int64)
+    empty = np.zeros(0, dtype=np.int64)
+    return y, ns.parameters, rows, empty, empty, np.zeros(0)
+
+
+def _lamech_qdd_lambda(ns):
+    """(q'', lambda) at the initial state, from the KKT solve."""
+    y, p, *_ = _kernel_inputs(ns)
+    n = ns.n
+    M, rhs, A, gam, _ = ns.dynamics(0.0, y[:n], y[n:], p)
+    K = np.block([[M, -A.T], [A, np.zeros((ns.m, ns.m))]])
+    sol = np.linalg.solve(K, np.concatenate((rhs, -gam)))
+    return sol[:n], sol[n:]
+
+
+# ----- B1 -----------------------------------------------------------------------------
+def _lamech_b1(n: int, jit: bool):
+    from lamech.numeric import compile_system
+    t0 = time.perf_counter()
+    ns = compile_system(lamech_chain(n), jit=jit)
+    args = _kernel_inputs(ns)
+    out = ns.rhs_kernel(0.0, *args)
+    return time.perf_counter() - t0, np.asarray(out)[ns.n:]
+
+
+def _sympy_b1(n: int, cse: bool):
+    import sympy as sp
+    from sympy.physics.mechanics import dynamicsymbols
+    lm, q, (m, g, l) = sympy_chain(n)
+    lm.form_lagranges_equations()
+    rhs = lm.rhs()
+    qd = [c.diff(dynamicsymbols._t) for c in q]
+    f = sp.lambdify((q, qd, (m, g, l)), list(rhs), cse=cse)
+    out = np.array(f(chain_state(n), np.zeros(2 * n), (1.0, G, L)), dtype=float).ravel()
+    return out[2 * n: 4 * n]
+
+
+def bench_b1(sizes, cap: float, lines: list[str]):
+    print("\nB1  derivation + code generation: model -> first (q'', lambda)")
+    head = ("| N | lamech | lamech (numba) | SymPy LagrangesMethod + lambdify | same, cse=True "
+            "| ratio default/lamech | ratio cse/lamech |")
+    lines += ["## B1 derivation and code generation", "",
+              "Time from the model (problem text) to the first numeric evaluation of (q'', "
+              "λ). SymPy: `LagrangesMethod(L, q, hol_coneqs)`, `form_lagranges_equations()`, "
+              f"`rhs()`, `lambdify` (default printer, and `cse=True`); each capped at "
+              f"{cap:.0f} s. Both sides' q'' agree at the initial state before a time counts.",
+              "", head, "|" + "---|" * 7]
+    for n in sizes:
+        t_l, qdd = _lamech_b1(n, jit=False)
+        t_j = None
+        try:
+            import numba  # noqa: F401
+            t_j, _ = _lamech_b1(n, jit=True)
+        except ImportError:
+            pass
+        peers = []
+        for cse in (False, True):
+            res, sec = _capped(_sympy_b1, (n, cse), cap)
+            if res is not None and not np.allclose(res, qdd, rtol=1e-8, atol=1e-9):
+                raise AssertionError(f"B1 N={n}: SymPy and lamech disagree on q''")
+            peers.append(sec)
+        r = [f"{p / t_l:.0f}×" if p else f"> {cap / t_l:.0f}×" for p in peers]
+        row = (f"| {n} | {_fmt_s(t_l)} | {_fmt_s(t_j)} | "
+               f"{_fmt_s(peers[0]) if peers[0] else f'> {cap:.0f} s'} | "
+               f"{_fmt_s(peers[1]) if peers[1] else f'> {cap:.0f} s'} | {r[0]} | {r[1]} |")
+        print("  " + row)
+        lines.append(row)
+    lines.append("")
+
+
+# ----- B2 -----------------------------------------------------------------------------
+def _per_call(fn, repeat=5, budget=0.3) -> float:
+    timer = timeit.Timer(fn)
+    number, _ = timer.autorange()
+    number = max(1, int(number * budget / 0.2))
+    return min(timer.repeat(repeat=repeat, number=number)) / number
+
+
+def bench_b2(sizes, lines: list[str]):
+    import sympy as sp
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from lamech.numeric import compile_system
+    print("\nB2  one dynamics evaluation (q'' and lambda), µs per call")
+    lines += ["## B2 one dynamics evaluation", "",
+              "One evaluation of (q'', λ) at the initial state, called from Python, best "
+              "of 5 timeit runs. lamech: the generated KKT kernel (NumPy: generated "
+              "M, Q − h, A, γ plus `numpy.linalg.solve`; numba: the same source compiled, "
+              "with an in-kernel Gaussian elimination). Peer: `lambdify(cse=True)` of "
+              "SymPy's `LagrangesMethod.rhs()` (N ≤ 8; larger `rhs()` does not finish).", "",
+              "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | peer/lamech numba |",
+              "|---|---|---|---|---|"]
+    for n in sizes:
+        ns = compile_system(lamech_chain(n))
+        args = _kernel_inputs(ns)
+        t_np = _per_call(lambda: ns.rhs_kernel(0.0, *args))
+        t_nb = None
+        try:
+            import numba  # noqa: F401
+            nj = compile_system(lamech_chain(n), jit=True)
+            t_nb = _per_call(lambda: nj.rhs_kernel(0.0, *args))
+        except ImportError:
+            pass
+        t_sp = None
+        if n <= 8:
+            lm, q, (m, g, l) = sympy_chain(n)
+            lm.form_lagranges_equations()
+            t = dynamicsymbols._t
+            f = sp.lambdify((q, [c.diff(t) for c in q], (m, g, l)), list(lm.rhs()), cse=True)
+            x0, v0 = chain_state(n), np.zeros(2 * n)
+            t_sp = _per_call(lambda: f(x0, v0, (1.0, G, L)))
+        us = lambda s: "—" if s is None else f"{s * 1e6:.3g} µs"  # noqa: E731
+        ratio = f"{t_sp / t_nb:.1f}×" if t_sp and t_nb else "—"
+        row = f"| {n} | {us(t_np)} | {us(t_nb)} | {us(t_sp)} | {ratio} |"
+        print("  " + row)
+        lines.append(row)
+    lines.append("")
+
+
+# ----- B3 -----------------------------------------------------------------------------
+def _lamech_run(system, t_end, rtol, jit, ns=None):
+    from lamech.simulate import simulate
+    t0 = time.perf_counter()
+    tr = simulate(ns if ns is not None else system, t_end, rtol=rtol,
+                  atol=min(1e-12, rtol * 1e-2), samples=2, jit=jit)
+    sec = time.perf_counter() - t0
+    if tr.status != "ok":
+        raise RuntimeError(tr.message)
+    pos = tr.q[-1]
+    tension = -2 * L * tr.lambdas[-1]
+    return sec, pos, tension
+
+
+def _mujoco_run(n, angles, integrator, dt, t_end):
+    import mujoco
+    model, data = mujoco_chain(n, integrator, dt)
+    data.qpos[:] = mujoco_angles(angles)
+    mujoco.mj_forward(model, data)
+    steps = int(round(t_end / dt))
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    sec = time.perf_counter() - t0
+    P = mujoco_masses(model, data, n)
+    return sec, P[:, [0, 2]].ravel(), mujoco_tensions(model, data, n)
+
+
+def _sympy_ivp_run(f, n, t_end, rtol):
+    from scipy.integrate import solve_ivp
+    y0 = np.concatenate((chain_state(n), np.zeros(2 * n)))
+
+    def rhs(t, y):
+        out = np.asarray(f(y[:2 * n], y[2 * n:], (1.0, G, L)), dtype=float).ravel()
+        return out[:4 * n]
+
+    t0 = time.perf_counter()
+    sol = solve_ivp(rhs, (0, t_end), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
+    sec = time.perf_counter() - t0
+    yT = sol.y[:, -1]
+    lam = np.asarray(f(yT[:2 * n], yT[2 * n:], (1.0, G, L)), dtype=float).ravel()[4 * n:]
+    return sec, yT[:2 * n], lam
+
+
+def bench_b3(sizes, t_end, quick, lines: list[str]):
+    import sympy as sp
+    from sympy.physics.mechanics import dynamicsymbols
+
+    from lamech.numeric import compile_system
+    print(f"\nB3  work-precision: {t_end:g} simulated seconds")
+    lines += ["## B3 work–precision", "",
+              f"{t_end:g} simulated seconds from rest at 30°; errors at t = {t_end:g} s "
+              "against a lamech reference run at rtol = 1e-13: the rod tensions (max "
+              "relative error) and the positions (max absolute error, in link lengths). "
+              "lamech: DOP853 with projection (`simulate`, numba kernel when installed); "
+              "MuJoCo: hinge chain, Euler and RK4 at fixed steps, tensions from the joint "
+              "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
+              "`LagrangesMethod.rhs()` lambdified with cse, `solve_ivp(DOP853)`, no "
+              "projection. Wall time excludes code generation and compilation.", "",
+              "| N | method | setting | wall time | tension error | position error |",
+              "|---|---|---|---|---|---|"]
+    curves = {}
+    try:
+        import numba  # noqa: F401
+        jit = True
+    except ImportError:
+        jit = False
+    for n in sizes:
+        system = lamech_chain(n)
+        ns = compile_system(system, jit=jit)
+        _, ref_pos, ref_T = _lamech_run(system, t_end, 1e-13, jit, ns)
+        Tscale = np.max(np.abs(ref_T))
+
+        def add(method, setting, sec, pos, T):
+            eT = float(np.max(np.abs(T - ref_T)) / Tscale)
+            eP = float(np.max(np.abs(pos - ref_pos)))
+            row = f"| {n} | {method} | {setting} | {_fmt_s(sec)} | {eT:.2e} | {eP:.2e} |"
+            print("  " + row)
+            lines.append(row)
+            curves.setdefault((n, method), []).append((sec, eT))
+
+        for rtol in ((1e-6, 1e-9, 1e-12) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10,
+                                                        1e-11, 1e-12)):
+            sec, pos, T = _lamech_run(system, t_end, rtol, jit, ns)
+            add("lamech", f"rtol {rtol:g}", sec, pos, T)
+        angles = np.full(n, ANGLE)
+        for integrator in ("Euler", "RK4"):
+            for dt in ((1e-3, 1e-4) if quick else (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)):
+                try:
+                    sec, pos, T = _mujoco_run(n, angles, integrator, dt, t_end)
+                except ImportError:
+                    break
+                add(f"MuJoCo {integrator}", f"dt {dt:g}", sec, pos, T)
+        if n <= 5:
+            lm, q, (m, g, l) = sympy_chain(n)
+            lm.form_lagranges_equations()
+            t = dynamicsymbols._t
+            f = sp.lambdify((q, [c.diff(t) for c in q], (m, g, l)), list(lm.rhs()), cse=True)
+            for rtol in ((1e-6, 1e-9) if quick else (1e-6, 1e-8, 1e-10, 1e-12)):
+                sec, pos, lam = _sympy_ivp_run(f, n, t_end, rtol)
+                # LagrangesMethod's multipliers have lamech's sign and scaling
+                add("SymPy+solve_ivp", f"rtol {rtol:g}", sec, pos, -2 * L * lam)
+    lines.append("")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, axes = plt.subplots(1, len(sizes), figsize=(6 * len(sizes), 4.5), squeeze=False)
+        for ax, n in zip(axes[0], sizes):
+            for (nn, method), pts in sorted(curves.items()):
+                if nn != n:
+                    continue
+                pts = sorted(pts)
+                ax.loglog([p[1] for p in pts], [p[0] for p in pts], "o-", label=method)
+            ax.set_xlabel(f"tension error at t = {t_end:g} s (relative)")
+            ax.set_ylabel("wall time (s)")
+            ax.set_title(f"{n}-link chain, {t_end:g} s")
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend()
+        fig.tight_layout()
+        fig.savefig(HERE / "work_precision.png", dpi=110)
+        plt.close(fig)
+    except ImportError:
+        pass
+    return curves
+
+
+# ----- B4 -----------------------------------------------------------------------------
+def bench_b4(count_lamech, count_mujoco, t_end, lines: list[str]):
+    from lamech.numeric import compile_system
+    from lamech.simulate import simulate
+    n = 5
+    rng = np.random.default_rng(1)
+    angles = ANGLE + rng.uniform(-0.1, 0.1, size=(max(count_lamech, count_mujoco), n))
+    print(f"\nB4  ensembles: 5-link chain, {t_end:g} s each")
+    lines += ["## B4 ensembles", "",
+              f"Random initial angles (30° ± 0.1 rad), at rest, {t_end:g} s each, one core "
+              "unless said.", "", "| method | runs | wall time | trajectories/s | tension error (first run) |",
+              "|---|---|---|---|---|"]
+    try:
+        import numba  # noqa: F401
+        jit = True
+    except ImportError:
+        jit = False
+    ns = compile_system(lamech_chain(n), jit=jit)
+    # accuracy of each method on the first initial condition, against a tight reference
+    q_first = dict(zip(ns.coordinate_names, chain_state(n, angles[0])))
+    ref = simulate(ns, t_end, q0=q_first, samples=2, rtol=1e-13, atol=1e-14)
+    ref_T = -2 * L * ref.lambdas[-1]
+
+    def error(T):
+        return f"{np.max(np.abs(T - ref_T)) / np.max(np.abs(ref_T)):.1e}"
+
+    mine = simulate(ns, t_end, q0=q_first, samples=2, rtol=1e-10, atol=1e-12)
+    lamech_error = error(-2 * L * mine.lambdas[-1])
+    t0 = time.perf_counter()
+    for k in range(count_lamech):
+        pos = chain_state(n, angles[k])
+        q0 = dict(zip(ns.coordinate_names, pos))
+        tr = simulate(ns, t_end, q0=q0, samples=2, rtol=1e-10, atol=1e-12)
+        assert tr.status == "ok", tr.message
+    sec = time.perf_counter() - t0
+    row = (f"| lamech simulate (rtol 1e-10, one process) | {count_lamech} | {_fmt_s(sec)} | "
+           f"{count_lamech / sec:.3g} | {lamech_error} |")
+    print("  " + row)
+    lines.append(row)
+    try:
+        import mujoco
+        from mujoco import rollout
+    except ImportError:
+        lines.append("")
+        return
+    for integrator, dt in (("RK4", 2e-3), ("Euler", 2e-3), ("RK4", 1e-4)):
+        runs = count_mujoco if dt > 1e-3 else max(10, count_mujoco // 10)
+        model, data = mujoco_chain(n, integrator, dt)
+        nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        init = np.zeros((runs, nstate))
+        for k in range(runs):
+            data.qpos[:] = mujoco_angles(angles[k])
+            data.qvel[:] = 0
+            data.time = 0
+            mujoco.mj_getState(model, data, init[k], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        steps = int(round(t_end / dt))
+        datas = [mujoco.MjData(model) for _ in range(os.cpu_count() or 1)]
+        t0 = time.perf_counter()
+        rollout.rollout(model, datas, init, nstep=steps)
+        sec = time.perf_counter() - t0
+        row = (f"| mujoco.rollout {integrator} dt {dt:g} ({len(datas)} threads) | "
+               f"{runs} | {_fmt_s(sec)} | {runs / sec:.3g} | "
+               f"{error(_mujoco_run(n, angles[0], integrator, dt, t_end)[2])} |")
+        print("  " + row)
+        lines.append(row)
+    lines.append("")
+
+
+# ----- main ---------------------------------------------------------------------------
+def _machine() -> list[str]:
+    cpu = platform.processor() or "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import scipy
+    import sympy
+    versions = [f"Python {platform.python_version()}", f"SymPy {sympy.__version__}",
+                f"NumPy {np.__version__}", f"SciPy {scipy.__version__}"]
+    for mod in ("numba", "mujoco"):
+        try:
+            versions.append(f"{mod} {__import__(mod).__version__}")
+        except ImportError:
+            versions.append(f"{mod} not installed")
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return [f"- date: {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC",
+            f"- machine: {cpu}, {cores} cores usable, {platform.system()} {platform.machine()}",
+            "- versions: " + ", ".join(versions)]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="small sizes and caps (~2 minutes)")
+    ap.add_argument("--only", choices=["B1", "B2", "B3", "B4"], action="append",
+                    help="run only these benchmarks (repeatable)")
+    ap.add_argument("--out", default=str(HERE / "RESULTS.md"), help="where to write the table")
+    args = ap.parse_args(argv)
+    want = set(args.only or ["B1", "B2", "B3", "B4"])
+    lines = ["# lamech benchmark results", "",
+             f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
+             "shared machine are noisy (±20%); ratios are from the same process.", ""]
+    lines += _machine() + [""]
+    print("\n".join(lines))
+    if "B1" in want:
+        bench_b1([2, 4, 8] if args.quick else [2, 4, 8, 12, 16, 30],
+                 20.0 if args.quick else 120.0, lines)
+    if "B2" in want:
+        bench_b2([2, 8] if args.quick else [2, 8, 30], lines)
+    if "B3" in want:
+        bench_b3([5] if args.quick else [5, 20], 10.0, args.quick, lines)
+    if "B4" in want:
+        bench_b4(10 if args.quick else 100, 100 if args.quick else 1000, 10.0, lines)
+    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print(f"\nwrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
