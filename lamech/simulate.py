@@ -152,7 +152,13 @@ class _Engine:
     def kkt(self, t: float, q: np.ndarray, v: np.ndarray):
         """(q'', lam (m,) NaN where inactive, kinetic friction where slipping, A, gamma)."""
         self.evaluations += 1
-        M, rhs, A, gam, mu = self.ns.dynamics(t, q, v, self.p)
+        try:
+            M, rhs, A, gam, mu = self.ns.dynamics(t, q, v, self.p)
+        except (ValueError, ArithmeticError) as exc:
+            raise _Stop(f"the dynamics cannot be evaluated at t = {t:.12g} ({exc}): a "
+                        "coordinate, parameter or time left the domain of an expression "
+                        "(sqrt or log of a negative number, division by zero); check the "
+                        "expressions, the parameters and the initial state") from None
         n, rows = self.n, self.rows
         na = len(rows)
         if na == 0:
@@ -189,7 +195,10 @@ class _Engine:
         rejects the trial step and shrinks it (a failure at an accepted state stops the
         run with the cause)."""
         self.evaluations += 1
-        return self.kernel(t, y, self.p, *self._mode_arrays)
+        try:
+            return self.kernel(t, y, self.p, *self._mode_arrays)
+        except (ValueError, ArithmeticError):    # e.g. sqrt of a negative number
+            return np.full(y.shape, np.nan)
 
     # ----- projection --------------------------------------------------------------
     def _metric(self, t, q, v):
@@ -742,7 +751,9 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
                     raise _Stop(f"the KKT matrix is nearly singular at t = {t_b:.12g} "
                                 f"(condition number {np.linalg.cond(K):.3g}): a singular "
                                 "configuration (dependent constraints) or a motion without "
-                                "inertia; forces there are not determined")
+                                "inertia; forces there are not determined. Try "
+                                "starting elsewhere, a shorter --t-end, or removing "
+                                "a redundant constraint")
                 if not all(eng.armed.values()):
                     eng.update_arming(t_b, yb)
                 g_old = eng.event_values(t_b, yb, (lam, mu))
@@ -815,6 +826,11 @@ def _diagnose_failure(eng: _Engine, t, y, msg) -> str:
             extra = f"; the KKT matrix is nearly singular there (condition {c:.3g})"
     except _Stop as s:
         extra = "; " + s.cause
+    if not extra:
+        probe = eng.fun(t + 1e-9 * max(1.0, abs(t)), y)
+        if not np.all(np.isfinite(probe)):
+            extra = ("; the dynamics are NaN or undefined just after it (an expression "
+                     "left its domain, e.g. sqrt or log of a negative number)")
     return (f"step size collapsed at t = {t:.12g} ({msg}){extra}; try a looser rtol/atol, "
             "or check for a singular configuration or a force that blows up")
 

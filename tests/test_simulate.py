@@ -6,6 +6,7 @@ import csv
 import io
 import json
 import math
+import re
 from importlib import resources
 
 import numpy as np
@@ -446,3 +447,99 @@ def test_cli_initial_and_param(capsys):
     code = main(["simulate", "cylinder", "--t-end", "1", "--initial", "theta1=__import__"])
     assert code == 2
     assert "unknown name" in capsys.readouterr().err
+
+
+SINGULAR = """
+title = "Bead on a circle, pushed across by a drive"
+[parameters]
+m = 1.0
+[coordinates]
+x = { initial = 0, velocity = 1 }
+y = { initial = 1, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+[[constraints]]
+name = "circle"
+f = "x^2 + y^2 - 1"
+[[constraints]]
+name = "drive"
+f = "x - t"
+"""
+
+
+def test_driven_into_a_singular_configuration():
+    """x = t drives the bead along the unit circle to (1, 0) at t = 1, where the two
+    constraint gradients (2x, 2y) and (1, 0) become parallel: the run stops there as
+    'failed', naming the time, the cause and what to try; the part before is exact."""
+    tr = lamech.loads(SINGULAR).simulate(2.0, samples=21)
+    assert tr.status == "failed"
+    assert "singular" in tr.message and "try" in tr.message.lower()
+    t_stop = float(re.search(r"at t = ([0-9.e+-]+)", tr.message).group(1))
+    assert 0.99 < t_stop <= 1.0
+    t = tr.t
+    assert 5 <= len(t) < 11 and t[-1] < 1
+    # closed form: y = sqrt(1 - t^2); m y'' = 2 y lambda_circle, 0 = 2 x lambda_circle
+    # + lambda_drive, so lambda_circle = -1/(2 (1 - t^2)^2), lambda_drive = t/(1 - t^2)^2
+    assert np.allclose(tr.coordinate("y"), np.sqrt(1 - t**2), rtol=1e-9, atol=1e-12)
+    assert np.allclose(tr.multiplier("circle"), -1 / (2 * (1 - t**2) ** 2), rtol=1e-6)
+    assert np.allclose(tr.multiplier("drive"), t / (1 - t**2) ** 2, rtol=1e-6, atol=1e-12)
+    rows = list(csv.DictReader(io.StringIO(tr.to_csv())))
+    assert len(rows) == len(t)
+    assert tr.summary()["status"] == "failed"
+
+
+def test_nan_in_the_dynamics_fails_with_time_and_cause():
+    """A force sqrt(1 - t) is NaN after t = 1: the run stops 'failed' near t = 1 with
+    what it computed, x' = (2/3)(1 - (1 - t)^(3/2)) (m = 1)."""
+    text = """
+title = "Force that leaves its domain"
+[parameters]
+m = 1.0
+[coordinates]
+x = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*x'^2"
+[forces]
+x = "sqrt(1 - t)"
+"""
+    tr = lamech.loads(text).simulate(2.0, samples=21)
+    assert tr.status == "failed", tr.message
+    t_stop = float(re.search(r"at t = ([0-9.e+-]+)", tr.message).group(1))
+    assert abs(t_stop - 1) < 1e-6
+    assert "NaN or undefined" in tr.message or "domain" in tr.message
+    assert tr.t[-1] <= 1.0 + 1e-12 and len(tr.t) >= 10
+    t = tr.t
+    assert np.allclose(tr.velocity("x"), 2 / 3 * (1 - (1 - t) ** 1.5), rtol=1e-7, atol=1e-9)
+
+
+def _moving_support_truth(t_eval, m=1.0, g=9.81, l=1.0, a=0.1, w=3.0, theta0=0.3):
+    """Independent truth: the textbook reduced equation
+    theta'' = -(g/l) sin(theta) + (a w^2/l) cos(w t) cos(theta), solved by solve_ivp."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        return [y[1], -g / l * math.sin(y[0]) + a * w**2 / l * math.cos(w * t) * math.cos(y[0])]
+
+    sol = solve_ivp(rhs, (0, t_eval[-1]), [theta0, 0.0], t_eval=t_eval, method="DOP853",
+                    rtol=1e-12, atol=1e-12)
+    return sol.y[0], sol.y[1]
+
+
+def test_pendulum_on_a_driven_support_matches_the_reduced_equation():
+    tr = simulate(lamech.load("moving_support"), 10.0, samples=501)
+    assert tr.status == "ok", tr.message
+    assert tr.energy_error is None                  # the drive does work
+    assert tr.events == []                          # the string stays taut
+    t = tr.t
+    m, g, l, a, w, M = 1.0, 9.81, 1.0, 0.1, 3.0, 2.0
+    assert np.max(np.abs(tr.coordinate("xs") - a * np.cos(w * t))) < 1e-10
+    assert np.max(np.abs(tr.coordinate("r") - l)) < 1e-10
+    th_ref, thd_ref = _moving_support_truth(t)
+    th, thd = tr.coordinate("theta"), tr.velocity("theta")
+    assert np.max(np.abs(th - th_ref)) < 1e-7
+    assert np.max(np.abs(thd - thd_ref)) < 1e-6
+    # multipliers against the closed forms, evaluated on the computed state
+    tension = m * l * thd**2 + m * g * np.cos(th) + m * a * w**2 * np.cos(w * t) * np.sin(th)
+    assert np.allclose(tr.multiplier("string"), tension, rtol=1e-8)
+    support = -tension * np.sin(th) - M * a * w**2 * np.cos(w * t)
+    assert np.allclose(tr.multiplier("support"), support, rtol=1e-8, atol=1e-8)
