@@ -107,10 +107,10 @@ def test_cylinder_lift_off_angle():
     assert np.all(np.isnan(tr.multiplier("contact")[after]))
 
 
-def test_cylinder_slips_where_closed_form_says():
-    mu = 0.3
+@pytest.mark.parametrize("mu", [0.3, 0.1])
+def test_cylinder_slips_where_closed_form_says(mu):
     tr = simulate(lamech.load("cylinder"), 3.0, q0={"theta1": THS, "theta2": 3 * THS},
-                  samples=301)
+                  samples=301, params={"mu": mu})
     assert tr.status == "ok", tr.message
     kinds = [(e["kind"], e["constraint"]) for e in tr.events]
     assert kinds[:2] == [("slip", "rolling"), ("lift-off", "contact")]
@@ -543,3 +543,36 @@ def test_pendulum_on_a_driven_support_matches_the_reduced_equation():
     assert np.allclose(tr.multiplier("string"), tension, rtol=1e-8)
     support = -tension * np.sin(th) - M * a * w**2 * np.cos(w * t)
     assert np.allclose(tr.multiplier("support"), support, rtol=1e-8, atol=1e-8)
+
+
+def test_cli_csv_and_json_contract(tmp_path, capsys):
+    """The CSV and --json summary parsed back: columns, 17 significant digits, both
+    ends sampled, events with t/kind/constraint/coordinates, energy_error null for a
+    driven (time-dependent) problem."""
+    from lamech.cli import main
+    out = tmp_path / "m.csv"
+    code = main(["simulate", "moving_support", "--t-end", "2", "--samples", "5",
+                 "--out", str(out), "--json"])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["status"] == "ok" and summary["energy_error"] is None
+    assert summary["max_residual"] < 1e-9
+    rows = list(csv.reader(out.open()))
+    assert rows[0] == ["t", "xs", "r", "theta", "xs'", "r'", "theta'", "lambda:support",
+                       "lambda:string", "force:string:tension", "energy", "residual"]
+    assert [float(r[0]) for r in rows[1:]] == [0.0, 0.5, 1.0, 1.5, 2.0]
+    last = rows[-1]
+    for name, value in summary["final"].items():
+        assert float(last[rows[0].index(name)]) == value      # round-trips exactly
+    assert abs(float(last[1]) - 0.1 * math.cos(6.0)) < 1e-10  # xs = a cos(w t)
+    th_ref, _ = _moving_support_truth(np.array([0.0, 2.0]))
+    assert abs(float(last[3]) - th_ref[-1]) < 1e-7
+    assert last[3] == f"{float(last[3]):.17g}"               # written with 17 digits
+
+    code = main(["simulate", "ladder", "--t-end", "1", "--samples", "3", "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    ev = summary["events"][0]
+    assert {"t", "kind", "constraint", "coordinates"} <= set(ev)
+    assert ev["kind"] == "lift-off"
+    assert set(ev["coordinates"]) >= {"phi", "x", "y", "phi'", "x'", "y'"}
+    assert isinstance(summary["energy_error"], float)
