@@ -36,7 +36,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 L, G = 1.0, 9.81
 ANGLE = math.radians(30.0)
-_COLOURS = {"lamech": "tab:red", "MuJoCo Euler": "tab:blue", "MuJoCo RK4": "tab:orange",
+_COLOURS = {"lamech": "tab:red", "lamech kernel": "tab:purple", "MuJoCo Euler": "tab:blue", "MuJoCo RK4": "tab:orange",
             "SymPy+solve_ivp": "tab:green"}
 
 
@@ -334,6 +334,8 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
               "against a lamech reference run at rtol = 1e-13: the rod tensions (max "
               "relative error) and the positions (max absolute error, in link lengths). "
               "lamech: DOP853 with projection (`simulate`, numba kernel when installed); "
+              "lamech kernel: `lamech.kernel.integrate_batch`, the same method as one "
+              "compiled loop; "
               "MuJoCo: hinge chain, Euler and RK4 at fixed steps, tensions from the joint "
               "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
               "`LagrangesMethod.rhs()` lambdified with cse, `solve_ivp(DOP853)`, no "
@@ -364,6 +366,20 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
                                                         1e-11, 1e-12)):
             sec, pos, T = _best(_lamech_run, system, t_end, rtol, jit, ns)
             add("lamech", f"rtol {rtol:g}", sec, pos, T)
+        if jit:
+            from lamech.kernel import integrate_batch
+            y0 = np.concatenate(ns.initial_state())[None]
+            integrate_batch(ns, y0, 0.01)           # compile outside the timing
+
+            def kernel_run(rtol):
+                t0 = time.perf_counter()
+                res = integrate_batch(ns, y0, t_end, rtol=rtol, atol=min(1e-12, rtol * 1e-2))
+                return time.perf_counter() - t0, res.q[0], -2 * L * res.lambdas[0]
+
+            for rtol in ((1e-6, 1e-9, 1e-12) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9,
+                                                            1e-10, 1e-11, 1e-12)):
+                sec, pos, T = _best(kernel_run, rtol)
+                add("lamech kernel", f"rtol {rtol:g}", sec, pos, T)
         angles = np.full(n, ANGLE)
         for integrator in ("Euler", "RK4"):
             for dt in ((1e-3, 1e-4) if quick else (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4)):
@@ -446,6 +462,20 @@ def bench_b4(count_lamech, count_mujoco, t_end, lines: list[str]):
            f"{count_lamech / sec:.3g} | {lamech_error} |")
     print("  " + row)
     lines.append(row)
+    if jit:
+        from lamech.kernel import integrate_batch
+        count = max(count_lamech, count_mujoco)
+        Y0 = np.array([np.concatenate((chain_state(n, angles[k]), np.zeros(2 * n)))
+                       for k in range(count)])
+        integrate_batch(ns, Y0[:1], 0.01)           # compile outside the timing
+        t0 = time.perf_counter()
+        res = integrate_batch(ns, Y0, t_end, rtol=1e-10, atol=1e-12)
+        sec = time.perf_counter() - t0
+        assert res.ok.all()
+        row = (f"| lamech integrate_batch (rtol 1e-10, {os.cpu_count()} cores) | {count} | "
+               f"{_fmt_s(sec)} | {count / sec:.3g} | {error(-2 * L * res.lambdas[0])} |")
+        print("  " + row)
+        lines.append(row)
     try:
         import mujoco
         from mujoco import rollout
