@@ -576,3 +576,14 @@ def test_cli_csv_and_json_contract(tmp_path, capsys):
     assert ev["kind"] == "lift-off"
     assert set(ev["coordinates"]) >= {"phi", "x", "y", "phi'", "x'", "y'"}
     assert isinstance(summary["energy_error"], float)
+
+
+@pytest.mark.slow
+def test_thirty_link_chain_without_special_handling():
+    """Issue 4's large system: derive, compile and simulate the 30-link chain (60
+    coordinates, 30 constraints); energy and constraints hold."""
+    from lamech.examples_gen import chain_toml
+    tr = lamech.loads(chain_toml(30)).simulate(1.0, samples=3)
+    assert tr.status == "ok", tr.message
+    assert tr.summary()["max_residual"] < 1e-10
+    assert tr.energy_error < 1e-9
