@@ -292,9 +292,9 @@ def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp
         if extra:
             raise ValueError(f"{name}: unexpected symbols {sorted(map(str, extra))} in the "
                              "derived expressions")
-    # optimizations=None: the "basic" pre-pass (negation/division rewrites) cost 40% of code
-    # generation on the chains and saved no operations in the generated code.
-    repl, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c_"), optimizations=None)
+    # The "basic" pre-pass costs 40% of code generation on the chains but makes the numba
+    # kernel faster (8-link chain: 3.3 us against 4.4-5.2 us without it): kept.
+    repl, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c_"), optimizations="basic")
     lines = [f"def {name}({args}):", f'    """{doc}"""']
     for var in used_inputs:
         count = n if var in ("q", "v") else None
