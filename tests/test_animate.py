@@ -77,3 +77,19 @@ def test_cli_animate(tmp_path, capsys):
     assert main(["simulate", "pendulum", "--t-end", "0.5", "--animate",
                  str(tmp_path / "x.bmp")]) == 2
     assert "use a name ending in" in capsys.readouterr().err
+
+
+def test_pendulum_gif_frames_sampled_evenly(tmp_path):
+    """max_frames thins the samples evenly; the bob drawn at (l sin θ, -l cos θ)."""
+    system = lamech.load("pendulum")
+    traj = system.simulate(1.0, samples=101)
+    out = animate(traj, system, tmp_path / "p.gif", max_frames=6, dpi=30)
+    with PIL.open(out) as im:
+        assert im.n_frames == 6
+        assert im.size == (192, 192)          # 6.4 in at 30 dpi
+    frames = np.unique(np.linspace(0, 100, 6).round().astype(int))
+    scene = _Scene(traj, system, None, frames)
+    assert np.allclose(np.diff(scene.t), 0.2)
+    pos = scene.bodies[0][3]
+    th = traj.coordinate("theta")[frames]
+    assert np.allclose(pos, np.column_stack((np.sin(th), -np.cos(th))), atol=1e-12)
