@@ -3,10 +3,11 @@
     .venv/bin/python -m bench            # the full suite (about 15 minutes on 2 cores)
     .venv/bin/python -m bench --quick    # smaller sizes and caps (about 2 minutes)
 
-Needs the optional extra ``bench`` (``pip install -e '.[bench]'``: mujoco, numba). The
-model everywhere is the planar N-link pendulum chain (point masses m = 1, links l = 1,
-g = 9.81, all links 30° from the vertical at rest): in maximal coordinates (x_i, y_i, one
-length constraint per link) for lamech and SymPy, as a hinge chain for MuJoCo.
+Needs the optional extra ``bench`` (``pip install -e '.[bench]'``: mujoco, numba, pydy,
+Cython; a C compiler for PyDy). The model everywhere is the planar N-link pendulum chain
+(point masses m = 1, links l = 1, g = 9.81, all links 30° from the vertical at rest): in
+maximal coordinates (x_i, y_i, one length constraint per link) for lamech, SymPy and PyDy,
+as a hinge chain for MuJoCo.
 
 B1  derivation + code generation: model -> first numeric (q'', lambda).
 B2  one dynamics evaluation (q'' and lambda), microseconds per call.
@@ -164,13 +165,10 @@ def _kernel_inputs(ns):
 
 
 def _lamech_qdd_lambda(ns):
-    """(q'', lambda) at the initial state, from the KKT solve."""
+    """(q'', lambda) at the initial state, from the compiled KKT solve."""
     y, p, *_ = _kernel_inputs(ns)
-    n = ns.n
-    M, rhs, A, gam, _ = ns.dynamics(0.0, y[:n], y[n:], p)
-    K = np.block([[M, -A.T], [A, np.zeros((ns.m, ns.m))]])
-    sol = np.linalg.solve(K, np.concatenate((rhs, -gam)))
-    return sol[:n], sol[n:]
+    sol = ns.accelerations(0.0, y, p)
+    return sol[:ns.n], sol[ns.n:]
 
 
 # ----- B1 -----------------------------------------------------------------------------
@@ -178,9 +176,9 @@ def _lamech_b1(n: int, jit: bool):
     from lamech.numeric import compile_system
     t0 = time.perf_counter()
     ns = compile_system(lamech_chain(n), jit=jit)
-    args = _kernel_inputs(ns)
-    out = ns.rhs_kernel(0.0, *args)
-    return time.perf_counter() - t0, np.asarray(out)[ns.n:]
+    y, p, *_ = _kernel_inputs(ns)
+    out = ns.accelerations(0.0, y, p)
+    return time.perf_counter() - t0, np.asarray(out)[:ns.n]
 
 
 def _sympy_b1(n: int, cse: bool):
@@ -236,6 +234,42 @@ def _per_call(fn, repeat=5, budget=0.3) -> float:
     return min(timer.repeat(repeat=repeat, number=number)) / number
 
 
+def pydy_chain(n: int):
+    """PyDy's Cython back end on SymPy's chain: ``(f, N)`` with ``f(x, v, c)`` returning the
+    solution [q'; q''; lambda] of the full system M_full z = F_full (PyDy's
+    ``CythonMatrixGenerator`` evaluates the matrices, ``numpy.linalg.solve`` solves them,
+    as ``pydy.codegen.ode_function_generators`` does). None when pydy or Cython is
+    missing, or no C compiler works."""
+    import tempfile
+
+    import sympy as sp
+    from sympy.physics.mechanics import dynamicsymbols
+    try:
+        from pydy.codegen.cython_code import CythonMatrixGenerator
+    except ImportError:
+        return None
+    lm, q, (m, g, l) = sympy_chain(n)
+    lm.form_lagranges_equations()
+    t = dynamicsymbols._t
+    qs, us = sp.symbols(f"q0:{2 * n}"), sp.symbols(f"u0:{2 * n}")
+    plain = {**dict(zip([c.diff(t) for c in q], us)), **dict(zip(q, qs))}
+    MM, FF = lm.mass_matrix_full.subs(plain), lm.forcing_full.subs(plain)
+    try:
+        fm = CythonMatrixGenerator([qs, us, (m, g, l)], [MM, FF]).compile(
+            tmp_dir=tempfile.mkdtemp(prefix="lamech-bench-pydy-"))
+    except Exception as exc:  # noqa: BLE001 - a missing compiler shows up here
+        print(f"  (PyDy's Cython back end unavailable: {exc})")
+        return None
+    N = MM.shape[0]
+    Mo, Fo = np.empty(N * N), np.empty(N)
+
+    def f(x, v, c):
+        Mv, Fv = fm(x, v, c, Mo, Fo)
+        return np.linalg.solve(Mv.reshape(N, N), Fv)
+
+    return f, N
+
+
 def bench_b2(sizes, lines: list[str]):
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
@@ -244,34 +278,58 @@ def bench_b2(sizes, lines: list[str]):
     print("\nB2  one dynamics evaluation (q'' and lambda), µs per call")
     lines += ["## B2 one dynamics evaluation", "",
               "One evaluation of (q'', λ) at the initial state, called from Python, best "
-              "of 5 timeit runs. lamech: the generated KKT kernel (NumPy: generated "
-              "M, Q − h, A, γ plus `numpy.linalg.solve`; numba: the same source compiled, "
-              "with an in-kernel Gaussian elimination). Peer: `lambdify(cse=True)` of "
-              "SymPy's `LagrangesMethod.rhs()` (N ≤ 8; larger `rhs()` does not finish).", "",
-              "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | peer/lamech numba |",
-              "|---|---|---|---|---|"]
+              "of 5 timeit runs. lamech: `NumericSystem.accelerations(t, y, p)` (NumPy: "
+              "generated M, Q − h, A, γ plus `numpy.linalg.solve` of the KKT matrix; numba: "
+              "the same source compiled, M diagonal so λ from the Schur complement "
+              "A M⁻¹ Aᵀ over A's structural nonzeros). Peers: `lambdify(cse=True)` of "
+              "SymPy's `LagrangesMethod.rhs()` (N ≤ 8; larger `rhs()` does not finish); "
+              "PyDy's Cython back end (`CythonMatrixGenerator` for `mass_matrix_full`, "
+              "`forcing_full`, then `numpy.linalg.solve`, as PyDy's ODE function does). "
+              "Every peer's q'' and λ agree with lamech's before a time counts.", "",
+              "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | PyDy Cython "
+              "| lambdify/lamech numba | PyDy/lamech numba |",
+              "|---|---|---|---|---|---|---|"]
     for n in sizes:
         ns = compile_system(lamech_chain(n))
-        args = _kernel_inputs(ns)
-        t_np = _per_call(lambda: ns.rhs_kernel(0.0, *args))
+        y, p, *_ = _kernel_inputs(ns)
+        ref = ns.accelerations(0.0, y, p)
+        t_np = _per_call(lambda: ns.accelerations(0.0, y, p))
         t_nb = None
         try:
             import numba  # noqa: F401
             nj = compile_system(lamech_chain(n), jit=True)
-            t_nb = _per_call(lambda: nj.rhs_kernel(0.0, *args))
+            t_nb = _per_call(lambda: nj.accelerations(0.0, y, p))
         except ImportError:
             pass
+        x0, v0, c0 = chain_state(n), np.zeros(2 * n), (1.0, G, L)
+
+        def agree(out, who):
+            out = np.asarray(out, dtype=float).ravel()
+            qdd, lam = out[2 * n:4 * n], out[4 * n:5 * n]
+            if not (np.allclose(qdd, ref[:2 * n], rtol=1e-8, atol=1e-9)
+                    and np.allclose(lam, ref[2 * n:], rtol=1e-8, atol=1e-9)):
+                raise AssertionError(f"B2 N={n}: {who} and lamech disagree on (q'', λ)")
+
         t_sp = None
         if n <= 8:
             lm, q, (m, g, l) = sympy_chain(n)
             lm.form_lagranges_equations()
             t = dynamicsymbols._t
             f = sp.lambdify((q, [c.diff(t) for c in q], (m, g, l)), list(lm.rhs()), cse=True)
-            x0, v0 = chain_state(n), np.zeros(2 * n)
-            t_sp = _per_call(lambda: f(x0, v0, (1.0, G, L)))
+            agree(f(x0, v0, c0), "SymPy")
+            t_sp = _per_call(lambda: f(x0, v0, c0))
+        t_pd = None
+        if n <= 8:
+            built = pydy_chain(n)
+            if built is not None:
+                fp, _ = built
+                c_arr = np.array(c0)
+                agree(fp(x0, v0, c_arr), "PyDy")
+                t_pd = _per_call(lambda: fp(x0, v0, c_arr))
         us = lambda s: "—" if s is None else f"{s * 1e6:.3g} µs"  # noqa: E731
-        ratio = f"{t_sp / t_nb:.1f}×" if t_sp and t_nb else "—"
-        row = f"| {n} | {us(t_np)} | {us(t_nb)} | {us(t_sp)} | {ratio} |"
+        ratio = lambda peer: f"{peer / t_nb:.1f}×" if peer and t_nb else "—"  # noqa: E731
+        row = (f"| {n} | {us(t_np)} | {us(t_nb)} | {us(t_sp)} | {us(t_pd)} | {ratio(t_sp)} "
+               f"| {ratio(t_pd)} |")
         print("  " + row)
         lines.append(row)
     lines.append("")

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from .numeric import NumericSystem, _gauss_solve_py, numba_available
+from .numeric import NumericSystem, _gauss_inplace_py, _make_kkt_solve, numba_available
 
 __all__ = ["integrate_batch", "BatchResult"]
 
@@ -50,34 +50,31 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
-def _build(dyn, cons, jit: bool):
+def _build(dyn, cons, jit: bool, diagonal: bool, pattern):
     """The loop, built around the system's generated functions (compiled when ``jit``)."""
     if jit:
         import numba
         njit = numba.njit(cache=False)
-        gauss = njit(_gauss_solve_py)
     else:
         def njit(f):
             return f
-        gauss = _gauss_solve_py
+    gauss_inplace = njit(_gauss_inplace_py)
+
+    def gauss(K, r):
+        x = r.copy()
+        gauss_inplace(K.copy(), x)
+        return x
+
+    gauss = njit(gauss)
+    solve = _make_kkt_solve(njit, diagonal, pattern)
 
     def kkt(t, q, v, p):
         """(q'', lambda) from the KKT system with all constraints active."""
         M, rhs, A, gam, mu = dyn(t, q, v, p)
         n = q.shape[0]
-        m = A.shape[0]
-        K = np.zeros((n + m, n + m))
-        r = np.zeros(n + m)
-        for i in range(n):
-            r[i] = rhs[i]
-            for k in range(n):
-                K[i, k] = M[i, k]
-        for a in range(m):
-            r[n + a] = -gam[a]
-            for i in range(n):
-                K[i, n + a] = -A[a, i]
-                K[n + a, i] = A[a, i]
-        sol = gauss(K, r)
+        rows = np.arange(A.shape[0])
+        none = np.zeros(0, dtype=np.int64)
+        sol = solve(M, rhs, A, gam, mu, rows, none, none, np.zeros(0))
         return sol[:n], sol[n:]
 
     kkt = njit(kkt)
@@ -229,7 +226,8 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     p = ns.parameter_vector(params)
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
-        _CACHE[key] = (ns, *_build(ns.dynamics, ns.constraints, ns.jit and numba_available()))
+        _CACHE[key] = (ns, *_build(ns.dynamics, ns.constraints, ns.jit and numba_available(),
+                                   ns.mass_diagonal, ns.pattern))
     _, run_batch, kkt = _CACHE[key]
     out = np.empty_like(Y0)
     steps = np.zeros(Y0.shape[0], dtype=np.int64)
