@@ -577,7 +577,7 @@ def _machine() -> list[str]:
     import sympy
     versions = [f"Python {platform.python_version()}", f"SymPy {sympy.__version__}",
                 f"NumPy {np.__version__}", f"SciPy {scipy.__version__}"]
-    for mod in ("numba", "mujoco"):
+    for mod in ("numba", "mujoco", "pydy", "Cython"):
         try:
             versions.append(f"{mod} {__import__(mod).__version__}")
         except ImportError:

@@ -219,14 +219,14 @@ def _jit_functions(dyn, cons, diagonal: bool, pattern):
             out[n + i] = sol[i]
         return out
 
-    every = np.arange(len(pattern[0]) - 1, dtype=np.int64)   # frozen into the kernel
-    none_i, none_f = np.zeros(0, dtype=np.int64), np.zeros(0)
-
     @numba.njit(cache=False)
     def accelerations(t, y, p):
         n = y.shape[0] // 2
         M, rhs, A, gam, mu = jd(t, y[:n], y[n:], p)
-        return solve(M, rhs, A, gam, mu, every, none_i, none_i, none_f)
+        # writable arrays of rhs_kernel's types, so that numba reuses the compiled solve
+        # (read-only constant arrays would compile it again: 2 s more)
+        none = np.zeros(0, dtype=np.int64)
+        return solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
 
     return jd, jc, rhs_kernel, accelerations
 
