@@ -151,3 +151,22 @@ def test_gauss_elimination_banded_and_pivoting():
     x = np.ones(2)
     _gauss_inplace_py(np.array([[1.0, 2.0], [2.0, 4.0]]), x)
     assert np.all(np.isnan(x))
+
+
+def test_cholesky_envelope_solve():
+    """The envelope Cholesky used for A M^-1 A^T: SPD dense and banded systems (a chain's
+    tridiagonal one, an arrow-shaped one with a late envelope), and False where K is not
+    positive definite (singular, indefinite)."""
+    from lamech.numeric import _cholesky_inplace_py
+    rng = np.random.default_rng(5)
+    B = rng.normal(size=(7, 7))
+    tri = np.diag(np.full(10, 2.0)) - np.diag(np.ones(9), 1) - np.diag(np.ones(9), -1)
+    arrow = np.eye(6) * 4.0
+    arrow[5, :5] = arrow[:5, 5] = 1.0
+    for K in (B @ B.T + 0.1 * np.eye(7), tri, arrow):
+        x = rng.normal(size=K.shape[0])
+        got = x.copy()
+        assert _cholesky_inplace_py(K.copy(), got)
+        assert np.allclose(got, np.linalg.solve(K, x), rtol=1e-12, atol=1e-12)
+    for K in (np.array([[1.0, 2.0], [2.0, 4.0]]), np.array([[1.0, 2.0], [2.0, 1.0]])):
+        assert not _cholesky_inplace_py(K.copy(), np.ones(2))
