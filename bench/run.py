@@ -156,7 +156,7 @@ def _fmt_s(x):
 
 
 def _kernel_inputs(ns):
-    n, m = ns.n, ns.m
+    m = ns.m
     q, v = ns.initial_state()
     y = np.concatenate((q, v))
     rows = np.arange(m, dtype=np.int64)

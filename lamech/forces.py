@@ -16,7 +16,7 @@ import numpy as np
 import sympy as sp
 
 from .derive import Dynamics
-from .model import System, partial_velocities
+from .model import System, contact_partial_velocities
 from .reduce import Reduction, tidy
 
 __all__ = ["generalized_forces", "cartesian_forces"]
@@ -57,11 +57,7 @@ def cartesian_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
         spec = c.force
         if spec is None:
             continue
-        bodies = [system.body(b) for b in spec.bodies]
-        J = partial_velocities(system, bodies[0], spec.at)
-        if len(bodies) == 2:
-            J = J - partial_velocities(system, bodies[1], spec.at)
-        J = J.applyfunc(red.apply)
+        J = contact_partial_velocities(system, spec).applyfunc(red.apply)
         lam = multipliers.get(c.name, c.multiplier)
         Q = (dyn.A[j, :].T * lam).applyfunc(red.apply)
         dim = J.rows

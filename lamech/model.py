@@ -256,3 +256,14 @@ def partial_velocities(system: System, body: Body, point: tuple[sp.Expr, ...]) -
             col = [col[0] - w * rel[1], col[1] + w * rel[0]]
         rows.append(col)
     return sp.Matrix(rows).T
+
+
+def contact_partial_velocities(system: System, spec) -> sp.Matrix:
+    """J = J_Pa - J_Pb of a constraint's ``force`` spec: the partial velocities of the
+    material point it acts on (of body a, less those of body b's point for a contact
+    between two movable bodies), so that Q = J^T F."""
+    bodies = [system.body(name) for name in spec.bodies]
+    J = partial_velocities(system, bodies[0], spec.at)
+    if len(bodies) == 2:
+        J = J - partial_velocities(system, bodies[1], spec.at)
+    return J

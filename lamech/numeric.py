@@ -45,7 +45,7 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from .derive import Dynamics, dynamics as derive_dynamics
-from .model import System, partial_velocities
+from .model import System, contact_partial_velocities
 
 __all__ = ["NumericSystem", "compile_system", "numba_available"]
 
@@ -547,10 +547,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         spec = c.force
         if spec is None:
             continue
-        bodies = [system.body(bn) for bn in spec.bodies]
-        J = partial_velocities(system, bodies[0], spec.at)
-        if len(bodies) == 2:
-            J = J - partial_velocities(system, bodies[1], spec.at)
+        J = contact_partial_velocities(system, spec)
         dim = J.rows
         dirs = spec.along or tuple(
             (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
