@@ -183,9 +183,9 @@ def _build(dyn, cons, jit: bool, diagonal: bool, pattern):
 
     run_one = njit(run_one)
 
-    def run_batch(Y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
+    def run_batch(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
         for b in prange(Y0.shape[0]):
-            y, s = run_one(Y0[b], p, t_end, rtol, atol, max_steps, A, B, C, E3, E5)
+            y, s = run_one(Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
             out[b] = y
             steps[b] = s
 
@@ -207,6 +207,11 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     """Integrate every row of ``y0s`` ((B, 2n): positions then velocities, consistent
     with the constraints) from t = 0 to ``t_end`` in one compiled loop.
 
+    ``params``: None (the file's values), one dict {name: value} for every run, or a
+    sequence of such dicts, one per row of ``y0s`` (an ensemble over parameters: a sweep
+    of lengths or masses in one compiled loop); parameters defined by expressions of the
+    overridden ones follow them, as in :meth:`NumericSystem.parameter_vector`.
+
     ``ns`` from ``compile_system(system, jit=True)`` runs compiled (numba); otherwise the
     same loop runs as Python. Only for systems whose constraints are all bilateral and
     without friction limits (raises ValueError otherwise): there are no events here.
@@ -223,7 +228,16 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     if Y0.shape[1] != 2 * ns.n:
         raise ValueError(f"each initial state has {2 * ns.n} entries (q then q'), got "
                          f"{Y0.shape[1]}")
-    p = ns.parameter_vector(params)
+    if params is None or isinstance(params, dict):
+        P = np.tile(ns.parameter_vector(params), (Y0.shape[0], 1))
+    else:
+        params = list(params)
+        if len(params) != Y0.shape[0]:
+            raise ValueError(f"params: {len(params)} parameter sets for {Y0.shape[0]} "
+                             "initial states; give one dict per row of y0s, or one dict "
+                             "for all")
+        P = np.array([ns.parameter_vector(d) for d in params], dtype=float)
+    P = np.ascontiguousarray(P.reshape(Y0.shape[0], len(ns.parameter_names)))
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
         _CACHE[key] = (ns, *_build(ns.dynamics, ns.constraints, ns.jit and numba_available(),
@@ -231,11 +245,11 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     _, run_batch, kkt = _CACHE[key]
     out = np.empty_like(Y0)
     steps = np.zeros(Y0.shape[0], dtype=np.int64)
-    run_batch(Y0, p, float(t_end), float(rtol), float(atol), int(max_steps),
+    run_batch(Y0, P, float(t_end), float(rtol), float(atol), int(max_steps),
               _A, _B, _C, _E3, _E5, out, steps)
     lam = np.full((Y0.shape[0], ns.m), np.nan)
     n = ns.n
     for b in range(Y0.shape[0]):
         if np.all(np.isfinite(out[b])):
-            lam[b] = kkt(float(t_end), out[b, :n].copy(), out[b, n:].copy(), p)[1]
+            lam[b] = kkt(float(t_end), out[b, :n].copy(), out[b, n:].copy(), P[b].copy())[1]
     return BatchResult(ns.coordinate_names, ns.constraint_names, out, lam, steps)

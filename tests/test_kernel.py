@@ -67,3 +67,27 @@ def test_compiled_batch_gives_the_same_numbers(chain3):
     assert (a.steps == b.steps).all()
     assert np.allclose(a.q, b.q, rtol=0, atol=1e-12)
     assert np.allclose(a.lambdas, b.lambdas, rtol=1e-10)
+
+
+def test_batch_over_parameters_matches_simulate():
+    """One dict of parameters per run: pendulums of three lengths in one batch, each equal
+    to its own simulate() run; a mismatched count is refused."""
+    ns = compile_system(lamech.loads(chain_toml(1)), jit=False)
+    Y0 = np.repeat(_starts(ns, 1), 3, axis=0)
+    lengths = [0.5, 1.0, 2.0]
+    names = ns.parameter_names
+    assert "l" in names, names
+    for y, ell in zip(Y0, lengths):          # the start on each pendulum's circle
+        y[:2] *= ell
+    res = integrate_batch(ns, Y0, 1.5, params=[{"l": ell} for ell in lengths])
+    assert res.ok.all()
+    finals = []
+    for b, ell in enumerate(lengths):
+        q0 = dict(zip(ns.coordinate_names, Y0[b, :ns.n]))
+        ref = simulate(ns, 1.5, q0=q0, samples=2, params={"l": ell}, rtol=1e-13, atol=1e-14)
+        assert np.max(np.abs(res.q[b] - ref.q[-1])) < 1e-8
+        assert abs(res.lambdas[b, 0] - ref.lambdas[-1, 0]) < 1e-7 * abs(ref.lambdas[-1, 0])
+        finals.append(res.q[b])
+    assert not np.allclose(finals[0] / 0.5, finals[2] / 2.0)   # the length mattered
+    with pytest.raises(ValueError, match="parameter sets"):
+        integrate_batch(ns, Y0, 1.0, params=[{"l": 1.0}])
