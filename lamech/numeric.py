@@ -152,49 +152,65 @@ class NumericSystem:
         return q0, v0
 
 
-def _kkt_kernel_numpy(dyn):
-    """rhs(t, y, p, rows, slip_j, slip_k, slip_c) -> (y', ok): the state derivative from
-    the KKT solve on the active ``rows``; a slipping friction row j on normal row k
+def _kkt_solve_numpy(diagonal: bool):
+    """solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows] with
+    NumPy/LAPACK (NaN where singular): the KKT system of :func:`_make_kkt_solve`, by the
+    Schur complement when M is diagonal with no zero entry (30-link chain: a 30-square
+    solve instead of a 90-square one), else the full KKT matrix."""
+
+    def solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
+        n, na = rhs.shape[0], rows.shape[0]
+        Ar = A[rows]
+        G = Ar.copy()                        # the multipliers' force directions
+        for s in range(slip_j.shape[0]):
+            G[slip_k[s]] -= mu[slip_j[s]] * slip_c[s] * A[slip_j[s]]
+        try:
+            if diagonal:
+                d = np.diagonal(M)
+                if np.all(d != 0.0):
+                    minv = 1.0 / d
+                    if na == 0:
+                        return rhs * minv
+                    W = Ar * minv
+                    lam = np.linalg.solve(W @ G.T, -gam[rows] - W @ rhs)
+                    return np.concatenate(((rhs + G.T @ lam) * minv, lam))
+            if na == 0:
+                return np.linalg.solve(M, rhs)
+            K = np.zeros((n + na, n + na))
+            K[:n, :n], K[:n, n:], K[n:, :n] = M, -G.T, Ar
+            return np.linalg.solve(K, np.concatenate((rhs, -gam[rows])))
+        except np.linalg.LinAlgError:
+            return np.full(n + na, np.nan)
+
+    return solve
+
+
+def _kkt_kernel_numpy(dyn, diagonal: bool):
+    """rhs(t, y, p, rows, slip_j, slip_k, slip_c) -> y': the state derivative from the
+    KKT solve on the active ``rows``; a slipping friction row j on normal row k
     (position ``slip_k`` among ``rows``) adds ``mu_j * slip_c`` A_j^T to that column."""
+    solve = _kkt_solve_numpy(diagonal)
 
     def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
         n = y.shape[0] // 2
         q, v = y[:n], y[n:]
         M, rhs, A, gam, mu = dyn(t, q, v, p)
-        na = rows.shape[0]
-        if na:
-            K = np.zeros((n + na, n + na))
-            K[:n, :n] = M
-            Ar = A[rows]
-            K[:n, n:] = -Ar.T
-            K[n:, :n] = Ar
-            for s in range(slip_j.shape[0]):
-                K[:n, n + slip_k[s]] += mu[slip_j[s]] * slip_c[s] * A[slip_j[s]]
-            r = np.concatenate((rhs, -gam[rows]))
-        else:
-            K, r = M, rhs
         out = np.empty(2 * n)
         out[:n] = v
-        try:
-            out[n:] = np.linalg.solve(K, r)[:n]
-        except np.linalg.LinAlgError:
-            out[n:] = np.nan
+        out[n:] = solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)[:n]
         return out
 
     return rhs_kernel
 
 
-def _accelerations_numpy(dyn):
+def _accelerations_numpy(dyn, diagonal: bool):
+    solve = _kkt_solve_numpy(diagonal)
+    none = np.zeros(0, dtype=np.int64)
+
     def accelerations(t, y, p):
         n = y.shape[0] // 2
         M, rhs, A, gam, mu = dyn(t, y[:n], y[n:], p)
-        n, m = M.shape[0], A.shape[0]
-        K = np.zeros((n + m, n + m))
-        K[:n, :n], K[:n, n:], K[n:, :n] = M, -A.T, A
-        try:
-            return np.linalg.solve(K, np.concatenate((rhs, -gam)))
-        except np.linalg.LinAlgError:
-            return np.full(n + m, np.nan)
+        return solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
 
     return accelerations
 
@@ -571,8 +587,8 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
     used_jit = False
     diagonal = bool(dyn.M.is_diagonal())
     pattern = _sparsity(A)
-    kernel = _kkt_kernel_numpy(fns["dynamics"])
-    accel = _accelerations_numpy(fns["dynamics"])
+    kernel = _kkt_kernel_numpy(fns["dynamics"], diagonal)
+    accel = _accelerations_numpy(fns["dynamics"], diagonal)
     if jit and numba_available():
         try:
             jd, jc, kernel, accel = _jit_functions(fns["dynamics"], fns["constraints"],
@@ -587,8 +603,8 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
             fns["dynamics"], fns["constraints"] = jd, jc
             used_jit = True
         except Exception:  # pragma: no cover - numba refused the source
-            kernel = _kkt_kernel_numpy(fns["dynamics"])
-            accel = _accelerations_numpy(fns["dynamics"])
+            kernel = _kkt_kernel_numpy(fns["dynamics"], diagonal)
+            accel = _accelerations_numpy(fns["dynamics"], diagonal)
             used_jit = False
 
     flat = fns["force_jacobians_flat"]

@@ -196,7 +196,8 @@ class _Engine:
         run with the cause)."""
         self.evaluations += 1
         try:
-            return self.kernel(t, y, self.p, *self._mode_arrays)
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                return self.kernel(t, y, self.p, *self._mode_arrays)  # NaN/inf: rejected
         except (ValueError, ArithmeticError):    # e.g. sqrt of a negative number
             return np.full(y.shape, np.nan)
 
