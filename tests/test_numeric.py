@@ -190,3 +190,30 @@ def test_cholesky_envelope_solve():
         assert np.allclose(got, np.linalg.solve(K, x), rtol=1e-12, atol=1e-12)
     for K in (np.array([[1.0, 2.0], [2.0, 4.0]]), np.array([[1.0, 2.0], [2.0, 1.0]])):
         assert not _cholesky_inplace_py(K.copy(), np.ones(2))
+
+
+def test_numpy_schur_solve_matches_full_kkt():
+    """NumPy's Schur-complement path (taken for a diagonal M above 32 unknowns) equals the
+    full KKT solve: all rows, a slipping row folded into its normal, no rows; and a zero
+    M_ii sends it to the full matrix."""
+    from lamech.numeric import _kkt_solve_numpy
+    rng = np.random.default_rng(11)
+    n, m = 30, 10
+    M = np.diag(rng.uniform(0.5, 2.0, n))
+    A = rng.normal(size=(m, n)) * (rng.uniform(size=(m, n)) < 0.3)
+    A[np.arange(m), np.arange(m)] = 1.0          # independent rows
+    rhs, gam, mu = rng.normal(size=n), rng.normal(size=m), np.full(m, 0.4)
+    e = np.zeros(0, dtype=np.int64)
+    schur, full = _kkt_solve_numpy(True), _kkt_solve_numpy(False)
+    rows = np.arange(m, dtype=np.int64)
+    modes = [(rows, e, e, np.zeros(0)),
+             (rows[1:], np.array([0]), np.array([2]), np.array([-1.0])),
+             (rows[:0], e, e, np.zeros(0))]
+    for mode in modes:
+        a = schur(M, rhs, A, gam, mu, *mode)
+        b = full(M, rhs, A, gam, mu, *mode)
+        assert a.shape == b.shape == (n + len(mode[0]),)
+        assert np.allclose(a, b, rtol=1e-10, atol=1e-12)
+    M[3, 3] = 0.0                                   # massless: the full matrix decides
+    a = schur(M, rhs, A, gam, mu, *modes[0])
+    assert np.allclose(a, full(M, rhs, A, gam, mu, *modes[0]), rtol=1e-10, atol=1e-12)
