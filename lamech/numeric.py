@@ -13,8 +13,9 @@ a function together), compiles it once, and wraps it in a :class:`NumericSystem`
     ``(f, A, b)``: the holonomic constraint values f (m,) (0 for a velocity
     constraint), A (m, n), and b (m,) so that the velocity form is F = A v + b.
 ``accelerations(t, y, p)``
-    ``[q''; lambda]`` (n + m,) at the state ``y = [q; q']``: the KKT solve with every constraint active (NaN where
-    the KKT matrix is singular). ``rhs_kernel`` is the same solve on a mode's active rows.
+    ``[q''; lambda]`` (n + m,) at the state ``y = [q; q']``: the KKT solve with every
+    constraint active (NaN where the KKT matrix is singular). ``rhs_kernel`` is the same
+    solve on a mode's active rows.
 ``energy(t, q, v, p)``
     ``(T, V)``.
 ``restitution(t, q, p)``
@@ -276,9 +277,11 @@ def _make_kkt_solve(njit, diagonal: bool, pattern=None):
     maximal coordinates): while every M_ii is nonzero, the Schur complement
     S lambda = -gamma_r - A_r M^-1 rhs with S = A_r M^-1 G^T (m x m) replaces the
     (n + m)-square elimination (8-link chain: 24 x 24 -> 8 x 8), and every product runs
-    over the structural nonzeros of A only (``pattern`` from :func:`_sparsity`). A zero
-    M_ii (a massless coordinate) falls back to the full KKT matrix, which may be regular
-    where M is not.
+    over the structural nonzeros of A only (``pattern`` from :func:`_sparsity`). S is
+    factored by Cholesky when it is symmetric positive definite (no slipping row, M_ii
+    > 0), else by elimination. A zero M_ii (a massless coordinate), or a Cholesky that
+    finds S singular (dependent rows), falls back to the full KKT matrix, which may be
+    regular where M is not.
 
     Written as loops so that numba compiles them: at these sizes numba's
     ``np.linalg.solve`` (LAPACK, with its copies to Fortran order) was measured slower
