@@ -37,8 +37,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 L, G = 1.0, 9.81
 ANGLE = math.radians(30.0)
-_COLOURS = {"lamech": "tab:red", "lamech kernel": "tab:purple", "MuJoCo Euler": "tab:blue", "MuJoCo RK4": "tab:orange",
-            "SymPy+solve_ivp": "tab:green"}
+_COLOURS = {"lamech": "tab:red", "lamech kernel": "tab:purple", "MuJoCo Euler": "tab:blue",
+            "MuJoCo RK4": "tab:orange", "SymPy+solve_ivp": "tab:green"}
 
 
 # ----- models -------------------------------------------------------------------------
@@ -397,7 +397,8 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
               "MuJoCo: hinge chain, Euler and RK4 at fixed steps, tensions from the joint "
               "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
               "`LagrangesMethod.rhs()` lambdified with cse, `solve_ivp(DOP853)`, no "
-              "projection. Wall time: the fastest of 3 runs, without code generation and compilation.", "",
+              "projection. Wall time: the fastest of 3 runs, without code generation and "
+              "compilation.", "",
               "| N | method | setting | wall time | tension error | position error |",
               "|---|---|---|---|---|---|"]
     curves = {}
@@ -491,7 +492,8 @@ def bench_b4(count_lamech, count_mujoco, t_end, lines: list[str]):
     print(f"\nB4  ensembles: 5-link chain, {t_end:g} s each")
     lines += ["## B4 ensembles", "",
               f"Random initial angles (30° ± 0.1 rad), at rest, {t_end:g} s each, one core "
-              "unless said.", "", "| method | runs | wall time | trajectories/s | tension error (first run) |",
+              "unless said.", "",
+              "| method | runs | wall time | trajectories/s | tension error (first run) |",
               "|---|---|---|---|---|"]
     try:
         import numba  # noqa: F401
