@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from .numeric import NumericSystem, _gauss_inplace_py, _make_kkt_solve, numba_available
+from .numeric import NumericSystem, _gauss_inplace_py, numba_available
 
 __all__ = ["integrate_batch", "BatchResult"]
 
@@ -50,8 +50,9 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
-def _build(dyn, cons, jit: bool, diagonal: bool, pattern):
-    """The loop, built around the system's generated functions (compiled when ``jit``)."""
+def _build(accel, cons, jit: bool):
+    """The loop, built around the system's compiled ``accelerations`` and ``constraints``
+    (numba-compiled when ``jit``: the same solve ``simulate`` uses, compiled once)."""
     if jit:
         import numba
         njit = numba.njit(cache=False)
@@ -66,25 +67,13 @@ def _build(dyn, cons, jit: bool, diagonal: bool, pattern):
         return x
 
     gauss = njit(gauss)
-    solve = _make_kkt_solve(njit, diagonal, pattern)
-
-    def kkt(t, q, v, p):
-        """(q'', lambda) from the KKT system with all constraints active."""
-        M, rhs, A, gam, mu = dyn(t, q, v, p)
-        n = q.shape[0]
-        rows = np.arange(A.shape[0])
-        none = np.zeros(0, dtype=np.int64)
-        sol = solve(M, rhs, A, gam, mu, rows, none, none, np.zeros(0))
-        return sol[:n], sol[n:]
-
-    kkt = njit(kkt)
 
     def deriv(t, y, p, out):
         n = y.shape[0] // 2
-        qdd, lam = kkt(t, y[:n], y[n:], p)
+        sol = accel(t, y, p)
         for i in range(n):
             out[i] = y[n + i]
-            out[n + i] = qdd[i]
+            out[n + i] = sol[i]
 
     deriv = njit(deriv)
 
@@ -195,7 +184,7 @@ def _build(dyn, cons, jit: bool, diagonal: bool, pattern):
         run_batch = numba.njit(parallel=True, cache=False)(run_batch)
     else:
         prange = range
-    return run_batch, kkt
+    return run_batch
 
 
 _CACHE: dict[int, tuple] = {}
@@ -240,9 +229,9 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     P = np.ascontiguousarray(P.reshape(Y0.shape[0], len(ns.parameter_names)))
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
-        _CACHE[key] = (ns, *_build(ns.dynamics, ns.constraints, ns.jit and numba_available(),
-                                   ns.mass_diagonal, ns.pattern))
-    _, run_batch, kkt = _CACHE[key]
+        _CACHE[key] = (ns, _build(ns.accelerations, ns.constraints,
+                                  ns.jit and numba_available()))
+    _, run_batch = _CACHE[key]
     out = np.empty_like(Y0)
     steps = np.zeros(Y0.shape[0], dtype=np.int64)
     run_batch(Y0, P, float(t_end), float(rtol), float(atol), int(max_steps),
@@ -251,5 +240,5 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     n = ns.n
     for b in range(Y0.shape[0]):
         if np.all(np.isfinite(out[b])):
-            lam[b] = kkt(float(t_end), out[b, :n].copy(), out[b, n:].copy(), P[b].copy())[1]
+            lam[b] = ns.accelerations(float(t_end), out[b].copy(), P[b].copy())[n:]
     return BatchResult(ns.coordinate_names, ns.constraint_names, out, lam, steps)
