@@ -44,7 +44,7 @@ _COLOURS = {"lamech": "tab:red", "lamech kernel": "tab:purple", "MuJoCo Euler": 
 # ----- models -------------------------------------------------------------------------
 def lamech_chain(n: int):
     import lamech
-    from lamech.examples_gen import chain_toml
+    from lamech.problem import chain_toml
     return lamech.loads(chain_toml(n))
 
 
@@ -155,7 +155,7 @@ def _fmt_s(x):
     return "—" if x is None else (f"{x:.3g} s" if x >= 0.01 else f"{x * 1e3:.3g} ms")
 
 
-def _kernel_inputs(ns):
+def kernel_inputs(ns):
     m = ns.m
     q, v = ns.initial_state()
     y = np.concatenate((q, v))
@@ -164,24 +164,24 @@ def _kernel_inputs(ns):
     return y, ns.parameters, rows, empty, empty, np.zeros(0)
 
 
-def _lamech_qdd_lambda(ns):
+def lamech_qdd_lambda(ns):
     """(q'', lambda) at the initial state, from the compiled KKT solve."""
-    y, p, *_ = _kernel_inputs(ns)
+    y, p, *_ = kernel_inputs(ns)
     sol = ns.accelerations(0.0, y, p)
     return sol[:ns.n], sol[ns.n:]
 
 
 # ----- B1 -----------------------------------------------------------------------------
-def _lamech_b1(n: int, jit: bool):
+def lamech_b1(n: int, jit: bool):
     from lamech.numeric import compile_system
     t0 = time.perf_counter()
     ns = compile_system(lamech_chain(n), jit=jit)
-    y, p, *_ = _kernel_inputs(ns)
+    y, p, *_ = kernel_inputs(ns)
     out = ns.accelerations(0.0, y, p)
     return time.perf_counter() - t0, np.asarray(out)[:ns.n]
 
 
-def _sympy_b1(n: int, cse: bool):
+def sympy_b1(n: int, cse: bool):
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
     lm, q, (m, g, l) = sympy_chain(n)
@@ -204,16 +204,16 @@ def bench_b1(sizes, cap: float, lines: list[str]):
               f"{cap:.0f} s. Both sides' q'' agree at the initial state before a time counts.",
               "", head, "|" + "---|" * 7]
     for n in sizes:
-        t_l, qdd = _lamech_b1(n, jit=False)
+        t_l, qdd = lamech_b1(n, jit=False)
         t_j = None
         try:
             import numba  # noqa: F401
-            t_j, _ = _lamech_b1(n, jit=True)
+            t_j, _ = lamech_b1(n, jit=True)
         except ImportError:
             pass
         peers = []
         for cse in (False, True):
-            res, sec = _capped(_sympy_b1, (n, cse), cap)
+            res, sec = _capped(sympy_b1, (n, cse), cap)
             if res is not None and not np.allclose(res, qdd, rtol=1e-8, atol=1e-9):
                 raise AssertionError(f"B1 N={n}: SymPy and lamech disagree on q''")
             peers.append(sec)
@@ -291,7 +291,7 @@ def bench_b2(sizes, lines: list[str]):
               "|---|---|---|---|---|---|---|"]
     for n in sizes:
         ns = compile_system(lamech_chain(n))
-        y, p, *_ = _kernel_inputs(ns)
+        y, p, *_ = kernel_inputs(ns)
         ref = ns.accelerations(0.0, y, p)
         t_np = _per_call(lambda: ns.accelerations(0.0, y, p))
         t_nb = None
@@ -337,7 +337,7 @@ def bench_b2(sizes, lines: list[str]):
 
 # ----- B3 -----------------------------------------------------------------------------
 def _lamech_run(system, t_end, rtol, jit, ns=None):
-    from lamech.simulate import simulate
+    from lamech.numeric import simulate
     t0 = time.perf_counter()
     tr = simulate(ns if ns is not None else system, t_end, rtol=rtol,
                   atol=min(1e-12, rtol * 1e-2), samples=2, jit=jit)
@@ -392,7 +392,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
               "against a lamech reference run at rtol = 1e-13: the rod tensions (max "
               "relative error) and the positions (max absolute error, in link lengths). "
               "lamech: DOP853 with projection (`simulate`, numba kernel when installed); "
-              "lamech kernel: `lamech.kernel.integrate_batch`, the same method as one "
+              "lamech kernel: `lamech.numeric.integrate_batch`, the same method as one "
               "compiled loop; "
               "MuJoCo: hinge chain, Euler and RK4 at fixed steps, tensions from the joint "
               "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
@@ -426,7 +426,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
             sec, pos, T = _best(_lamech_run, system, t_end, rtol, jit, ns)
             add("lamech", f"rtol {rtol:g}", sec, pos, T)
         if jit:
-            from lamech.kernel import integrate_batch
+            from lamech.numeric import integrate_batch
             y0 = np.concatenate(ns.initial_state())[None]
             integrate_batch(ns, y0, 0.01)           # compile outside the timing
 
@@ -485,7 +485,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
 # ----- B4 -----------------------------------------------------------------------------
 def bench_b4(count_lamech, count_mujoco, t_end, lines: list[str]):
     from lamech.numeric import compile_system
-    from lamech.simulate import simulate
+    from lamech.numeric import simulate
     n = 5
     rng = np.random.default_rng(1)
     angles = ANGLE + rng.uniform(-0.1, 0.1, size=(max(count_lamech, count_mujoco), n))
@@ -523,7 +523,7 @@ def bench_b4(count_lamech, count_mujoco, t_end, lines: list[str]):
     print("  " + row)
     lines.append(row)
     if jit:
-        from lamech.kernel import integrate_batch
+        from lamech.numeric import integrate_batch
         count = max(count_lamech, count_mujoco)
         Y0 = np.array([np.concatenate((chain_state(n, angles[k]), np.zeros(2 * n)))
                        for k in range(count)])

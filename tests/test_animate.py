@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.animate import _Scene, animate
+from lamech.present import Scene, animate
 
 PIL = pytest.importorskip("PIL.Image", reason="Pillow (a matplotlib dependency) missing")
 
@@ -16,7 +16,7 @@ PIL = pytest.importorskip("PIL.Image", reason="Pillow (a matplotlib dependency) 
 @pytest.fixture(scope="module")
 def cylinder_run():
     system = lamech.load("cylinder")
-    return system, system.simulate(2.7, initial={"theta1": 0.05}, samples=61)
+    return system, lamech.simulate(system, 2.7, initial={"theta1": 0.05}, samples=61)
 
 
 def test_gif_has_frames(tmp_path, cylinder_run):
@@ -32,7 +32,7 @@ def test_scene_follows_the_bodies_and_forces(cylinder_run):
     the normal force along the contact normal with the magnitude of λ_contact."""
     system, traj = cylinder_run
     frames = np.arange(len(traj.t))
-    scene = _Scene(traj, system, None, frames)
+    scene = Scene(traj, system, None, frames)
     name, kind, size, pos, angle = scene.bodies[0]
     assert (name, kind, size) == ("wheel", "circle", 0.5)
     r, th = traj.coordinate("r"), traj.coordinate("theta1")
@@ -49,7 +49,7 @@ def test_scene_follows_the_bodies_and_forces(cylinder_run):
 
 def test_html_is_self_contained(tmp_path):
     system = lamech.load("pendulum")
-    traj = system.simulate(1.0, samples=6)
+    traj = lamech.simulate(system, 1.0, samples=6)
     out = animate(traj, system, tmp_path / "p.html", max_frames=6, dpi=30)
     text = out.read_text()
     assert "<script" in text and text.count("data:image/png;base64") == 6
@@ -82,13 +82,13 @@ def test_cli_animate(tmp_path, capsys):
 def test_pendulum_gif_frames_sampled_evenly(tmp_path):
     """max_frames thins the samples evenly; the bob drawn at (l sin θ, -l cos θ)."""
     system = lamech.load("pendulum")
-    traj = system.simulate(1.0, samples=101)
+    traj = lamech.simulate(system, 1.0, samples=101)
     out = animate(traj, system, tmp_path / "p.gif", max_frames=6, dpi=30)
     with PIL.open(out) as im:
         assert im.n_frames == 6
         assert im.size == (192, 192)          # 6.4 in at 30 dpi
     frames = np.unique(np.linspace(0, 100, 6).round().astype(int))
-    scene = _Scene(traj, system, None, frames)
+    scene = Scene(traj, system, None, frames)
     assert np.allclose(np.diff(scene.t), 0.2)
     pos = scene.bodies[0][3]
     th = traj.coordinate("theta")[frames]

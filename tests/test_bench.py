@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.run import (_kernel_inputs, _lamech_b1, _lamech_qdd_lambda, _sympy_b1,
+from bench.run import (kernel_inputs, lamech_b1, lamech_qdd_lambda, sympy_b1,
                        chain_state, lamech_chain, mujoco_angles, mujoco_chain, mujoco_masses,
                        mujoco_tensions)
 from lamech.numeric import compile_system
 
 
 def test_sympy_peer_is_the_same_chain():
-    _, qdd = _lamech_b1(3, jit=False)
-    assert np.allclose(_sympy_b1(3, cse=True), qdd, rtol=1e-10, atol=1e-12)
+    _, qdd = lamech_b1(3, jit=False)
+    assert np.allclose(sympy_b1(3, cse=True), qdd, rtol=1e-10, atol=1e-12)
 
 
 def test_mujoco_peer_is_the_same_chain():
@@ -36,9 +36,9 @@ def test_mujoco_peer_is_the_same_chain():
 def test_reference_helper_matches_the_kernel():
     """B1/B2 time `accelerations`; the integrator uses `rhs_kernel`: the same q''."""
     ns = compile_system(lamech_chain(2))
-    qdd, lam = _lamech_qdd_lambda(ns)
-    y, p, rows, e, _, c = _kernel_inputs(ns)
+    qdd, lam = lamech_qdd_lambda(ns)
+    y, p, rows, e, _, c = kernel_inputs(ns)
     assert np.allclose(qdd, ns.rhs_kernel(0.0, y, p, rows, e, e, c)[ns.n:], rtol=1e-12)
-    _, qdd_b1 = _lamech_b1(2, jit=False)
+    _, qdd_b1 = lamech_b1(2, jit=False)
     assert np.allclose(qdd, qdd_b1, rtol=1e-12)
     assert np.all(lam < 0)     # links in tension: lambda < 0 for f = |d|^2 - l^2

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.examples_gen import chain_toml
-from lamech.kernel import integrate_batch
+from lamech.problem import chain_toml
+from lamech.numeric import integrate_batch
 from lamech.numeric import compile_system, numba_available
-from lamech.simulate import simulate
+from lamech.numeric import simulate
 
 
 def _starts(ns, count, seed=3):

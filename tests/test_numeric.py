@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.examples_gen import chain_toml
+from lamech.problem import chain_toml
 from lamech.numeric import compile_system, numba_available
 from lamech.problem import loads
 
@@ -158,7 +158,7 @@ def test_structured_kkt_solve_matches_dense(name):
 def test_gauss_elimination_banded_and_pivoting():
     """The hand-written elimination: a random dense system, a tridiagonal one (the band
     shortcut), one that needs row swaps, and a singular one (NaN)."""
-    from lamech.numeric import _gauss_inplace_py
+    from lamech.linalg import gauss_inplace
     rng = np.random.default_rng(3)
     for K in (rng.normal(size=(9, 9)),
               np.diag(rng.uniform(1, 2, 12)) + np.diag(rng.normal(size=11), 1)
@@ -166,10 +166,10 @@ def test_gauss_elimination_banded_and_pivoting():
               np.array([[0.0, 1.0, 2.0], [1.0, 0.0, 0.0], [3.0, 1.0, 0.0]])):
         x = rng.normal(size=K.shape[0])
         got = x.copy()
-        _gauss_inplace_py(K.copy(), got)
+        gauss_inplace(K.copy(), got)
         assert np.allclose(got, np.linalg.solve(K, x), rtol=1e-12, atol=1e-12)
     x = np.ones(2)
-    _gauss_inplace_py(np.array([[1.0, 2.0], [2.0, 4.0]]), x)
+    gauss_inplace(np.array([[1.0, 2.0], [2.0, 4.0]]), x)
     assert np.all(np.isnan(x))
 
 
@@ -177,7 +177,7 @@ def test_cholesky_envelope_solve():
     """The envelope Cholesky used for A M^-1 A^T: SPD dense and banded systems (a chain's
     tridiagonal one, an arrow-shaped one with a late envelope), and False where K is not
     positive definite (singular, indefinite)."""
-    from lamech.numeric import _cholesky_inplace_py
+    from lamech.linalg import cholesky_inplace
     rng = np.random.default_rng(5)
     B = rng.normal(size=(7, 7))
     tri = np.diag(np.full(10, 2.0)) - np.diag(np.ones(9), 1) - np.diag(np.ones(9), -1)
@@ -186,17 +186,17 @@ def test_cholesky_envelope_solve():
     for K in (B @ B.T + 0.1 * np.eye(7), tri, arrow):
         x = rng.normal(size=K.shape[0])
         got = x.copy()
-        assert _cholesky_inplace_py(K.copy(), got)
+        assert cholesky_inplace(K.copy(), got)
         assert np.allclose(got, np.linalg.solve(K, x), rtol=1e-12, atol=1e-12)
     for K in (np.array([[1.0, 2.0], [2.0, 4.0]]), np.array([[1.0, 2.0], [2.0, 1.0]])):
-        assert not _cholesky_inplace_py(K.copy(), np.ones(2))
+        assert not cholesky_inplace(K.copy(), np.ones(2))
 
 
 def test_numpy_schur_solve_matches_full_kkt():
     """NumPy's Schur-complement path (taken for a diagonal M above 32 unknowns) equals the
     full KKT solve: all rows, a slipping row folded into its normal, no rows; and a zero
     M_ii sends it to the full matrix."""
-    from lamech.numeric import _kkt_solve_numpy
+    from lamech.numeric import kkt_solve_numpy
     rng = np.random.default_rng(11)
     n, m = 30, 10
     M = np.diag(rng.uniform(0.5, 2.0, n))
@@ -204,7 +204,7 @@ def test_numpy_schur_solve_matches_full_kkt():
     A[np.arange(m), np.arange(m)] = 1.0          # independent rows
     rhs, gam, mu = rng.normal(size=n), rng.normal(size=m), np.full(m, 0.4)
     e = np.zeros(0, dtype=np.int64)
-    schur, full = _kkt_solve_numpy(True), _kkt_solve_numpy(False)
+    schur, full = kkt_solve_numpy(True), kkt_solve_numpy(False)
     rows = np.arange(m, dtype=np.int64)
     modes = [(rows, e, e, np.zeros(0)),
              (rows[1:], np.array([0]), np.array([2]), np.array([-1.0])),

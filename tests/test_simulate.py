@@ -17,7 +17,7 @@ from scipy.special import ellipk
 
 import lamech
 from lamech.numeric import compile_system, numba_available
-from lamech.simulate import SimulationError, simulate
+from lamech.numeric import SimulationError, simulate
 
 G = 9.81
 
@@ -232,7 +232,7 @@ def test_bad_options(pendulum):
 def test_csv_and_summary(pendulum):
     tr = simulate(pendulum, 1.0, samples=2)
     assert list(tr.t) == [0.0, 1.0]
-    text = tr.to_csv()
+    text = lamech.present.trajectory_csv(tr)
     rows = list(csv.reader(io.StringIO(text)))
     assert rows[0] == ["t", "r", "theta", "r'", "theta'", "lambda:string",
                        "force:string:tension", "energy", "residual"]
@@ -302,23 +302,19 @@ def test_ladder_leaves_the_wall_at_two_thirds_height():
 
 
 def test_cli_simulate(tmp_path, capsys):
-    import argparse
     import json
 
-    from lamech.cli_simulate import add_parser, run
-    parser = argparse.ArgumentParser(prog="lamech")
-    add_parser(parser.add_subparsers(dest="command"))
+    from lamech.cli import main
     out, png = tmp_path / "traj.csv", tmp_path / "forces.png"
-    args = parser.parse_args(["simulate", "ladder", "--t-end", "1", "--samples", "51",
-                              "--out", str(out), "--json", "--plot", str(png)])
-    assert run(args) == 0
+    assert main(["simulate", "ladder", "--t-end", "1", "--samples", "51",
+                 "--out", str(out), "--json", "--plot", str(png)]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["status"] == "ok"
     assert summary["events"][0]["kind"] == "lift-off"
     assert len(out.read_text().splitlines()) == 52
     assert png.stat().st_size > 10_000
     with pytest.raises(SystemExit):
-        parser.parse_args(["simulate", "ladder", "--t-end", "-1"])
+        main(["simulate", "ladder", "--t-end", "-1"])
 
 
 INVERSE_SQUARE = """
@@ -340,7 +336,7 @@ f = "y"
 @pytest.mark.parametrize("name", lamech.example_names() + ["<inverse-square>"])
 def test_generated_code_matches_sympy(name):
     """The generated numeric functions against SymPy's own evaluation at random states."""
-    from lamech.derive import dynamics
+    from lamech.symbolic import dynamics
     system = lamech.loads(INVERSE_SQUARE) if name.startswith("<") else lamech.load(name)
     ns = compile_system(system)
     dyn = dynamics(system)
@@ -367,7 +363,7 @@ def test_initial_values_held_and_friction_as_parameter():
     the slip angle then follows the energy integral from that start."""
     cyl = lamech.load("cylinder")
     theta_s, mu = 0.02, 0.1
-    tr = cyl.simulate(3.0, initial={"theta1": theta_s}, params={"mu": mu}, samples=11)
+    tr = lamech.simulate(cyl, 3.0, initial={"theta1": theta_s}, params={"mu": mu}, samples=11)
     assert tr.status == "ok", tr.message
     R1, R2 = 1.0, 0.5
     assert tr.coordinate("theta1")[0] == theta_s
@@ -379,14 +375,14 @@ def test_initial_values_held_and_friction_as_parameter():
                   theta_s, 1.0)
     assert abs(slip["coordinates"]["theta1"] - root) < 1e-9
     with pytest.raises(SimulationError, match="unknown coordinate `phi`"):
-        cyl.simulate(1.0, initial={"phi": 1.0})
+        lamech.simulate(cyl, 1.0, initial={"phi": 1.0})
     with pytest.raises(SimulationError, match="known: .*mu:rolling"):
-        cyl.simulate(1.0, params={"nu": 1.0})
+        lamech.simulate(cyl, 1.0, params={"nu": 1.0})
 
 
 def test_trajectory_as_dataframe():
     pd = pytest.importorskip("pandas", reason="pandas not installed")
-    tr = lamech.load("pendulum").simulate(1.0, samples=5)
+    tr = lamech.simulate(lamech.load("pendulum"), 1.0, samples=5)
     df = tr.to_dataframe()
     assert isinstance(df, pd.DataFrame)
     assert list(df["t"]) == [0.0, 0.25, 0.5, 0.75, 1.0]
@@ -411,7 +407,7 @@ x = "1/(1 - t)^3"
 
 
 def test_a_failed_run_keeps_what_it_computed(tmp_path):
-    tr = lamech.loads(BLOW_UP).simulate(2.0, samples=21)
+    tr = lamech.simulate(lamech.loads(BLOW_UP), 2.0, samples=21)
     assert tr.status == "failed"
     assert "t = 0.9999" in tr.message and "grows without bound" in tr.message
     assert list(tr.t) == pytest.approx([0.1 * k for k in range(10)])
@@ -420,7 +416,7 @@ def test_a_failed_run_keeps_what_it_computed(tmp_path):
     t = tr.t
     assert np.allclose(tr.velocity("x"), (1 / (1 - t) ** 2 - 1) / 2.5, rtol=1e-9, atol=1e-12)
     path = tmp_path / "partial.csv"
-    tr.to_csv(path)
+    lamech.present.trajectory_csv(tr, path)
     rows = list(csv.DictReader(path.open()))
     assert len(rows) == 10 and float(rows[-1]["t"]) == pytest.approx(0.9)
 
@@ -430,7 +426,7 @@ def test_ctrl_c_keeps_the_trajectory():
         if t > 0.5:
             raise KeyboardInterrupt
 
-    tr = lamech.load("pendulum").simulate(5.0, samples=51, progress=progress)
+    tr = lamech.simulate(lamech.load("pendulum"), 5.0, samples=51, progress=progress)
     assert tr.status == "interrupted"
     assert "interrupted at t = " in tr.message
     assert 0 < len(tr.t) < 51 and tr.t[-1] <= 0.6 + 1e-12
@@ -471,7 +467,7 @@ def test_driven_into_a_singular_configuration():
     """x = t drives the bead along the unit circle to (1, 0) at t = 1, where the two
     constraint gradients (2x, 2y) and (1, 0) become parallel: the run stops there as
     'failed', naming the time, the cause and what to try; the part before is exact."""
-    tr = lamech.loads(SINGULAR).simulate(2.0, samples=21)
+    tr = lamech.simulate(lamech.loads(SINGULAR), 2.0, samples=21)
     assert tr.status == "failed"
     assert "singular" in tr.message and "try" in tr.message.lower()
     t_stop = float(re.search(r"at t = ([0-9.e+-]+)", tr.message).group(1))
@@ -483,7 +479,7 @@ def test_driven_into_a_singular_configuration():
     assert np.allclose(tr.coordinate("y"), np.sqrt(1 - t**2), rtol=1e-9, atol=1e-12)
     assert np.allclose(tr.multiplier("circle"), -1 / (2 * (1 - t**2) ** 2), rtol=1e-6)
     assert np.allclose(tr.multiplier("drive"), t / (1 - t**2) ** 2, rtol=1e-6, atol=1e-12)
-    rows = list(csv.DictReader(io.StringIO(tr.to_csv())))
+    rows = list(csv.DictReader(io.StringIO(lamech.present.trajectory_csv(tr))))
     assert len(rows) == len(t)
     assert tr.summary()["status"] == "failed"
 
@@ -502,7 +498,7 @@ T = "m/2*x'^2"
 [forces]
 x = "sqrt(1 - t)"
 """
-    tr = lamech.loads(text).simulate(2.0, samples=21)
+    tr = lamech.simulate(lamech.loads(text), 2.0, samples=21)
     assert tr.status == "failed", tr.message
     t_stop = float(re.search(r"at t = ([0-9.e+-]+)", tr.message).group(1))
     assert abs(t_stop - 1) < 1e-6
@@ -582,8 +578,8 @@ def test_cli_csv_and_json_contract(tmp_path, capsys):
 def test_thirty_link_chain_without_special_handling():
     """Issue 4's large system: derive, compile and simulate the 30-link chain (60
     coordinates, 30 constraints); energy and constraints hold."""
-    from lamech.examples_gen import chain_toml
-    tr = lamech.loads(chain_toml(30)).simulate(1.0, samples=3)
+    from lamech.problem import chain_toml
+    tr = lamech.simulate(lamech.loads(chain_toml(30)), 1.0, samples=3)
     assert tr.status == "ok", tr.message
     assert tr.summary()["max_residual"] < 1e-10
     assert tr.energy_error < 1e-9

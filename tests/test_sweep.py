@@ -5,7 +5,6 @@ bad input named."""
 from __future__ import annotations
 
 import csv
-import importlib
 import math
 
 import numpy as np
@@ -14,9 +13,8 @@ from scipy.optimize import brentq
 
 import lamech
 from lamech.cli import main
-from lamech.sweep import SweepError, parse_values, run_sweep
+from lamech.sweeps import SweepError, parse_values, run_sweep
 
-sw = importlib.import_module("lamech.sweep")   # lamech.sweep is also the function
 
 THETA_S = 0.01          # the cylinder starts just off the top, at rest
 
@@ -97,13 +95,8 @@ def test_resume_runs_only_missing_cases_and_gives_the_fresh_table(tmp_path, monk
     # a run killed mid-write: 3 complete rows (not in case order) and half a line
     part = tmp_path / "part.csv"
     part.write_text(lines[0] + lines[2] + lines[5] + lines[3] + lines[6][:17], "utf-8")
-    ran = []
-    real = sw._run_case
-    monkeypatch.setattr(sw, "_run_case",
-                        lambda ns, plan, case, values: ran.append(case) or
-                        real(ns, plan, case, values))
     run = _cylinder(params, ["slip", "max:lambda:contact"], out=part, resume=True)
-    assert sorted(ran) == [0, 3, 5] and run.ran == 3 and run.kept == 3
+    assert sorted(run.ran_cases) == [0, 3, 5] and run.ran == 3 and run.kept == 3
     assert _read(part) == text
 
 
@@ -277,29 +270,26 @@ def test_cli_table_plot_and_errors(tmp_path, capsys):
     assert rc == 2 and "--resume needs --out" in capsys.readouterr().err
 
 
-def test_a_dead_worker_keeps_finished_rows_and_resume_completes(tmp_path, monkeypatch):
+def test_a_dead_worker_keeps_finished_rows_and_resume_completes(tmp_path):
     import multiprocessing
     if multiprocessing.get_start_method() != "fork":
         pytest.skip("needs fork start method to plant the crash in the worker processes")
-    params = {"mu": [0.15, 0.2, 0.3, 0.4, 0.5]}
-    real = sw._run_case
+    import os
+    import signal
+    params = {"mu": [0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5]}
 
-    def crash_on_case_3(ns, plan, case, values):
-        if case == 3:
-            import os
-            os._exit(9)          # the worker process dies (as with a segfault or OOM kill)
-        return real(ns, plan, case, values)
+    def kill_a_worker(done, total):
+        if done == 2:            # a worker process dies (as with a segfault or OOM kill)
+            os.kill(multiprocessing.active_children()[0].pid, signal.SIGKILL)
 
     out = tmp_path / "t.csv"
-    monkeypatch.setattr(sw, "_run_case", crash_on_case_3)
-    run = _cylinder(params, ["slip"], out=out, workers=2)
-    assert "BrokenProcessPool" in run.stopped and len(run.rows) < 5
+    run = _cylinder(params, ["slip"], out=out, workers=2, progress=kill_a_worker)
+    assert "BrokenProcessPool" in run.stopped and len(run.rows) < 8
     with open(out, newline="") as fh:
         kept = {int(r["case"]) for r in csv.DictReader(fh)}
-    assert kept == {r["case"] for r in run.rows} and 3 not in kept
-    monkeypatch.setattr(sw, "_run_case", real)
+    assert kept == {r["case"] for r in run.rows}
     again = _cylinder(params, ["slip"], out=out, resume=True)
-    assert again.ran == 5 - len(kept) and not again.stopped
+    assert again.ran == 8 - len(kept) and not again.stopped
     fresh = tmp_path / "f.csv"
     _cylinder(params, ["slip"], out=fresh)
     assert _read(out) == _read(fresh)

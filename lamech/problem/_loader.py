@@ -1,9 +1,9 @@
-"""Problem files (TOML) and plain dicts to a checked :class:`~lamech.model.System`.
+"""Issue files (TOML) and plain dicts to a checked :class:`~lamech.model.System`.
 
 Every problem found is collected and reported at once in a :class:`ProblemFileError`
 naming the file, line, offending text and the fix, so a user mends a file in one pass.
 Expressions go through :func:`lamech.expr.parse` only: nothing in a file is executed.
-See the README's "Problem files" section for the format.
+See the README's "Issue files" section for the format.
 """
 
 from __future__ import annotations
@@ -19,26 +19,27 @@ from typing import Any
 
 import sympy as sp
 
-from .expr import FUNCTIONS, RESERVED, ExpressionError, parse
-from .model import (Body, Constraint, Coordinate, ForceSpec, Friction, Parameter, System,
-                    body_energy, time_derivative)
+from ._examples import example_names, example_path
+from ..expr import FUNCTIONS, RESERVED, ExpressionError, parse, to_text
+from ..model import (INITIAL_TOLERANCE, Body, Constraint, Coordinate, ForceSpec, Friction,
+                     Parameter, System, body_energy, dependent_constraints, initial_values,
+                     time_derivative)
+from ..model import value as number_at
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["ProblemFileError", "Problem", "load", "loads", "from_dict", "example_names"]
+__all__ = ["ProblemFileError", "Issue", "load", "loads", "from_dict"]
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _KNOWN_SECTIONS = {"title", "parameters", "coordinates", "lagrangian", "constraints", "bodies",
                    "gravity", "forces", "description"}
-INITIAL_TOLERANCE = 1e-10
-"""An initial state violates a constraint when |f| > INITIAL_TOLERANCE*(1 + |q|)."""
 
 
 @dataclass(frozen=True)
-class Problem:
+class Issue:
     """One thing wrong in a problem file: where (``where`` like ``constraints[2].f``,
     ``line``), what (``message``, with the fix) and the offending ``text``."""
 
@@ -82,46 +83,10 @@ def _repeated_key(text: str) -> tuple[int, str, int] | None:
     return None
 
 
-def open_at_start(system: System) -> dict[str, float]:
-    """Unilateral contacts open (f > 0) or opening (f = 0, df/dt > 0) at the initial state.
-
-    {constraint name: f at the start}. The symbolic results (multipliers, forces) hold
-    while a contact is closed; energy shells from an open start do not.
-    """
-    values = dict(system.parameter_values)
-    state = {s: _value(e, values) for s, e in system.initial_state.items()}
-    scale = 1 + max((abs(v) for v in state.values()), default=0.0)
-    env = {**values, **state, system.t: 0.0}
-    out = {}
-    for c in system.constraints:
-        if not (c.unilateral and c.holonomic):
-            continue
-        try:
-            res = _value(c.expr, env)
-            vres = _value(time_derivative(c.expr, system), env)
-        except (TypeError, ValueError):
-            continue
-        tol = INITIAL_TOLERANCE * scale
-        if res > tol or (abs(res) <= tol and vres > tol):
-            out[c.name] = res
-    return out
-
-
-def _value(expr, env: dict) -> float:
-    """``expr`` at the numbers ``env`` ({symbol: value}), as a float.
-
-    ``xreplace`` with Floats, not ``subs``: subs walks the whole expression once per
-    entry of ``env`` (7 s for the initial check of a 30-link chain, against 0.05 s).
-    Raises TypeError when the value is complex or undefined.
-    """
-    values = {s: v if isinstance(v, sp.Basic) else sp.Float(v, 30) for s, v in env.items()}
-    return float(sp.sympify(expr).xreplace(values).evalf(30))
-
-
 class ProblemFileError(ValueError):
     """A problem file (or dict) cannot be used; ``problems`` lists everything wrong."""
 
-    def __init__(self, source: str, problems: list[Problem]):
+    def __init__(self, source: str, problems: list[Issue]):
         self.source = source
         self.problems = list(problems)
         super().__init__("\n".join(p.format(source) for p in problems))
@@ -161,12 +126,6 @@ class _Lines:
         return header_line
 
 
-def example_names() -> list[str]:
-    """Names of the bundled example problems (``lamech.load(name)`` loads one)."""
-    folder = resources.files("lamech") / "examples"
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
-
-
 def load(path: str | Path) -> System:
     """Load a problem file, or a bundled example by name (``"cylinder"``).
 
@@ -177,25 +136,25 @@ def load(path: str | Path) -> System:
     """
     p = Path(path)
     if not p.exists() and not p.suffix and str(path) in example_names():
-        p = Path(str(resources.files("lamech") / "examples" / f"{path}.toml"))
+        p = example_path(str(path))
     if not p.exists():
         hint = ", ".join(example_names())
-        raise ProblemFileError(str(path), [Problem(
+        raise ProblemFileError(str(path), [Issue(
             "", f"no such file; give a path to a .toml problem file or a bundled example "
                 f"({hint})")])
     if p.is_dir():
-        raise ProblemFileError(str(path), [Problem("", "is a directory, not a problem file")])
+        raise ProblemFileError(str(path), [Issue("", "is a directory, not a problem file")])
     try:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ProblemFileError(str(path), [Problem("", f"cannot read the file: {exc}")]) from None
+        raise ProblemFileError(str(path), [Issue("", f"cannot read the file: {exc}")]) from None
     return loads(text, name=str(path))
 
 
 def loads(text: str, name: str = "<string>") -> System:
     """Load a problem from TOML text; ``name`` is used in error messages."""
     if len(text) > 1_000_000:
-        raise ProblemFileError(name, [Problem("", "file too large (over 1 MB)")])
+        raise ProblemFileError(name, [Issue("", "file too large (over 1 MB)")])
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -213,7 +172,7 @@ def loads(text: str, name: str = "<string>") -> System:
                 hint = "each key may appear once in a table: remove or rename one of them"
         offending = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) \
             else None
-        raise ProblemFileError(name, [Problem(
+        raise ProblemFileError(name, [Issue(
             "", f"TOML syntax error: {bare}; {hint}", line, offending)]) from None
     return from_dict(data, name=name, text=text)
 
@@ -232,7 +191,7 @@ class _Loader:
         self.data = data
         self.source = name
         self.lines = _Lines(text)
-        self.problems: list[Problem] = []
+        self.problems: list[Issue] = []
         self.t = sp.Symbol("t", real=True)
 
     # ----- reporting -----------------------------------------------------------------
@@ -241,7 +200,7 @@ class _Loader:
         line = self.lines.find(*loc)
         if text is None and line and self.lines.lines:
             text = self.lines.lines[line - 1].strip()
-        self.problems.append(Problem(where, message, line, text))
+        self.problems.append(Issue(where, message, line, text))
 
     def expr(self, value: Any, names: dict[str, sp.Expr], where: str, loc: tuple,
              what: str) -> sp.Expr | None:
@@ -281,7 +240,7 @@ class _Loader:
     # ----- build -------------------------------------------------------------------
     def build(self) -> System:
         if not isinstance(self.data, dict):
-            raise ProblemFileError(self.source, [Problem("", "a problem must be a table")])
+            raise ProblemFileError(self.source, [Issue("", "a problem must be a table")])
         for key in self.data:
             if key not in _KNOWN_SECTIONS:
                 self.problem(key, f"unknown section or key `{key}`; known: "
@@ -709,7 +668,7 @@ class _Loader:
             return None
         if mu.free_symbols <= {p.symbol for p in self.params}:
             try:
-                value = _value(mu, {p.symbol: p.numeric for p in self.params})
+                value = number_at(mu, {p.symbol: p.numeric for p in self.params})
             except (TypeError, ValueError):
                 value = float("nan")
             if not (math.isfinite(value) and value >= 0):
@@ -780,7 +739,6 @@ class _Loader:
         table = self.data.get("lagrangian")
         if not bodies or not isinstance(table, dict):
             return []
-        from .expr import to_text
         Tb, Vb = body_energy(skeleton, tuple(bodies), gravity)
         notes = []
         checks = [("T", T, Tb)]
@@ -803,7 +761,7 @@ class _Loader:
 
     def _check_initial(self, system: System) -> None:
         values = {**system.parameter_values}
-        state = {s: _value(e, values) for s, e in system.initial_state.items()}
+        state = initial_values(system)
         scale = 1 + max((abs(v) for v in state.values()), default=0.0)
         env = {**values, **state, system.t: 0.0}
         for i, c in enumerate(system.constraints):
@@ -811,10 +769,10 @@ class _Loader:
             where = f"constraints[{i + 1}] `{c.name}`"
             try:
                 if c.holonomic:
-                    res = _value(c.expr, env)
-                    vres = _value(time_derivative(c.expr, system), env)
+                    res = number_at(c.expr, env)
+                    vres = number_at(time_derivative(c.expr, system), env)
                 else:
-                    res, vres = 0.0, _value(c.expr, env)
+                    res, vres = 0.0, number_at(c.expr, env)
             except (TypeError, ValueError):
                 self.problem(where, "cannot evaluate the constraint at the initial state "
                              "(complex or undefined value)", loc)
@@ -836,7 +794,6 @@ class _Loader:
                              "velocities", loc)
 
     def _check_dependent(self, system: System) -> None:
-        from .derive import dependent_constraints
         for group, where_singular in dependent_constraints(system):
             idx = system.constraints.index(system.constraint(group[0]))
             names = " and ".join(f"`{n}`" for n in group) if len(group) <= 2 else \

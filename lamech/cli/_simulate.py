@@ -3,60 +3,12 @@
 
 from __future__ import annotations
 
-import argparse
 import json
-import math
 import sys
 
+from ._args import assignment, evaluate_assignments, positive_float, samples
+
 __all__ = ["add_parser", "run"]
-
-
-def _positive_float(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(x) or x <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive finite number (got {text})")
-    return x
-
-
-def _samples(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if n < 2:
-        raise argparse.ArgumentTypeError("--samples counts both ends: at least 2")
-    return n
-
-
-def _assignment(text: str) -> tuple[str, str]:
-    name, sep, value = text.partition("=")
-    if not sep or not name.strip() or not value.strip():
-        raise argparse.ArgumentTypeError(f"{text!r}: write NAME=VALUE, e.g. theta1=0.01")
-    return name.strip(), value.strip()
-
-
-def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:
-    """{name: value} from NAME=VALUE pairs; each VALUE a number or an expression of the
-    problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
-    evaluated at ``env`` (default: the file's parameter values)."""
-    from .expr import ExpressionError, parse
-    names = {p.name: p.symbol for p in system.parameters}
-    env = system.parameter_values if env is None else env
-    out = {}
-    for name, text in pairs:
-        try:
-            value = float(parse(text, names, f"{option} {name}").xreplace(env).evalf())
-        except ExpressionError as exc:
-            raise ValueError(f"{option} {name}={text}: {exc.message}") from None
-        except TypeError:
-            raise ValueError(f"{option} {name}={text}: not a real number") from None
-        if not math.isfinite(value):
-            raise ValueError(f"{option} {name}={text}: not a finite number")
-        out[name] = value
-    return out
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -68,28 +20,28 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "slip and stick on the dense output. Prints a summary; writes a CSV "
                     "and a plot on request.")
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
-    s.add_argument("--t-end", type=_positive_float, required=True, metavar="T",
+    s.add_argument("--t-end", type=positive_float, required=True, metavar="T",
                    help="end time (start at t = 0)")
-    s.add_argument("--initial", action="append", default=[], type=_assignment,
+    s.add_argument("--initial", action="append", default=[], type=assignment,
                    metavar="NAME=VALUE",
                    help="start with coordinate (or velocity x') NAME at VALUE (a number or an "
                         "expression of parameters); the other coordinates move to meet the "
                         "constraints. Repeatable. E.g. --initial theta1=0.01")
-    s.add_argument("--param", action="append", default=[], type=_assignment,
+    s.add_argument("--param", action="append", default=[], type=assignment,
                    metavar="NAME=VALUE",
                    help="override a parameter (or `mu`/`mu:<constraint>`, a friction "
                         "coefficient). Repeatable")
     s.add_argument("--out", metavar="CSV", help="write the sampled trajectory (t, coordinates, "
                    "velocities x', lambda:<c>, force:<c>:<dir>, energy, residual)")
     grid = s.add_mutually_exclusive_group()
-    grid.add_argument("--samples", type=_samples, metavar="N",
+    grid.add_argument("--samples", type=samples, metavar="N",
                       help="output times: N evenly spaced, both ends counted (default 1001)")
-    grid.add_argument("--dt", type=_positive_float, help="output spacing")
-    s.add_argument("--rtol", type=_positive_float, default=None,
+    grid.add_argument("--dt", type=positive_float, help="output spacing")
+    s.add_argument("--rtol", type=positive_float, default=None,
                    help="relative tolerance (default 1e-11; down to 1e-14)")
-    s.add_argument("--atol", type=_positive_float, default=None,
+    s.add_argument("--atol", type=positive_float, default=None,
                    help="absolute tolerance (default 1e-12)")
-    s.add_argument("--max-step", type=_positive_float, default=None,
+    s.add_argument("--max-step", type=positive_float, default=None,
                    help="largest integrator step (default: unlimited)")
     s.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     s.add_argument("--plot", metavar="PNG", help="plot multipliers/forces with the events "
@@ -110,9 +62,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args) -> int:
     """Run ``lamech simulate``; returns the exit status (0 ok, 1 run failed, 2 bad input,
     130 interrupted)."""
-    from .derive import DegenerateConstraintsError
-    from .problem import ProblemFileError, load
-    from .simulate import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, simulate
+    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, simulate
+    from ..problem import ProblemFileError, load
+    from ..symbolic import DegenerateConstraintsError
 
     try:
         system = load(args.problem)
@@ -145,15 +97,16 @@ def run(args) -> int:
         return 2
     if progress:
         progress.close()
+    from ..present import to_text, trajectory_csv
     if args.out:
         try:
-            traj.to_csv(args.out)
+            trajectory_csv(traj, args.out)
         except OSError as exc:
             print(f"lamech: cannot write {args.out}: {exc}", file=sys.stderr)
             return 2
     if args.plot:
         try:
-            from .plot import plot_trajectory
+            from ..present import plot_trajectory
             plot_trajectory(traj, args.plot)
         except ImportError as exc:
             print(f"lamech: --plot needs matplotlib ({exc}); pip install matplotlib",
@@ -163,7 +116,7 @@ def run(args) -> int:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
     if args.animate:
-        from .animate import animate
+        from ..present import animate
         try:
             animate(traj, system, args.animate, params=params or None)
         except ValueError as exc:
@@ -176,7 +129,7 @@ def run(args) -> int:
         print(json.dumps(traj.summary(), indent=2, ensure_ascii=False,
                          default=_json_default))
     else:
-        print(traj.to_text(), end="")
+        print(to_text(traj), end="")
         if args.out:
             print(f"  wrote {args.out}")
         if args.plot:

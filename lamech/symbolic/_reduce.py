@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .derive import Dynamics
-from .model import Coordinate, System, time_derivative
+from ..model import Coordinate, System, open_at_start, time_derivative
+from ._derive import Dynamics
 
 __all__ = ["Reduction", "eliminate", "ClosedForms", "closed_forms", "tidy",
            "CLOSED_FORM_LIMIT", "SIMPLIFY_OPS"]
@@ -135,7 +135,6 @@ def eliminate(system: System) -> Reduction:
                 f"{n - m_hol + m} unknowns; the limit is {CLOSED_FORM_LIMIT}), so no "
                 "coordinate was eliminated")
         return Reduction(tuple(system.coordinates), (), {}, (), (note,))
-    from .problem import open_at_start   # problem imports this module's users
     opened = open_at_start(system)
     env0 = _initial_numeric(system)
     positions: dict[sp.Symbol, sp.Expr] = {}

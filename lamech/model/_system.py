@@ -2,8 +2,8 @@
 
 A :class:`System` holds SymPy expressions in its own symbols: coordinates ``q`` (real),
 their velocities ``q'`` and accelerations ``q''``, parameters (positive when their value
-is), and time ``t``. It is built by :mod:`lamech.problem` from a problem file or a dict;
-derivations (:mod:`lamech.derive` and after) are pure functions of it.
+is), and time ``t``. It is built by :mod:`lamech.problem` from a problem file or a dict, or
+directly in Python; derivations (:mod:`lamech.symbolic` and after) are pure functions of it.
 
 The canonical equations every other docstring refers to (the lecture's convention)::
 
@@ -22,7 +22,16 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 __all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body",
-           "System"]
+           "System", "ModelError"]
+
+
+class ModelError(ValueError):
+    """A definition breaks a rule of the model. ``issues`` lists every (where, message)
+    found, so that a user fixes everything in one pass."""
+
+    def __init__(self, issues: list[tuple[str, str]]):
+        self.issues = list(issues)
+        super().__init__("\n".join(f"{w}: {m}" if w else m for w, m in self.issues))
 
 
 @dataclass(frozen=True)
@@ -195,75 +204,7 @@ class System:
             out[c.velocity] = c.initial_velocity
         return out
 
-    # ----- actions -----------------------------------------------------------------
-    def solve(self):
-        """Equations, multipliers, integrals, lift-off/slip points and forces:
-        :func:`lamech.solve`."""
-        from .solve import solve
-        return solve(self)
-
-    def simulate(self, t_end: float, **options):
-        """The motion from the initial state to ``t_end``: :func:`lamech.simulate.simulate`
-        (options ``samples``, ``dt``, ``rtol``, ``atol``, ``params``, ``initial``, ...);
-        returns a :class:`~lamech.trajectory.Trajectory`."""
-        from .simulate import simulate
-        return simulate(self, t_end, **options)
-
+    # ----- numbers --------------------------------------------------------------
     def numeric(self, expr: sp.Expr) -> sp.Expr:
         """``expr`` with every parameter replaced by its value."""
         return sp.sympify(expr).subs(self.parameter_values)
-
-
-def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
-    """Total time derivative along the motion: sum dE/dq q' + dE/dq' q'' + dE/dt."""
-    out = sp.sympify(expr)
-    for _ in range(order):
-        total = sp.diff(out, system.t)
-        for c in system.coordinates:
-            if out.has(c.symbol):
-                total += sp.diff(out, c.symbol) * c.velocity
-            if out.has(c.velocity):
-                total += sp.diff(out, c.velocity) * c.acceleration
-        out = total
-    return out
-
-
-def body_energy(system: System, bodies: tuple[Body, ...], gravity: sp.Expr | None
-                ) -> tuple[sp.Expr, sp.Expr]:
-    """Kinetic and gravitational potential energy of ``bodies`` (gravity along -y or -z)."""
-    T = sp.Integer(0)
-    V = sp.Integer(0)
-    for b in bodies:
-        vel = [time_derivative(x, system) for x in b.position]
-        T += b.mass * sum(v**2 for v in vel) / 2
-        if b.angle is not None and b.inertia is not None:
-            T += b.inertia * time_derivative(b.angle, system) ** 2 / 2
-        if gravity is not None:
-            V += b.mass * gravity * b.position[-1]
-    return T, V
-
-
-def partial_velocities(system: System, body: Body, point: tuple[sp.Expr, ...]) -> sp.Matrix:
-    """J_P, shape (dim, n_coords): the partial velocities dr_P/dq of the material point of
-    ``body`` that sits at ``point`` now (rigid planar body: dc/dq + dphi/dq z x (P - c))."""
-    dim = len(body.position)
-    rows = []
-    for c in system.coordinates:
-        col = [sp.diff(x, c.symbol) for x in body.position]
-        if body.angle is not None and dim == 2:
-            w = sp.diff(body.angle, c.symbol)
-            rel = [point[0] - body.position[0], point[1] - body.position[1]]
-            col = [col[0] - w * rel[1], col[1] + w * rel[0]]
-        rows.append(col)
-    return sp.Matrix(rows).T
-
-
-def contact_partial_velocities(system: System, spec) -> sp.Matrix:
-    """J = J_Pa - J_Pb of a constraint's ``force`` spec: the partial velocities of the
-    material point it acts on (of body a, less those of body b's point for a contact
-    between two movable bodies), so that Q = J^T F."""
-    bodies = [system.body(name) for name in spec.bodies]
-    J = partial_velocities(system, bodies[0], spec.at)
-    if len(bodies) == 2:
-        J = J - partial_velocities(system, bodies[1], spec.at)
-    return J

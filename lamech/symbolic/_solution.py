@@ -7,13 +7,12 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from .conditions import Root, slip_points, vanishing_points
-from .problem import open_at_start
-from .derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
-from .forces import cartesian_forces, generalized_forces
-from .integrals import Integrals, Shell, energy_shell, integrals
-from .model import System
-from .reduce import ClosedForms, Reduction, closed_forms, eliminate
+from ..model import System, initial_values, open_at_start
+from ._conditions import Root, slip_points, vanishing_points
+from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
+from ._forces import cartesian_forces, generalized_forces
+from ._integrals import Integrals, Shell, energy_shell, integrals
+from ._reduce import ClosedForms, Reduction, closed_forms, eliminate
 
 __all__ = ["Solution", "solve"]
 
@@ -94,20 +93,11 @@ class Solution:
     def gamma(self) -> sp.Matrix:
         return self.dynamics.gamma
 
-    def to_json(self) -> dict:
-        from .report import to_json
-        return to_json(self)
-
-    def to_text(self) -> str:
-        from .report import to_text
-        return to_text(self)
-
-    def to_latex(self) -> str:
-        from .report import to_latex
-        return to_latex(self)
-
     def _repr_latex_(self) -> str:
-        from .report import to_latex
+        # Jupyter's display protocol calls this method on the object itself, so it is the
+        # one import against the layer order (symbolic -> present), declared as an
+        # exception in the import-linter contract. Everywhere else: lamech.to_latex(sol).
+        from ..present import to_latex
         return to_latex(self, standalone_math=True)
 
     def __repr__(self) -> str:
@@ -126,9 +116,7 @@ def solve(system: System) -> Solution:
     if forms.skipped:
         notes.append(forms.skipped + "; M, h, A, gamma are given and the multipliers are "
                      "evaluated numerically at the initial state")
-        state = {**system.parameter_values, system.t: 0.0}
-        state.update({s: float(sp.sympify(e).subs(system.parameter_values))
-                      for s, e in system.initial_state.items()})
+        state = {**system.parameter_values, system.t: 0.0, **initial_values(system)}
         try:
             _, lam = kkt_numeric(dyn, state)
             initial = {c.name: float(v) for c, v in zip(system.constraints, lam)}

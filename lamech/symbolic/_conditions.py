@@ -18,11 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import brentq
 
-from .expr import to_text
-from .integrals import Shell
-from .model import System
+from ..expr import to_text
+from ..model import System
+from ._integrals import Shell
 
 __all__ = ["Root", "vanishing_points", "slip_points", "is_angle"]
 
@@ -68,6 +67,8 @@ def _numeric(system: System, expr: sp.Expr, x: sp.Symbol):
 
 def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
     """The reached range as ordered (start, end) segments; see module docstring."""
+    from scipy.optimize import brentq   # SciPy on use: `import lamech` stays light
+
     coord = shell.coordinate
     pv = system.parameter_values
     x0 = float(sp.sympify(coord.initial).subs(pv))
@@ -111,6 +112,8 @@ def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
 
 def _roots(F, a: float, b: float) -> list[float]:
     """Sign changes of F on [a, b], refined, ordered from a towards b."""
+    from scipy.optimize import brentq
+
     if a == b:
         return []
     xs = np.linspace(a, b, GRID)

@@ -3,11 +3,7 @@ the event log (see :func:`lamech.simulate.simulate`)."""
 
 from __future__ import annotations
 
-import csv
-import io
-import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -19,12 +15,6 @@ def _index(names, name: str, what: str) -> int:
         return list(names).index(name)
     except ValueError:
         raise KeyError(f"no {what} `{name}`; known: {', '.join(names)}") from None
-
-
-def _fmt(x: float) -> str:
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return "nan"
-    return f"{float(x):.17g}"
 
 
 @dataclass
@@ -109,20 +99,6 @@ class Trajectory:
         cols += [("energy", self.energy), ("residual", self.residual)]
         return cols
 
-    def to_csv(self, path: str | Path | None = None) -> str | None:
-        """Write the CSV (17 significant digits) to ``path``; return the text when None."""
-        cols = self.columns()
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow([name for name, _ in cols])
-        for k in range(len(self.t)):
-            w.writerow([_fmt(arr[k]) for _, arr in cols])
-        text = buf.getvalue()
-        if path is None:
-            return text
-        Path(path).write_text(text, encoding="utf-8")
-        return None
-
     def to_dataframe(self):
         """A pandas DataFrame with the CSV's columns (pandas must be installed)."""
         try:
@@ -160,33 +136,6 @@ class Trajectory:
             "message": self.message,
             "notes": list(self.notes),
         }
-
-    def to_text(self) -> str:
-        s = self.summary()
-        lines = [f"{self.title}" if self.title else "simulation",
-                 f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
-                 f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
-                 f"{s['evaluations']} dynamics evaluations, {s['samples']} samples"]
-        for note in s["notes"]:
-            lines.append(f"  note: {note}")
-        lines.append(f"  events: {len(s['events'])}")
-        for e in s["events"]:
-            coords = ", ".join(f"{k} = {v:.10g}" for k, v in e["coordinates"].items()
-                               if not k.endswith("'"))
-            lines.append(f"    t = {e['t']:.12g}  {e['kind']:<8} {e['constraint']}: {coords}")
-        lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}"
-                                                   for k, v in s["final"].items()))
-        lines.append(f"  max residual: |f| {_g(s['max_residual_position'])}, "
-                     f"|f'| {_g(s['max_residual_velocity'])}"
-                     f" (largest projection {_g(s['max_projection'])})")
-        ee = s["energy_error"]
-        lines.append("  energy error: " + (_g(ee) + " (relative)" if ee is not None else
-                                           "n/a (driven, time-dependent or dissipative)"))
-        return "\n".join(lines) + "\n"
-
-
-def _g(x) -> str:
-    return "n/a" if x is None else f"{x:.3g}"
 
 
 def _json_event(e: dict) -> dict:

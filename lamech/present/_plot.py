@@ -1,4 +1,4 @@
-"""Plots of a :class:`~lamech.trajectory.Trajectory` (matplotlib, Agg backend)."""
+"""Plots of a :class:`~lamech.trajectory.Trajectory` (matplotlib)."""
 
 from __future__ import annotations
 
@@ -15,12 +15,12 @@ _EVENT_COLOURS = {"lift-off": "tab:red", "contact": "tab:green", "impact": "tab:
 def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     """Two panels: multipliers (and Cartesian forces) against time with the events marked
     and labelled; the coordinates against time."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # A Figure of its own (no pyplot): drawing to a file never switches the caller's
+    # backend (a notebook keeps its inline one).
+    from matplotlib.figure import Figure
 
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True,
-                                   gridspec_kw={"height_ratios": [3, 2]})
+    fig = Figure(figsize=(9, 7.5))
+    ax1, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     t = traj.t
     for j, name in enumerate(traj.constraints):
         lam = traj.lambdas[:, j]
@@ -58,4 +58,3 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
         fig.text(0.01, 0.005, f"{traj.status}: {traj.message}"[:160], fontsize=7, color="red")
     fig.tight_layout()
     fig.savefig(str(path), dpi=120)
-    plt.close(fig)

@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from .derive import Dynamics
-from .model import System, contact_partial_velocities
-from .reduce import Reduction, tidy
+from ..model import System, contact_partial_velocities
+from ._derive import Dynamics
+from ._reduce import Reduction, tidy
 
 __all__ = ["generalized_forces", "cartesian_forces"]
 

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import mpmath
 import sympy as sp
 
-from .derive import Dynamics
-from .model import Coordinate
-from .reduce import ClosedForms, Reduction, tidy
+from ..model import Coordinate
+from ._derive import Dynamics
+from ._reduce import ClosedForms, Reduction, tidy
 
 __all__ = ["Integrals", "integrals", "Shell", "energy_shell"]
 

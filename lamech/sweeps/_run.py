@@ -31,7 +31,6 @@ case, so a resumed sweep gives the same file as a fresh one.
 
 from __future__ import annotations
 
-import csv
 import itertools
 import math
 import os
@@ -45,114 +44,13 @@ from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .model import System
-from .simulate import consistent_initial, friction_names, with_friction_parameters
+from ..model import System
+from ..numeric import consistent_initial, friction_names, with_friction_parameters
+from ._parse import (EVENT_MEASURES, MAX_CASES, Measure, SweepError, number, parse_measure,
+                     parse_values)
+from ._table import Table
 
-__all__ = ["sweep", "run_sweep", "SweepRun", "SweepError", "Measure", "parse_values",
-           "parse_measure", "parse_assignment", "plot_sweep", "EVENT_MEASURES"]
-
-EVENT_MEASURES = {"liftoff": "lift-off", "slip": "slip", "stick": "stick",
-                  "contact": "contact", "impact": "impact"}
-SERIES_MEASURES = ("max", "min", "final")
-MAX_CASES = 1_000_000
-
-
-class SweepError(ValueError):
-    """Bad sweep input (names, ranges, measures, a table that does not fit); nothing ran."""
-
-
-# ----- parsing ------------------------------------------------------------------------
-def _number(text: str, what: str) -> float:
-    try:
-        x = float(text.strip())
-    except ValueError:
-        raise SweepError(f"{what}: {text.strip()!r} is not a number") from None
-    if not math.isfinite(x):
-        raise SweepError(f"{what}: {text.strip()!r} is not a finite number")
-    return x
-
-
-def parse_values(text: str, name: str = "value") -> np.ndarray:
-    """``"A:B:N"`` (N values from A to B, both included), ``"a,b,c"`` or ``"a"``.
-
-    Numbers only (``float``); no expression is evaluated.
-    """
-    what = f"parameter `{name}`"
-    text = str(text).strip()
-    if not text:
-        raise SweepError(f"{what}: no values (write A:B:N, a,b,c or a single number)")
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise SweepError(f"{what}: range {text!r} must be A:B:N (start, stop, count), "
-                             "e.g. 0.1:1.0:50")
-        a, b = _number(parts[0], what), _number(parts[1], what)
-        try:
-            count = int(parts[2].strip())
-        except ValueError:
-            raise SweepError(f"{what}: count {parts[2].strip()!r} in {text!r} is not an "
-                             "integer") from None
-        if count < 1 or (count == 1 and a != b):
-            raise SweepError(f"{what}: range {text!r} needs a count >= 2 (or A = B)")
-        if count > MAX_CASES:
-            raise SweepError(f"{what}: count {count} exceeds {MAX_CASES}")
-        # 15 significant digits: 0.3, not linspace's 0.30000000000000004
-        return np.array([float(f"{x:.15g}") for x in np.linspace(a, b, count)])
-    values = [_number(part, what) for part in text.split(",")]
-    return np.array(values, dtype=float)
-
-
-def parse_assignment(text: str, what: str = "--param") -> tuple[str, str]:
-    """``"NAME=VALUE"`` -> (NAME, VALUE), both stripped."""
-    name, sep, value = str(text).partition("=")
-    if not sep or not name.strip() or not value.strip():
-        raise SweepError(f"{what} {text!r}: write NAME=VALUE")
-    return name.strip(), value.strip()
-
-
-@dataclass(frozen=True)
-class Measure:
-    """One measured quantity of a case (see the module docstring); ``text`` as written."""
-
-    kind: str        # liftoff, slip, stick, contact, impact, max, min, final
-    target: str      # a constraint ("" = any) for events; a series for max/min/final
-    text: str
-
-    def columns(self, coordinates: Sequence[str]) -> list[str]:
-        if self.kind in EVENT_MEASURES:
-            return [f"{self.text}:t"] + [f"{self.text}:{c}" for c in coordinates]
-        return [self.text]
-
-
-def _series_names(system: System) -> list[str]:
-    names = [c.name for c in system.coordinates] + [c.name + "'" for c in system.coordinates]
-    names += ["lambda:" + c.name for c in system.constraints]
-    for c in system.constraints:
-        if c.force is not None:
-            dirs = [d for d, _ in c.force.along] or list("xyz"[:system.dimension])
-            names += [f"force:{c.name}:{d}" for d in dirs]
-    return names + ["energy", "residual"]
-
-
-def parse_measure(text: str, system: System) -> Measure:
-    """Check ``text`` against ``system``; a :class:`SweepError` names the known choices."""
-    text = str(text).strip()
-    kind, _, rest = text.partition(":")
-    kinds = list(EVENT_MEASURES) + [k + ":<series>" for k in SERIES_MEASURES]
-    if kind in EVENT_MEASURES:
-        if rest:
-            known = [c.name for c in system.constraints]
-            if rest not in known:
-                raise SweepError(f"measure {text!r}: unknown constraint `{rest}`; known: "
-                                 f"{', '.join(known)}")
-        return Measure(kind, rest, text)
-    if kind in SERIES_MEASURES:
-        known = _series_names(system)
-        if rest not in known:
-            raise SweepError(f"measure {text!r}: unknown series `{rest}`; known: "
-                             f"{', '.join(known)}")
-        return Measure(kind, rest, text)
-    raise SweepError(f"unknown measure {text!r}; known: {', '.join(kinds)}")
+__all__ = ["sweep", "run_sweep", "SweepRun", "sweepable_names"]
 
 
 # ----- the system prepared for sweeping ---------------------------------------------
@@ -189,7 +87,7 @@ _COMPILED: dict[str, object] = {}   # token -> NumericSystem, one per worker pro
 def _numeric(token: str, plan: _Plan):
     ns = _COMPILED.get(token)
     if ns is None:
-        from .numeric import compile_system
+        from ..numeric import compile_system
         ns = _COMPILED[token] = compile_system(plan.system)
     return ns
 
@@ -212,7 +110,7 @@ def _measure_values(m: Measure, traj, coords: Sequence[str], series: dict) -> li
 
 def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
     """One row: case index, parameter values, measures, status, message."""
-    from .simulate import simulate
+    from ..numeric import simulate
 
     coords = ns.coordinate_names
     row: dict = {"case": case, **{k: float(x) for k, x in values.items()}}
@@ -255,119 +153,12 @@ def _dask_case(token: str, blob: bytes, case: int, values: dict) -> dict:
     return _run_case(_numeric(token, plan), plan, case, values)
 
 
-# ----- the table on disk ----------------------------------------------------------------
-def _fmt(x) -> str:
-    if isinstance(x, str):
-        return x
-    if isinstance(x, (int, np.integer)):
-        return str(int(x))
-    x = float(x)
-    return "nan" if math.isnan(x) else repr(x)
-
-
-class _Table:
-    """The output table: rows appended (flushed) as cases finish; read back on resume."""
-
-    def __init__(self, path: Path | None, columns: Sequence[str]):
-        self.path = path
-        self.columns = list(columns)
-        self.parquet = path is not None and path.suffix.lower() == ".parquet"
-        self.journal = (path.with_name(path.name + ".partial.csv") if self.parquet
-                        else path)
-        self._fh = None
-
-    def read(self, cases: list[dict], names: list[str]) -> dict[int, dict]:
-        """Rows already in the table (resume), checked against this sweep's grid."""
-        if self.path is None:
-            raise SweepError("resume needs an output table (out=... / --out)")
-        rows: list[dict] = []
-        source = None
-        if self.journal.exists():
-            source = self.journal
-            with open(self.journal, newline="", encoding="utf-8") as fh:
-                text = fh.read()
-            complete = text if text.endswith("\n") else text[:text.rfind("\n") + 1]
-            reader = csv.reader(complete.splitlines())
-            header = next(reader, None)
-            if header is None:
-                return {}
-            if header != self.columns:
-                raise SweepError(f"cannot resume from {source}: its columns "
-                                 f"({', '.join(header)}) are not this sweep's "
-                                 f"({', '.join(self.columns)})")
-            for rec in reader:
-                if len(rec) == len(self.columns):
-                    rows.append(dict(zip(self.columns, rec)))
-        elif self.parquet and self.path.exists():
-            source = self.path
-            import pandas as pd
-            df = pd.read_parquet(self.path)
-            if list(df.columns) != self.columns:
-                raise SweepError(f"cannot resume from {source}: its columns "
-                                 f"({', '.join(df.columns)}) are not this sweep's "
-                                 f"({', '.join(self.columns)})")
-            rows = df.to_dict("records")
-        done: dict[int, dict] = {}
-        for rec in rows:
-            row = {}
-            for k, x in rec.items():
-                row[k] = x if k in ("status", "message") else float(x)
-            row["message"] = "" if row["message"] is None else str(row["message"])
-            case = int(row["case"])
-            if not 0 <= case < len(cases) or any(row[n] != cases[case][n] for n in names):
-                raise SweepError(f"cannot resume from {source}: case {case} has "
-                                 + ", ".join(f"{n} = {row[n]!r}" for n in names)
-                                 + ", not a point of this sweep's grid (a different sweep?)")
-            row["case"] = case
-            done[case] = row
-        return done
-
-    def open(self, kept: Iterable[dict]) -> None:
-        if self.journal is None:
-            return
-        self.journal.parent.mkdir(parents=True, exist_ok=True)
-        self._fh = open(self.journal, "w", newline="", encoding="utf-8")
-        self._writer = csv.writer(self._fh, lineterminator="\n")
-        self._writer.writerow(self.columns)
-        for row in kept:
-            self._writer.writerow([_fmt(row[c]) for c in self.columns])
-        self._fh.flush()
-
-    def append(self, row: dict) -> None:
-        if self._fh is not None:
-            self._writer.writerow([_fmt(row[c]) for c in self.columns])
-            self._fh.flush()
-
-    def close(self) -> None:
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
-
-    def finish(self, rows: list[dict]) -> None:
-        """Rewrite the table sorted by case (atomically); Parquet from the journal."""
-        self.close()
-        if self.path is None:
-            return
-        if self.parquet:
-            import pandas as pd
-            pd.DataFrame(rows, columns=self.columns).to_parquet(self.path, index=False)
-            self.journal.unlink(missing_ok=True)
-            return
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow(self.columns)
-            for row in rows:
-                w.writerow([_fmt(row[c]) for c in self.columns])
-        os.replace(tmp, self.path)
-
-
 # ----- the run ----------------------------------------------------------------------------
 @dataclass
 class SweepRun:
     """The result of :func:`run_sweep`: rows sorted by case, and how they were obtained.
 
-    ``ran`` cases were simulated now, ``kept`` read back from the table (resume);
+    ``ran`` cases (``ran_cases``) were simulated now, ``kept`` read back from the table (resume);
     ``interrupted`` is True after Ctrl-C; ``stopped`` says why a run ended before every
     case was done otherwise (a worker process died, the cluster failed); in both cases
     the table on disk holds the finished rows and ``resume=True`` completes it.
@@ -386,6 +177,7 @@ class SweepRun:
     stopped: str = ""
     path: Path | None = None
     notes: list[str] = field(default_factory=list)
+    ran_cases: list[int] = field(default_factory=list)   # the cases simulated now, in order
 
     @property
     def measure_columns(self) -> list[str]:
@@ -493,12 +285,12 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
         ``workers``.
     progress : True/False, or a callable(done, total); default: a bar on a terminal.
     """
-    from .problem import load
-    from .simulate import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, _check_options
+    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, check_options
+    from ..problem import load
 
     system = problem if isinstance(problem, System) else load(problem)
     try:
-        _check_options(t_end, 0.0, DEFAULT_RTOL if rtol is None else rtol,
+        check_options(t_end, 0.0, DEFAULT_RTOL if rtol is None else rtol,
                        DEFAULT_ATOL if atol is None else atol, max_step, samples, None)
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
@@ -516,7 +308,7 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
         if name.rstrip("'") not in coords or name.count("'") > 1:
             raise SweepError(f"initial value for unknown coordinate `{name}`; known: "
                              + ", ".join(coords + [c + "'" for c in coords]))
-        init.append((name, _number(str(x), f"initial `{name}`")))
+        init.append((name, number(str(x), f"initial `{name}`")))
     columns = ["case", *values]
     for m in ms:
         columns += m.columns(coords)
@@ -532,13 +324,13 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
             raise SweepError("a Dask scheduler needs dask.distributed: "
                              "pip install 'lamech[dask]'") from None
     path = Path(out) if out is not None else None
-    table = _Table(path, columns)
+    table = Table(path, columns)
     done = table.read(cases, list(values)) if resume else {}
     todo = [i for i in range(len(cases)) if i not in done]
 
     t0 = time.perf_counter()
     token = uuid.uuid4().hex
-    from .numeric import compile_system
+    from ..numeric import compile_system
     ns = _COMPILED[token] = compile_system(system)   # checks the model; forked workers reuse it
     compile_seconds = time.perf_counter() - t0
     ns.parameter_vector(cases[0])     # overrides checked once, before any worker starts
@@ -570,6 +362,7 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
         results[row["case"]] = row
         table.append(row)
         run.ran += 1
+        run.ran_cases.append(row["case"])
         if bar is not None:
             bar(1)
 
@@ -682,64 +475,3 @@ def sweep(problem, params: Mapping[str, object], measures: Sequence[str] = ("lif
         return run.records()
 
 
-# ----- the picture ------------------------------------------------------------------------
-def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> None:
-    """A line plot per measure column over one swept parameter, a heat map over two."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    swept = [n for n, a in run.parameters.items() if len(a) > 1]
-    if len(swept) not in (1, 2):
-        raise SweepError(f"a picture needs 1 or 2 parameters with several values (got "
-                         f"{len(swept)}: {', '.join(swept) or 'none'})")
-    cols = []   # the columns that vary (a constant one, e.g. r at a slip, says nothing)
-    for c in run.measure_columns:
-        vals = np.array([r[c] for r in run.rows], dtype=float)
-        if np.any(np.isfinite(vals)) and np.nanmax(vals) != np.nanmin(vals):
-            cols.append(c)
-    cols = cols[:max_panels] or run.measure_columns[:1]
-    k = len(cols)
-    ncol = min(k, 3)
-    nrow = math.ceil(k / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
-    fixed = {n: float(a[0]) for n, a in run.parameters.items() if len(a) == 1}
-    for ax, c in zip(axes.flat, cols):
-        if len(swept) == 1:
-            x = np.array([r[swept[0]] for r in run.rows], dtype=float)
-            y = np.array([r[c] for r in run.rows], dtype=float)
-            order = np.argsort(x)
-            ax.plot(x[order], y[order], "o-", ms=3)
-            ax.set_xlabel(swept[0])
-            ax.set_ylabel(c)
-        else:
-            a, b = swept
-            xa, xb = run.parameters[a], run.parameters[b]
-            Z = np.full((len(xb), len(xa)), np.nan)
-            ia = {float(v): i for i, v in enumerate(xa)}
-            ib = {float(v): i for i, v in enumerate(xb)}
-            for r in run.rows:
-                Z[ib[r[b]], ia[r[a]]] = r[c]
-            mesh = ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_invalid(Z),
-                                 shading="flat")
-            fig.colorbar(mesh, ax=ax)
-            ax.set_xlabel(a)
-            ax.set_ylabel(b)
-        ax.set_title(c, fontsize=9)
-    for ax in list(axes.flat)[k:]:
-        ax.set_visible(False)
-    title = run.path.name if run.path else "sweep"
-    if fixed:
-        title += "  (" + ", ".join(f"{n} = {v:g}" for n, v in fixed.items()) + ")"
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def _edges(x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x, dtype=float)
-    if len(x) == 1:
-        return np.array([x[0] - 0.5, x[0] + 0.5])
-    mid = (x[1:] + x[:-1]) / 2
-    return np.concatenate(([2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]))

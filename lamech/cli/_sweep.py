@@ -4,23 +4,12 @@ stays instant)."""
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 
-from .cli_simulate import _positive_float
+from ._args import positive_float, positive_int
 
 __all__ = ["add_parser", "run"]
-
-
-def _positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1 (got {n})")
-    return n
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -42,7 +31,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         ":<constraint>), max:<series>, min:<series>, final:<series>; a "
                         "series is x, x', lambda:<constraint>, force:<constraint>:<dir>, "
                         "energy or residual (default: liftoff)")
-    s.add_argument("--t-end", type=_positive_float, required=True, metavar="T",
+    s.add_argument("--t-end", type=positive_float, required=True, metavar="T",
                    help="end time of every simulation (start at t = 0)")
     s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE",
                    help="set an initial coordinate (or velocity x') for every case; the "
@@ -52,20 +41,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "default: CSV on standard output")
     s.add_argument("--plot", metavar="PNG",
                    help="a line plot (one swept parameter) or heat maps (two)")
-    s.add_argument("--workers", type=_positive_int, metavar="N",
+    s.add_argument("--workers", type=positive_int, metavar="N",
                    help="local worker processes (default: the CPU count)")
     s.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on a Dask cluster (dask.distributed scheduler address, e.g. "
                         "tcp://host:8786)")
     s.add_argument("--resume", action="store_true",
                    help="keep the cases already in --out and run only the missing ones")
-    s.add_argument("--samples", type=_positive_int, default=1001, metavar="N",
+    s.add_argument("--samples", type=positive_int, default=1001, metavar="N",
                    help="output samples per run, for max/min/final (default %(default)s)")
-    s.add_argument("--rtol", type=_positive_float, default=None,
+    s.add_argument("--rtol", type=positive_float, default=None,
                    help="relative tolerance (default 1e-11)")
-    s.add_argument("--atol", type=_positive_float, default=None,
+    s.add_argument("--atol", type=positive_float, default=None,
                    help="absolute tolerance (default 1e-12)")
-    s.add_argument("--max-step", type=_positive_float, default=None,
+    s.add_argument("--max-step", type=positive_float, default=None,
                    help="largest integrator step (default: unlimited)")
     return s
 
@@ -73,9 +62,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args) -> int:
     """Run ``lamech sweep``; exit status 0 every case ok, 1 some case failed (the table
     says which and why), 2 bad input, 130 interrupted (rerun with --resume)."""
-    from .derive import DegenerateConstraintsError
-    from .problem import ProblemFileError
-    from .sweep import SweepError, parse_assignment, plot_sweep, run_sweep
+    from ..present import plot_sweep
+    from ..problem import ProblemFileError
+    from ..sweeps import SweepError, parse_assignment, run_sweep
+    from ..symbolic import DegenerateConstraintsError
 
     try:
         params = dict(parse_assignment(p, "--param") for p in args.param)
@@ -153,8 +143,8 @@ def _total(result) -> int:
 def _print_csv(result) -> None:
     import csv
 
-    from .sweep import _fmt
+    from ..sweeps import format_value
     w = csv.writer(sys.stdout, lineterminator="\n")
     w.writerow(result.columns)
     for row in result.rows:
-        w.writerow([_fmt(row[c]) for c in result.columns])
+        w.writerow([format_value(row[c]) for c in result.columns])

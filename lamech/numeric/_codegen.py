@@ -45,10 +45,12 @@ import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from .derive import Dynamics, dynamics as derive_dynamics
-from .model import System, contact_partial_velocities
+from ..linalg import cholesky_inplace, gauss_inplace
+from ..model import System, contact_partial_velocities
+from ..symbolic import Dynamics
+from ..symbolic import dynamics as derive_dynamics
 
-__all__ = ["NumericSystem", "compile_system", "numba_available"]
+__all__ = ["NumericSystem", "compile_system", "numba_available", "kkt_solve_numpy"]
 
 
 class _Printer(PythonCodePrinter):
@@ -153,7 +155,7 @@ class NumericSystem:
         return q0, v0
 
 
-def _kkt_solve_numpy(diagonal: bool):
+def kkt_solve_numpy(diagonal: bool):
     """solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows] with
     NumPy/LAPACK (NaN where singular): the KKT system of :func:`_make_kkt_solve`, by the
     Schur complement when M is diagonal with no zero entry and the KKT matrix is larger
@@ -192,7 +194,7 @@ def _kkt_kernel_numpy(dyn, diagonal: bool):
     """rhs(t, y, p, rows, slip_j, slip_k, slip_c) -> y': the state derivative from the
     KKT solve on the active ``rows``; a slipping friction row j on normal row k
     (position ``slip_k`` among ``rows``) adds ``mu_j * slip_c`` A_j^T to that column."""
-    solve = _kkt_solve_numpy(diagonal)
+    solve = kkt_solve_numpy(diagonal)
 
     def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
         n = y.shape[0] // 2
@@ -207,7 +209,7 @@ def _kkt_kernel_numpy(dyn, diagonal: bool):
 
 
 def _accelerations_numpy(dyn, diagonal: bool):
-    solve = _kkt_solve_numpy(diagonal)
+    solve = kkt_solve_numpy(diagonal)
     none = np.zeros(0, dtype=np.int64)
 
     def accelerations(t, y, p):
@@ -287,8 +289,8 @@ def _make_kkt_solve(njit, diagonal: bool, pattern=None):
     ``np.linalg.solve`` (LAPACK, with its copies to Fortran order) was measured slower
     than this elimination (8 x 8: 1.3 against 0.34 us; 24 x 24: 5.3 against 2.5 us).
     """
-    gauss = njit(_gauss_inplace_py)
-    cholesky = njit(_cholesky_inplace_py)
+    gauss = njit(gauss_inplace)
+    cholesky = njit(cholesky_inplace)
 
     def dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
         n = rhs.shape[0]
@@ -377,81 +379,6 @@ def _make_kkt_solve(njit, diagonal: bool, pattern=None):
         return out
 
     return njit(schur)
-
-
-def _cholesky_inplace_py(K, x):
-    """Solve K y = x in place for a symmetric positive definite K (x becomes y; the lower
-    triangle of K becomes L with K = L L^T). Row i of L starts where row i of K does (its
-    envelope), so a banded K costs O(N) band rows. Returns False, with x undefined, when
-    K is not positive definite to working precision."""
-    N = x.shape[0]
-    first = np.empty(N, dtype=np.int64)
-    for i in range(N):
-        f = 0
-        while f < i and K[i, f] == 0.0:
-            f += 1
-        first[i] = f
-        for j in range(f, i):
-            acc = K[i, j]
-            for k in range(max(f, first[j]), j):
-                acc -= K[i, k] * K[j, k]
-            K[i, j] = acc / K[j, j]
-        acc = K[i, i]
-        for k in range(f, i):
-            acc -= K[i, k] * K[i, k]
-        if not acc > 0.0:
-            return False
-        K[i, i] = math.sqrt(acc)
-    for i in range(N):             # L y = x
-        acc = x[i]
-        for k in range(first[i], i):
-            acc -= K[i, k] * x[k]
-        x[i] = acc / K[i, i]
-    for i in range(N - 1, -1, -1):  # L^T z = y
-        x[i] /= K[i, i]
-        for k in range(first[i], i):
-            x[k] -= K[i, k] * x[i]
-    return True
-
-
-def _gauss_inplace_py(K, x):
-    """Solve K y = x in place: x becomes y (NaN when K is singular), K is destroyed.
-    Gaussian elimination with partial pivoting; row operations stop at the pivot row's
-    last nonzero, so a banded K (a chain's Schur complement) costs O(N) rows of its band."""
-    N = x.shape[0]
-    for c in range(N):
-        piv = c
-        big = abs(K[c, c])
-        for i in range(c + 1, N):
-            if abs(K[i, c]) > big:
-                big = abs(K[i, c])
-                piv = i
-        if big == 0.0:
-            x[:] = np.nan
-            return
-        if piv != c:
-            for k in range(N):
-                tmp = K[c, k]
-                K[c, k] = K[piv, k]
-                K[piv, k] = tmp
-            tmp = x[c]
-            x[c] = x[piv]
-            x[piv] = tmp
-        last = N - 1         # the pivot row's last nonzero: banded matrices stay cheap
-        while K[c, last] == 0.0:
-            last -= 1
-        inv = 1.0 / K[c, c]
-        for i in range(c + 1, N):
-            if K[i, c] != 0.0:
-                f = K[i, c] * inv
-                for k in range(c, last + 1):
-                    K[i, k] -= f * K[c, k]
-                x[i] -= f * x[c]
-    for i in range(N - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, N):
-            s -= K[i, k] * x[k]
-        x[i] = s / K[i, i]
 
 
 def _rename(system: System):

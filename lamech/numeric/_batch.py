@@ -21,18 +21,22 @@ numbers, slowly.
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dop
-
-from .numeric import NumericSystem, _gauss_inplace_py, numba_available
+from ..linalg import gauss_inplace as _gauss
+from ._codegen import NumericSystem, numba_available
 
 __all__ = ["integrate_batch", "BatchResult"]
 
-_S = _dop.N_STAGES
-_A = np.ascontiguousarray(_dop.A[:_S, :_S])
-_B = np.ascontiguousarray(_dop.B)
-_C = np.ascontiguousarray(_dop.C[:_S])
-_E3 = np.ascontiguousarray(_dop.E3)
-_E5 = np.ascontiguousarray(_dop.E5)
+_S = 12
+"""DOP853's number of stages (checked against SciPy's table in :func:`_tableau`)."""
+
+
+def _tableau():
+    """SciPy's DOP853 coefficients (A, B, C, E3, E5), imported on first use."""
+    from scipy.integrate._ivp import dop853_coefficients as dop
+    assert dop.N_STAGES == _S
+    return (np.ascontiguousarray(dop.A[:_S, :_S]), np.ascontiguousarray(dop.B),
+            np.ascontiguousarray(dop.C[:_S]), np.ascontiguousarray(dop.E3),
+            np.ascontiguousarray(dop.E5))
 
 
 class BatchResult:
@@ -59,7 +63,7 @@ def _build(accel, cons, jit: bool):
     else:
         def njit(f):
             return f
-    gauss_inplace = njit(_gauss_inplace_py)
+    gauss_inplace = njit(_gauss)
 
     def gauss(K, r):
         x = r.copy()
@@ -235,7 +239,7 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     out = np.empty_like(Y0)
     steps = np.zeros(Y0.shape[0], dtype=np.int64)
     run_batch(Y0, P, float(t_end), float(rtol), float(atol), int(max_steps),
-              _A, _B, _C, _E3, _E5, out, steps)
+              *_tableau(), out, steps)
     lam = np.full((Y0.shape[0], ns.m), np.nan)
     n = ns.n
     for b in range(Y0.shape[0]):

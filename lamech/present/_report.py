@@ -10,7 +10,8 @@ import re
 
 import sympy as sp
 
-from .expr import to_text as _expr_text
+from ..expr import parse
+from ..expr import to_text as _expr_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
@@ -201,7 +202,6 @@ def to_latex(sol, standalone_math: bool = False) -> str:
             for r in roots:
                 lhs, rhs = r.equation.split(" = ", 1)
                 try:
-                    from .expr import parse
                     L = parse(lhs, sol.symbols, "output")
                     R = parse(rhs, sol.symbols, "output")
                     deg = f", {r.degrees:.2f}^\\circ" if r.degrees is not None else ""

@@ -7,6 +7,9 @@ import argparse
 import json
 import sys
 
+from ._simulate import add_parser as add_simulate  # light: argparse only
+from ._sweep import add_parser as add_sweep
+
 DEFAULT_PROBLEM = "cylinder"
 
 
@@ -25,9 +28,7 @@ def _parser() -> argparse.ArgumentParser:
     fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
     sub.add_parser("examples", help="list the bundled example problems")
-    from .cli_simulate import add_parser as add_simulate  # light: argparse only
     add_simulate(sub)
-    from .cli_sweep import add_parser as add_sweep  # light: argparse only
     add_sweep(sub)
     return p
 
@@ -36,19 +37,19 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(sys.argv[1:] if argv is None else argv)
     command = args.command or "solve"
     if command == "simulate":
-        from .cli_simulate import run
+        from ._simulate import run
         return run(args)
     if command == "sweep":
-        from .cli_sweep import run as run_sweep
+        from ._sweep import run as run_sweep
         return run_sweep(args)
     if command == "examples":
-        from .problem import example_names, load
+        from ..problem import example_names, example_title
         for name in example_names():
-            print(f"{name:<18} {load(name).title}")
+            print(f"{name:<18} {example_title(name)}")
         return 0
-    from .derive import DegenerateConstraintsError
-    from .problem import ProblemFileError, load
-    from .solve import solve
+    from ..present import to_json, to_latex, to_text
+    from ..problem import ProblemFileError, load
+    from ..symbolic import DegenerateConstraintsError, solve
     problem = getattr(args, "problem", DEFAULT_PROBLEM)
     try:
         solution = solve(load(problem))
@@ -59,11 +60,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"lamech: {problem}: {exc}", file=sys.stderr)
         return 2
     if getattr(args, "json", False):
-        print(json.dumps(solution.to_json(), indent=2, ensure_ascii=False))
+        print(json.dumps(to_json(solution), indent=2, ensure_ascii=False))
     elif getattr(args, "latex", False):
-        print(solution.to_latex(), end="")
+        print(to_latex(solution), end="")
     else:
-        print(solution.to_text(), end="")
+        print(to_text(solution), end="")
     return 0
 
 

@@ -1,4 +1,4 @@
-"""Animations of a :class:`~lamech.trajectory.Trajectory` (matplotlib, Agg backend).
+"""Animations of a :class:`~lamech.trajectory.Trajectory` (matplotlib).
 
 Everything drawn comes from the problem file, for any problem: each body by its
 ``shape`` (a circle with a radius line that turns with ``angle``, a rod along ``angle``,
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-__all__ = ["animate", "FORMATS"]
+__all__ = ["animate", "Scene", "FORMATS"]
 
 FORMATS = (".gif", ".mp4", ".html")
 _EVENT_COLOURS = {"lift-off": "tab:red", "contact": "tab:green", "impact": "tab:purple",
@@ -51,7 +51,7 @@ def _plane(points: np.ndarray) -> np.ndarray:
     return points[:, [0, 2]] if points.shape[1] == 3 else points[:, :2]
 
 
-class _Scene:
+class Scene:
     """Numbers for every frame, computed once: body poses, force arrows, contact tracks."""
 
     def __init__(self, traj, system, params, frames: np.ndarray):
@@ -127,9 +127,8 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     an extension other than .gif, .mp4, .html, or .mp4 without ffmpeg.
     """
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib import animation
+    from matplotlib.figure import Figure
     from matplotlib.patches import Circle, FancyArrowPatch
 
     path = Path(path)
@@ -147,9 +146,10 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
         raise ValueError("the trajectory has fewer than 2 samples: nothing to animate")
     count = int(min(len(traj.t), max(2, max_frames)))
     frames = np.unique(np.linspace(0, len(traj.t) - 1, count).round().astype(int))
-    scene = _Scene(traj, system, params, frames)
+    scene = Scene(traj, system, params, frames)
 
-    fig, ax = plt.subplots(figsize=(6.4, 6.4), dpi=dpi)
+    fig = Figure(figsize=(6.4, 6.4), dpi=dpi)   # no pyplot: the caller's backend stays
+    ax = fig.subplots()
     x0, x1, y0, y1 = scene.limits()
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
@@ -163,7 +163,7 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
 
     for name, track in scene.tracks:
         ax.plot(track[:, 0], track[:, 1], color="0.55", lw=3, alpha=0.6, zorder=1)
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     artists = []
     for i, (name, kind, size, pos, angle) in enumerate(scene.bodies):
         colour = colours[i % len(colours)]
@@ -229,13 +229,10 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
                                    blit=False)
-    try:
-        if suffix == ".gif":
-            anim.save(str(path), writer=animation.PillowWriter(fps=fps), dpi=dpi)
-        elif suffix == ".mp4":
-            anim.save(str(path), writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
-        else:
-            path.write_text(anim.to_jshtml(fps=fps, default_mode="once"), encoding="utf-8")
-    finally:
-        plt.close(fig)
+    if suffix == ".gif":
+        anim.save(str(path), writer=animation.PillowWriter(fps=fps), dpi=dpi)
+    elif suffix == ".mp4":
+        anim.save(str(path), writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
+    else:
+        path.write_text(anim.to_jshtml(fps=fps, default_mode="once"), encoding="utf-8")
     return path

@@ -38,12 +38,10 @@ from typing import Iterable, Sequence
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import DOP853, RK45, Radau
-from scipy.optimize import brentq
 
-from .model import Parameter, System
-from .numeric import NumericSystem, compile_system
-from .trajectory import Trajectory
+from ..model import Parameter, System
+from ._codegen import NumericSystem, compile_system
+from ._trajectory import Trajectory
 
 __all__ = ["simulate", "SimulationError", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 
@@ -52,7 +50,13 @@ DEFAULT_ATOL = 1e-12
 INITIAL_TOLERANCE = 1e-10
 BLOW_UP = 1e12
 """A run stops as failed when max(|q|, |q'|) exceeds BLOW_UP (1 + its size at the start)."""
-_METHODS = {"DOP853": DOP853, "RK45": RK45, "Radau": Radau}
+_METHODS = ("DOP853", "RK45", "Radau")
+"""SciPy's integrators by name (SciPy is imported when a simulation runs, not before)."""
+
+
+def _method(name: str):
+    import scipy.integrate
+    return getattr(scipy.integrate, name)
 
 
 class SimulationError(ValueError):
@@ -86,7 +90,7 @@ class _Engine:
         self.kernel = ns.rhs_kernel
         self.n, self.m = ns.n, ns.m
         self.rtol, self.atol, self.max_step = rtol, atol, max_step
-        self.method = _METHODS[method]
+        self.method = _method(method)
         sys_ = ns.system
         names = ns.constraint_names
         self.unilateral = np.array([c.unilateral for c in sys_.constraints], dtype=bool)
@@ -559,7 +563,7 @@ def _as_vector(value, names: list[str], what: str) -> np.ndarray | None:
     return arr
 
 
-def _check_options(t_end, t0, rtol, atol, max_step, samples, dt) -> None:
+def check_options(t_end, t0, rtol, atol, max_step, samples, dt) -> None:
     def bad(x):
         return not isinstance(x, (int, float, np.floating, np.integer)) or not math.isfinite(x)
     if bad(t_end) or bad(t0) or t_end <= t0:
@@ -610,7 +614,9 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
     trajectory computed so far is returned with ``status`` "failed" or "interrupted"
     and a ``message`` naming the time and cause.
     """
-    _check_options(t_end, t0, rtol, atol, max_step, samples, dt)
+    from scipy.optimize import brentq as _brentq
+
+    check_options(t_end, t0, rtol, atol, max_step, samples, dt)
     if method not in _METHODS:
         raise SimulationError(f"unknown method {method!r}; one of {', '.join(_METHODS)}")
     if params and not isinstance(system, NumericSystem):
@@ -720,7 +726,7 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
                         def g(s, i=i):
                             return eng.event_values(s, dense(s))[i]
                         try:
-                            r = brentq(g, t_a, t_b, xtol=1e-15 * max(1.0, abs(t_b)),
+                            r = _brentq(g, t_a, t_b, xtol=1e-15 * max(1.0, abs(t_b)),
                                        rtol=4 * np.finfo(float).eps, maxiter=200)
                         except ValueError:
                             r = t_b

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from .model import System, time_derivative
+from ..model import System, constraint_jacobian, dependent_group, numeric_matrix
 
 __all__ = ["Dynamics", "dynamics", "dependent_constraints", "kkt_numeric",
            "DegenerateConstraintsError"]
@@ -57,21 +57,6 @@ class Dynamics:
     equations: tuple[sp.Expr, ...]
 
 
-def velocity_form(system: System, constraint) -> sp.Expr:
-    """F_j: df/dt for a holonomic constraint, g for a velocity constraint."""
-    if constraint.holonomic:
-        return time_derivative(constraint.expr, system)
-    return constraint.expr
-
-
-def constraint_jacobian(system: System) -> tuple[sp.Matrix, sp.Matrix]:
-    """(A, F): A = dF/dq' (m, n) and the velocity forms F (m, 1)."""
-    F = sp.Matrix([velocity_form(system, c) for c in system.constraints])
-    if not system.constraints:
-        return sp.zeros(0, len(system.coordinates)), F
-    return F.jacobian(sp.Matrix(system.qd)), F
-
-
 def dynamics(system: System) -> Dynamics:
     """Derive M, h, Q, A, gamma and the Euler-Lagrange equations (pure, no simplification)."""
     q, qd, qdd = system.q, system.qd, system.qdd
@@ -96,61 +81,6 @@ def dynamics(system: System) -> Dynamics:
     return Dynamics(system, M, h, Q, A, gamma, F, tuple(lhs))
 
 
-def _numeric_matrix(expr: sp.Matrix, env: dict) -> np.ndarray:
-    # xreplace with numbers, not subs: subs re-simplifies at every node (10 s for the
-    # 30-link chain's A against 0.1 s).
-    values = {s: sp.Float(v, 30) if not isinstance(v, sp.Basic) else v for s, v in env.items()}
-    return np.array(expr.xreplace(values).evalf(), dtype=float)
-
-
-def dependent_constraints(system: System) -> list[tuple[tuple[str, ...], bool]]:
-    """Groups of constraints whose rows of A are linearly dependent.
-
-    A is evaluated at the initial state and at two seeded random states; a group that
-    is dependent at the random states is redundant, one dependent only at the initial
-    state marks a singular configuration (flag True).
-    """
-    if not system.constraints:
-        return []
-    A, _ = constraint_jacobian(system)
-    names = [c.name for c in system.constraints]
-    pv = system.parameter_values
-    init = {s: sp.sympify(e).subs(pv) for s, e in system.initial_state.items()}
-    rng = np.random.default_rng(7)
-    envs = [{**pv, **init, system.t: 0.0}]
-    for _ in range(2):
-        envs.append({**pv, system.t: float(rng.uniform(0.1, 1.0)),
-                     **{s: float(v) + float(rng.uniform(-0.3, 0.3)) for s, v in init.items()}})
-    groups = []
-    for k, env in enumerate(envs):
-        try:
-            a = _numeric_matrix(A, env)
-        except (TypeError, ValueError):
-            continue
-        group = _dependent_group(a, names)
-        if group:
-            groups.append((group, k == 0))
-    if not groups:
-        return []
-    random_groups = [g for g, first in groups if not first]
-    if random_groups:
-        return [(random_groups[0], False)]
-    return [groups[0]]
-
-
-def _dependent_group(a: np.ndarray, names: list[str]) -> tuple[str, ...] | None:
-    """Names of the constraints in one linear dependency among the rows of ``a``."""
-    scale = max(1.0, float(np.abs(a).max(initial=0.0)))
-    u, s, vt = np.linalg.svd(a.T, full_matrices=True)
-    tol = 1e-9 * scale * max(a.shape)
-    rank = int((s > tol).sum())
-    if rank == a.shape[0]:
-        return None
-    null = vt[rank:] if vt.shape[0] > rank else vt[-1:]
-    combo = null[0]
-    return tuple(n for n, c in zip(names, combo) if abs(c) > 1e-6)
-
-
 def kkt_numeric(dyn: Dynamics, state: dict, active: list[int] | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Solve the KKT system numerically at ``state`` (symbols -> numbers, parameters too).
@@ -164,10 +94,10 @@ def kkt_numeric(dyn: Dynamics, state: dict, active: list[int] | None = None
     """
     n = len(dyn.system.coordinates)
     rows = list(range(dyn.A.rows)) if active is None else list(active)
-    M = _numeric_matrix(dyn.M, state)
-    A = _numeric_matrix(dyn.A, state).reshape(dyn.A.rows, n)[rows]
-    rhs_top = _numeric_matrix(dyn.Q - dyn.h, state).reshape(n)
-    g = _numeric_matrix(dyn.gamma, state).reshape(dyn.A.rows)[rows] if rows else np.zeros(0)
+    M = numeric_matrix(dyn.M, state)
+    A = numeric_matrix(dyn.A, state).reshape(dyn.A.rows, n)[rows]
+    rhs_top = numeric_matrix(dyn.Q - dyn.h, state).reshape(n)
+    g = numeric_matrix(dyn.gamma, state).reshape(dyn.A.rows)[rows] if rows else np.zeros(0)
     m = len(rows)
     K = np.zeros((n + m, n + m))
     K[:n, :n] = M
@@ -183,7 +113,7 @@ def kkt_numeric(dyn: Dynamics, state: dict, active: list[int] | None = None
 
 def _singular_message(dyn: Dynamics, M: np.ndarray, A: np.ndarray, rows: list[int]) -> str:
     names = [dyn.system.constraints[i].name for i in rows]
-    group = _dependent_group(A, names) if rows else None
+    group = dependent_group(A, names) if rows else None
     if group:
         return ("constraints " + " and ".join(f"`{n}`" for n in group)
                 + " are dependent: forces cannot be uniquely determined")

@@ -1,0 +1,7 @@
+"""``python -m lamech``: the ``lamech`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

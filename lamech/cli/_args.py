@@ -1,0 +1,66 @@
+"""Argument types shared by the subcommands (argparse only: light to import)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+__all__ = ["positive_float", "positive_int", "samples", "assignment", "evaluate_assignments"]
+
+
+def positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(x) or x <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive finite number (got {text})")
+    return x
+
+
+def samples(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if n < 2:
+        raise argparse.ArgumentTypeError("--samples counts both ends: at least 2")
+    return n
+
+
+def assignment(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"{text!r}: write NAME=VALUE, e.g. theta1=0.01")
+    return name.strip(), value.strip()
+
+
+def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:
+    """{name: value} from NAME=VALUE pairs; each VALUE a number or an expression of the
+    problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
+    evaluated at ``env`` (default: the file's parameter values)."""
+    from ..expr import ExpressionError, parse
+    names = {p.name: p.symbol for p in system.parameters}
+    env = system.parameter_values if env is None else env
+    out = {}
+    for name, text in pairs:
+        try:
+            value = float(parse(text, names, f"{option} {name}").xreplace(env).evalf())
+        except ExpressionError as exc:
+            raise ValueError(f"{option} {name}={text}: {exc.message}") from None
+        except TypeError:
+            raise ValueError(f"{option} {name}={text}: not a real number") from None
+        if not math.isfinite(value):
+            raise ValueError(f"{option} {name}={text}: not a finite number")
+        out[name] = value
+    return out
+
+
+def positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 (got {n})")
+    return n

@@ -1,0 +1,23 @@
+"""The model: a constrained mechanical system as plain frozen data, and what is true of it.
+
+The canonical equations, stated once (see :mod:`lamech.model._system`)::
+
+    d/dt dL/dq'_r - dL/dq_r - sum_j lambda_j dF_j/dq'_r = Q^nc_r      (r = 1..n)
+
+with F_j = df_j/dt for a holonomic constraint f_j(q, t) = 0 and F_j = g_j for a
+velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
+lambda_j >= 0 pushes the system back.
+"""
+
+from ._checks import (INITIAL_TOLERANCE, dependent_constraints, dependent_group,
+                      initial_values, numeric_matrix, open_at_start, probe_states, value)
+from ._kinematics import (body_energy, constraint_jacobian, contact_partial_velocities,
+                          partial_velocities, time_derivative, velocity_form)
+from ._system import (Body, Constraint, Coordinate, ForceSpec, Friction, ModelError, Parameter,
+                      System)
+
+__all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body", "System", "ModelError",
+           "time_derivative", "body_energy", "partial_velocities", "contact_partial_velocities",
+           "velocity_form", "constraint_jacobian", "INITIAL_TOLERANCE", "value",
+           "numeric_matrix", "initial_values", "probe_states", "open_at_start",
+           "dependent_constraints", "dependent_group"]

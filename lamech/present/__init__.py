@@ -1,0 +1,44 @@
+"""Presenting results: the only layer that formats or draws.
+
+:func:`to_text`, :func:`to_latex` and :func:`to_json` take a
+:class:`~lamech.symbolic.Solution` (the ``lamech solve`` report) or, for text and JSON, a
+:class:`~lamech.numeric.Trajectory` (the ``lamech simulate`` summary). Plots and
+animations use matplotlib (imported when one is drawn; the backend is chosen by the
+caller: the CLI selects Agg, a notebook keeps its own).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ._animate import FORMATS, Scene, animate
+from ._plot import plot_trajectory
+from ._report import CONVENTION
+from ._report import to_json as _solution_json
+from ._report import to_latex as _solution_latex
+from ._report import to_text as _solution_text
+from ._sweep_plot import plot_sweep
+from ._trajectory import trajectory_csv, trajectory_text
+
+__all__ = ["to_text", "to_latex", "to_json", "trajectory_csv", "plot_trajectory",
+           "plot_sweep", "animate", "Scene", "FORMATS", "CONVENTION"]
+
+
+def _is_trajectory(obj: Any) -> bool:
+    from ..numeric import Trajectory
+    return isinstance(obj, Trajectory)
+
+
+def to_text(result: Any) -> str:
+    """The readable report of a Solution, or the summary of a Trajectory."""
+    return trajectory_text(result) if _is_trajectory(result) else _solution_text(result)
+
+
+def to_json(result: Any) -> dict:
+    """The ``--json`` object of a Solution (schema in the README) or a Trajectory."""
+    return result.summary() if _is_trajectory(result) else _solution_json(result)
+
+
+def to_latex(result: Any, standalone_math: bool = False) -> str:
+    """A LaTeX fragment (amsmath ``align*``) of a Solution's main results."""
+    return _solution_latex(result, standalone_math=standalone_math)

@@ -1,0 +1,73 @@
+"""Pictures of a sweep: a line plot per measure over one swept parameter, heat maps over two."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from ..sweeps import SweepError, SweepRun
+
+__all__ = ["plot_sweep"]
+
+
+def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> None:
+    """A line plot per measure column over one swept parameter, a heat map over two."""
+    from matplotlib.figure import Figure   # no pyplot: the caller's backend is untouched
+
+    swept = [n for n, a in run.parameters.items() if len(a) > 1]
+    if len(swept) not in (1, 2):
+        raise SweepError(f"a picture needs 1 or 2 parameters with several values (got "
+                         f"{len(swept)}: {', '.join(swept) or 'none'})")
+    cols = []   # the columns that vary (a constant one, e.g. r at a slip, says nothing)
+    for c in run.measure_columns:
+        vals = np.array([r[c] for r in run.rows], dtype=float)
+        if np.any(np.isfinite(vals)) and np.nanmax(vals) != np.nanmin(vals):
+            cols.append(c)
+    cols = cols[:max_panels] or run.measure_columns[:1]
+    k = len(cols)
+    ncol = min(k, 3)
+    nrow = math.ceil(k / ncol)
+    fig = Figure(figsize=(4.6 * ncol, 3.6 * nrow))
+    axes = fig.subplots(nrow, ncol, squeeze=False)
+    fixed = {n: float(a[0]) for n, a in run.parameters.items() if len(a) == 1}
+    for ax, c in zip(axes.flat, cols):
+        if len(swept) == 1:
+            x = np.array([r[swept[0]] for r in run.rows], dtype=float)
+            y = np.array([r[c] for r in run.rows], dtype=float)
+            order = np.argsort(x)
+            ax.plot(x[order], y[order], "o-", ms=3)
+            ax.set_xlabel(swept[0])
+            ax.set_ylabel(c)
+        else:
+            a, b = swept
+            xa, xb = run.parameters[a], run.parameters[b]
+            Z = np.full((len(xb), len(xa)), np.nan)
+            ia = {float(v): i for i, v in enumerate(xa)}
+            ib = {float(v): i for i, v in enumerate(xb)}
+            for r in run.rows:
+                Z[ib[r[b]], ia[r[a]]] = r[c]
+            mesh = ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_invalid(Z),
+                                 shading="flat")
+            fig.colorbar(mesh, ax=ax)
+            ax.set_xlabel(a)
+            ax.set_ylabel(b)
+        ax.set_title(c, fontsize=9)
+    for ax in list(axes.flat)[k:]:
+        ax.set_visible(False)
+    title = run.path.name if run.path else "sweep"
+    if fixed:
+        title += "  (" + ", ".join(f"{n} = {v:g}" for n, v in fixed.items()) + ")"
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def _edges(x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    if len(x) == 1:
+        return np.array([x[0] - 0.5, x[0] + 0.5])
+    mid = (x[1:] + x[:-1]) / 2
+    return np.concatenate(([2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]))
+

@@ -1,0 +1,61 @@
+"""A :class:`~lamech.numeric.Trajectory` as text (the summary ``lamech simulate`` prints)
+and as CSV (17 significant digits, both ends of the run)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+__all__ = ["trajectory_text", "trajectory_csv"]
+
+
+def _fmt(x: float) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "nan"
+    return f"{float(x):.17g}"
+
+
+def _g(x) -> str:
+    return "n/a" if x is None else f"{x:.3g}"
+
+
+def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
+    """Write the CSV of ``traj.columns()`` to ``path``; return the text when None."""
+    cols = traj.columns()
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([name for name, _ in cols])
+    for k in range(len(traj.t)):
+        w.writerow([_fmt(arr[k]) for _, arr in cols])
+    text = buf.getvalue()
+    if path is None:
+        return text
+    Path(path).write_text(text, encoding="utf-8")
+    return None
+
+
+def trajectory_text(traj) -> str:
+    """The readable summary of a run: status, events, final state, residuals, energy."""
+    s = traj.summary()
+    lines = [f"{traj.title}" if traj.title else "simulation",
+             f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
+             f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
+             f"{s['evaluations']} dynamics evaluations, {s['samples']} samples"]
+    for note in s["notes"]:
+        lines.append(f"  note: {note}")
+    lines.append(f"  events: {len(s['events'])}")
+    for e in s["events"]:
+        coords = ", ".join(f"{k} = {v:.10g}" for k, v in e["coordinates"].items()
+                           if not k.endswith("'"))
+        lines.append(f"    t = {e['t']:.12g}  {e['kind']:<8} {e['constraint']}: {coords}")
+    lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}"
+                                               for k, v in s["final"].items()))
+    lines.append(f"  max residual: |f| {_g(s['max_residual_position'])}, "
+                 f"|f'| {_g(s['max_residual_velocity'])}"
+                 f" (largest projection {_g(s['max_projection'])})")
+    ee = s["energy_error"]
+    lines.append("  energy error: " + (_g(ee) + " (relative)" if ee is not None else
+                                       "n/a (driven, time-dependent or dissipative)"))
+    return "\n".join(lines) + "\n"

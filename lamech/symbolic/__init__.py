@@ -1,0 +1,21 @@
+"""The symbolic layer: derivation (M, h, A, gamma, the KKT system), elimination of
+constrained coordinates, closed forms of the accelerations and multipliers, first
+integrals and the energy shell, where a constraint lets go or slips, and the
+generalized and Cartesian constraint forces; all gathered by :func:`solve` into a frozen
+:class:`Solution`. Every function here is a pure function of a
+:class:`~lamech.model.System`; the sign convention is stated in :mod:`lamech.model`.
+"""
+
+from ._conditions import Root, is_angle, slip_points, vanishing_points
+from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
+from ._forces import cartesian_forces, generalized_forces
+from ._integrals import Integrals, Shell, energy_shell, integrals
+from ._reduce import (CLOSED_FORM_LIMIT, KKT_OPS, READABLE_OPS, ClosedForms, Reduction,
+                      closed_forms, eliminate, tidy)
+from ._solution import Solution, solve
+
+__all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError", "Reduction",
+           "eliminate", "ClosedForms", "closed_forms", "tidy", "CLOSED_FORM_LIMIT", "KKT_OPS",
+           "READABLE_OPS", "Integrals", "integrals", "Shell", "energy_shell", "Root",
+           "vanishing_points", "slip_points", "is_angle", "generalized_forces",
+           "cartesian_forces", "Solution", "solve"]

@@ -1,0 +1,72 @@
+"""The shape of the package: the layer order holds (import-linter, module- and
+function-level imports), the command line starts without the heavy libraries, and the
+tests use only public names."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("sympy", "numpy", "scipy", "matplotlib", "numba")
+
+
+def _loaded_after(code: str) -> list[str]:
+    """The heavy top-level packages a fresh interpreter has imported after ``code``."""
+    probe = (f"{code}\nimport sys, json\n"
+             f"print(json.dumps(sorted(m for m in sys.modules if m in {HEAVY!r})))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         cwd=ROOT, check=True)
+    return json.loads(out.stdout.splitlines()[-1])
+
+
+def test_layers_are_kept():
+    exe = shutil.which("lint-imports", path=str(Path(sys.executable).parent))
+    if exe is None:
+        pytest.skip("import-linter is not installed (it is in the test extra)")
+    out = subprocess.run([exe, "--no-cache"], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "1 kept, 0 broken" in out.stdout
+
+
+def test_the_command_line_starts_without_heavy_imports():
+    quiet = ("import contextlib, io, lamech.cli\n"
+             "with contextlib.redirect_stdout(io.StringIO()):\n"
+             "    try:\n        lamech.cli.main({args})\n"
+             "    except SystemExit:\n        pass")
+    assert _loaded_after(quiet.format(args="['--help']")) == []
+    assert _loaded_after(quiet.format(args="['examples']")) == []
+    assert _loaded_after(quiet.format(args="['simulate', '--help']")) == []
+
+
+def test_import_lamech_is_light_and_solve_needs_no_plotting():
+    assert _loaded_after("import lamech") == []
+    loaded = _loaded_after("import lamech; lamech.solve(lamech.load('pendulum'))")
+    assert "matplotlib" not in loaded and "numba" not in loaded
+    assert {"sympy", "numpy"} <= set(loaded)
+
+
+def test_examples_lists_every_bundled_problem_with_its_title():
+    import lamech
+    out = subprocess.run([sys.executable, "-m", "lamech", "examples"], capture_output=True,
+                         text=True, cwd=ROOT)
+    assert out.returncode == 0
+    names = [line.split()[0] for line in out.stdout.splitlines()]
+    assert names == lamech.example_names()
+    assert "cylinder           Solid cylinder rolling on a fixed cylinder" in out.stdout
+
+
+def test_tests_use_public_names_only():
+    private = re.compile(r"from lamech[\w.]* import [^\n#]*\b_(?!_)\w|lamech(\.\w+)*\._(?!_)\w|"
+                         r"import lamech[\w.]*\._(?!_)|from bench[\w.]* import [^\n#]*\b_(?!_)\w")
+    for path in sorted((ROOT / "tests").glob("*.py")):
+        if path.name == "test_layout.py":
+            continue
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            assert not private.search(line), f"{path.name}:{number}: {line.strip()}"
