@@ -352,8 +352,8 @@ def _parse_or_error(text: str) -> None:
         result = parse(text, NAMES, "V")
     except ExpressionError as e:
         assert isinstance(e.message, str) and e.message
-        # column >= 1 is the contract; 0 is a known bug (test_syntax_error_column_at_end).
-        assert e.column is None or (isinstance(e.column, int) and e.column >= 0)
+        # the column is 1-based (or None when no position applies)
+        assert e.column is None or (isinstance(e.column, int) and e.column >= 1)
     else:
         assert isinstance(result, sp.Basic)
     assert time.perf_counter() - start < SLOW.total_seconds()
