@@ -50,7 +50,14 @@ _PUBLIC = {
     "plot_trajectory": "present", "animate": "present",
 }
 
-__all__ = sorted(_PUBLIC) + ["__version__"]
+__all__ = [
+    "Body", "Constraint", "Coordinate", "DegenerateConstraintsError", "Dynamics",
+    "ExpressionError", "ForceSpec", "Friction", "ModelError", "Parameter",
+    "ProblemFileError", "SimulationError", "Solution", "SweepError", "System", "Trajectory",
+    "animate", "compile_system", "dynamics", "example_names", "from_dict",
+    "integrate_batch", "load", "loads", "plot_trajectory", "run_sweep", "simulate", "solve",
+    "sweep", "to_json", "to_latex", "to_text", "__version__",
+]
 
 
 _LAYERS = ("cli", "present", "sweeps", "numeric", "symbolic", "problem", "model", "expr",
@@ -74,10 +81,17 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from .expr import ExpressionError
-    from .model import (Body, Constraint, Coordinate, ForceSpec, Friction, ModelError,
-                        Parameter, System)
-    from .numeric import (SimulationError, Trajectory, compile_system, integrate_batch,
-                          simulate)
+    from .model import (
+        Body,
+        Constraint,
+        Coordinate,
+        ForceSpec,
+        Friction,
+        ModelError,
+        Parameter,
+        System,
+    )
+    from .numeric import SimulationError, Trajectory, compile_system, integrate_batch, simulate
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
     from .sweeps import SweepError, run_sweep, sweep

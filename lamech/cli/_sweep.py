@@ -4,6 +4,7 @@ stays instant)."""
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 

@@ -192,7 +192,8 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for k, v in sol.multipliers.items():
         add("multiplier", names[sol.system.constraint(k).multiplier], _tex(v, names))
     if sol.energy is not None:
-        add("Jacobi integral" if sol.integrals.is_jacobi else "energy", "E", _tex(sol.energy, names))
+        label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
+        add(label, "E", _tex(sol.energy, names))
     if sol.shell is not None:
         for k, v in sol.shell.multipliers.items():
             add("on the energy shell", names[sol.system.constraint(k).multiplier],

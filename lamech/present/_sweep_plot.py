@@ -14,7 +14,7 @@ __all__ = ["plot_sweep"]
 
 def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> None:
     """A line plot per measure column over one swept parameter, a heat map over two."""
-    from matplotlib.figure import Figure   # no pyplot: the caller's backend is untouched
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend is untouched
 
     swept = [n for n, a in run.parameters.items() if len(a) > 1]
     if len(swept) not in (1, 2):

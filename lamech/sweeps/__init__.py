@@ -3,8 +3,16 @@ system, a few numbers measured per case, one row per case; in this process, on l
 worker processes, or on a Dask cluster, with resume (see :mod:`lamech.sweep._run`).
 """
 
-from ._parse import (EVENT_MEASURES, MAX_CASES, SERIES_MEASURES, Measure, SweepError,
-                     parse_assignment, parse_measure, parse_values)
+from ._parse import (
+                     EVENT_MEASURES,
+                     MAX_CASES,
+                     SERIES_MEASURES,
+                     Measure,
+                     SweepError,
+                     parse_assignment,
+                     parse_measure,
+                     parse_values,
+)
 from ._run import SweepRun, run_sweep, sweep, sweepable_names
 from ._table import format_value
 

@@ -10,8 +10,16 @@ from ._conditions import Root, is_angle, slip_points, vanishing_points
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._reduce import (CLOSED_FORM_LIMIT, KKT_OPS, READABLE_OPS, ClosedForms, Reduction,
-                      closed_forms, eliminate, tidy)
+from ._reduce import (
+                      CLOSED_FORM_LIMIT,
+                      KKT_OPS,
+                      READABLE_OPS,
+                      ClosedForms,
+                      Reduction,
+                      closed_forms,
+                      eliminate,
+                      tidy,
+)
 from ._solution import Solution, solve
 
 __all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError", "Reduction",

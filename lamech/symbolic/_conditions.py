@@ -67,7 +67,7 @@ def _numeric(system: System, expr: sp.Expr, x: sp.Symbol):
 
 def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
     """The reached range as ordered (start, end) segments; see module docstring."""
-    from scipy.optimize import brentq   # SciPy on use: `import lamech` stays light
+    from scipy.optimize import brentq  # SciPy on use: `import lamech` stays light
 
     coord = shell.coordinate
     pv = system.parameter_values
