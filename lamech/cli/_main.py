@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from ._simulate import add_parser as add_simulate  # light: argparse only
@@ -34,7 +35,22 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(sys.argv[1:] if argv is None else argv)
+    """Run ``lamech`` with ``argv`` (default: the command line); return the exit status.
+
+    A reader that closes the pipe early (``lamech examples | head -1``) ends the command
+    quietly, as ``cat`` would: no traceback, exit status 141 (128 + SIGPIPE).
+    """
+    try:
+        return _dispatch(_parser().parse_args(sys.argv[1:] if argv is None else argv))
+    except BrokenPipeError:
+        # Python's recipe: point stdout at /dev/null so that the interpreter's final
+        # flush does not raise a second BrokenPipeError on the way out.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+
+
+def _dispatch(args: argparse.Namespace) -> int:
     command = args.command or "solve"
     if command == "simulate":
         from ._simulate import run

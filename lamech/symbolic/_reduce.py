@@ -20,6 +20,11 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+try:  # SymPy >= 1.13 keeps it here, and no longer at the top level
+    from sympy.matrices.exceptions import NonInvertibleMatrixError
+except ImportError:  # pragma: no cover - SymPy 1.12
+    from sympy.matrices.common import NonInvertibleMatrixError
+
 from ..model import Coordinate, System, open_at_start, time_derivative
 from ._derive import Dynamics
 
@@ -218,6 +223,7 @@ class ClosedForms:
     accelerations: dict          # Symbol (independent acceleration) -> Expr
     multipliers: dict            # constraint name -> Expr
     skipped: str | None = None   # why closed forms were not attempted
+    singular: bool = False       # the KKT matrix is singular identically
 
 
 def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
@@ -243,8 +249,9 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     rhs = rhs.applyfunc(_pre)
     try:
         sol = _solve_linear(K, rhs)
-    except (ValueError, ZeroDivisionError, sp.NonInvertibleMatrixError):
-        return ClosedForms({}, {}, "the substituted KKT matrix is singular symbolically")
+    except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):
+        return ClosedForms({}, {}, "the substituted KKT matrix is singular symbolically",
+                           singular=True)
     sol = [tidy(s) for s in sol]
     biggest = max((sp.count_ops(s) for s in sol), default=0)
     if biggest > READABLE_OPS:
@@ -271,7 +278,7 @@ def _solve_linear(K: sp.Matrix, rhs: sp.Matrix) -> list[sp.Expr]:
     if n <= 3:
         det = sp.cancel(K.det(method="berkowitz"))
         if det == 0:
-            raise sp.NonInvertibleMatrixError("singular")
+            raise NonInvertibleMatrixError("singular")
         adj = K.adjugate(method="berkowitz")
         return list((adj * rhs).applyfunc(lambda e: sp.cancel(e / det)))
     return list(K.LUsolve(rhs).applyfunc(_pre))

@@ -113,6 +113,8 @@ def solve(system: System) -> Solution:
     ints = integrals(dyn, red)
     notes = list(system.notes) + list(red.notes)
     initial = {}
+    if forms.singular:
+        raise DegenerateConstraintsError(_singular_message(system, dyn))
     if forms.skipped:
         notes.append(forms.skipped + "; M, h, A, gamma are given and the multipliers are "
                      "evaluated numerically at the initial state")
@@ -147,3 +149,22 @@ def solve(system: System) -> Solution:
     cart = cartesian_forces(dyn, red, forms.multipliers)
     return Solution(system, dyn, red, forms, ints, shell, why, vanishes, slips, gen, cart,
                     initial, tuple(notes))
+
+
+def _singular_message(system: System, dyn: Dynamics) -> str:
+    """Why the KKT matrix is singular, naming what to fix: a coordinate whose velocity is
+    missing from T (the commonest typo: theta^2 for theta'^2), else the dependent
+    constraints or the motion without inertia found at the initial state."""
+    state = {**system.parameter_values, system.t: 0.0, **initial_values(system)}
+    try:
+        kkt_numeric(dyn, state)
+        detail = "the KKT matrix is singular for every state"
+    except DegenerateConstraintsError as exc:
+        detail = str(exc)
+    missing = [c for c in system.coordinates if not system.T.has(c.velocity)]
+    if missing:
+        names = ", ".join(f"`{c.name}'`" for c in missing)
+        detail += (f"; {names} does not appear in T, so nothing gives "
+                   f"`{missing[0].name}` inertia: check T for a missing prime "
+                   f"(e.g. {missing[0].name}'^2 where {missing[0].name}^2 was written)")
+    return "the equations of motion cannot be solved for the accelerations: " + detail
