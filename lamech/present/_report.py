@@ -10,7 +10,7 @@ import re
 
 import sympy as sp
 
-from ..expr import parse
+from ..expr import ExpressionError, parse
 from ..expr import to_text as _expr_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
@@ -56,6 +56,8 @@ def to_json(sol) -> dict:
         out["on_energy_shell"] = {k: _t(v) for k, v in sol.shell.multipliers.items()}
     out["vanishes"] = {k: [r.to_json() for r in v] for k, v in sol.vanishes.items()}
     out["slips"] = {k: [r.to_json() for r in v] for k, v in sol.slips.items()}
+    out["lets_go"] = {k: v.to_json() for k, v in sol.lets_go.items()}
+    out["slipping"] = {k: v.to_json() for k, v in sol.slipping.items()}
     out["generalized_forces"] = {k: {q: _t(e) for q, e in v.items()}
                                  for k, v in sol.generalized_forces.items()}
     out["forces"] = {k: {d: _json_expr(e) for d, e in v.items()} for k, v in sol.forces.items()}
@@ -68,6 +70,31 @@ def to_json(sol) -> dict:
 def _root_text(r) -> str:
     deg = f" ({r.degrees:.2f}°)" if r.degrees is not None else ""
     return f"{r.equation}:  {r.coordinate} = {r.value:.10g}{deg}"
+
+
+def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
+    """The answer per constraint: at the start, never (with the reason), the roots in the
+    order the motion meets them, or not determined; the parameter condition and a hint
+    where they help."""
+    lines = []
+    for k, roots in table.items():
+        v = verdicts.get(k)
+        pad = " " * len(k)
+        if v is not None and (v.when == "at the start" or v.constant):
+            lines.append(f"  {k}: {v.when} ({v.reason})")
+            if v.condition and (v.when == "at the start" or v.kind == "slips"):
+                holds = "sticks" if v.kind == "slips" else "stays on"
+                lines.append(f"  {pad}  {holds} at the start while {v.condition}")
+            if v.hint:
+                lines.append(f"  {pad}  note: {v.hint}")
+        elif roots:
+            lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
+            lines += [f"  {pad}  later, had it still held: {_root_text(r)}" for r in roots[1:]]
+        elif sol.shell:
+            lines.append(f"  {k}: never in the range the motion reaches")
+        else:
+            lines.append(f"  {k}: not determined ({sol.shell_reason})")
+    return lines
 
 
 def to_text(sol) -> str:
@@ -122,25 +149,10 @@ def to_text(sol) -> str:
         lines += [f"  lambda_{k}: omitted, {why}" for k, why in sh.omitted.items()]
     if sol.vanishes:
         lines += ["", "Where a unilateral constraint lets go (lambda = 0)"]
-        for k, roots in sol.vanishes.items():
-            if roots:
-                lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
-                lines += [f"  {' ' * len(k)}  later, had it still held: {_root_text(r)}"
-                          for r in roots[1:]]
-            else:
-                why = "" if sol.shell else f" ({sol.shell_reason})"
-                lines.append(f"  {k}: never in the range the motion reaches{why}"
-                             if sol.shell else f"  {k}: not determined{why}")
+        lines += _condition_lines(sol, sol.vanishes, sol.lets_go)
     if sol.slips:
         lines += ["", "Where a friction constraint starts to slip (|lambda| = mu lambda_normal)"]
-        for k, roots in sol.slips.items():
-            if roots:
-                lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
-                lines += [f"  {' ' * len(k)}  later, had it still held: {_root_text(r)}"
-                          for r in roots[1:]]
-            else:
-                lines.append(f"  {k}: never in the range the motion reaches" if sol.shell
-                             else f"  {k}: not determined ({sol.shell_reason})")
+        lines += _condition_lines(sol, sol.slips, sol.slipping)
     if sol.generalized_forces:
         lines += ["", "Generalized constraint forces Q^(j) = lambda_j df_j/dq"]
         for k, comps in sol.generalized_forces.items():
@@ -173,6 +185,11 @@ def _latex_names(sol) -> dict:
     return names
 
 
+def _tex_text(text: str) -> str:
+    """Plain text for LaTeX's \\text{}: special characters escaped."""
+    return re.sub(r"([#$%&_{}])", r"\\\1", text).replace("^", r"\^{}")
+
+
 def _tex(expr, names) -> str:
     return sp.latex(expr, symbol_names=names)
 
@@ -183,7 +200,7 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     rows: list[str] = []
 
     def add(label: str, lhs: str, rhs: str) -> None:
-        rows.append(rf"{lhs} &= {rhs} && \text{{{label}}}")
+        rows.append(rf"{lhs} &= {rhs} && \text{{{_tex_text(label)}}}")
 
     for name, e in zip(sol.coordinates, sol.equations):
         add(f"EL, {name}", _tex(e, names), "0")
@@ -198,18 +215,27 @@ def to_latex(sol, standalone_math: bool = False) -> str:
         for k, v in sol.shell.multipliers.items():
             add("on the energy shell", names[sol.system.constraint(k).multiplier],
                 _tex(v, names))
-    for kind, table in (("lets go", sol.vanishes), ("slips", sol.slips)):
+    for kind, table, verdicts in (("lets go", sol.vanishes, sol.lets_go),
+                                  ("slips", sol.slips, sol.slipping)):
         for k, roots in table.items():
-            for r in roots:
+            v = verdicts.get(k)
+            if v is not None and (v.when == "at the start" or v.constant):
+                add(f"{k} {kind}: {v.when}", rf"\text{{{_tex_text(k)}}}",
+                    rf"\text{{{_tex_text(v.when)}: {_tex_text(v.reason)}}}")
+                continue
+            for i, r in enumerate(roots):
+                # only the first root is an event; later ones are where the constraint
+                # would have let go had it still held (as the text report says)
+                label = f"{k} {kind}" if i == 0 else f"{k}: later, had it still held"
                 lhs, rhs = r.equation.split(" = ", 1)
                 try:
                     L = parse(lhs, sol.symbols, "output")
                     R = parse(rhs, sol.symbols, "output")
-                    deg = f", {r.degrees:.2f}^\\circ" if r.degrees is not None else ""
-                    add(f"{k} {kind}: {r.coordinate} = {r.value:.6g}",
-                        _tex(L, names), _tex(R, names) + (rf"\quad({deg[2:]})" if deg else ""))
-                except Exception:  # noqa: BLE001 - presentation only
-                    pass
+                except ExpressionError:
+                    continue
+                deg = rf"\quad({r.degrees:.2f}^\circ)" if r.degrees is not None else ""
+                add(f"{label}: {r.coordinate} = {r.value:.6g}", _tex(L, names),
+                    _tex(R, names) + deg)
     for k, comps in sol.forces.items():
         for d, e in comps.items():
             if e is not None:

@@ -23,7 +23,8 @@ from ..expr import to_text
 from ..model import System
 from ._integrals import Shell
 
-__all__ = ["Root", "vanishing_points", "slip_points", "is_angle"]
+__all__ = ["Root", "Verdict", "vanishing_points", "slip_points", "is_angle", "lets_go_verdict",
+           "slip_verdict"]
 
 GRID = 4001
 
@@ -226,3 +227,136 @@ def slip_points(system: System, shell: Shell, name: str) -> list[Root]:
         eq = f"{to_text(num)} = {to_text(sp.Mul(fr.mu, den, evaluate=False))}"
         out.append(_label(system, x, r, eq))
     return out
+
+
+# ----- verdicts: at the start, never, the roots, or not determined ---------------------
+@dataclass(frozen=True)
+class Verdict:
+    """The answer to "does constraint ``name`` let go (``kind`` "lets go") / start to slip
+    (``kind`` "slips")?" beyond the list of roots.
+
+    ``when`` is "at the start" (lost at the initial state already), "never" (shown for
+    every state the motion reaches: a constant multiplier, or no root in the reached
+    range), "at the roots" (see the Root list) or "not determined" (no energy shell);
+    ``reason`` says why in words and numbers, ``condition`` the inequality on the
+    parameters under which the constraint holds at the start (None when it does not
+    depend on them), ``hint`` what to check when the sign suggests a constraint written
+    the wrong way round.
+    """
+
+    kind: str
+    when: str
+    reason: str
+    condition: str | None = None
+    hint: str | None = None
+    constant: bool = False     # decided by a multiplier (or ratio) constant along the motion
+
+    def to_json(self) -> dict:
+        return {"when": self.when, "reason": self.reason, "condition": self.condition,
+                "hint": self.hint, "constant": self.constant}
+
+
+def _state_symbols(system: System) -> set:
+    return set(system.q) | set(system.qd) | {system.t}
+
+
+def _at_start(system: System, expr: sp.Expr) -> tuple[sp.Expr, float | None]:
+    """``expr`` at the initial state: symbolic in the parameters, and its value."""
+    at0 = tidy_light(sp.sympify(expr).xreplace({**system.initial_state, system.t: 0}))
+    try:
+        value = complex(at0.xreplace(system.parameter_values).evalf())
+    except (TypeError, ValueError):
+        return at0, None
+    if abs(value.imag) > 1e-12 * (1 + abs(value.real)):
+        return at0, None
+    return at0, value.real
+
+
+def tidy_light(expr: sp.Expr) -> sp.Expr:
+    """A cheap simplification for conditions (bounded by size)."""
+    if sp.count_ops(expr) > 200:
+        return expr
+    try:
+        return sp.simplify(expr)
+    except (TypeError, ValueError, RecursionError, NotImplementedError):
+        return expr
+
+
+def _depends_on_parameters(expr: sp.Expr, system: System) -> bool:
+    return bool(expr.free_symbols & {p.symbol for p in system.parameters})
+
+
+def lets_go_verdict(system: System, name: str, multiplier: sp.Expr | None,
+                    roots: list[Root], shell_reason: str | None) -> Verdict:
+    """Whether and where unilateral constraint ``name`` lets go (lambda < 0 or = 0)."""
+    kind = "lets go"
+    if multiplier is None:
+        return Verdict(kind, "not determined", shell_reason or "no closed-form multiplier")
+    lam0, value = _at_start(system, multiplier)
+    lam_name = f"lambda_{name}"
+    scale = 1e-12 * (1 + max((abs(v) for v in system.parameter_values.values()), default=1))
+    constant = not (sp.sympify(multiplier).free_symbols & _state_symbols(system))
+    cond = (f"{to_text(lam0)} >= 0" if _depends_on_parameters(lam0, system) else None)
+    if value is not None and value < -scale:
+        at_rest = all(sp.sympify(c.initial_velocity).xreplace(system.parameter_values) == 0
+                      for c in system.coordinates)
+        hint = None
+        if at_rest:
+            hint = (f"at rest the constraint would have to pull ({lam_name} < 0): if it is "
+                    "meant to push or hold (a floor, a taut string), it is written the wrong "
+                    "way round; write f with its allowed side f >= 0 (e.g. l - r for a "
+                    "string of length l)")
+        return Verdict(kind, "at the start", f"{lam_name} = {value:.6g} < 0 at the initial "
+                       f"state ({lam_name} = {to_text(lam0)} there)", cond, hint)
+    if constant and value is not None:
+        return Verdict(kind, "never", f"{lam_name} is constant: {to_text(multiplier)} = "
+                       f"{value:.6g} > 0", cond, constant=True)
+    if roots:
+        return Verdict(kind, "at the roots", f"{lam_name} = 0 where the motion reaches it",
+                       cond)
+    if shell_reason is None:
+        return Verdict(kind, "never", f"{lam_name} > 0 in the whole range the motion "
+                       "reaches", cond)
+    return Verdict(kind, "not determined", shell_reason, cond)
+
+
+def slip_verdict(system: System, name: str, multipliers: dict, roots: list[Root],
+                 shell_reason: str | None) -> Verdict:
+    """Whether and where friction constraint ``name`` starts to slip (|lambda| > mu N)."""
+    kind = "slips"
+    fr = system.constraint(name).friction
+    lf, ln = multipliers.get(name), multipliers.get(fr.normal) if fr else None
+    if fr is None or lf is None or ln is None:
+        return Verdict(kind, "not determined", shell_reason or "no closed-form multiplier")
+    lf0, f_value = _at_start(system, lf)
+    ln0, n_value = _at_start(system, ln)
+    mu = sp.sympify(fr.mu)
+    try:
+        mu_value = float(mu.xreplace(system.parameter_values))
+    except (TypeError, ValueError):
+        return Verdict(kind, "not determined", "mu is not a number at the parameter values")
+    if f_value is None or n_value is None or n_value <= 0:
+        return Verdict(kind, "not determined", f"the normal force lambda_{fr.normal} is not "
+                       "positive at the start" if n_value is not None else
+                       "the multipliers cannot be evaluated at the start")
+    sign = 1 if f_value >= 0 else -1
+    ratio0 = tidy_light(sign * lf0 / ln0)
+    ratio_value = abs(f_value) / n_value
+    cond = f"{to_text(fr.mu)} >= {to_text(ratio0)}" if _depends_on_parameters(
+        ratio0, system) or _depends_on_parameters(mu, system) else None
+    ratio = sp.sympify(lf) / sp.sympify(ln)
+    constant = not (ratio.free_symbols & _state_symbols(system))
+    needed = f"|lambda_{name}|/lambda_{fr.normal} = {to_text(ratio0)} = {ratio_value:.6g}"
+    if ratio_value > mu_value * (1 + 1e-12):
+        return Verdict(kind, "at the start", f"{needed} > mu = {mu_value:.6g} at the "
+                       "initial state: the friction needed exceeds mu N", cond)
+    if constant:
+        return Verdict(kind, "never", f"the ratio is constant: {needed} <= mu = "
+                       f"{mu_value:.6g}", cond, constant=True)
+    if roots:
+        return Verdict(kind, "at the roots", f"|lambda_{name}| = mu lambda_{fr.normal} "
+                       "where the motion reaches it", cond)
+    if shell_reason is None:
+        return Verdict(kind, "never", f"|lambda_{name}| < mu lambda_{fr.normal} in the "
+                       "whole range the motion reaches", cond)
+    return Verdict(kind, "not determined", shell_reason, cond)

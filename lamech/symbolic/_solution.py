@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..model import System, initial_values, open_at_start
-from ._conditions import Root, slip_points, vanishing_points
+from ._conditions import Root, Verdict, lets_go_verdict, slip_points, slip_verdict, vanishing_points
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
@@ -37,6 +37,8 @@ class Solution:
     forces: dict
     initial_multipliers: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    lets_go: dict = field(default_factory=dict)    # unilateral constraint -> Verdict
+    slipping: dict = field(default_factory=dict)   # friction constraint -> Verdict
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -145,10 +147,36 @@ def solve(system: System) -> Solution:
     if shell:
         for name, reason in shell.omitted.items():
             notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
+    lets_go, slipping = _verdicts(system, forms, initial, opened, vanishes, slips,
+                                  None if shell else why)
     gen = generalized_forces(dyn, red, forms.multipliers)
     cart = cartesian_forces(dyn, red, forms.multipliers)
     return Solution(system, dyn, red, forms, ints, shell, why, vanishes, slips, gen, cart,
-                    initial, tuple(notes))
+                    initial, tuple(notes), lets_go, slipping)
+
+
+def _verdicts(system: System, forms: ClosedForms, initial: dict, opened: dict,
+              vanishes: dict, slips: dict, shell_reason: str | None
+              ) -> tuple[dict[str, Verdict], dict[str, Verdict]]:
+    """Does each unilateral constraint let go, each friction constraint slip: at the
+    start, never, at the roots, or not determined (see :class:`Verdict`)."""
+    lets_go: dict[str, Verdict] = {}
+    slipping: dict[str, Verdict] = {}
+    for c in system.constraints:
+        if c.name in opened:
+            continue
+        if c.unilateral:
+            if forms.multipliers:
+                lets_go[c.name] = lets_go_verdict(system, c.name, forms.multipliers[c.name],
+                                                  vanishes[c.name], shell_reason)
+            elif c.name in initial and initial[c.name] < 0:
+                lets_go[c.name] = Verdict("lets go", "at the start",
+                                          f"lambda_{c.name} = {initial[c.name]:.6g} < 0 at "
+                                          "the initial state (numeric)")
+        if c.friction is not None and c.friction.normal not in opened and forms.multipliers:
+            slipping[c.name] = slip_verdict(system, c.name, forms.multipliers,
+                                            slips[c.name], shell_reason)
+    return lets_go, slipping
 
 
 def _singular_message(system: System, dyn: Dynamics) -> str:
