@@ -475,7 +475,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
             ax.grid(True, which="both", alpha=0.3)
             ax.legend()
         fig.tight_layout()
-        fig.savefig(HERE / "work_precision.png", dpi=110)
+        fig.savefig(PICTURE, dpi=110)
         plt.close(fig)
     except ImportError:
         pass
@@ -590,19 +590,63 @@ def _machine() -> list[str]:
             "- versions: " + ", ".join(versions)]
 
 
+PICTURE = HERE / "work_precision.png"
+
+
+def bench_startup(repeats: int, lines: list[str]) -> None:
+    """Whole-process start-up: `lamech --help` and `lamech examples` against
+    `python -c "import sympy"` and an empty interpreter, interleaved (each round runs all
+    four), wall time min / median / max."""
+    import statistics
+    import subprocess
+    import time
+
+    exe = sys.executable
+    cases = [("lamech --help", [exe, "-m", "lamech", "--help"]),
+             ("lamech examples", [exe, "-m", "lamech", "examples"]),
+             ('python -c "import sympy"', [exe, "-c", "import sympy"]),
+             ('python -c "pass"', [exe, "-c", "pass"])]
+    times: dict[str, list[float]] = {name: [] for name, _ in cases}
+    for _ in range(repeats):
+        for name, cmd in cases:
+            t0 = time.perf_counter()
+            subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           check=True)
+            times[name].append(time.perf_counter() - t0)
+    out = ["## Start-up (whole process, wall time)", "",
+           f"{repeats} interleaved rounds; target: `lamech --help` and `lamech examples` "
+           "under 0.4 s.", "", "| command | min | median | max |", "|---|---|---|---|"]
+    for name, ts in times.items():
+        out.append(f"| `{name}` | {min(ts):.3f} s | {statistics.median(ts):.3f} s | "
+                   f"{max(ts):.3f} s |")
+    out.append("")
+    print("\n".join(out))
+    lines += out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~2 minutes)")
-    ap.add_argument("--only", choices=["B1", "B2", "B3", "B4"], action="append",
+    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4"], action="append",
                     help="run only these benchmarks (repeatable)")
-    ap.add_argument("--out", default=str(HERE / "RESULTS.md"), help="where to write the table")
+    ap.add_argument("--out", default=None,
+                    help="where to write the table (default bench/RESULTS.md; with --quick "
+                         "bench/quick/RESULTS.md, untracked, so a quick run never overwrites "
+                         "the published results)")
     args = ap.parse_args(argv)
-    want = set(args.only or ["B1", "B2", "B3", "B4"])
+    folder = HERE / "quick" if args.quick else HERE
+    folder.mkdir(exist_ok=True)
+    args.out = args.out or str(folder / "RESULTS.md")
+    global PICTURE
+    PICTURE = folder / "work_precision.png"
+    want = set(args.only or ["startup", "B1", "B2", "B3", "B4"])
     lines = ["# lamech benchmark results", "",
              f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
              "shared machine are noisy (±20%); ratios are from the same process.", ""]
     lines += _machine() + [""]
     print("\n".join(lines))
+    if "startup" in want:
+        bench_startup(3 if args.quick else 7, lines)
     if "B1" in want:
         bench_b1([2, 4, 8] if args.quick else [2, 4, 8, 12, 16, 30],
                  20.0 if args.quick else 120.0, lines)
