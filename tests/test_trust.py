@@ -125,3 +125,14 @@ def test_a_constant_positive_multiplier_never_lets_go(name, constraint, expected
     assert v.when == "never" and v.constant
     assert f"= {expected(p):.6g} > 0" in v.reason
     assert f"{constraint}: never (lambda_{constraint} is constant" in lamech.to_text(s)
+
+
+def test_a_T_that_disagrees_with_the_bodies_is_a_warning_at_the_top():
+    """The README promises that lamech says so when [lagrangian] and [[bodies]]
+    disagree: first thing in the report, not a last note."""
+    text = PENDULUM.replace("r^2*theta'^2", "r*theta'^2")
+    assert text != PENDULUM
+    report = lamech.to_text(lamech.solve(lamech.loads(text, "x.toml")))
+    head = report.splitlines()[:5]
+    assert any(line.startswith("warning: [lagrangian] T differs from the kinetic energy")
+               for line in head), head

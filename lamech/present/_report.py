@@ -101,6 +101,10 @@ def to_text(sol) -> str:
     """The readable report printed by ``lamech solve``."""
     s = sol.system
     lines: list[str] = [s.title, "=" * len(s.title), ""]
+    # What the loader found suspicious (a T that disagrees with the bodies) comes first:
+    # it may invalidate everything below.
+    warnings = [n for n in sol.notes if n in s.notes]
+    lines += [f"warning: {n}" for n in warnings] + ([""] if warnings else [])
     lines.append("coordinates: " + ", ".join(sol.coordinates)
                  + (f"   independent: {', '.join(sol.independent)}"
                     if sol.independent != sol.coordinates else ""))
@@ -168,8 +172,9 @@ def to_text(sol) -> str:
                 value = "undetermined (the point's motion cannot do work along it)" \
                     if e is None else _t(e)
                 lines.append(f"    {d} = {value}")
-    if sol.notes:
-        lines += ["", "Notes"] + [f"  - {n}" for n in sol.notes]
+    rest = [n for n in sol.notes if n not in s.notes]
+    if rest:
+        lines += ["", "Notes"] + [f"  - {n}" for n in rest]
     return "\n".join(lines) + "\n"
 
 
