@@ -24,7 +24,7 @@ import sympy as sp
 from sympy.printing.str import StrPrinter
 
 __all__ = ["ExpressionError", "FUNCTIONS", "parse", "to_text", "velocity_name",
-           "acceleration_name", "MAX_LENGTH", "MAX_DEPTH"]
+           "acceleration_name", "MAX_LENGTH", "MAX_DEPTH", "TimeDerivative"]
 
 MAX_LENGTH = 4000
 """Longest expression text accepted, in characters."""
@@ -69,6 +69,27 @@ _UNDEFINED = (sp.nan, sp.zoo, sp.oo, -sp.oo)
 _VEL_SUFFIX = "__vel"
 _ACC_SUFFIX = "__acc"
 _PRIME = re.compile(r"([A-Za-z_][A-Za-z_0-9]*)\s*(''?)")
+
+
+class TimeDerivative(sp.Symbol):
+    r"""The symbol of a velocity ``x'`` or an acceleration ``x''``: a plain real Symbol in
+    every computation, printed in LaTeX (and so in Jupyter) as ``\dot{x}`` /
+    ``\ddot{x}`` instead of SymPy's ``x'``.
+
+    >>> import sympy as sp
+    >>> print(sp.latex(TimeDerivative("theta'", real=True) ** 2))
+    \dot{\theta}^{2}
+    """
+
+    def _latex(self, printer) -> str:
+        base = self.name.rstrip("'")
+        primes = len(self.name) - len(base)
+        inner = printer._print(sp.Symbol(base))
+        if primes == 1:
+            return rf"\dot{{{inner}}}"
+        if primes == 2:
+            return rf"\ddot{{{inner}}}"
+        return printer._print(sp.Symbol(self.name))
 
 
 def velocity_name(name: str) -> str:
