@@ -32,25 +32,38 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
     fig = Figure(figsize=(4.6 * ncol, 3.6 * nrow))
     axes = fig.subplots(nrow, ncol, squeeze=False)
     fixed = {n: float(a[0]) for n, a in run.parameters.items() if len(a) == 1}
+    failed = np.array([r["status"] != "ok" for r in run.rows], dtype=bool)
     for ax, c in zip(axes.flat, cols):
         if len(swept) == 1:
             x = np.array([r[swept[0]] for r in run.rows], dtype=float)
             y = np.array([r[c] for r in run.rows], dtype=float)
             order = np.argsort(x)
             ax.plot(x[order], y[order], "o-", ms=3)
+            if failed.any():   # a failed run is not "no event": marked where it sits
+                ax.plot(x[failed], np.full(failed.sum(), np.nanmin(y) if np.isfinite(
+                    y).any() else 0.0), "x", color="tab:red", ms=7, label="run failed")
+                ax.legend(fontsize=7)
             ax.set_xlabel(swept[0])
             ax.set_ylabel(c)
         else:
             a, b = swept
             xa, xb = run.parameters[a], run.parameters[b]
             Z = np.full((len(xb), len(xa)), np.nan)
+            F = np.zeros((len(xb), len(xa)), dtype=bool)
             ia = {float(v): i for i, v in enumerate(xa)}
             ib = {float(v): i for i, v in enumerate(xb)}
-            for r in run.rows:
+            for r, bad in zip(run.rows, failed):
                 Z[ib[r[b]], ia[r[a]]] = r[c]
-            mesh = ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_invalid(Z),
-                                 shading="flat")
-            fig.colorbar(mesh, ax=ax)
+                F[ib[r[b]], ia[r[a]]] = bad
+            ax.set_facecolor("0.85")      # cells with no value (no such event): grey
+            mesh = ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_invalid(
+                np.where(F, np.nan, Z)), shading="flat")
+            bar = fig.colorbar(mesh, ax=ax)
+            bar.set_label(c, fontsize=8)
+            if F.any():                   # failed runs: red cross-hatched cells
+                ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_where(~F, F.astype(float)),
+                              shading="flat", cmap="Reds", vmin=0, vmax=1.5, hatch="xx",
+                              alpha=0.9)
             ax.set_xlabel(a)
             ax.set_ylabel(b)
         ax.set_title(c, fontsize=9)
@@ -59,6 +72,8 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
     title = run.path.name if run.path else "sweep"
     if fixed:
         title += "  (" + ", ".join(f"{n} = {v:g}" for n, v in fixed.items()) + ")"
+    if len(swept) == 2:
+        title += "   grey: no such event" + ("; red hatched: run failed" if failed.any() else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
