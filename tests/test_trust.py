@@ -136,3 +136,16 @@ def test_a_T_that_disagrees_with_the_bodies_is_a_warning_at_the_top():
     head = report.splitlines()[:5]
     assert any(line.startswith("warning: [lagrangian] T differs from the kinetic energy")
                for line in head), head
+
+
+def test_equations_are_simplified_as_a_student_would():
+    """The driven pendulum's equations had (2 sin^2 + 2 cos^2)/2 left in them; the
+    readable form is the derived one, simplified (the difference simplifies to 0)."""
+    import sympy as sp
+    s = lamech.solve(lamech.load("moving_support"))
+    text = lamech.to_text(s)
+    assert "sin(theta)^2 + 2*cos(theta)^2" not in text
+    for shown, derived in zip(s.equations, s.dynamics.equations):
+        assert sp.simplify(shown - derived) == 0
+    assert sum(sp.count_ops(e) for e in s.equations) < 0.5 * sum(
+        sp.count_ops(e) for e in s.dynamics.equations)

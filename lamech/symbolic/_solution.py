@@ -12,7 +12,7 @@ from ._conditions import Root, Verdict, lets_go_verdict, slip_points, slip_verdi
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._reduce import ClosedForms, Reduction, closed_forms, eliminate
+from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
 
 __all__ = ["Solution", "solve"]
 
@@ -39,6 +39,7 @@ class Solution:
     notes: tuple[str, ...] = ()
     lets_go: dict = field(default_factory=dict)    # unilateral constraint -> Verdict
     slipping: dict = field(default_factory=dict)   # friction constraint -> Verdict
+    readable_equations: tuple = ()   # the equations as a student would simplify them
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -55,7 +56,9 @@ class Solution:
 
     @property
     def equations(self) -> list[sp.Expr]:
-        return list(self.dynamics.equations)
+        """The Euler-Lagrange equations with multipliers (each = 0), simplified where that
+        shortens them markedly (:func:`readable`); ``dynamics.equations`` as derived."""
+        return list(self.readable_equations or self.dynamics.equations)
 
     @property
     def reduced_equations(self) -> list[sp.Expr]:
@@ -152,7 +155,24 @@ def solve(system: System) -> Solution:
     gen = generalized_forces(dyn, red, forms.multipliers)
     cart = cartesian_forces(dyn, red, forms.multipliers)
     return Solution(system, dyn, red, forms, ints, shell, why, vanishes, slips, gen, cart,
-                    initial, tuple(notes), lets_go, slipping)
+                    initial, tuple(notes), lets_go, slipping,
+                    tuple(readable(e, system) for e in dyn.equations))
+
+
+def readable(equation: sp.Expr, system: System) -> sp.Expr:
+    """An equation as a student would tidy it: expanded, collected by accelerations and
+    multipliers, each coefficient and the rest trig-simplified (sin^2 + cos^2 = 1) and
+    common factors pulled out. Kept only when it is markedly shorter (by a quarter), so
+    short textbook forms stay as derived; bounded by size (:data:`SIMPLIFY_OPS`)."""
+    ops = sp.count_ops(equation)
+    if ops > 4 * SIMPLIFY_OPS:
+        return equation
+    try:
+        new = sp.collect(sp.expand(equation), system.qdd + system.multipliers,
+                         func=lambda c: sp.factor_terms(sp.trigsimp(c)))
+    except (TypeError, ValueError, RecursionError, NotImplementedError):
+        return equation
+    return new if sp.count_ops(new) <= 0.75 * ops else equation
 
 
 def _verdicts(system: System, forms: ClosedForms, initial: dict, opened: dict,
