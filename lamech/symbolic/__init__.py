@@ -6,25 +6,32 @@ generalized and Cartesian constraint forces; all gathered by :func:`solve` into 
 :class:`~lamech.model.System`; the sign convention is stated in :mod:`lamech.model`.
 """
 
-from ._conditions import (Root, Verdict, is_angle, lets_go_verdict, slip_points, slip_verdict,
-                          vanishing_points)
+from ._conditions import (
+                          Root,
+                          Verdict,
+                          is_angle,
+                          lets_go_verdict,
+                          slip_points,
+                          slip_verdict,
+                          vanishing_points,
+)
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._reduce import (
-                      CLOSED_FORM_LIMIT,
-                      KKT_OPS,
-                      READABLE_OPS,
-                      ClosedForms,
-                      Reduction,
-                      closed_forms,
-                      eliminate,
-                      tidy,
+                          CLOSED_FORM_LIMIT,
+                          KKT_OPS,
+                          READABLE_OPS,
+                          ClosedForms,
+                          Reduction,
+                          closed_forms,
+                          eliminate,
+                          tidy,
 )
-from ._solution import Solution, solve
+from ._solution import Solution, readable, solve
 
 __all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError", "Reduction",
            "eliminate", "ClosedForms", "closed_forms", "tidy", "CLOSED_FORM_LIMIT", "KKT_OPS",
-           "READABLE_OPS", "Integrals", "integrals", "Shell", "energy_shell", "Root", "Verdict", "lets_go_verdict", "slip_verdict",
-           "vanishing_points", "slip_points", "is_angle", "generalized_forces",
-           "cartesian_forces", "Solution", "solve"]
+           "READABLE_OPS", "Integrals", "integrals", "Shell", "energy_shell", "Root", "Verdict",
+           "lets_go_verdict", "slip_verdict", "vanishing_points", "slip_points", "is_angle",
+           "generalized_forces", "cartesian_forces", "Solution", "solve", "readable"]
