@@ -118,13 +118,31 @@ class Scene:
         return x0 - m, x1 + m, y0 - m, y1 + m
 
 
-def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: int = 30,
-            max_frames: int = 300, dpi: int = 100, title: str | None = None) -> Path:
+def playing_time(t_span: float, duration: float | None = None) -> float:
+    """How long an animation of ``t_span`` simulated seconds plays: ``duration`` when
+    given, else real time clamped to 2..20 s (a 1000-period run is not shown in real
+    time, a 0.1 s impact is slowed down to be seen)."""
+    if duration is not None:
+        if not (duration > 0 and np.isfinite(duration)):
+            raise ValueError(f"the animation's duration must be a positive number of "
+                             f"seconds (got {duration})")
+        return float(duration)
+    return float(min(max(t_span, 2.0), 20.0))
+
+
+def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: int = 20,
+            duration: float | None = None, max_frames: int = 600, dpi: int = 100,
+            title: str | None = None) -> Path:
     """Write an animation of ``traj`` (a run of ``system``) to ``path``.
 
     ``params`` are the parameter overrides the run used (sizes and positions depend on
-    them). Frames are evenly spaced in time, at most ``max_frames``. Raises ValueError for
-    an extension other than .gif, .mp4, .html, or .mp4 without ffmpeg.
+    them). The animation plays for ``duration`` seconds (default: see
+    :func:`playing_time`) at ``fps`` frames a second, frames evenly spaced in simulated
+    time (at most ``max_frames``, and no more than the trajectory's samples); the picture
+    says the time scale (e.g. "0.5x real time"). ``.html`` is one self-contained page
+    that works offline (JPEG frames; the player's icons are plain characters, not a web
+    font). Raises ValueError for an extension other than .gif, .mp4, .html, or .mp4
+    without ffmpeg.
     """
     import matplotlib
     from matplotlib import animation
@@ -144,8 +162,14 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
                          "with position and shape to animate it)")
     if len(traj.t) < 2:
         raise ValueError("the trajectory has fewer than 2 samples: nothing to animate")
-    count = int(min(len(traj.t), max(2, max_frames)))
+    if not (isinstance(fps, (int, float)) and 1 <= fps <= 120):
+        raise ValueError(f"fps must be between 1 and 120 (got {fps})")
+    t_span = float(traj.t[-1] - traj.t[0])
+    play = playing_time(t_span, duration)
+    count = int(min(len(traj.t), max(2, max_frames), max(2, round(play * fps) + 1)))
     frames = np.unique(np.linspace(0, len(traj.t) - 1, count).round().astype(int))
+    fps = max(1.0, (len(frames) - 1) / play)      # the frames fill the playing time
+    speed = t_span / play
     scene = Scene(traj, system, params, frames)
 
     fig = Figure(figsize=(6.4, 6.4), dpi=dpi)   # no pyplot: the caller's backend stays
@@ -217,7 +241,7 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
             if visible:
                 arrow.set_positions(tuple(at[k]), tuple(at[k] + v))
         tk = scene.t[k]
-        clock.set_text(f"t = {tk:.3f}")
+        clock.set_text(f"t = {tk:.3f} s   ({speed:.3g}x real time)")
         recent = [e for e in events if e[0] <= tk < e[0] + hold]
         if recent:
             te, kind, con = recent[-1]
@@ -234,5 +258,27 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     elif suffix == ".mp4":
         anim.save(str(path), writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
     else:
-        path.write_text(anim.to_jshtml(fps=fps, default_mode="once"), encoding="utf-8")
+        with matplotlib.rc_context({"animation.frame_format": "jpeg",
+                                    "animation.embed_limit": 200.0}):
+            page = anim.to_jshtml(fps=fps, default_mode="once")
+        path.write_text(offline_page(page), encoding="utf-8")
     return path
+
+
+# matplotlib's player draws its buttons with Font Awesome loaded from a CDN: offline they
+# are blank. Plain characters instead (the page then needs nothing from the network).
+_ICONS = {"fa-minus": "&minus;", "fa-fast-backward": "&#9198;", "fa-step-backward": "&#9664;|",
+          "fa-play fa-flip-horizontal": "&#9664;", "fa-pause": "&#10074;&#10074;",
+          "fa-play": "&#9654;", "fa-step-forward": "|&#9654;", "fa-fast-forward": "&#9197;",
+          "fa-plus": "+"}
+
+
+def offline_page(page: str) -> str:
+    """An HTML page from ``to_jshtml`` with no external resource (see ``_ICONS``)."""
+    import re
+
+    page = re.sub(r'<link rel="stylesheet"\s*href="https?://[^"]*font-awesome[^"]*">', "",
+                  page)
+    for cls, char in sorted(_ICONS.items(), key=lambda kv: -len(kv[0])):
+        page = page.replace(f'<i class="fa {cls}"></i>', f"<span>{char}</span>")
+    return page
