@@ -185,11 +185,11 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     ax.set_title(heading + (" — side view (x, z)" if scene.space else ""), fontsize=10)
     span = max(x1 - x0, y1 - y0)
 
-    for name, track in scene.tracks:
+    for _name, track in scene.tracks:
         ax.plot(track[:, 0], track[:, 1], color="0.55", lw=3, alpha=0.6, zorder=1)
     colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     artists = []
-    for i, (name, kind, size, pos, angle) in enumerate(scene.bodies):
+    for i, (_name, kind, size, pos, _angle) in enumerate(scene.bodies):
         colour = colours[i % len(colours)]
         trail, = ax.plot([], [], color=colour, lw=1, alpha=0.5, zorder=2)
         if kind == "circle":
@@ -208,7 +208,7 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
                 if np.isfinite(v).any()), default=0.0)
     scale = 0.15 * span / peak if peak > 0 else 0.0
     quivers = []
-    for name, at, vec in scene.arrows:
+    for _name, at, vec in scene.arrows:
         arrow = FancyArrowPatch((0, 0), (0, 0), arrowstyle="-|>", mutation_scale=14,
                                 color="tab:red", lw=2, zorder=4, visible=False)
         ax.add_patch(arrow)
