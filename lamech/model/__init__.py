@@ -13,10 +13,12 @@ from ._checks import (INITIAL_TOLERANCE, dependent_constraints, dependent_group,
                       initial_values, numeric_matrix, open_at_start, probe_states, value)
 from ._kinematics import (body_energy, constraint_jacobian, contact_partial_velocities,
                           partial_velocities, time_derivative, velocity_form)
-from ._system import (Body, Constraint, Coordinate, ForceSpec, Friction, ModelError, Parameter,
-                      System)
+from ._rules import FIELDS, name_problem
+from ._system import (Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
+                      ModelError, Parameter, ShapeKind, System)
 
-__all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body", "System", "ModelError",
+__all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body", "System",
+           "ModelError", "ConstraintKind", "ShapeKind", "FIELDS", "name_problem",
            "time_derivative", "body_energy", "partial_velocities", "contact_partial_velocities",
            "velocity_form", "constraint_jacobian", "INITIAL_TOLERANCE", "value",
            "numeric_matrix", "initial_values", "probe_states", "open_at_start",

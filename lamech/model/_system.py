@@ -3,7 +3,10 @@
 A :class:`System` holds SymPy expressions in its own symbols: coordinates ``q`` (real),
 their velocities ``q'`` and accelerations ``q''``, parameters (positive when their value
 is), and time ``t``. It is built by :mod:`lamech.problem` from a problem file or a dict, or
-directly in Python; derivations (:mod:`lamech.symbolic` and after) are pure functions of it.
+directly in Python; either way each definition checks itself when it is made
+(``__post_init__``, :mod:`lamech.model._rules`) and raises :class:`ModelError` listing
+everything wrong, and a System checks the whole. Derivations (:mod:`lamech.symbolic` and
+after) are pure functions of it.
 
 The canonical equations every other docstring refers to (the lecture's convention)::
 
@@ -18,11 +21,14 @@ constraint holds on the side f_j >= 0, where lambda_j >= 0 pushes the system bac
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 
 import sympy as sp
 
+from . import _rules
+
 __all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body",
-           "System", "ModelError"]
+           "System", "ModelError", "ConstraintKind", "ShapeKind"]
 
 
 class ModelError(ValueError):
@@ -33,6 +39,55 @@ class ModelError(ValueError):
         self.issues = list(issues)
         super().__init__("\n".join(f"{w}: {m}" if w else m for w, m in self.issues))
 
+    @classmethod
+    def check(cls, issues: list[tuple[str, str]]) -> None:
+        """Raise for ``issues``, if there are any."""
+        if issues:
+            raise cls(issues)
+
+
+class _Text(str, Enum):
+    """A str enum that prints as its value (``f"{kind}"`` is ``holonomic``)."""
+
+    def __str__(self) -> str:
+        return str.__str__(self)
+
+    def __format__(self, spec: str) -> str:
+        return str.__format__(str.__str__(self), spec)
+
+
+class ConstraintKind(_Text):
+    """What a constraint's ``expr`` is: f(q, t) = 0, or g(q, q', t) = 0 linear in q'."""
+
+    HOLONOMIC = "holonomic"
+    VELOCITY = "velocity"
+
+
+class ShapeKind(_Text):
+    """How a body is drawn: ``Body.shape`` is (kind, size), size None for a point."""
+
+    POINT = "point"
+    CIRCLE = "circle"
+    ROD = "rod"
+
+
+def _as_enum(obj, name: str, enum: type[Enum]) -> None:
+    """Store a field given as its string value (``"holonomic"``) as the enum member."""
+    raw = getattr(obj, name)
+    if isinstance(raw, str) and not isinstance(raw, enum):
+        try:
+            object.__setattr__(obj, name, enum(raw))
+        except ValueError:
+            pass   # reported by the checks
+
+
+def _as_tuple(obj, *names: str) -> None:
+    """Store list fields as tuples (frozen data is hashable)."""
+    for name in names:
+        raw = getattr(obj, name)
+        if isinstance(raw, list):
+            object.__setattr__(obj, name, tuple(raw))
+
 
 @dataclass(frozen=True)
 class Parameter:
@@ -42,6 +97,9 @@ class Parameter:
     symbol: sp.Symbol
     value: sp.Expr          # as written: a number or an expression of other parameters
     numeric: float          # ``value`` with every parameter substituted
+
+    def __post_init__(self) -> None:
+        ModelError.check(_rules.parameter_issues(self))
 
 
 @dataclass(frozen=True)
@@ -56,6 +114,9 @@ class Coordinate:
     initial_velocity: sp.Expr   # expression of parameters
     keep: bool = False          # never eliminated
 
+    def __post_init__(self) -> None:
+        ModelError.check(_rules.coordinate_issues(self))
+
 
 @dataclass(frozen=True)
 class Friction:
@@ -63,6 +124,9 @@ class Friction:
 
     mu: sp.Expr
     normal: str
+
+    def __post_init__(self) -> None:
+        ModelError.check(_rules.friction_issues(self))
 
 
 @dataclass(frozen=True)
@@ -75,39 +139,67 @@ class ForceSpec:
 
     bodies: tuple[str, ...]
     at: tuple[sp.Expr, ...]
-    along: tuple[tuple[str, tuple[sp.Expr, ...]], ...]
+    along: tuple[tuple[str, tuple[sp.Expr, ...]], ...] = ()
+
+    def __post_init__(self) -> None:
+        if isinstance(self.bodies, str):
+            object.__setattr__(self, "bodies", (self.bodies,))
+        _as_tuple(self, "bodies", "at", "along")
+        if isinstance(self.along, tuple):
+            object.__setattr__(self, "along", tuple(
+                (d[0], tuple(d[1])) if isinstance(d, (tuple, list)) and len(d) == 2
+                and isinstance(d[1], list) else tuple(d) if isinstance(d, list) else d
+                for d in self.along))
+        ModelError.check(_rules.force_issues(self))
 
 
 @dataclass(frozen=True)
 class Constraint:
-    """One constraint. ``expr`` is f(q, t) (``kind == "holonomic"``) or g(q, q', t)
-    linear in the velocities (``kind == "velocity"``); see the module docstring."""
+    """One constraint. ``expr`` is f(q, t) (``kind`` holonomic) or g(q, q', t) linear in
+    the velocities (``kind`` velocity); see the module docstring. ``kind`` may be given
+    as its string; ``multiplier`` defaults to the real Symbol ``lambda_<name>``."""
 
     name: str
     expr: sp.Expr
-    kind: str = "holonomic"
+    kind: ConstraintKind = ConstraintKind.HOLONOMIC
     unilateral: bool = False
     friction: Friction | None = None
     force: ForceSpec | None = None
     restitution: sp.Expr = sp.Integer(0)
     multiplier: sp.Symbol = field(default=None)  # type: ignore[assignment]
 
+    def __post_init__(self) -> None:
+        _as_enum(self, "kind", ConstraintKind)
+        if self.multiplier is None and isinstance(self.name, str):
+            object.__setattr__(self, "multiplier", sp.Symbol(f"lambda_{self.name}", real=True))
+        ModelError.check(_rules.constraint_issues(self))
+
     @property
     def holonomic(self) -> bool:
-        return self.kind == "holonomic"
+        return self.kind == ConstraintKind.HOLONOMIC
 
 
 @dataclass(frozen=True)
 class Body:
     """A point mass or planar rigid body: centre-of-mass ``position`` (2 or 3 components,
-    y or z up), counterclockwise ``angle`` and ``inertia`` about the centre for rigid bodies."""
+    y or z up), counterclockwise ``angle`` and ``inertia`` about the centre for rigid bodies.
+    ``shape`` is (kind, size) for drawing: (POINT, None), (CIRCLE, R) or (ROD, l); the
+    kind may be given as its string."""
 
     name: str
     mass: sp.Expr
     position: tuple[sp.Expr, ...]
     angle: sp.Expr | None = None
     inertia: sp.Expr | None = None
-    shape: tuple[str, sp.Expr | None] = ("point", None)
+    shape: tuple[ShapeKind, sp.Expr | None] = (ShapeKind.POINT, None)
+
+    def __post_init__(self) -> None:
+        _as_tuple(self, "position", "shape")
+        if isinstance(self.shape, tuple) and len(self.shape) == 2:
+            kind = self.shape[0]
+            if isinstance(kind, str) and kind in [k.value for k in ShapeKind]:
+                object.__setattr__(self, "shape", (ShapeKind(kind), self.shape[1]))
+        ModelError.check(_rules.body_issues(self))
 
 
 @dataclass(frozen=True)
@@ -131,6 +223,13 @@ class System:
     t: sp.Symbol = sp.Symbol("t", real=True)
     source: str | None = None
     notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        # Every check, once per construction (``dataclasses.replace`` included): the
+        # rules are in lamech.model._rules.
+        _as_tuple(self, "parameters", "coordinates", "constraints", "bodies", "forces",
+                  "notes")
+        ModelError.check(_rules.system_issues(self))
 
     # ----- views -----------------------------------------------------------------
     @property

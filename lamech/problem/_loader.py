@@ -13,18 +13,15 @@ import random
 import re
 import sys
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import sympy as sp
 
+from ..expr import ExpressionError, parse, to_text
+from ..model import (FIELDS, Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
+                     ModelError, Parameter, ShapeKind, System, body_energy, name_problem)
 from ._examples import example_names, example_path
-from ..expr import FUNCTIONS, RESERVED, ExpressionError, parse, to_text
-from ..model import (INITIAL_TOLERANCE, Body, Constraint, Coordinate, ForceSpec, Friction,
-                     Parameter, System, body_energy, dependent_constraints, initial_values,
-                     time_derivative)
-from ..model import value as number_at
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -33,7 +30,10 @@ else:  # pragma: no cover
 
 __all__ = ["ProblemFileError", "Issue", "load", "loads", "from_dict"]
 
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+# A model's `where` for a part in a system (constraints[2] `rolling` friction.mu) and for
+# a part checked on its own (constraint `rolling` unilateral).
+_PART_IN_SYSTEM = re.compile(r"^(constraints|bodies)\[(\d+)\] `[^`]*`(?: (\S+))?")
+_PART_ALONE = re.compile(r"^(?:constraint|body) `[^`]*`")
 _KNOWN_SECTIONS = {"title", "parameters", "coordinates", "lagrangian", "constraints", "bodies",
                    "gravity", "forces", "description"}
 
@@ -187,12 +187,17 @@ def from_dict(data: dict[str, Any], name: str = "<dict>", text: str | None = Non
 
 
 class _Loader:
+    """Parses a problem (TOML shapes, expressions) into the model's parts; the model
+    checks them (:mod:`lamech.model`), and each issue it finds is reported here with the
+    file's line."""
+
     def __init__(self, data: Any, name: str, text: str | None):
         self.data = data
         self.source = name
         self.lines = _Lines(text)
         self.problems: list[Issue] = []
         self.t = sp.Symbol("t", real=True)
+        self.scopes: dict[str, dict[str, sp.Expr]] = {}
 
     # ----- reporting -----------------------------------------------------------------
     def problem(self, where: str, message: str, loc: tuple = (None, None, None),
@@ -201,6 +206,51 @@ class _Loader:
         if text is None and line and self.lines.lines:
             text = self.lines.lines[line - 1].strip()
         self.problems.append(Issue(where, message, line, text))
+
+    def model_problems(self, error: ModelError, part: str | None = None) -> None:
+        """Report the issues the model found, each at its line. ``part`` (like
+        ``constraints[2] `rolling```) places the issues of a part checked on its own
+        (``constraint `rolling` unilateral``, ``friction.mu``)."""
+        for where, message in error.issues:
+            if part is not None:
+                where, n = _PART_ALONE.subn(part, where, count=1)
+                where = where if n else f"{part} {where}"
+            self.problem(where, message, self._locate(where))
+
+    def _locate(self, where: str) -> tuple:
+        """The location tuple (table, index, key) of a model's ``where``."""
+        if m := _PART_IN_SYSTEM.match(where):
+            table, i, field = m.group(1), int(m.group(2)) - 1, m.group(3)
+            key = field.split(".")[0] if field else None
+            if table == "constraints" and key in (None, "kind", "multiplier"):
+                raw = self.data.get("constraints")
+                spec = raw[i] if isinstance(raw, list) and i < len(raw) else {}
+                key = "velocity" if isinstance(spec, dict) and "velocity" in spec else "f"
+            return (table, i, key)
+        head, _, rest = where.partition(".")
+        if head in ("parameters", "forces"):
+            return (head, None, rest or None)
+        if head == "coordinates":
+            name = re.sub(r"\.(initial|velocity|keep)$", "", rest)
+            return (head, None, name or None)
+        if head == "lagrangian":
+            table = self.data.get("lagrangian")
+            table = table if isinstance(table, dict) else {}
+            return ("lagrangian", None, rest if rest in table else "L" if "L" in table else None)
+        if head == "gravity":
+            return ("gravity", None, "acceleration")
+        if head == "bodies":
+            return ("bodies", 0, "position")
+        return (None, None, None)
+
+    def make(self, cls: type, *args: Any, part: str | None = None, **kwargs: Any) -> Any:
+        """``cls(*args, **kwargs)``, a part of the model that checks itself; None (and its
+        issues reported) when the model refuses it."""
+        try:
+            return cls(*args, **kwargs)
+        except ModelError as exc:
+            self.model_problems(exc, part)
+            return None
 
     def expr(self, value: Any, names: dict[str, sp.Expr], where: str, loc: tuple,
              what: str) -> sp.Expr | None:
@@ -213,6 +263,12 @@ class _Loader:
             col = f" (column {exc.column})" if exc.column else ""
             self.problem(where, exc.message + col, loc, None if self.lines.lines else shown)
             return None
+
+    def field(self, value: Any, field: str, where: str, loc: tuple) -> sp.Expr | None:
+        """Parse ``value`` as the model's ``field`` (a key of :data:`lamech.model.FIELDS`):
+        with the names that field may contain, named in messages as the model does."""
+        scope, what = FIELDS[field]
+        return self.expr(value, self.scopes[scope], where, loc, what)
 
     def _sympy_value(self, value: sp.Basic, names: dict[str, sp.Expr], where: str,
                      loc: tuple) -> sp.Expr | None:
@@ -237,6 +293,10 @@ class _Loader:
             return None
         return value
 
+    def fail_if_any(self) -> None:
+        if self.problems:
+            raise ProblemFileError(self.source, self.problems)
+
     # ----- build -------------------------------------------------------------------
     def build(self) -> System:
         if not isinstance(self.data, dict):
@@ -250,93 +310,75 @@ class _Loader:
             self.problem("title", "title must be a string", (None, None, "title"))
             title = str(title)
         params = self._parameters()
-        self.params = params
-        names: dict[str, sp.Expr] = {"t": self.t, **{p.name: p.symbol for p in params}}
-        coords = self._coordinates(params, names)
+        self.scopes["parameters"] = {p.name: p.symbol for p in params}
+        coords = self._coordinates()
         self.fail_if_any()
 
-        pos_names = dict(names)
+        positions = {"t": self.t, **self.scopes["parameters"]}
         for c in coords:
-            pos_names[c.name] = c.symbol
-        vel_names = dict(pos_names)
+            positions[c.name] = c.symbol
+        velocities = dict(positions)
         for c in coords:
-            vel_names[c.name + "'"] = c.velocity
-        skeleton = System(title=title, parameters=tuple(params), coordinates=tuple(coords),
-                          T=sp.Integer(0), V=sp.Integer(0), constraints=(), t=self.t)
+            velocities[c.name + "'"] = c.velocity
+        self.scopes.update(positions=positions, velocities=velocities)
+        # The coordinates and parameters alone (checked as such), for the kinematics of
+        # the bodies: T is a stand-in (time derivatives need only q and t).
+        skeleton = self.make(System, title=title, parameters=tuple(params),
+                             coordinates=tuple(coords),
+                             T=sum((c.velocity**2 for c in coords), sp.Integer(0)),
+                             V=sp.Integer(0), constraints=(), t=self.t)
+        self.fail_if_any()
 
-        gravity = self._gravity(names)
-        bodies = self._bodies(pos_names, names)
-        T, V = self._lagrangian(pos_names, vel_names, skeleton, bodies, gravity)
-        constraints = self._constraints(pos_names, vel_names, bodies)
-        forces = self._forces(coords, vel_names)
+        gravity = self._gravity()
+        bodies = self._bodies()
+        T, V = self._lagrangian(skeleton, bodies, gravity)
+        constraints = self._constraints()
+        forces = self._forces(coords)
         self.fail_if_any()
         notes = self._compare_energy(skeleton, bodies, gravity, T, V)
-        system = System(title=title, parameters=tuple(params), coordinates=tuple(coords),
-                        T=T, V=V, constraints=tuple(constraints), bodies=tuple(bodies),
-                        gravity=gravity, forces=tuple(forces), t=self.t, source=self.source,
-                        notes=tuple(notes))
-        self._check_initial(system)
-        self._check_dependent(system)
+        system = self.make(System, title=title, parameters=tuple(params),
+                           coordinates=tuple(coords), T=T, V=V,
+                           constraints=tuple(constraints), bodies=tuple(bodies),
+                           gravity=gravity, forces=tuple(forces), t=self.t,
+                           source=self.source, notes=tuple(notes))
         self.fail_if_any()
         return system
-
-    def fail_if_any(self) -> None:
-        if self.problems:
-            raise ProblemFileError(self.source, self.problems)
-
-    def check_name(self, name: Any, where: str, loc: tuple) -> bool:
-        if not isinstance(name, str) or not _IDENT.match(name):
-            self.problem(where, f"`{name}` is not a valid name (letters, digits and _, not "
-                         "starting with a digit)", loc)
-            return False
-        if name in RESERVED:
-            kind = "a function" if name in FUNCTIONS else "reserved"
-            self.problem(where, f"`{name}` is {kind} and cannot be a parameter or coordinate "
-                         "name; rename it", loc)
-            return False
-        if name.startswith("lambda_") or "__" in name:
-            self.problem(where, f"`{name}`: names starting with `lambda_` or containing `__` "
-                         "are reserved (lambda_<constraint> names the multipliers); rename it",
-                         loc)
-            return False
-        return True
 
     def _parameters(self) -> list[Parameter]:
         table = self.table("parameters") or {}
         raw: dict[str, Any] = {}
         for name, value in table.items():
-            loc = ("parameters", None, name)
-            if self.check_name(name, f"parameters.{name}", loc):
+            problem = name_problem(name)
+            if problem is not None:
+                self.problem(f"parameters.{name}", problem, ("parameters", None, name))
+            else:
                 raw[name] = value
         symbols = {n: sp.Symbol(n, real=True) for n in raw}
-        names = {"t": self.t, **symbols}
         exprs: dict[str, sp.Expr] = {}
         for n, value in raw.items():
             if isinstance(value, bool) or not isinstance(value, (int, float, str, sp.Basic)):
                 self.problem(f"parameters.{n}", f"value must be a number or an expression "
                              f"string, not {type(value).__name__}", ("parameters", None, n))
                 continue
-            e = self.expr(value, {k: v for k, v in names.items() if k != "t"},
-                          f"parameters.{n}", ("parameters", None, n), "parameter values")
+            e = self.expr(value, symbols, f"parameters.{n}", ("parameters", None, n),
+                          FIELDS["parameter value"][1])
             if e is not None:
                 exprs[n] = e
         numeric: dict[str, float] = {}
-        # Resolve values in dependency order; a cycle is reported, not looped on.
+        # Resolve values in dependency order; a cycle is reported, not looped on. A value
+        # that is not finite is the model's to report; 1 stands in for it meanwhile.
         pending = dict(exprs)
         while pending:
             progress = False
             for n, e in list(pending.items()):
                 deps = {str(s) for s in e.free_symbols}
                 if deps <= set(numeric):
+                    env = {symbols[d]: numeric[d] if math.isfinite(numeric[d]) else 1.0
+                           for d in deps}
                     try:
-                        val = float(e.subs({symbols[d]: numeric[d] for d in deps}).evalf(30))
+                        numeric[n] = float(e.subs(env).evalf(30))
                     except (TypeError, ValueError):
-                        val = float("nan")
-                    if not math.isfinite(val):
-                        self.problem(f"parameters.{n}", "value is not a finite real number",
-                                     ("parameters", None, n))
-                        val = 1.0
-                    numeric[n] = val
+                        numeric[n] = float("nan")
                     del pending[n]
                     progress = True
             if not progress:
@@ -345,23 +387,23 @@ class _Loader:
                              f"({cyc}); give at least one of them a number",
                              ("parameters", None, sorted(pending)[0]))
                 break
+        final = {}
+        for n in raw:
+            v = numeric.get(n, float("nan"))
+            final[symbols[n]] = sp.Symbol(n, positive=True) if v > 0 else (
+                sp.Symbol(n, negative=True) if v < 0 else sp.Symbol(n, real=True))
         out = []
         for n in raw:
-            if n not in numeric:
-                # Its error is recorded; keep the name known so that later expressions
-                # using it do not report a misleading 'unknown name'.
-                out.append(Parameter(n, symbols[n], symbols[n], 1.0))
-                continue
-            v = numeric[n]
-            sym = sp.Symbol(n, positive=True) if v > 0 else (
-                sp.Symbol(n, negative=True) if v < 0 else sp.Symbol(n, real=True))
-            out.append(Parameter(n, sym, exprs[n], v))
-        # Re-express values in the final (assumption-carrying) symbols.
-        final = {symbols[p.name]: p.symbol for p in out}
-        return [Parameter(p.name, p.symbol, p.value.xreplace(final), p.numeric) for p in out]
+            p = None
+            if n in numeric:
+                p = self.make(Parameter, n, final[symbols[n]], exprs[n].xreplace(final),
+                              numeric[n])
+            # On an error (recorded), keep the name known so that later expressions
+            # using it do not report a misleading 'unknown name'.
+            out.append(p or Parameter(n, symbols[n], symbols[n], 1.0))
+        return out
 
-    def _coordinates(self, params: list[Parameter], names: dict[str, sp.Expr]
-                     ) -> list[Coordinate]:
+    def _coordinates(self) -> list[Coordinate]:
         table = self.table("coordinates", required=True)
         if not table:
             if table is not None:
@@ -369,18 +411,10 @@ class _Loader:
                              "coordinate as `x = { initial = 0, velocity = 0 }`",
                              ("coordinates", None, None))
             return []
-        pnames = {p.name for p in params}
-        init_names = {k: v for k, v in names.items() if k != "t"}
         out = []
         for name, spec in table.items():
             loc = ("coordinates", None, name)
             where = f"coordinates.{name}"
-            if not self.check_name(name, where, loc):
-                continue
-            if name in pnames:
-                self.problem(where, f"`{name}` is declared both as a parameter and as a "
-                             "coordinate; rename one", loc)
-                continue
             if not isinstance(spec, dict):
                 self.problem(where, "a coordinate is an inline table: "
                              f"`{name} = {{ initial = 0, velocity = 0 }}`", loc)
@@ -393,22 +427,20 @@ class _Loader:
                 self.problem(where, "missing `initial` (the initial value, a number or an "
                              "expression of parameters)", loc)
                 continue
-            q0 = self.expr(spec["initial"], init_names, where + ".initial", loc,
-                           "initial values (parameters only)")
-            v0 = self.expr(spec.get("velocity", 0), init_names, where + ".velocity", loc,
-                           "initial velocities (parameters only)")
-            keep = spec.get("keep", False)
-            if not isinstance(keep, bool):
-                self.problem(where, "`keep` must be true or false", loc)
-                keep = False
+            q0 = self.field(spec["initial"], "initial", where + ".initial", loc)
+            v0 = self.field(spec.get("velocity", 0), "initial velocity", where + ".velocity",
+                            loc)
             if q0 is None or v0 is None:
                 continue
-            out.append(Coordinate(name, sp.Symbol(name, real=True),
-                                  sp.Symbol(name + "'", real=True),
-                                  sp.Symbol(name + "''", real=True), q0, v0, keep))
+            coordinate = self.make(Coordinate, name, sp.Symbol(name, real=True),
+                                   sp.Symbol(name + "'", real=True),
+                                   sp.Symbol(name + "''", real=True), q0, v0,
+                                   spec.get("keep", False))
+            if coordinate is not None:
+                out.append(coordinate)
         return out
 
-    def _gravity(self, names: dict[str, sp.Expr]) -> sp.Expr | None:
+    def _gravity(self) -> sp.Expr | None:
         table = self.table("gravity")
         if table is None:
             return None
@@ -416,30 +448,16 @@ class _Loader:
             self.problem("gravity", "missing `acceleration` (e.g. acceleration = \"g\")",
                          ("gravity", None, None))
             return None
-        return self.expr(table["acceleration"], {k: v for k, v in names.items() if k != "t"},
-                         "gravity.acceleration", ("gravity", None, "acceleration"),
-                         "gravity (parameters only)")
+        return self.field(table["acceleration"], "gravity", "gravity.acceleration",
+                          ("gravity", None, "acceleration"))
 
-    def _positive(self, e: sp.Expr, where: str, loc: tuple, what: str, allow_zero=False
-                  ) -> None:
-        try:
-            value = float(e.subs({p.symbol: p.numeric for p in self.params}))
-        except (TypeError, ValueError):
-            self.problem(where, f"{what} must be a number or an expression of parameters", loc)
-            return
-        if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
-            self.problem(where, f"{what} must be positive, got {value:g}", loc)
-
-    def _bodies(self, pos_names: dict[str, sp.Expr], names: dict[str, sp.Expr]) -> list[Body]:
+    def _bodies(self) -> list[Body]:
         raw = self.data.get("bodies", [])
-        self.broken_bodies: set[str] = set()
         if not isinstance(raw, list):
             self.problem("bodies", "bodies are an array of tables: each starts with "
                          "`[[bodies]]`", (None, None, "bodies"))
             return []
         out = []
-        pnames = {k: v for k, v in names.items() if k != "t"}
-        seen = set()
         for i, spec in enumerate(raw):
             loc0 = ("bodies", i, None)
             if not isinstance(spec, dict):
@@ -447,84 +465,52 @@ class _Loader:
                 continue
             name = spec.get("name", f"body{i + 1}")
             where = f"bodies[{i + 1}] `{name}`"
-            if not isinstance(name, str) or not _IDENT.match(name) or name in seen:
-                self.problem(where, "each body needs a unique `name` (an identifier)",
-                             ("bodies", i, "name"))
-                continue
-            seen.add(name)
+            before = len(self.problems)
             extra = set(spec) - {"name", "mass", "position", "angle", "inertia", "shape"}
             if extra:
                 self.problem(where, f"unknown key `{sorted(extra)[0]}`; a body takes name, "
                              "mass, position, angle, inertia, shape", loc0)
             if "mass" not in spec:
                 self.problem(where, "missing `mass`", loc0)
-                self.broken_bodies.add(name)
                 continue
-            mass = self.expr(spec["mass"], pnames, where + " mass", ("bodies", i, "mass"),
-                             "masses (parameters only)")
-            if mass is not None:
-                self._positive(mass, where + " mass", ("bodies", i, "mass"), "mass")
-            position = self._vector(spec.get("position"), pos_names, where + " position",
-                                    ("bodies", i, "position"), "positions")
-            angle = inertia = None
-            if "angle" in spec:
-                angle = self.expr(spec["angle"], pos_names, where + " angle",
-                                  ("bodies", i, "angle"), "angles")
-                if "inertia" not in spec:
-                    self.problem(where, "a body with an `angle` needs its `inertia` about the "
-                                 "centre of mass (e.g. inertia = \"m*R^2/2\")", loc0)
-            if "inertia" in spec:
-                inertia = self.expr(spec["inertia"], pnames, where + " inertia",
-                                    ("bodies", i, "inertia"), "inertia (parameters only)")
-                if inertia is not None:
-                    self._positive(inertia, where + " inertia", ("bodies", i, "inertia"),
-                                   "inertia")
-            shape = self._shape(spec.get("shape"), pnames, where, ("bodies", i, "shape"))
-            if position is not None and len(position) == 3 and angle is not None:
-                self.problem(where, "rigid bodies (with an angle) must be planar: give a "
-                             "2-component position", ("bodies", i, "angle"))
-            if mass is None or position is None:
-                self.broken_bodies.add(name)   # reported above; forces naming it stay quiet
-                continue
-            out.append(Body(name, mass, position, angle, inertia, shape))
-        dims = {len(b.position) for b in out}
-        if len(dims) > 1:
-            self.problem("bodies", "all bodies must have positions of the same size (2 for "
-                         "a plane, 3 for space)", ("bodies", 0, "position"))
+            parts = {}
+            for key in ("mass", "angle", "inertia"):
+                if key in spec:
+                    parts[key] = self.field(spec[key], key, f"{where} {key}", ("bodies", i, key))
+            parts["position"] = self._vector(spec.get("position"), "position",
+                                             f"{where} position", ("bodies", i, "position"))
+            parts["shape"] = self._shape(spec.get("shape"), where, ("bodies", i, "shape"))
+            if len(self.problems) == before:
+                body = self.make(Body, name, part=where, **parts)
+                if body is not None:
+                    out.append(body)
         return out
 
-    def _shape(self, spec, names, where, loc):
+    def _shape(self, spec, where, loc) -> tuple | None:
         if spec is None:
-            return ("point", None)
+            return (ShapeKind.POINT, None)
         if not isinstance(spec, dict) or len(spec) != 1:
             self.problem(where, "shape is one of { circle = \"R\" }, { rod = \"l\" }, "
                          "{ point = true }", loc)
-            return ("point", None)
+            return None
         (kind, value), = spec.items()
-        if kind == "point":
-            return ("point", None)
-        if kind not in ("circle", "rod"):
-            self.problem(where, f"unknown shape `{kind}`; use circle, rod or point", loc)
-            return ("point", None)
-        size = self.expr(value, names, where + " shape", loc, "shapes (parameters only)")
-        return (kind, size)
+        if kind == ShapeKind.POINT or kind not in [k.value for k in ShapeKind]:
+            return (kind, None)   # an unknown kind is the model's to report
+        size = self.field(value, "shape", where + " shape", loc)
+        return None if size is None else (kind, size)
 
-    def _vector(self, value, names, where, loc, what, dims=(2, 3)) -> tuple | None:
+    def _vector(self, value, field, where, loc) -> tuple | None:
+        """A list of expressions (its length is the model's to check)."""
         if value is None:
-            self.problem(where, f"missing (a list of {' or '.join(map(str, dims))} "
-                         "expressions)", loc)
+            self.problem(where, "missing (a list of 2 or 3 expressions)", loc)
             return None
-        if not isinstance(value, (list, tuple)) or len(value) not in dims:
-            n = len(value) if isinstance(value, (list, tuple)) else 1
-            self.problem(where, f"must be a list of {' or '.join(map(str, dims))} expressions "
-                         f"(x, y[, z]); got {n}", loc)
-            return None
-        parts = [self.expr(v, names, where, loc, what) for v in value]
+        items = value if isinstance(value, (list, tuple)) else [value]
+        parts = [self.field(v, field, where, loc) for v in items]
         if any(p is None for p in parts):
             return None
         return tuple(parts)
 
-    def _lagrangian(self, pos_names, vel_names, skeleton, bodies, gravity):
+    def _lagrangian(self, skeleton, bodies, gravity):
         table = self.table("lagrangian")
         loc = ("lagrangian", None, None)
         if table is not None:
@@ -536,8 +522,7 @@ class _Loader:
                 self.problem("lagrangian", "give either L, or T and V, not both", loc)
                 return sp.Integer(0), sp.Integer(0)
             if "L" in table:
-                L = self.expr(table["L"], vel_names, "lagrangian.L",
-                              ("lagrangian", None, "L"), "L")
+                L = self.field(table["L"], "L", "lagrangian.L", ("lagrangian", None, "L"))
                 if L is None:
                     return sp.Integer(0), sp.Integer(0)
                 # Split L into T (terms with velocities) and V (the rest, negated).
@@ -552,19 +537,14 @@ class _Loader:
                     return sp.Integer(0), sp.Integer(0)
                 T = body_energy(skeleton, tuple(bodies), gravity)[0]
             else:
-                T = self.expr(table["T"], vel_names, "lagrangian.T",
-                              ("lagrangian", None, "T"), "T")
+                T = self.field(table["T"], "T", "lagrangian.T", ("lagrangian", None, "T"))
             V = sp.Integer(0)
             if "V" in table:
-                V = self.expr(table["V"], pos_names, "lagrangian.V",
-                              ("lagrangian", None, "V"), "V (positions only)")
+                V = self.field(table["V"], "V", "lagrangian.V", ("lagrangian", None, "V"))
             elif gravity is not None and bodies:
                 V = body_energy(skeleton, tuple(bodies), gravity)[1]
             if T is None or V is None:
                 return sp.Integer(0), sp.Integer(0)
-            if T == 0 or not T.has(*skeleton.qd):
-                self.problem("lagrangian.T", "T has no velocity in it; write velocities as x'",
-                             ("lagrangian", None, "T"))
             return T, V
         if not bodies:
             self.problem("lagrangian", "missing [lagrangian] (T and V, or L) and no "
@@ -572,16 +552,12 @@ class _Loader:
             return sp.Integer(0), sp.Integer(0)
         return body_energy(skeleton, tuple(bodies), gravity)
 
-    def _constraints(self, pos_names, vel_names, bodies) -> list[Constraint]:
+    def _constraints(self) -> list[Constraint]:
         raw = self.data.get("constraints", [])
         if not isinstance(raw, list):
             self.problem("constraints", "constraints are an array of tables: each starts "
                          "with `[[constraints]]`", (None, None, "constraints"))
             return []
-        names = [s.get("name") if isinstance(s, dict) else None for s in raw]
-        body_names = {b.name: b for b in bodies}
-        dim = max((len(b.position) for b in bodies), default=2)
-        qd = [v for k, v in vel_names.items() if k.endswith("'")]
         out = []
         for i, spec in enumerate(raw):
             loc0 = ("constraints", i, None)
@@ -590,10 +566,7 @@ class _Loader:
                 continue
             name = spec.get("name", f"c{i + 1}")
             where = f"constraints[{i + 1}] `{name}`"
-            if not isinstance(name, str) or not _IDENT.match(name) or names.count(name) > 1:
-                self.problem(where, "each constraint needs a unique `name` (an identifier)",
-                             ("constraints", i, "name"))
-                continue
+            before = len(self.problems)
             extra = set(spec) - {"name", "f", "velocity", "unilateral", "friction", "force",
                                  "restitution"}
             if extra:
@@ -604,80 +577,33 @@ class _Loader:
                 self.problem(where, "give exactly one of `f` (holonomic, f(q, t) = 0) or "
                              "`velocity` (linear in the velocities, a(q,t).q' + b = 0)", loc0)
                 continue
-            if "f" in spec:
-                kind = "holonomic"
-                e = self.expr(spec["f"], pos_names, where + " f", ("constraints", i, "f"),
-                              "a holonomic constraint f (positions only; use `velocity = "
-                              "\"...\"` for a velocity constraint)")
-            else:
-                kind = "velocity"
-                e = self.expr(spec["velocity"], vel_names, where + " velocity",
-                              ("constraints", i, "velocity"), "velocity constraints")
-                if e is not None:
-                    if not e.has(*qd):
-                        self.problem(where, "a velocity constraint must contain a velocity "
-                                     "(x'); for a constraint on positions use `f`",
-                                     ("constraints", i, "velocity"))
-                    elif any(sp.diff(e, a, b) != 0 for a in qd for b in qd if e.has(a)):
-                        self.problem(where, "a non-holonomic constraint must be linear in the "
-                                     "velocities (a(q,t).q' + b = 0)",
-                                     ("constraints", i, "velocity"))
-            if e is None:
-                continue
-            if e == 0:
-                self.problem(where, "the constraint is identically zero", loc0)
-                continue
-            unilateral = spec.get("unilateral", False)
-            if not isinstance(unilateral, bool):
-                self.problem(where, "`unilateral` must be true or false",
-                             ("constraints", i, "unilateral"))
-                unilateral = False
-            if unilateral and kind != "holonomic":
-                self.problem(where, "only holonomic constraints (f) can be unilateral",
-                             ("constraints", i, "unilateral"))
-            friction = self._friction(spec.get("friction"), names, name, where, pos_names,
+            key = "f" if "f" in spec else "velocity"
+            kind = ConstraintKind.HOLONOMIC if key == "f" else ConstraintKind.VELOCITY
+            e = self.field(spec[key], key, f"{where} {key}", ("constraints", i, key))
+            friction = self._friction(spec.get("friction"), where,
                                       ("constraints", i, "friction"))
-            force = self._force_spec(spec.get("force"), body_names, dim, pos_names, where,
-                                     ("constraints", i, "force"))
-            rest = spec.get("restitution", 0)
-            restitution = self.expr(rest, {k: v for k, v in pos_names.items()
-                                           if k in {p for p in pos_names}},
-                                    where + " restitution", ("constraints", i, "restitution"),
-                                    "restitution")
-            out.append(Constraint(name, e, kind, unilateral, friction, force,
-                                  restitution if restitution is not None else sp.Integer(0),
-                                  sp.Symbol("lambda_" + name, real=True)))
+            force = self._force_spec(spec.get("force"), where, ("constraints", i, "force"))
+            restitution = self.field(spec.get("restitution", 0), "restitution",
+                                     f"{where} restitution", ("constraints", i, "restitution"))
+            if len(self.problems) == before:
+                constraint = self.make(Constraint, name, e, kind,
+                                       spec.get("unilateral", False), friction, force,
+                                       restitution, part=where)
+                if constraint is not None:
+                    out.append(constraint)
         return out
 
-    def _friction(self, spec, names, own, where, pos_names, loc) -> Friction | None:
+    def _friction(self, spec, where, loc) -> Friction | None:
         if spec is None:
             return None
         if not isinstance(spec, dict) or set(spec) != {"mu", "normal"}:
             self.problem(where, "friction is { mu = <coefficient>, normal = \"<name of the "
                          "normal constraint>\" }", loc)
             return None
-        normal = spec["normal"]
-        if normal not in [n for n in names if n != own]:
-            known = ", ".join(str(n) for n in names if n and n != own) or "(none)"
-            self.problem(where, f"friction.normal `{normal}` is not another constraint; "
-                         f"known: {known}", loc)
-            return None
-        mu = self.expr(spec["mu"], {k: v for k, v in pos_names.items()},
-                       where + " friction.mu", loc, "mu")
-        if mu is None:
-            return None
-        if mu.free_symbols <= {p.symbol for p in self.params}:
-            try:
-                value = number_at(mu, {p.symbol: p.numeric for p in self.params})
-            except (TypeError, ValueError):
-                value = float("nan")
-            if not (math.isfinite(value) and value >= 0):
-                self.problem(where, f"friction.mu must be a coefficient of friction >= 0, got "
-                             f"{value:g}", loc)
-                return None
-        return Friction(mu, normal)
+        mu = self.field(spec["mu"], "mu", where + " friction.mu", loc)
+        return None if mu is None else self.make(Friction, mu, spec["normal"], part=where)
 
-    def _force_spec(self, spec, bodies, dim, pos_names, where, loc) -> ForceSpec | None:
+    def _force_spec(self, spec, where, loc) -> ForceSpec | None:
         if spec is None:
             return None
         if not isinstance(spec, dict) or not {"body", "at"} <= set(spec) or \
@@ -685,17 +611,9 @@ class _Loader:
             self.problem(where, "force is { body = \"<body>\" (or [\"a\", \"b\"]), at = [x, y], "
                          "along = { name = [dx, dy] } }", loc)
             return None
+        before = len(self.problems)
         names = spec["body"] if isinstance(spec["body"], list) else [spec["body"]]
-        if any(isinstance(n, str) and n in self.broken_bodies for n in names):
-            return None   # the body's own error says what is wrong
-        if len(names) not in (1, 2) or any(n not in bodies for n in names):
-            known = ", ".join(bodies) or "(none: declare [[bodies]])"
-            self.problem(where, f"force.body {spec['body']!r}: unknown body; known: {known}",
-                         loc)
-            return None
-        body_dim = len(bodies[names[0]].position)
-        at = self._vector(spec["at"], pos_names, where + " force.at", loc, "positions",
-                          (body_dim,))
+        at = self._vector(spec["at"], "at", where + " force.at", loc)
         along = []
         raw_along = spec.get("along", {})
         if not isinstance(raw_along, dict):
@@ -703,23 +621,13 @@ class _Loader:
                          "{ normal = [\"sin(x)\", \"cos(x)\"] }", loc)
             return None
         for dname, vec in raw_along.items():
-            if dname == "residual":
-                self.problem(where, "a direction may not be called `residual` (that name "
-                             "reports what the point cannot carry); rename it", loc)
-                continue
-            v = self._vector(vec, pos_names, where + f" force.along.{dname}", loc, "directions",
-                             (body_dim,))
-            if v is not None and all(c.is_zero for c in v):
-                self.problem(where, f"force.along.{dname} is the zero vector; give the "
-                             "direction to project the force on, e.g. [\"sin(x)\", "
-                             "\"cos(x)\"]", loc)
-            elif v is not None:
-                along.append((dname, v))
-        if at is None:
+            v = self._vector(vec, "along", where + f" force.along.{dname}", loc)
+            along.append((dname, v))
+        if len(self.problems) > before:
             return None
-        return ForceSpec(tuple(names), at, tuple(along))
+        return self.make(ForceSpec, tuple(names), at, tuple(along), part=where)
 
-    def _forces(self, coords, vel_names) -> list[sp.Expr]:
+    def _forces(self, coords) -> list[sp.Expr]:
         table = self.table("forces") or {}
         by_name = {c.name: i for i, c in enumerate(coords)}
         out = [sp.Integer(0)] * len(coords)
@@ -728,13 +636,12 @@ class _Loader:
                 self.problem(f"forces.{name}", f"`{name}` is not a coordinate; known: "
                              + ", ".join(by_name), ("forces", None, name))
                 continue
-            e = self.expr(value, vel_names, f"forces.{name}", ("forces", None, name),
-                          "generalized forces")
+            e = self.field(value, "forces", f"forces.{name}", ("forces", None, name))
             if e is not None:
                 out[by_name[name]] = e
         return out
 
-    # ----- whole-system checks ---------------------------------------------------------
+    # ----- notes ---------------------------------------------------------------------
     def _compare_energy(self, skeleton, bodies, gravity, T, V) -> list[str]:
         table = self.data.get("lagrangian")
         if not bodies or not isinstance(table, dict):
@@ -758,54 +665,6 @@ class _Loader:
                              f"[[bodies]] by {to_text(diff)} (fine if that is a spring or "
                              "other potential; V is used as given)")
         return notes
-
-    def _check_initial(self, system: System) -> None:
-        values = {**system.parameter_values}
-        state = initial_values(system)
-        scale = 1 + max((abs(v) for v in state.values()), default=0.0)
-        env = {**values, **state, system.t: 0.0}
-        for i, c in enumerate(system.constraints):
-            loc = ("constraints", i, "f" if c.holonomic else "velocity")
-            where = f"constraints[{i + 1}] `{c.name}`"
-            try:
-                if c.holonomic:
-                    res = number_at(c.expr, env)
-                    vres = number_at(time_derivative(c.expr, system), env)
-                else:
-                    res, vres = 0.0, number_at(c.expr, env)
-            except (TypeError, ValueError):
-                self.problem(where, "cannot evaluate the constraint at the initial state "
-                             "(complex or undefined value)", loc)
-                continue
-            tol = INITIAL_TOLERANCE * scale
-            if c.unilateral and c.holonomic and (res > tol or (abs(res) <= tol and vres > tol)):
-                continue   # an open (or opening) contact: allowed, see open_at_start
-            if c.unilateral and c.holonomic and res < -tol:
-                self.problem(where, f"the initial state is on the forbidden side of the "
-                             f"unilateral constraint: f = {res:.6g} < 0 (f >= 0 is allowed); "
-                             "change the coordinates' initial values", loc)
-            elif abs(res) > tol:
-                self.problem(where, f"the initial state violates the constraint: f = {res:.6g} "
-                             "(should be 0); change the coordinates' initial values", loc)
-            elif abs(vres) > INITIAL_TOLERANCE * scale:
-                label = "df/dt" if c.holonomic else "the constraint"
-                self.problem(where, f"the initial velocities violate the constraint: {label} = "
-                             f"{vres:.6g} (should be 0); change the coordinates' initial "
-                             "velocities", loc)
-
-    def _check_dependent(self, system: System) -> None:
-        for group, where_singular in dependent_constraints(system):
-            idx = system.constraints.index(system.constraint(group[0]))
-            names = " and ".join(f"`{n}`" for n in group) if len(group) <= 2 else \
-                ", ".join(f"`{n}`" for n in group)
-            if where_singular:
-                self.problem("constraints", f"constraints {names} are dependent at the initial "
-                             "state (a singular configuration): forces cannot be uniquely "
-                             "determined there; start elsewhere", ("constraints", idx, "name"))
-            else:
-                self.problem("constraints", f"constraints {names} are dependent: forces cannot "
-                             "be uniquely determined; remove the redundant one",
-                             ("constraints", idx, "name"))
 
 
 def _numerically_equal(a: sp.Expr, b: sp.Expr, system: System, tries: int = 3) -> bool:

@@ -1,0 +1,583 @@
+"""The rules a model obeys, each stated once: the definitions of :mod:`._system` check
+themselves with these (``__post_init__``), and :mod:`lamech.problem` reports what they
+find with the file and line.
+
+Every function returns a list of (where, message); ``where`` names the place the way a
+problem file does: ``parameters.l``, ``coordinates.x.initial``, ``lagrangian.V``,
+``constraints[2] `rolling` friction.mu``, ``bodies[1] `wheel` mass``, ``forces.x``,
+``gravity.acceleration``. A part checked on its own, before it is in a system, does not
+know its index: ``constraint `rolling` unilateral``, ``body `wheel` position``, and a
+friction or force spec ``friction.mu``, ``force.at``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import TYPE_CHECKING, Any
+
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+from ..expr import FUNCTIONS, RESERVED
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._system import Body, Constraint, Coordinate, ForceSpec, Friction, Parameter, System
+
+__all__ = ["FIELDS", "name_problem", "parameter_issues", "coordinate_issues",
+           "friction_issues", "force_issues", "constraint_issues", "body_issues",
+           "system_issues"]
+
+Issues = list[tuple[str, str]]
+
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+FIELDS: dict[str, tuple[str, str]] = {
+    # field: (what may appear in it, how messages name it). "parameters": parameters
+    # only; "positions": parameters, coordinates and t; "velocities": those and the
+    # coordinates' velocities x'.
+    "parameter value": ("parameters", "parameter values"),
+    "initial": ("parameters", "initial values (parameters only)"),
+    "initial velocity": ("parameters", "initial velocities (parameters only)"),
+    "T": ("velocities", "T"),
+    "V": ("positions", "V (positions only)"),
+    "L": ("velocities", "L"),
+    "f": ("positions", "a holonomic constraint f (positions only; use `velocity = \"...\"` "
+          "for a velocity constraint)"),
+    "velocity": ("velocities", "velocity constraints"),
+    "restitution": ("positions", "restitution"),
+    "mu": ("positions", "mu"),
+    "at": ("positions", "positions"),
+    "along": ("positions", "directions"),
+    "forces": ("velocities", "generalized forces"),
+    "mass": ("parameters", "masses (parameters only)"),
+    "position": ("positions", "positions"),
+    "angle": ("positions", "angles"),
+    "inertia": ("parameters", "inertia (parameters only)"),
+    "shape": ("parameters", "shapes (parameters only)"),
+    "gravity": ("parameters", "gravity (parameters only)"),
+}
+"""What each kind of expression may contain, and its name in messages (the loader
+parses with the same)."""
+
+
+# ----- names ---------------------------------------------------------------------------
+def name_problem(name: Any) -> str | None:
+    """Why ``name`` cannot name a parameter or coordinate, or None: an identifier, not a
+    function or ``t``/``pi``, not ``lambda_...`` (the multipliers) nor containing ``__``."""
+    if not isinstance(name, str) or not _IDENT.match(name):
+        return (f"`{name}` is not a valid name (letters, digits and _, not starting with a "
+                "digit)")
+    if name in RESERVED:
+        kind = "a function" if name in FUNCTIONS else "reserved"
+        return f"`{name}` is {kind} and cannot be a parameter or coordinate name; rename it"
+    if name.startswith("lambda_") or "__" in name:
+        return (f"`{name}`: names starting with `lambda_` or containing `__` are reserved "
+                "(lambda_<constraint> names the multipliers); rename it")
+    return None
+
+
+def _identifier_problem(name: Any) -> str | None:
+    if not isinstance(name, str) or not _IDENT.match(name):
+        return (f"`{name}` is not a valid name (letters, digits and _, not starting with a "
+                "digit)")
+    return None
+
+
+def _join(where: str, field: str) -> str:
+    return f"{where} {field}" if where else field
+
+
+def _not_expr(value: Any, what: str) -> str:
+    return (f"{what} must be a SymPy expression (a number as sp.Integer/sp.Float, or in "
+            f"the declared symbols), not {type(value).__name__}")
+
+
+def _is_expr(value: Any) -> bool:
+    return isinstance(value, sp.Expr)
+
+
+def _is_bool(value: Any) -> bool:
+    return isinstance(value, bool)
+
+
+# ----- parts on their own --------------------------------------------------------------
+def parameter_issues(p: Parameter) -> Issues:
+    where = f"parameters.{p.name}"
+    out: Issues = []
+    if not isinstance(p.name, str) or not p.name:
+        out.append((where, "a parameter needs a name (a string)"))
+    if not isinstance(p.symbol, sp.Symbol):
+        out.append((where, f"the symbol must be a SymPy Symbol, not {type(p.symbol).__name__}"))
+    elif (problem := name_problem(p.symbol.name)) is not None:
+        out.append((where, problem))
+    if not _is_expr(p.value):
+        out.append((where, _not_expr(p.value, "the value")))
+    if _is_bool(p.numeric) or not isinstance(p.numeric, (int, float)) \
+            or not math.isfinite(p.numeric):
+        out.append((where, "value is not a finite real number"))
+    elif isinstance(p.symbol, sp.Symbol) and (
+            (p.symbol.is_positive and p.numeric < 0) or (p.symbol.is_negative and p.numeric > 0)):
+        sign = "positive" if p.symbol.is_positive else "negative"
+        out.append((where, f"the symbol is declared {sign} but the value is {p.numeric:g}"))
+    return out
+
+
+def coordinate_issues(c: Coordinate) -> Issues:
+    where = f"coordinates.{c.name}"
+    out: Issues = []
+    if (problem := name_problem(c.name)) is not None:
+        out.append((where, problem))
+        return out
+    for label, sym, expected in (("symbol", c.symbol, c.name),
+                                 ("velocity", c.velocity, c.name + "'"),
+                                 ("acceleration", c.acceleration, c.name + "''")):
+        if not isinstance(sym, sp.Symbol):
+            out.append((where, f"the {label} symbol must be a SymPy Symbol named "
+                               f"`{expected}`, not {type(sym).__name__}"))
+        elif sym.name != expected:
+            out.append((where, f"the {label} symbol must be named `{expected}`, got "
+                               f"`{sym.name}`"))
+    if not _is_expr(c.initial):
+        out.append((where + ".initial", _not_expr(c.initial, "the initial value")))
+    if not _is_expr(c.initial_velocity):
+        out.append((where + ".velocity", _not_expr(c.initial_velocity,
+                                                    "the initial velocity")))
+    if not _is_bool(c.keep):
+        out.append((where + ".keep", "`keep` must be true or false"))
+    return out
+
+
+def friction_issues(f: Friction) -> Issues:
+    out: Issues = []
+    if not _is_expr(f.mu):
+        out.append(("friction.mu", _not_expr(f.mu, "the coefficient of friction")))
+    if not isinstance(f.normal, str):
+        out.append(("friction.normal", "must be the name of the normal constraint (a "
+                                       "string)"))
+    return out
+
+
+def force_issues(fs: ForceSpec) -> Issues:
+    out: Issues = []
+    if not isinstance(fs.bodies, tuple) or len(fs.bodies) not in (1, 2) or \
+            not all(isinstance(n, str) for n in fs.bodies):
+        out.append(("force.body", "one body name, or two (force on the first, reaction on "
+                                  "the second)"))
+    if not isinstance(fs.at, tuple) or len(fs.at) not in (2, 3):
+        n = len(fs.at) if isinstance(fs.at, tuple) else 1
+        out.append(("force.at", f"must be a list of 2 or 3 expressions (x, y[, z]); got {n}"))
+    elif not all(_is_expr(x) for x in fs.at):
+        out.append(("force.at", _not_expr(next(x for x in fs.at if not _is_expr(x)),
+                                          "each component")))
+    if not isinstance(fs.along, tuple):
+        out.append(("force.along", "must be a tuple of (name, direction) pairs"))
+        return out
+    seen = set()
+    for item in fs.along:
+        if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)):
+            out.append(("force.along", "must be a tuple of (name, direction) pairs"))
+            continue
+        name, vec = item
+        where = f"force.along.{name}"
+        if name == "residual":
+            out.append((where, "a direction may not be called `residual` (that name reports "
+                               "what the point cannot carry); rename it"))
+            continue
+        if name in seen:
+            out.append((where, f"the direction `{name}` is given twice"))
+        seen.add(name)
+        if not isinstance(vec, tuple) or len(vec) not in (2, 3):
+            n = len(vec) if isinstance(vec, tuple) else 1
+            out.append((where, f"must be a list of 2 or 3 expressions (x, y[, z]); got {n}"))
+        elif not all(_is_expr(x) for x in vec):
+            out.append((where, _not_expr(next(x for x in vec if not _is_expr(x)),
+                                         "each component")))
+        elif all(x.is_zero for x in vec):
+            out.append((where, "the direction is the zero vector; give one to project the "
+                               "force on, e.g. [\"sin(x)\", \"cos(x)\"]"))
+    return out
+
+
+def constraint_issues(c: Constraint) -> Issues:
+    from ._system import ConstraintKind, ForceSpec, Friction
+    where = f"constraint `{c.name}`"
+    out: Issues = []
+    if (problem := _identifier_problem(c.name)) is not None:
+        out.append((_join(where, "name"), problem))
+    kinds = [k.value for k in ConstraintKind]
+    field = "velocity" if c.kind == ConstraintKind.VELOCITY else "f"
+    if not isinstance(c.kind, ConstraintKind):
+        out.append((_join(where, "kind"), f"kind `{c.kind}` is not one of "
+                                          + ", ".join(kinds)))
+    if not _is_expr(c.expr):
+        out.append((_join(where, field), _not_expr(c.expr, "the constraint")))
+    elif c.expr.is_zero:
+        out.append((_join(where, field), "the constraint is identically zero"))
+    if not _is_bool(c.unilateral):
+        out.append((_join(where, "unilateral"), "`unilateral` must be true or false"))
+    elif c.unilateral and c.kind != ConstraintKind.HOLONOMIC:
+        out.append((_join(where, "unilateral"), "only holonomic constraints (f) can be "
+                                                "unilateral"))
+    if c.friction is not None and not isinstance(c.friction, Friction):
+        out.append((_join(where, "friction"), "must be a Friction or None"))
+    if c.force is not None and not isinstance(c.force, ForceSpec):
+        out.append((_join(where, "force"), "must be a ForceSpec or None"))
+    if not _is_expr(c.restitution):
+        out.append((_join(where, "restitution"), _not_expr(c.restitution,
+                                                           "the restitution")))
+    expected = f"lambda_{c.name}"
+    if isinstance(c.name, str) and (not isinstance(c.multiplier, sp.Symbol)
+                                    or c.multiplier.name != expected):
+        out.append((_join(where, "multiplier"), f"the multiplier must be the Symbol "
+                                                f"`{expected}` (leave it out to get it)"))
+    return out
+
+
+def body_issues(b: Body) -> Issues:
+    from ._system import ShapeKind
+    where = f"body `{b.name}`"
+    out: Issues = []
+    if (problem := _identifier_problem(b.name)) is not None:
+        out.append((_join(where, "name"), problem))
+    if not _is_expr(b.mass):
+        out.append((_join(where, "mass"), _not_expr(b.mass, "the mass")))
+    if not isinstance(b.position, tuple) or len(b.position) not in (2, 3):
+        n = len(b.position) if isinstance(b.position, tuple) else 1
+        out.append((_join(where, "position"), f"must be a list of 2 or 3 expressions "
+                                              f"(x, y[, z]); got {n}"))
+    elif not all(_is_expr(x) for x in b.position):
+        out.append((_join(where, "position"), _not_expr(
+            next(x for x in b.position if not _is_expr(x)), "each component")))
+    if b.angle is not None:
+        if not _is_expr(b.angle):
+            out.append((_join(where, "angle"), _not_expr(b.angle, "the angle")))
+        if b.inertia is None:
+            out.append((_join(where, "angle"), "a body with an `angle` needs its `inertia` "
+                                               "about the centre of mass (e.g. inertia = "
+                                               "\"m*R^2/2\")"))
+        if isinstance(b.position, tuple) and len(b.position) == 3:
+            out.append((_join(where, "angle"), "rigid bodies (with an angle) must be planar: "
+                                               "give a 2-component position"))
+    if b.inertia is not None and not _is_expr(b.inertia):
+        out.append((_join(where, "inertia"), _not_expr(b.inertia, "the inertia")))
+    shape = b.shape
+    if not (isinstance(shape, tuple) and len(shape) == 2):
+        out.append((_join(where, "shape"), "shape is (kind, size): (\"point\", None), "
+                                           "(\"circle\", R) or (\"rod\", l)"))
+    elif not isinstance(shape[0], ShapeKind):
+        out.append((_join(where, "shape"), f"unknown shape `{shape[0]}`; use circle, rod or "
+                                           "point"))
+    elif shape[0] == ShapeKind.POINT and shape[1] is not None:
+        out.append((_join(where, "shape"), "a point has no size (give None)"))
+    elif shape[0] != ShapeKind.POINT and not _is_expr(shape[1]):
+        out.append((_join(where, "shape"), _not_expr(shape[1], f"the size of the "
+                                                               f"{shape[0].value}")))
+    return out
+
+
+_PLURAL = {"velocity": "velocities are", "acceleration": "accelerations are",
+           "coordinate": "coordinates are", "time": "time is", "parameter": "parameters are"}
+
+
+# ----- the whole -----------------------------------------------------------------------
+class _Scope:
+    """The declared symbols of a system and what each field may contain."""
+
+    def __init__(self, s: System):
+        self.roles: dict[sp.Symbol, str] = {s.t: "time"}
+        params = {p.symbol for p in s.parameters if isinstance(p.symbol, sp.Symbol)}
+        for sym in params:
+            self.roles[sym] = "parameter"
+        for c in s.coordinates:
+            self.roles[c.symbol] = "coordinate"
+            self.roles[c.velocity] = "velocity"
+            self.roles[c.acceleration] = "acceleration"
+        coords = {c.symbol for c in s.coordinates}
+        vels = {c.velocity for c in s.coordinates}
+        self.allowed = {"parameters": params, "positions": params | coords | {s.t},
+                        "velocities": params | coords | vels | {s.t}}
+        self.by_name = {str(sym): sym for sym in self.roles}
+        self.known = {scope: ", ".join(sorted(str(x) for x in syms if "'" not in str(x)))
+                      or "(none)" for scope, syms in self.allowed.items()}
+
+    def problem(self, expr: sp.Expr, field: str) -> str | None:
+        """The first undeclared or disallowed name in ``expr`` as a field ``field``
+        (a key of FIELDS), in the loader's words; None when all is well."""
+        scope, what = FIELDS[field]
+        allowed = self.allowed[scope]
+        for sym in sorted(expr.free_symbols, key=str):
+            if sym in allowed:
+                continue
+            role = self.roles.get(sym)
+            if role is not None:
+                return f"`{sym}`: {_PLURAL[role]} not allowed in {what}"
+            if str(sym) in self.by_name:
+                return (f"`{sym}` is not the declared symbol `{sym}` (same name, other "
+                        "assumptions); use the system's own symbol")
+            return f"unknown name `{sym}`; known: {self.known[scope]}"
+        undefined = sorted(expr.atoms(AppliedUndef), key=str)
+        if undefined:
+            return (f"unknown function `{undefined[0].func}`; known: "
+                    + ", ".join(sorted(FUNCTIONS)))
+        return None
+
+
+def system_issues(s: System) -> Issues:
+    """Everything wrong with ``s`` as a whole. The checks at numbers that cost most (the
+    initial state, dependent constraints) run only when everything else is right."""
+    from ._system import Body, Constraint, Coordinate, Parameter
+    out: Issues = []
+    for label, items, cls in (("parameters", s.parameters, Parameter),
+                              ("coordinates", s.coordinates, Coordinate),
+                              ("constraints", s.constraints, Constraint),
+                              ("bodies", s.bodies, Body)):
+        if not isinstance(items, tuple) or not all(isinstance(x, cls) for x in items):
+            out.append((label, f"{label} must be a tuple of {cls.__name__}"))
+    if out:
+        return out
+    if not isinstance(s.t, sp.Symbol):
+        return [("t", "t must be a SymPy Symbol")]
+    out += _name_issues(s)
+    scope = _Scope(s)
+    out += _expression_issues(s, scope)
+    out += _structure_issues(s, scope)
+    out += _value_issues(s, scope)
+    if out:
+        return out
+    return _initial_issues(s) + _dependent_issues(s)
+
+
+def _name_issues(s: System) -> Issues:
+    out: Issues = []
+    seen: dict[str, str] = {}
+    for p in s.parameters:
+        for n in {p.name, p.symbol.name}:
+            if n in seen:
+                out.append((f"parameters.{p.name}", f"`{n}` is declared twice as a "
+                                                    "parameter; rename one"))
+            seen[n] = "parameter"
+    for c in s.coordinates:
+        where = f"coordinates.{c.name}"
+        if seen.get(c.name) == "parameter":
+            out.append((where, f"`{c.name}` is declared both as a parameter and as a "
+                               "coordinate; rename one"))
+        elif c.name in seen:
+            out.append((where, f"`{c.name}` is declared twice as a coordinate; rename one"))
+        seen[c.name] = "coordinate"
+    for label, items in (("constraints", s.constraints), ("bodies", s.bodies)):
+        first: dict[str, int] = {}
+        what = "constraint" if label == "constraints" else "body"
+        for i, item in enumerate(items):
+            if item.name in first:
+                out.append((f"{label}[{i + 1}] `{item.name}` name", f"the name `{item.name}` "
+                            f"is already used by {label}[{first[item.name] + 1}]; each {what} "
+                            "needs a unique name"))
+            else:
+                first[item.name] = i
+    return out
+
+
+def _expression_issues(s: System, scope: _Scope) -> Issues:
+    """Each expression contains only what its field allows."""
+    out: Issues = []
+    wrong: set[str] = set()
+
+    def check(expr: Any, field: str, where: str) -> None:
+        if where in wrong:
+            return   # one issue per place: the first thing wrong there
+        if not _is_expr(expr):
+            problem: str | None = _not_expr(expr, FIELDS[field][1])
+        else:
+            problem = scope.problem(expr, field)
+        if problem is not None:
+            wrong.add(where)
+            out.append((where, problem))
+
+    for p in s.parameters:
+        check(p.value, "parameter value", f"parameters.{p.name}")
+    for c in s.coordinates:
+        check(c.initial, "initial", f"coordinates.{c.name}.initial")
+        check(c.initial_velocity, "initial velocity", f"coordinates.{c.name}.velocity")
+    check(s.T, "T", "lagrangian.T")
+    check(s.V, "V", "lagrangian.V")
+    if s.gravity is not None:
+        check(s.gravity, "gravity", "gravity.acceleration")
+    if not isinstance(s.forces, tuple) or len(s.forces) not in (0, len(s.coordinates)):
+        out.append(("forces", "forces are one generalized force per coordinate (or none)"))
+    else:
+        for c, Q in zip(s.coordinates, s.forces):
+            check(Q, "forces", f"forces.{c.name}")
+    for i, c in enumerate(s.constraints):
+        where = f"constraints[{i + 1}] `{c.name}`"
+        field = "f" if c.holonomic else "velocity"
+        check(c.expr, field, f"{where} {field}")
+        check(c.restitution, "restitution", f"{where} restitution")
+        if c.friction is not None:
+            check(c.friction.mu, "mu", f"{where} friction.mu")
+        if c.force is not None:
+            for x in c.force.at:
+                check(x, "at", f"{where} force.at")
+            for name, vec in c.force.along:
+                for x in vec:
+                    check(x, "along", f"{where} force.along.{name}")
+    for i, b in enumerate(s.bodies):
+        where = f"bodies[{i + 1}] `{b.name}`"
+        check(b.mass, "mass", f"{where} mass")
+        for x in b.position:
+            check(x, "position", f"{where} position")
+        if b.angle is not None:
+            check(b.angle, "angle", f"{where} angle")
+        if b.inertia is not None:
+            check(b.inertia, "inertia", f"{where} inertia")
+        if b.shape[1] is not None:
+            check(b.shape[1], "shape", f"{where} shape")
+    return out
+
+
+def _structure_issues(s: System, scope: _Scope) -> Issues:
+    from ._system import ConstraintKind
+    out: Issues = []
+    qd = s.qd
+    if _is_expr(s.T) and (s.T == 0 or not s.T.has(*qd)):
+        out.append(("lagrangian.T", "T has no velocity in it; write velocities as x'"))
+    names = [c.name for c in s.constraints]
+    bodies = {b.name: b for b in s.bodies}
+    for i, c in enumerate(s.constraints):
+        where = f"constraints[{i + 1}] `{c.name}`"
+        if c.kind == ConstraintKind.VELOCITY and _is_expr(c.expr):
+            e = c.expr
+            if not e.has(*qd):
+                out.append((f"{where} velocity", "a velocity constraint must contain a "
+                            "velocity (x'); for a constraint on positions use `f`"))
+            elif any(sp.diff(e, a, b) != 0 for a in qd if e.has(a) for b in qd):
+                out.append((f"{where} velocity", "a non-holonomic constraint must be linear "
+                            "in the velocities (a(q,t).q' + b = 0)"))
+        if c.friction is not None and (c.friction.normal == c.name
+                                       or c.friction.normal not in names):
+            known = ", ".join(n for n in names if n != c.name) or "(none)"
+            out.append((f"{where} friction.normal", f"`{c.friction.normal}` is not another "
+                        f"constraint; known: {known}"))
+        if c.force is not None:
+            known = ", ".join(bodies) or "(none: declare bodies)"
+            unknown = [n for n in c.force.bodies if n not in bodies]
+            for n in unknown:
+                out.append((f"{where} force.body", f"unknown body {n!r}; known: {known}"))
+            if not unknown:
+                dim = len(bodies[c.force.bodies[0]].position)
+                if len(c.force.at) != dim:
+                    out.append((f"{where} force.at", f"must have {dim} components, like the "
+                                f"position of body `{c.force.bodies[0]}`; got "
+                                f"{len(c.force.at)}"))
+                for name, vec in c.force.along:
+                    if len(vec) != dim:
+                        out.append((f"{where} force.along.{name}", f"must have {dim} "
+                                    f"components, like the position of body "
+                                    f"`{c.force.bodies[0]}`; got {len(vec)}"))
+    if len({len(b.position) for b in s.bodies}) > 1:
+        out.append(("bodies", "all bodies must have positions of the same size (2 for a "
+                              "plane, 3 for space)"))
+    return out
+
+
+def _value_issues(s: System, scope: _Scope) -> Issues:
+    """Masses and inertias positive, friction coefficients >= 0, at the parameter values."""
+    from ._checks import value
+    out: Issues = []
+    pv = s.parameter_values
+    params = scope.allowed["parameters"]
+
+    def at_parameters(expr: Any) -> float | None:
+        if not _is_expr(expr) or not expr.free_symbols <= params:
+            return None   # reported as a name problem
+        try:
+            return value(expr, pv)
+        except (TypeError, ValueError):
+            return float("nan")
+
+    for i, b in enumerate(s.bodies):
+        where = f"bodies[{i + 1}] `{b.name}`"
+        for label, expr in (("mass", b.mass), ("inertia", b.inertia)):
+            if expr is None:
+                continue
+            v = at_parameters(expr)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                out.append((f"{where} {label}", f"must be positive, got {v:g}"))
+    for i, c in enumerate(s.constraints):
+        if c.friction is None:
+            continue
+        v = at_parameters(c.friction.mu)
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            out.append((f"constraints[{i + 1}] `{c.name}` friction.mu",
+                        f"must be a coefficient of friction >= 0, got {v:g}"))
+    return out
+
+
+def _initial_issues(s: System) -> Issues:
+    """The initial state meets every constraint (a unilateral contact may start open, see
+    :func:`~lamech.model.open_at_start`, not on its forbidden side)."""
+    from ._checks import INITIAL_TOLERANCE, value
+    from ._kinematics import time_derivative
+    out: Issues = []
+    pv = s.parameter_values
+    state = {}
+    for c in s.coordinates:
+        for sym, expr, label in ((c.symbol, c.initial, "initial"),
+                                 (c.velocity, c.initial_velocity, "velocity")):
+            try:
+                state[sym] = value(expr, pv)
+            except (TypeError, ValueError):
+                state[sym] = float("nan")
+            if not math.isfinite(state[sym]):
+                out.append((f"coordinates.{c.name}.{label}", "the initial value is not a "
+                            "finite real number at the parameter values"))
+    if out:
+        return out
+    scale = 1 + max((abs(v) for v in state.values()), default=0.0)
+    tol = INITIAL_TOLERANCE * scale
+    env = {**pv, **state, s.t: 0.0}
+    for i, c in enumerate(s.constraints):
+        where = f"constraints[{i + 1}] `{c.name}`"
+        try:
+            if c.holonomic:
+                res = value(c.expr, env)
+                vres = value(time_derivative(c.expr, s), env)
+            else:
+                res, vres = 0.0, value(c.expr, env)
+        except (TypeError, ValueError):
+            out.append((where, "cannot evaluate the constraint at the initial state "
+                               "(complex or undefined value)"))
+            continue
+        if c.unilateral and c.holonomic and (res > tol or (abs(res) <= tol and vres > tol)):
+            continue   # an open (or opening) contact: allowed, see open_at_start
+        if c.unilateral and c.holonomic and res < -tol:
+            out.append((where, f"the initial state is on the forbidden side of the "
+                               f"unilateral constraint: f = {res:.6g} < 0 (f >= 0 is "
+                               "allowed); change the coordinates' initial values"))
+        elif abs(res) > tol:
+            out.append((where, f"the initial state violates the constraint: f = {res:.6g} "
+                               "(should be 0); change the coordinates' initial values"))
+        elif abs(vres) > tol:
+            label = "df/dt" if c.holonomic else "the constraint"
+            out.append((where, f"the initial velocities violate the constraint: {label} = "
+                               f"{vres:.6g} (should be 0); change the coordinates' initial "
+                               "velocities"))
+    return out
+
+
+def _dependent_issues(s: System) -> Issues:
+    from ._checks import dependent_constraints
+    out: Issues = []
+    for group, singular in dependent_constraints(s):
+        idx = [c.name for c in s.constraints].index(group[0])
+        where = f"constraints[{idx + 1}] `{group[0]}`"
+        names = " and ".join(f"`{n}`" for n in group) if len(group) <= 2 else \
+            ", ".join(f"`{n}`" for n in group)
+        if singular:
+            out.append((where, f"constraints {names} are dependent at the initial state (a "
+                               "singular configuration): forces cannot be uniquely "
+                               "determined there; start elsewhere"))
+        else:
+            out.append((where, f"constraints {names} are dependent: forces cannot be "
+                               "uniquely determined; remove the redundant one"))
+    return out
