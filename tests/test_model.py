@@ -10,6 +10,7 @@ import pytest
 import sympy as sp
 
 import lamech
+from lamech.expr import TimeDerivative
 from lamech.model import (Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
                           ModelError, Parameter, ShapeKind, System)
 
@@ -42,8 +43,9 @@ acceleration = "g"
 
 m, g, ell = (sp.Symbol(n, positive=True) for n in ("m", "g", "l"))
 r, th = sp.Symbol("r", real=True), sp.Symbol("theta", real=True)
-rd, thd = sp.Symbol("r'", real=True), sp.Symbol("theta'", real=True)
-rdd, thdd = sp.Symbol("r''", real=True), sp.Symbol("theta''", real=True)
+# velocities and accelerations as the loader makes them (they print as dots in LaTeX)
+rd, thd = TimeDerivative("r'", real=True), TimeDerivative("theta'", real=True)
+rdd, thdd = TimeDerivative("r''", real=True), TimeDerivative("theta''", real=True)
 t = sp.Symbol("t", real=True)
 POSITION = (r * sp.sin(th), -r * sp.cos(th))
 

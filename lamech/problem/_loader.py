@@ -18,7 +18,7 @@ from typing import Any
 
 import sympy as sp
 
-from ..expr import ExpressionError, parse, to_text
+from ..expr import ExpressionError, TimeDerivative, parse, to_text
 from ..model import (FIELDS, Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
                      ModelError, Parameter, ShapeKind, System, body_energy, name_problem)
 from ._examples import example_names, example_path
@@ -433,8 +433,8 @@ class _Loader:
             if q0 is None or v0 is None:
                 continue
             coordinate = self.make(Coordinate, name, sp.Symbol(name, real=True),
-                                   sp.Symbol(name + "'", real=True),
-                                   sp.Symbol(name + "''", real=True), q0, v0,
+                                   TimeDerivative(name + "'", real=True),
+                                   TimeDerivative(name + "''", real=True), q0, v0,
                                    spec.get("keep", False))
             if coordinate is not None:
                 out.append(coordinate)
