@@ -173,6 +173,29 @@ def test_velocities_render_with_dots_in_jupyter():
     theta'^{2}; the text form keeps the file grammar."""
     import sympy as sp
     s = lamech.solve(lamech.load("pendulum"))
-    assert sp.latex(s.multipliers["string"]) == r"g m \cos{\left(\theta \right)} + l m \dot{\theta}^{2}"
+    latex = sp.latex(s.multipliers["string"])
+    assert latex == r"g m \cos{\left(\theta \right)} + l m \dot{\theta}^{2}"
     assert lamech.to_text(s).count("theta'^2") >= 1
     assert r"\ddot{r}" in sp.latex(s.equations[0])
+
+
+def test_solve_takes_param_and_initial_like_simulate():
+    """`lamech solve` had no --param/--initial. With them, the cylinder started at
+    theta1 = 0.01 leaves at cos(theta1) = 4/7 cos(0.01) (closed form) and slips where the
+    simulation's slip event is (an independent integration)."""
+    import json
+    import math
+    out = subprocess.run([sys.executable, "-m", "lamech", "solve", "cylinder", "--initial",
+                          "theta1=0.01", "--param", "mu=0.1", "--json"], capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    j = json.loads(out.stdout)
+    assert abs(j["vanishes"]["contact"][0]["value"] - math.acos(4 / 7 * math.cos(0.01))) < 1e-9
+    slip = j["slips"]["rolling"][0]["value"]
+    traj = lamech.simulate(lamech.load("cylinder"), 3.0, initial={"theta1": 0.01},
+                           params={"mu": 0.1}, samples=3)
+    event = next(e for e in traj.events if str(e.kind) == "slip")
+    assert abs(event.coordinates["theta1"] - slip) < 1e-8
+    bad = subprocess.run([sys.executable, "-m", "lamech", "solve", "pendulum", "--param",
+                          "m=-1"], capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "sign" in bad.stderr and "Traceback" not in bad.stderr

@@ -8,6 +8,7 @@ import json
 import os
 import sys
 
+from ._args import assignment
 from ._simulate import add_parser as add_simulate  # light: argparse only
 from ._sweep import add_parser as add_sweep
 
@@ -25,6 +26,15 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("problem", nargs="?", default=DEFAULT_PROBLEM,
                    help="a .toml problem file or a bundled example name "
                         f"(default: {DEFAULT_PROBLEM}; see `lamech examples`)")
+    s.add_argument("--param", action="append", default=[], type=assignment,
+                   metavar="NAME=VALUE",
+                   help="override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
+                        "coefficient) for the numbers: lift-off and slip angles, the "
+                        "verdicts at the start. Repeatable")
+    s.add_argument("--initial", action="append", default=[], type=assignment,
+                   metavar="NAME=VALUE",
+                   help="start with coordinate (or velocity x') NAME at VALUE; the other "
+                        "coordinates move to meet the constraints. Repeatable")
     fmt = s.add_mutually_exclusive_group()
     fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
@@ -68,11 +78,14 @@ def _dispatch(args: argparse.Namespace) -> int:
     from ..symbolic import DegenerateConstraintsError, solve
     problem = getattr(args, "problem", DEFAULT_PROBLEM)
     try:
-        solution = solve(load(problem))
+        system = load(problem)
+        if getattr(args, "param", None) or getattr(args, "initial", None):
+            system = _overridden(system, args.param, args.initial)
+        solution = solve(system)
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
-    except DegenerateConstraintsError as exc:
+    except (DegenerateConstraintsError, ValueError) as exc:
         print(f"lamech: {problem}: {exc}", file=sys.stderr)
         return 2
     if getattr(args, "json", False):
@@ -86,3 +99,32 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
+
+
+def _overridden(system, param_pairs, initial_pairs):
+    """The system with ``--param`` and ``--initial`` applied: values are numbers or
+    expressions of parameters (the safe parser); held initial values move the other
+    coordinates onto the constraints exactly as ``lamech simulate --initial`` does."""
+    from ..model import ModelError, with_values
+    from ..numeric import compile_system, consistent_initial
+    from ._args import evaluate_assignments
+
+    friction = {name: text for name, text in param_pairs if name.startswith("mu")
+                and name not in {p.name for p in system.parameters}}
+    params = evaluate_assignments([(n, v) for n, v in param_pairs if n not in friction],
+                                  system, "--param")
+    params.update({n: float(v) for n, v in evaluate_assignments(
+        list(friction.items()), system, "--param").items()})
+    try:
+        system = with_values(system, parameters=params)
+        if initial_pairs:
+            held = evaluate_assignments(initial_pairs, system, "--initial")
+            ns = compile_system(system)
+            q, v = consistent_initial(ns, ns.parameter_vector(), list(held.items()))
+            names = ns.coordinate_names
+            values = {**{c: float(x) for c, x in zip(names, q)},
+                      **{c + "'": float(x) for c, x in zip(names, v)}}
+            system = with_values(system, initial=values)
+    except ModelError as exc:
+        raise ValueError(f"with these values: {exc}") from None
+    return system

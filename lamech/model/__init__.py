@@ -14,6 +14,7 @@ from ._checks import (INITIAL_TOLERANCE, dependent_constraints, dependent_group,
 from ._kinematics import (body_energy, constraint_jacobian, contact_partial_velocities,
                           partial_velocities, time_derivative, velocity_form)
 from ._rules import FIELDS, name_problem
+from ._values import with_values
 from ._system import (Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
                       ModelError, Parameter, ShapeKind, System)
 
@@ -22,4 +23,4 @@ __all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Bo
            "time_derivative", "body_energy", "partial_velocities", "contact_partial_velocities",
            "velocity_form", "constraint_jacobian", "INITIAL_TOLERANCE", "value",
            "numeric_matrix", "initial_values", "probe_states", "open_at_start",
-           "dependent_constraints", "dependent_group"]
+           "dependent_constraints", "dependent_group", "with_values"]
