@@ -6,9 +6,13 @@ The KKT system of :mod:`lamech.model` at one state,
     [ A    0  ] [ lam ] = [ -gamma ]
 
 with G = A unless a slipping friction row moves its kinetic force into the column of
-its normal multiplier. :func:`kkt_matrix` is the one place that assembles it with NumPy;
-:func:`gauss_inplace` and :func:`cholesky_inplace` are plain loops that numba compiles
-for the hot path (:mod:`lamech.numeric`) and that run as Python without it.
+its normal multiplier. :func:`kkt_matrix` and :func:`kkt_rhs` are the one place that
+assembles it with NumPy: :func:`solve_kkt` solves it (the simulator, the impact
+impulses, :func:`lamech.symbolic.kkt_numeric`), :func:`min_norm_correction` solves the
+same matrix for the projection onto the constraints. :func:`gauss_inplace` and
+:func:`cholesky_inplace` are plain loops that numba compiles for the hot path
+(:mod:`lamech.numeric`, whose compiled KKT solve assembles the same matrix in loops) and
+that run as Python without it.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ import math
 
 import numpy as np
 
-__all__ = ["kkt_matrix", "solve_kkt", "min_norm_correction", "gauss_inplace",
+__all__ = ["kkt_matrix", "kkt_rhs", "solve_kkt", "min_norm_correction", "gauss_inplace",
            "cholesky_inplace"]
 
 
@@ -31,20 +35,25 @@ def kkt_matrix(M: np.ndarray, A: np.ndarray, G: np.ndarray | None = None) -> np.
     return K
 
 
+def kkt_rhs(rhs: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+    """[rhs; -gamma], the right-hand side of the KKT system."""
+    return np.concatenate((rhs, -gamma))
+
+
 def solve_kkt(M: np.ndarray, rhs: np.ndarray, A: np.ndarray, gamma: np.ndarray,
               G: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(q'', lam) of the KKT system; raises numpy.linalg.LinAlgError when singular."""
     n = M.shape[0]
-    sol = np.linalg.solve(kkt_matrix(M, A, G), np.concatenate((rhs, -gamma)))
+    sol = np.linalg.solve(kkt_matrix(M, A, G), kkt_rhs(rhs, gamma))
     return sol[:n], sol[n:]
 
 
 def min_norm_correction(W: np.ndarray, A: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """dx minimising dx^T W dx subject to A dx = r (the same KKT matrix with rhs [0; r]);
-    raises numpy.linalg.LinAlgError when singular."""
-    n = W.shape[0]
-    sol = np.linalg.solve(kkt_matrix(W, A), np.concatenate((np.zeros(n), r)))
-    return sol[:n]
+    """dx minimising dx^T W dx subject to A dx = r: the KKT system with M = W, rhs 0 and
+    gamma = -r (its multipliers are those of the problem with the opposite sign, dx is
+    the same to the last bit: negating columns changes no pivot and no rounding). Raises
+    numpy.linalg.LinAlgError when singular; may hold NaN or inf when nearly so."""
+    return solve_kkt(W, np.zeros(W.shape[0]), A, -r)[0]
 
 
 def cholesky_inplace(K, x):

@@ -16,8 +16,16 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 import lamech
-from lamech.numeric import compile_system, numba_available
-from lamech.numeric import SimulationError, simulate
+from lamech.numeric import (
+    Event,
+    EventKind,
+    FrictionState,
+    SimulationError,
+    Status,
+    compile_system,
+    numba_available,
+    simulate,
+)
 
 G = 9.81
 
@@ -97,12 +105,12 @@ def test_cylinder_multipliers_match_closed_form():
 def test_cylinder_lift_off_angle():
     tr = simulate(_cylinder(None), 3.0, q0={"theta1": THS, "theta2": 3 * THS}, samples=301)
     assert tr.status == "ok", tr.message
-    kinds = [(e["kind"], e["constraint"]) for e in tr.events]
+    kinds = [(e.kind, e.constraint) for e in tr.events]
     assert kinds == [("lift-off", "contact")]
-    theta = tr.events[0]["coordinates"]["theta1"]
+    theta = tr.events[0].coordinates["theta1"]
     assert abs(theta - math.acos(4 / 7 * math.cos(THS))) <= 1e-9
     # flies free afterwards: the gap opens, the contact multiplier is NaN
-    after = tr.t > tr.events[0]["t"] + 0.05
+    after = tr.t > tr.events[0].t + 0.05
     assert np.all(tr.coordinate("r")[after] > 1.5)
     assert np.all(np.isnan(tr.multiplier("contact")[after]))
 
@@ -112,13 +120,13 @@ def test_cylinder_slips_where_closed_form_says(mu):
     tr = simulate(lamech.load("cylinder"), 3.0, q0={"theta1": THS, "theta2": 3 * THS},
                   samples=301, params={"mu": mu})
     assert tr.status == "ok", tr.message
-    kinds = [(e["kind"], e["constraint"]) for e in tr.events]
+    kinds = [(e.kind, e.constraint) for e in tr.events]
     assert kinds[:2] == [("slip", "rolling"), ("lift-off", "contact")]
     ref = brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(THS)),
                  0.05, 0.9, xtol=1e-15)
-    assert abs(tr.events[0]["coordinates"]["theta1"] - ref) <= 1e-9
+    assert abs(tr.events[0].coordinates["theta1"] - ref) <= 1e-9
     # while slipping the friction column holds the kinetic friction -mu N
-    k = np.nonzero((tr.t > tr.events[0]["t"]) & (tr.t < tr.events[1]["t"]))[0]
+    k = np.nonzero((tr.t > tr.events[0].t) & (tr.t < tr.events[1].t))[0]
     assert len(k)
     assert np.allclose(tr.multiplier("rolling")[k], -mu * tr.multiplier("contact")[k],
                        rtol=1e-12)
@@ -147,23 +155,23 @@ def test_ball_bounce_heights():
     h, e = 1.0, 0.5
     tr = simulate(lamech.loads(BALL), 2.0, q0={"y": h}, samples=2001)
     assert tr.status == "ok", tr.message
-    impacts = [ev for ev in tr.events if ev["kind"] == "impact"]
+    impacts = [ev for ev in tr.events if ev.kind == "impact"]
     assert len(impacts) >= 8
     t1 = math.sqrt(2 * h / G)
     t_k = t1
     for k, ev in enumerate(impacts[:8], start=1):
-        up = ev["coordinates"]["y'"]                  # velocity after the impact
+        up = ev.coordinates["y'"]                     # velocity after the impact
         assert abs(up ** 2 / (2 * G) - e ** (2 * k) * h) <= 1e-9 * h
-        assert abs(ev["t"] - t_k) <= 1e-9
-        assert abs(ev["velocity_before"] + up / e) <= 1e-9
+        assert abs(ev.t - t_k) <= 1e-9
+        assert abs(ev.velocity_before + up / e) <= 1e-9
         t_k += 2 * e ** k * t1
     # Zeno: the bounces accumulate at t1 (1 + e)/(1 - e), then it rests on the floor
-    assert tr.events[-1]["kind"] == "contact"
-    assert abs(tr.events[-1]["t"] - t1 * (1 + e) / (1 - e)) < 1e-4
-    rest = tr.t > tr.events[-1]["t"]
+    assert tr.events[-1].kind == "contact"
+    assert abs(tr.events[-1].t - t1 * (1 + e) / (1 - e)) < 1e-4
+    rest = tr.t > tr.events[-1].t
     assert np.allclose(tr.multiplier("floor")[rest], G, rtol=1e-12)
     # the sampled apex of the first bounce
-    first = (tr.t > impacts[0]["t"]) & (tr.t < impacts[1]["t"])
+    first = (tr.t > impacts[0].t) & (tr.t < impacts[1].t)
     assert abs(tr.coordinate("y")[first].max() - e ** 2 * h) < 1e-5
 
 
@@ -173,7 +181,7 @@ def test_disk_on_steep_incline_slips_at_once():
     text = _example_text("incline_disk").replace("mu = 0.3", f"mu = {mu}")
     tr = simulate(lamech.loads(text), T, samples=101)
     assert tr.status == "ok", tr.message
-    assert [(e["kind"], e["t"]) for e in tr.events] == [("slip", 0.0)]
+    assert [(e.kind, e.t) for e in tr.events] == [("slip", 0.0)]
     t = tr.t
     s_ref = 0.5 * G * (math.sin(alpha) - mu * math.cos(alpha)) * t ** 2
     th_ref = 0.5 * (2 * mu * G * math.cos(alpha) / R) * t ** 2
@@ -187,10 +195,10 @@ def test_sliding_disk_sticks_when_it_rolls():
     text = _example_text("incline_disk").replace("alpha = 0.5", "alpha = 0.0")
     tr = simulate(lamech.loads(text), 1.0, qd0={"s": v0}, samples=101)
     assert tr.status == "ok", tr.message
-    kinds = [e["kind"] for e in tr.events]
+    kinds = [e.kind for e in tr.events]
     assert kinds == ["slip", "stick"]
     t_stick = v0 / (3 * mu * G)                     # v = v0 - mu g t meets R w = 2 mu g t
-    assert abs(tr.events[1]["t"] - t_stick) <= 1e-9
+    assert abs(tr.events[1].t - t_stick) <= 1e-9
     assert abs(tr.qd[-1, 0] - 2 * v0 / 3) <= 1e-9
     assert np.max(tr.residual) < 1e-9
 
@@ -287,7 +295,7 @@ def test_jit_gives_the_same_numbers():
     ns = compile_system(system, jit=True)
     assert ns.jit
     b = simulate(ns, 3.0, q0={"theta1": THS, "theta2": 3 * THS})
-    assert [e["kind"] for e in a.events] == [e["kind"] for e in b.events]
+    assert [e.kind for e in a.events] == [e.kind for e in b.events]
     assert np.allclose(a.q, b.q, rtol=0, atol=1e-12)
     assert np.allclose(np.nan_to_num(a.lambdas), np.nan_to_num(b.lambdas), atol=1e-10)
 
@@ -295,10 +303,24 @@ def test_jit_gives_the_same_numbers():
 def test_ladder_leaves_the_wall_at_two_thirds_height():
     tr = simulate(lamech.load("ladder"), 1.0, samples=101)
     assert tr.status == "ok", tr.message
-    assert [(e["kind"], e["constraint"]) for e in tr.events] == [("lift-off", "wall")]
-    phi = tr.events[0]["coordinates"]["phi"]
+    assert [(e.kind, e.constraint) for e in tr.events] == [("lift-off", "wall")]
+    phi = tr.events[0].coordinates["phi"]
     assert abs(phi - math.asin(2 / 3 * math.sin(1.2))) <= 1e-9
     assert tr.energy_error < 1e-9          # frictionless: lift-off dissipates nothing
+
+
+def test_events_and_status_are_typed():
+    """Events are typed records whose JSON is the --json summary's; statuses and kinds
+    are str enumerations equal to their plain values."""
+    tr = simulate(lamech.load("ladder"), 1.0, samples=11)
+    assert tr.status is Status.OK and tr.status == "ok" and f"{tr.status}" == "ok"
+    assert "what to try" in Status.FAILED.meaning
+    (ev,) = tr.events
+    assert isinstance(ev, Event) and ev.kind is EventKind.LIFT_OFF and ev.kind == "lift-off"
+    js = ev.to_json()
+    assert list(js) == ["t", "kind", "constraint", "coordinates"] and js["kind"] == "lift-off"
+    assert tr.summary()["events"] == [js] and tr.summary()["status"] == "ok"
+    assert FrictionState("slip") is FrictionState.SLIP
 
 
 def test_cli_simulate(tmp_path, capsys):
@@ -369,11 +391,11 @@ def test_initial_values_held_and_friction_as_parameter():
     assert tr.coordinate("theta1")[0] == theta_s
     assert abs(tr.coordinate("r")[0] - (R1 + R2)) < 1e-15
     assert abs(tr.coordinate("theta2")[0] - (R1 + R2) / R2 * theta_s) < 1e-14
-    slip = next(e for e in tr.events if e["kind"] == "slip")
+    slip = next(e for e in tr.events if e.kind == "slip")
     # N = m g (7 cos θ - 4 cos θs)/3, F = -m g sin θ / 3: slip where sin θ = μ (7 cos θ - 4 cos θs)
     root = brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(theta_s)),
                   theta_s, 1.0)
-    assert abs(slip["coordinates"]["theta1"] - root) < 1e-9
+    assert abs(slip.coordinates["theta1"] - root) < 1e-9
     with pytest.raises(SimulationError, match="unknown coordinate `phi`"):
         lamech.simulate(cyl, 1.0, initial={"phi": 1.0})
     with pytest.raises(SimulationError, match="known: .*mu:rolling"):

@@ -5,7 +5,7 @@
 batch spread over the cores), and returns the final states and multipliers. It is the
 fast path for sweeps and ensembles of problems whose constraints are all bilateral and
 frictionless-or-sticking: it has no events (no lift-off, impact or slip) and no dense
-output. :func:`lamech.simulate.simulate` remains the reference; the tests hold the two
+output. :func:`lamech.numeric.simulate` remains the reference; the tests hold the two
 to the same numbers.
 
 Why a hand-written loop: SciPy's DOP853 drives the right-hand side from Python (about
@@ -13,16 +13,20 @@ Why a hand-written loop: SciPy's DOP853 drives the right-hand side from Python (
 adaptive high-order Runge–Kutta that numba can call with a compiled right-hand side and
 a projection step. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
-projection of positions (Gauss–Newton) and velocities onto the constraints
-(Euclidean metric). Without numba the same Python functions run uncompiled: the same
-numbers, slowly.
+projection of positions (Gauss–Newton) and velocities onto the constraints: the
+compiled twin of the simulator's projection (:mod:`lamech.numeric._project`), in the
+Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
+and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). Without numba the same
+Python functions run uncompiled: the same numbers, slowly.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
 from ..linalg import gauss_inplace as _gauss
 from ._codegen import NumericSystem, numba_available
+from ._project import PROJECTION_ITERATIONS
 
 __all__ = ["integrate_batch", "BatchResult"]
 
@@ -83,10 +87,11 @@ def _build(accel, cons, jit: bool):
 
     def project(t, y, p):
         """Positions onto f = 0 (Gauss-Newton, minimum norm), then velocities onto
-        A v + b = 0; in place."""
+        A v + b = 0; in place. The compiled twin of :mod:`lamech.numeric._project` with
+        the Euclidean metric, at most PROJECTION_ITERATIONS Gauss-Newton steps."""
         n = y.shape[0] // 2
         q = y[:n].copy()
-        for it in range(4):
+        for _ in range(PROJECTION_ITERATIONS):
             f, A, b = cons(t, q, p)
             m = f.shape[0]
             big = 0.0

@@ -45,12 +45,13 @@ import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from ..linalg import cholesky_inplace, gauss_inplace
 from ..model import System, contact_partial_velocities
 from ..symbolic import Dynamics
 from ..symbolic import dynamics as derive_dynamics
+from ._initial import expression_values
+from ._kkt import jit_kernels, numpy_kernels, sparsity
 
-__all__ = ["NumericSystem", "compile_system", "numba_available", "kkt_solve_numpy"]
+__all__ = ["NumericSystem", "compile_system", "numba_available"]
 
 
 class _Printer(PythonCodePrinter):
@@ -103,7 +104,7 @@ class NumericSystem:
     force_specs: list = field(default_factory=list)  # [(constraint index, [direction names])]
     rhs_kernel: object = None
     accelerations: object = None  # (t, y, p) -> [q''; lambda], every constraint active
-    pattern: tuple = ()           # structural nonzeros of A (see _sparsity)
+    pattern: tuple = ()           # structural nonzeros of A (see _kkt.sparsity)
     mass_diagonal: bool = False   # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
     jit: bool = False
@@ -146,239 +147,9 @@ class NumericSystem:
         return np.array(out, dtype=float)
 
     def initial_state(self, p: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(q0, v0) from the coordinates' initial expressions at parameters ``p``."""
-        p = self.parameters if p is None else p
-        env = {par.symbol: float(val) for par, val in zip(self.system.parameters, p)}
-        q0 = np.array([float(sp.sympify(c.initial).subs(env)) for c in self.system.coordinates])
-        v0 = np.array([float(sp.sympify(c.initial_velocity).subs(env))
-                       for c in self.system.coordinates])
-        return q0, v0
-
-
-def kkt_solve_numpy(diagonal: bool):
-    """solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows] with
-    NumPy/LAPACK (NaN where singular): the KKT system of :func:`_make_kkt_solve`, by the
-    Schur complement when M is diagonal with no zero entry and the KKT matrix is larger
-    than 32 (30-link chain: a 30-square solve instead of a 90-square one, 74 -> 48 us;
-    below that NumPy's per-call overhead makes the few extra products cost more than they
-    save: 2-link 15 -> 26 us, 8-link equal), else the full KKT matrix."""
-
-    def solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
-        n, na = rhs.shape[0], rows.shape[0]
-        Ar = A[rows]
-        G = Ar.copy()                        # the multipliers' force directions
-        for s in range(slip_j.shape[0]):
-            G[slip_k[s]] -= mu[slip_j[s]] * slip_c[s] * A[slip_j[s]]
-        try:
-            if diagonal and n + na > 32:
-                d = np.diagonal(M)
-                if np.all(d != 0.0):
-                    minv = 1.0 / d
-                    if na == 0:
-                        return rhs * minv
-                    W = Ar * minv
-                    lam = np.linalg.solve(W @ G.T, -gam[rows] - W @ rhs)
-                    return np.concatenate(((rhs + G.T @ lam) * minv, lam))
-            if na == 0:
-                return np.linalg.solve(M, rhs)
-            K = np.zeros((n + na, n + na))
-            K[:n, :n], K[:n, n:], K[n:, :n] = M, -G.T, Ar
-            return np.linalg.solve(K, np.concatenate((rhs, -gam[rows])))
-        except np.linalg.LinAlgError:
-            return np.full(n + na, np.nan)
-
-    return solve
-
-
-def _kkt_kernel_numpy(dyn, diagonal: bool):
-    """rhs(t, y, p, rows, slip_j, slip_k, slip_c) -> y': the state derivative from the
-    KKT solve on the active ``rows``; a slipping friction row j on normal row k
-    (position ``slip_k`` among ``rows``) adds ``mu_j * slip_c`` A_j^T to that column."""
-    solve = kkt_solve_numpy(diagonal)
-
-    def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
-        n = y.shape[0] // 2
-        q, v = y[:n], y[n:]
-        M, rhs, A, gam, mu = dyn(t, q, v, p)
-        out = np.empty(2 * n)
-        out[:n] = v
-        out[n:] = solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)[:n]
-        return out
-
-    return rhs_kernel
-
-
-def _accelerations_numpy(dyn, diagonal: bool):
-    solve = kkt_solve_numpy(diagonal)
-    none = np.zeros(0, dtype=np.int64)
-
-    def accelerations(t, y, p):
-        n = y.shape[0] // 2
-        M, rhs, A, gam, mu = dyn(t, y[:n], y[n:], p)
-        return solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
-
-    return accelerations
-
-
-def _jit_functions(dyn, cons, diagonal: bool, pattern):
-    import numba
-
-    jd = numba.njit(cache=False)(dyn)
-    jc = numba.njit(cache=False)(cons)
-    solve = _make_kkt_solve(numba.njit(cache=False), diagonal, pattern)
-
-    @numba.njit(cache=False)
-    def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
-        n = y.shape[0] // 2
-        q = y[:n].copy()
-        v = y[n:].copy()
-        M, rhs, A, gam, mu = jd(t, q, v, p)
-        sol = solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
-        out = np.empty(2 * n)
-        for i in range(n):
-            out[i] = v[i]
-            out[n + i] = sol[i]
-        return out
-
-    @numba.njit(cache=False)
-    def accelerations(t, y, p):
-        n = y.shape[0] // 2
-        M, rhs, A, gam, mu = jd(t, y[:n], y[n:], p)
-        # writable arrays of rhs_kernel's types, so that numba reuses the compiled solve
-        # (read-only constant arrays would compile it again: 2 s more)
-        none = np.zeros(0, dtype=np.int64)
-        return solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
-
-    return jd, jc, rhs_kernel, accelerations
-
-
-def _sparsity(A: sp.Matrix):
-    """The structural nonzeros of the constraint rows A, by row (CSR: ptr, idx) and by
-    column (CSC: cptr, crow), as int64 arrays for the compiled solve."""
-    m, n = A.shape
-    rows = [[i for i in range(n) if A[j, i] != 0] for j in range(m)]
-    cols = [[j for j in range(m) if A[j, i] != 0] for i in range(n)]
-
-    def pack(lists):
-        ptr = np.zeros(len(lists) + 1, dtype=np.int64)
-        ptr[1:] = np.cumsum([len(x) for x in lists])
-        idx = np.array([k for x in lists for k in x], dtype=np.int64)
-        return ptr, idx
-
-    return (*pack(rows), *pack(cols))
-
-
-def _make_kkt_solve(njit, diagonal: bool, pattern=None):
-    """solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows].
-
-    The KKT system  M q'' - A_r^T lambda + sum_s c_s A_{j_s}^T lambda_{k_s} = rhs,
-    A_r q'' = -gamma_r  on the active ``rows`` (a slipping friction row j_s on the normal
-    row at position k_s adds its kinetic friction, c_s = mu_j * slip_c[s]).
-
-    ``diagonal`` (known from the symbolic M, as for particles and planar bodies in
-    maximal coordinates): while every M_ii is nonzero, the Schur complement
-    S lambda = -gamma_r - A_r M^-1 rhs with S = A_r M^-1 G^T (m x m) replaces the
-    (n + m)-square elimination (8-link chain: 24 x 24 -> 8 x 8), and every product runs
-    over the structural nonzeros of A only (``pattern`` from :func:`_sparsity`). S is
-    factored by Cholesky when it is symmetric positive definite (no slipping row, M_ii
-    > 0), else by elimination. A zero M_ii (a massless coordinate), or a Cholesky that
-    finds S singular (dependent rows), falls back to the full KKT matrix, which may be
-    regular where M is not.
-
-    Written as loops so that numba compiles them: at these sizes numba's
-    ``np.linalg.solve`` (LAPACK, with its copies to Fortran order) was measured slower
-    than this elimination (8 x 8: 1.3 against 0.34 us; 24 x 24: 5.3 against 2.5 us).
-    """
-    gauss = njit(gauss_inplace)
-    cholesky = njit(cholesky_inplace)
-
-    def dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
-        n = rhs.shape[0]
-        na = rows.shape[0]
-        K = np.zeros((n + na, n + na))
-        r = np.zeros(n + na)
-        for i in range(n):
-            r[i] = rhs[i]
-            for k in range(n):
-                K[i, k] = M[i, k]
-        for a in range(na):
-            j = rows[a]
-            r[n + a] = -gam[j]
-            for i in range(n):
-                K[i, n + a] = -A[j, i]
-                K[n + a, i] = A[j, i]
-        for s in range(slip_j.shape[0]):
-            j = slip_j[s]
-            c = mu[j] * slip_c[s]
-            for i in range(n):
-                K[i, n + slip_k[s]] += c * A[j, i]
-        gauss(K, r)
-        return r
-
-    dense = njit(dense)
-    if not diagonal:
-        return dense
-    ptr, idx, cptr, crow = pattern
-
-    def schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
-        n = rhs.shape[0]
-        m = A.shape[0]
-        na = rows.shape[0]
-        minv = np.empty(n)
-        positive = True
-        for i in range(n):
-            if M[i, i] == 0.0:
-                return dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
-            minv[i] = 1.0 / M[i, i]
-            positive = positive and M[i, i] > 0.0
-        out = np.empty(n + na)
-        for i in range(n):
-            out[i] = rhs[i]
-        if na == 0:
-            for i in range(n):
-                out[i] *= minv[i]
-            return out
-        pos = np.full(m, -1)            # position of each constraint among the rows
-        for a in range(na):
-            pos[rows[a]] = a
-        S = np.zeros((na, na))
-        r = np.empty(na)
-        for a in range(na):
-            j = rows[a]
-            acc = -gam[j]
-            for e in range(ptr[j], ptr[j + 1]):
-                i = idx[e]
-                w = A[j, i] * minv[i]
-                acc -= w * rhs[i]
-                for f in range(cptr[i], cptr[i + 1]):
-                    b = pos[crow[f]]
-                    if b >= 0:
-                        S[a, b] += w * A[crow[f], i]
-                for s in range(slip_j.shape[0]):
-                    S[a, slip_k[s]] -= w * mu[slip_j[s]] * slip_c[s] * A[slip_j[s], i]
-            r[a] = acc
-        if slip_j.shape[0] == 0 and positive:
-            # S = A_r M^-1 A_r^T is symmetric positive definite (M_ii > 0, independent
-            # rows): Cholesky, half the work of elimination and no pivot search.
-            if not cholesky(S, r):       # dependent rows here: let the full KKT decide
-                return dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
-        else:
-            gauss(S, r)     # r becomes lambda
-        for a in range(na):
-            j = rows[a]
-            out[n + a] = r[a]
-            for e in range(ptr[j], ptr[j + 1]):
-                out[idx[e]] += A[j, idx[e]] * r[a]
-        for s in range(slip_j.shape[0]):
-            j = slip_j[s]
-            c = mu[j] * slip_c[s] * r[slip_k[s]]
-            for e in range(ptr[j], ptr[j + 1]):
-                out[idx[e]] -= c * A[j, idx[e]]
-        for i in range(n):
-            out[i] *= minv[i]
-        return out
-
-    return njit(schur)
+        """(q0, v0) from the coordinates' initial expressions at parameters ``p``
+        (:func:`lamech.numeric.consistent_initial` holds some of them)."""
+        return expression_values(self, p)
 
 
 def _rename(system: System):
@@ -446,6 +217,30 @@ def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp
         lines.append(f"    {target} = {printer.doprint(e)}")
     lines.append(f"    return {', '.join(o for o, _ in outputs)}")
     return "\n".join(lines)
+
+
+def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
+    """(rhs_kernel, accelerations, jitted): numba-compiled when ``jit`` and numba can
+    (``fns``' dynamics and constraints replaced by their compiled versions), else NumPy."""
+    if jit and numba_available():
+        try:
+            import numba
+            jd = numba.njit(cache=False)(fns["dynamics"])
+            jc = numba.njit(cache=False)(fns["constraints"])
+            kernel, accel = jit_kernels(jd, diagonal, pattern)
+            n = len(system.coordinates)
+            q0 = np.zeros(n)
+            p0 = np.array([p.numeric for p in system.parameters], dtype=float)
+            jd(0.0, q0, q0, p0)  # compile now: a numba failure shows here, not mid-run
+            jc(0.0, q0, p0)
+            kernel(0.0, np.zeros(2 * n), p0, np.zeros(0, dtype=np.int64),
+                   np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
+            accel(0.0, np.zeros(2 * n), p0)
+            fns["dynamics"], fns["constraints"] = jd, jc
+            return kernel, accel, True
+        except Exception:  # pragma: no cover - numba refused the source
+            pass
+    return (*numpy_kernels(fns["dynamics"], diagonal), False)
 
 
 def compile_system(system: System, jit: bool = False) -> NumericSystem:
@@ -516,28 +311,9 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
 
     fns = {k: namespace[k] for k in ("dynamics", "constraints", "energy", "restitution",
                                      "force_jacobians_flat")}
-    used_jit = False
     diagonal = bool(dyn.M.is_diagonal())
-    pattern = _sparsity(A)
-    kernel = _kkt_kernel_numpy(fns["dynamics"], diagonal)
-    accel = _accelerations_numpy(fns["dynamics"], diagonal)
-    if jit and numba_available():
-        try:
-            jd, jc, kernel, accel = _jit_functions(fns["dynamics"], fns["constraints"],
-                                                   diagonal, pattern)
-            q0 = np.zeros(n)
-            p0 = np.array([p.numeric for p in system.parameters], dtype=float)
-            jd(0.0, q0, q0, p0)  # compile now: a numba failure shows here, not mid-run
-            jc(0.0, q0, p0)
-            kernel(0.0, np.zeros(2 * n), p0, np.zeros(0, dtype=np.int64),
-                   np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
-            accel(0.0, np.zeros(2 * n), p0)
-            fns["dynamics"], fns["constraints"] = jd, jc
-            used_jit = True
-        except Exception:  # pragma: no cover - numba refused the source
-            kernel = _kkt_kernel_numpy(fns["dynamics"], diagonal)
-            accel = _accelerations_numpy(fns["dynamics"], diagonal)
-            used_jit = False
+    pattern = sparsity(A)
+    kernel, accel, used_jit = _kernels(fns, system, diagonal, pattern, jit)
 
     flat = fns["force_jacobians_flat"]
 

@@ -1,11 +1,13 @@
 """The result of a simulation: sampled states, multipliers, forces, energy, residuals and
-the event log (see :func:`lamech.simulate.simulate`)."""
+the event log (see :func:`lamech.numeric.simulate`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ._events import Event, Status
 
 __all__ = ["Trajectory"]
 
@@ -27,9 +29,10 @@ class Trajectory:
     friction -mu N sign(slip velocity) that replaces its multiplier); ``forces``:
     {"<constraint>:<direction>": (N,)} Cartesian components by virtual work;
     ``energy`` T + V; ``residual_position`` max |f| and ``residual_velocity`` max |F|
-    of the active constraints; ``residual`` their max. ``events`` is the log
-    [{"t", "kind", "constraint", "coordinates"}]; ``status`` is "ok", "failed" or
-    "interrupted" with ``message`` saying when, why and what to try.
+    of the active constraints; ``residual`` their max. ``events`` is the log, a list of
+    :class:`Event` (``t``, ``kind``, ``constraint``, ``coordinates`` and the details of
+    its kind); ``status`` is a :class:`Status` (equal to "ok", "failed" or "interrupted")
+    with ``message`` saying when, why and what to try.
     """
 
     coordinates: list[str]
@@ -42,8 +45,8 @@ class Trajectory:
     energy: np.ndarray
     residual_position: np.ndarray
     residual_velocity: np.ndarray
-    events: list = field(default_factory=list)
-    status: str = "ok"
+    events: list[Event] = field(default_factory=list)
+    status: Status = Status.OK
     message: str = ""
     t_end: float = 0.0
     final_time: float = 0.0
@@ -122,7 +125,7 @@ class Trajectory:
             "title": self.title,
             "t_end": self.t_end,
             "final_time": self.final_time,
-            "events": [_json_event(e) for e in self.events],
+            "events": [e.to_json() for e in self.events],
             "final": final,
             "max_residual": None if rp is None else max(rp, rv),
             "max_residual_position": rp,
@@ -132,16 +135,8 @@ class Trajectory:
             "steps": self.steps,
             "evaluations": self.evaluations,
             "samples": int(len(self.t)),
-            "status": self.status,
+            "status": str(self.status),
             "message": self.message,
             "notes": list(self.notes),
         }
 
-
-def _json_event(e: dict) -> dict:
-    out = {"t": float(e["t"]), "kind": e["kind"], "constraint": e["constraint"],
-           "coordinates": {k: float(v) for k, v in e["coordinates"].items()}}
-    for k, v in e.items():
-        if k not in out:
-            out[k] = v
-    return out

@@ -216,8 +216,7 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
     flash = ax.text(0.98, 0.97, "", transform=ax.transAxes, va="top", ha="right",
                     fontsize=10, fontweight="bold")
-    events = [(e["t"], e["kind"], e.get("constraint", "")) for e in traj.events
-              if not e.get("initial")]
+    events = [(e.t, e.kind, e.constraint) for e in traj.events if not e.initial]
     hold = 0.06 * (scene.t[-1] - scene.t[0])
 
     def draw(k: int):

@@ -38,14 +38,14 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     seen = set()
     ymax = ax1.get_ylim()[1]
     for e in traj.events:
-        colour = _EVENT_COLOURS.get(e["kind"], "k")
+        colour = _EVENT_COLOURS.get(e.kind, "k")
         for ax in (ax1, ax2):
-            ax.axvline(e["t"], color=colour, lw=0.9, ls=":")
-        if len(traj.events) <= 12 or e["kind"] not in seen:
-            ax1.annotate(f"{e['kind']} ({e['constraint']})\nt = {e['t']:.4g}",
-                         xy=(e["t"], ymax), xytext=(3, -3), textcoords="offset points",
+            ax.axvline(e.t, color=colour, lw=0.9, ls=":")
+        if len(traj.events) <= 12 or e.kind not in seen:
+            ax1.annotate(f"{e.kind} ({e.constraint})\nt = {e.t:.4g}",
+                         xy=(e.t, ymax), xytext=(3, -3), textcoords="offset points",
                          fontsize=7.5, color=colour, va="top", rotation=90)
-        seen.add(e["kind"])
+        seen.add(e.kind)
     ax1.legend(fontsize=8, loc="best")
     ax1.grid(alpha=0.25)
     for i, name in enumerate(traj.coordinates):

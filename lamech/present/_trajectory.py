@@ -46,10 +46,10 @@ def trajectory_text(traj) -> str:
     for note in s["notes"]:
         lines.append(f"  note: {note}")
     lines.append(f"  events: {len(s['events'])}")
-    for e in s["events"]:
-        coords = ", ".join(f"{k} = {v:.10g}" for k, v in e["coordinates"].items()
+    for e in traj.events:
+        coords = ", ".join(f"{k} = {v:.10g}" for k, v in e.coordinates.items()
                            if not k.endswith("'"))
-        lines.append(f"    t = {e['t']:.12g}  {e['kind']:<8} {e['constraint']}: {coords}")
+        lines.append(f"    t = {e.t:.12g}  {e.kind:<8} {e.constraint}: {coords}")
     lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}"
                                                for k, v in s["final"].items()))
     lines.append(f"  max residual: |f| {_g(s['max_residual_position'])}, "

@@ -96,8 +96,8 @@ def _measure_values(m: Measure, traj, coords: Sequence[str], series: dict) -> li
     if m.kind in EVENT_MEASURES:
         kind = EVENT_MEASURES[m.kind]
         for e in traj.events:
-            if e["kind"] == kind and (not m.target or e["constraint"] == m.target):
-                return [float(e["t"])] + [float(e["coordinates"][c]) for c in coords]
+            if e.kind == kind and (not m.target or e.constraint == m.target):
+                return [float(e.t)] + [float(e.coordinates[c]) for c in coords]
         return [math.nan] * (1 + len(coords))
     arr = np.asarray(series[m.target], dtype=float)
     if m.kind == "final":
@@ -129,7 +129,7 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
     series = dict(traj.columns())
     for m in plan.measures:
         row.update(zip(m.columns(coords), _measure_values(m, traj, coords, series)))
-    row["status"], row["message"] = traj.status, traj.message
+    row["status"], row["message"] = str(traj.status), traj.message
     return row
 
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from ..linalg import kkt_matrix, kkt_rhs
 from ..model import System, constraint_jacobian, dependent_group, numeric_matrix
 
 __all__ = ["Dynamics", "dynamics", "dependent_constraints", "kkt_numeric",
@@ -98,16 +99,11 @@ def kkt_numeric(dyn: Dynamics, state: dict, active: list[int] | None = None
     A = numeric_matrix(dyn.A, state).reshape(dyn.A.rows, n)[rows]
     rhs_top = numeric_matrix(dyn.Q - dyn.h, state).reshape(n)
     g = numeric_matrix(dyn.gamma, state).reshape(dyn.A.rows)[rows] if rows else np.zeros(0)
-    m = len(rows)
-    K = np.zeros((n + m, n + m))
-    K[:n, :n] = M
-    K[:n, n:] = -A.T
-    K[n:, :n] = A
-    rhs = np.concatenate([rhs_top, -g])
+    K = kkt_matrix(M, A)
     cond = np.linalg.cond(K)
     if not np.isfinite(cond) or cond > 1e13:
         raise DegenerateConstraintsError(_singular_message(dyn, M, A, rows))
-    sol = np.linalg.solve(K, rhs)
+    sol = np.linalg.solve(K, kkt_rhs(rhs_top, g))
     return sol[:n], sol[n:]
 
 

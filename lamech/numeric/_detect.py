@@ -1,0 +1,83 @@
+"""Event detection and location: each event the mode watches is a function of the state
+that is positive while nothing happens, and happens where it crosses zero; a crossing
+within a step is located by root finding (Brent) on the step's dense output."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._events import EventKind
+from ._run import Accel, Run
+
+__all__ = ["event_values", "update_arming", "locate"]
+
+
+def event_values(run: Run, t: float, y: np.ndarray, acc: Accel | None = None) -> np.ndarray:
+    """The watched events' functions at (t, y) (``acc``: the KKT solve there, if known):
+
+    * lift-off: the multiplier lambda_j of an engaged unilateral constraint;
+    * contact: the gap f_j of a released one;
+    * slip: mu N - |lambda_j| of a sticking friction constraint;
+    * stick: sigma s_j, the slip velocity along its slip direction.
+
+    A contact or stick event not yet armed is shifted up by its threshold.
+    """
+    watch = run.mode.watch
+    if not watch:
+        return np.zeros(0)
+    n = run.setup.n
+    q, v = y[:n], y[n:]
+    if acc is None:
+        acc = run.kkt(t, q, v)
+    f, A, b = run.constraints(t, q)
+    out = np.empty(len(watch))
+    for i, (kind, j) in enumerate(watch):
+        out[i] = _value(run, kind, j, acc.lam, acc.mu, f, A, b, v)
+    return out
+
+
+def _value(run: Run, kind: EventKind, j: int, lam, mu, f, A, b, v) -> float:
+    mode, setup = run.mode, run.setup
+    if kind == EventKind.LIFT_OFF:
+        return lam[j]
+    if kind == EventKind.CONTACT:
+        return f[j] + (0.0 if mode.is_armed(kind, j) else setup.arm_pos)
+    if kind == EventKind.SLIP:
+        k = setup.kinds.normal[j]
+        return mu[j] * mode.sN[j] * lam[k] - abs(lam[j])
+    s = float(A[j] @ v + b[j])       # stick: the slip velocity reaching zero
+    return mode.sigma[j] * s + (0.0 if mode.is_armed(kind, j) else setup.arm_vel)
+
+
+def update_arming(run: Run, t: float, y: np.ndarray) -> None:
+    """Arm the contact and stick events whose gap or slip velocity has moved far enough
+    from zero."""
+    n, mode = run.setup.n, run.mode
+    f, A, b = run.constraints(t, y[:n])
+    for kind, j in mode.watch:
+        if mode.is_armed(kind, j):
+            continue
+        if kind == EventKind.CONTACT and f[j] > run.setup.arm_pos:
+            mode.arm(kind, j)
+        elif (kind == EventKind.STICK
+              and mode.sigma[j] * float(A[j] @ y[n:] + b[j]) > run.setup.arm_vel):
+            mode.arm(kind, j)
+
+
+def locate(run: Run, dense, hit, t_a: float, t_b: float) -> tuple[float, int]:
+    """(te, i): the first of the events ``hit`` (indices into the mode's watch list)
+    within (t_a, t_b], located on the dense output."""
+    from scipy.optimize import brentq
+
+    te, ie = t_b, -1
+    for i in hit:
+        def g(s, i=i):
+            return event_values(run, s, dense(s))[i]
+        try:
+            r = brentq(g, t_a, t_b, xtol=1e-15 * max(1.0, abs(t_b)),
+                       rtol=4 * np.finfo(float).eps, maxiter=200)
+        except ValueError:
+            r = t_b
+        if r < te or ie < 0:
+            te, ie = r, int(i)
+    return te, ie

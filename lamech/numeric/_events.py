@@ -1,0 +1,100 @@
+"""The typed values of a simulation's log: its :class:`Status`, the :class:`EventKind` of
+each :class:`Event`, and the :class:`FrictionState` of a friction constraint.
+
+The enumerations subclass ``str``: ``traj.status == "ok"`` and ``event.kind == "slip"``
+hold, and they print, format and serialise (JSON, CSV) as their plain values.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+__all__ = ["Status", "EventKind", "FrictionState", "Event"]
+
+
+class _Text(str, enum.Enum):
+    """A str enumeration that prints, formats and hashes as its value."""
+
+    __str__ = str.__str__
+    __format__ = str.__format__
+    __hash__ = str.__hash__
+
+
+class Status(_Text):
+    """How a run ended (the ``message`` of the :class:`~lamech.numeric.Trajectory` says
+    when and why)."""
+
+    OK = "ok"
+    FAILED = "failed"
+    INTERRUPTED = "interrupted"
+
+    @property
+    def meaning(self) -> str:
+        """What the status means and what to try."""
+        return _MEANINGS[self]
+
+
+_MEANINGS = {
+    Status.OK: "the run reached t_end",
+    Status.FAILED: "the run stopped early: see the message for the time, cause and what "
+                   "to try",
+    Status.INTERRUPTED: "the run was interrupted (Ctrl-C): the trajectory up to there is "
+                        "kept; run again to go further",
+}
+
+
+class EventKind(_Text):
+    """What happened at an event (see :mod:`lamech.numeric`'s simulator)."""
+
+    LIFT_OFF = "lift-off"
+    IMPACT = "impact"
+    CONTACT = "contact"
+    SLIP = "slip"
+    STICK = "stick"
+
+
+class FrictionState(_Text):
+    """The state of a friction constraint: sticking (its row is active), slipping
+    (kinetic friction on its normal's column) or off (its normal is released)."""
+
+    STICK = "stick"
+    SLIP = "slip"
+    OFF = "off"
+
+
+@dataclass(frozen=True)
+class Event:
+    """One mode change of a run: its time, kind, constraint, and the coordinates and
+    velocities (``x'``) at the event. The optional details: ``multiplier`` (the pulling
+    multiplier of a lift-off found when the mode settles), ``ratio`` (|lambda| / mu N of
+    a slip found when the mode settles), ``impulse``, ``velocity_before`` and
+    ``restitution`` (impact and contact), ``initial`` (a slip at the start) and
+    ``reversal`` (a stick that could not hold: the slip went on, reversed or not)."""
+
+    t: float
+    kind: EventKind
+    constraint: str
+    coordinates: dict[str, float]
+    multiplier: float | None = None
+    ratio: float | None = None
+    impulse: float | None = None
+    velocity_before: float | None = None
+    restitution: float | None = None
+    initial: bool = False
+    reversal: bool | None = None
+
+    def to_json(self) -> dict:
+        """The event as the ``--json`` summary gives it: t, kind, constraint,
+        coordinates, then the details this event has."""
+        out = {"t": float(self.t), "kind": self.kind.value, "constraint": self.constraint,
+               "coordinates": {k: float(v) for k, v in self.coordinates.items()}}
+        for name in ("multiplier", "ratio", "impulse", "velocity_before", "restitution"):
+            value = getattr(self, name)
+            if value is not None:
+                out[name] = value
+        if self.initial:
+            out["initial"] = True
+        if self.reversal is not None:
+            out["reversal"] = self.reversal
+        return out

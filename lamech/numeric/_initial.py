@@ -1,0 +1,120 @@
+"""The initial state as numbers: the coordinates' initial expressions at a parameter
+vector, values held by name with the others moved onto the constraints
+(:func:`consistent_initial`, the projection of :mod:`lamech.numeric._project`), and the
+arrays or dicts a caller overrides them with (:func:`initial_state`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import sympy as sp
+
+from ._options import INITIAL_TOLERANCE, SimulationError
+from ._project import Metric, project_positions, project_velocities
+
+__all__ = ["expression_values", "initial_state", "consistent_initial", "initial_residuals"]
+
+
+def expression_values(ns, p: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(q0, v0) from the coordinates' initial expressions at parameters ``p``."""
+    system = ns.system
+    p = ns.parameters if p is None else p
+    env = {par.symbol: float(val) for par, val in zip(system.parameters, p)}
+    q0 = np.array([float(sp.sympify(c.initial).subs(env)) for c in system.coordinates])
+    v0 = np.array([float(sp.sympify(c.initial_velocity).subs(env))
+                   for c in system.coordinates])
+    return q0, v0
+
+
+def initial_residuals(ns, p, t: float, q: np.ndarray, v: np.ndarray):
+    """(f, F, tol): the constraint values f and velocity forms F = A v + b at (t, q, v),
+    and the tolerance INITIAL_TOLERANCE (1 + max |q|) within which a start meets them."""
+    f, A, b = ns.constraints(t, q, p)
+    tol = INITIAL_TOLERANCE * (1 + float(np.max(np.abs(q), initial=0.0)))
+    return f, A @ v + b, tol
+
+
+def consistent_initial(ns, p: np.ndarray, initial: Sequence[tuple[str, float]]):
+    """The initial state at ``p`` with the named coordinates/velocities (``x'``) set and
+    held; the other coordinates moved onto the constraints that the problem's own initial
+    state meets, and likewise the velocities (the simulator's projection, in the
+    mass-matrix metric over the coordinates that are not held)."""
+    q, v = expression_values(ns, p)
+    if not initial:
+        return q, v
+    names = ns.coordinate_names
+    f0, F0, tol = initial_residuals(ns, p, 0.0, q, v)
+    hol = [c.holonomic for c in ns.system.constraints]
+    rows_q = [j for j in range(ns.m) if hol[j] and abs(f0[j]) <= tol]
+    rows_v = [j for j in range(ns.m) if abs(F0[j]) <= tol and (not hol[j] or j in rows_q)]
+    fixed_q, fixed_v = set(), set()
+    for name, value in initial:
+        if name.endswith("'"):
+            i = names.index(name[:-1])
+            v[i] = value
+            fixed_v.add(i)
+        else:
+            i = names.index(name)
+            q[i] = value
+            fixed_q.add(i)
+    metric = Metric(ns, p)
+    free_q = [i for i in range(ns.n) if i not in fixed_q]
+    if rows_q and free_q:
+        project_positions(ns, p, metric, 0.0, q, v, np.array(rows_q, dtype=int),
+                          np.zeros(ns.m), free_q)
+    free_v = [i for i in range(ns.n) if i not in fixed_v]
+    if rows_v and free_v:
+        project_velocities(ns, p, metric, 0.0, q, v, np.array(rows_v, dtype=int), free_v)
+    return q, v
+
+
+def initial_state(ns, p: np.ndarray, initial: dict | None = None, q0=None,
+                  qd0=None) -> np.ndarray:
+    """y0 = [q0; q0'] of a run: :func:`consistent_initial` with ``initial``
+    {coordinate or ``x'``: value} held, then ``q0``/``qd0`` (dicts by coordinate name, or
+    arrays in coordinate order) set as given. Raises :class:`SimulationError` for unknown
+    names, values that are not numbers, and a state that is not finite."""
+    q, v = consistent_initial(ns, p, _held(ns, initial or {}))
+    for arr, val, what in ((q, q0, "coordinates"), (v, qd0, "velocities")):
+        _override(arr, _as_vector(val, ns.coordinate_names, what), ns.coordinate_names)
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        raise SimulationError("the initial state is not finite")
+    return np.concatenate((q, v))
+
+
+def _held(ns, initial: dict) -> list[tuple[str, float]]:
+    known = list(ns.coordinate_names) + [c + "'" for c in ns.coordinate_names]
+    held = []
+    for name, value in initial.items():
+        if name not in known:
+            raise SimulationError(f"initial value for unknown coordinate `{name}`; "
+                                  f"known: {', '.join(known)}")
+        try:
+            held.append((name, float(value)))
+        except (TypeError, ValueError):
+            raise SimulationError(f"initial value of `{name}` must be a number, "
+                                  f"got {value!r}") from None
+    return held
+
+
+def _override(arr: np.ndarray, val, names: list[str]) -> None:
+    if isinstance(val, dict):
+        for k, x in val.items():
+            arr[names.index(k.rstrip("'"))] = float(x)
+    elif val is not None:
+        arr[:] = val
+
+
+def _as_vector(value, names: list[str], what: str):
+    if value is None:
+        return None
+    if isinstance(value, dict):
+        unknown = set(value) - set(names)
+        if unknown:
+            raise SimulationError(f"unknown {what} {sorted(unknown)}; known: {', '.join(names)}")
+        return value
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (len(names),):
+        raise SimulationError(f"{what}: expected {len(names)} values ({', '.join(names)})")
+    return arr

@@ -1,0 +1,90 @@
+"""The simulator's options and its two exceptions: :class:`SimulationError` (bad input:
+nothing was integrated) and :class:`Stop` (a run stops early, keeping what it
+computed)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["DEFAULT_RTOL", "DEFAULT_ATOL", "INITIAL_TOLERANCE", "BLOW_UP", "METHODS",
+           "SimulationError", "Stop", "Options", "check_options", "sample_times"]
+
+DEFAULT_RTOL = 1e-11
+DEFAULT_ATOL = 1e-12
+INITIAL_TOLERANCE = 1e-10
+"""An initial state meets a constraint when |f| and |F| <= this (1 + max |q|)."""
+BLOW_UP = 1e12
+"""A run stops as failed when max(|q|, |q'|) exceeds BLOW_UP (1 + its size at the start)."""
+METHODS = ("DOP853", "RK45", "Radau")
+"""SciPy's integrators by name (SciPy is imported when a simulation runs, not before)."""
+
+
+class SimulationError(ValueError):
+    """Bad options or an inconsistent initial state (nothing was integrated)."""
+
+
+class Stop(Exception):
+    """Stop the run: ``cause`` names the time, the reason and what to try."""
+
+    def __init__(self, cause: str):
+        super().__init__(cause)
+        self.cause = cause
+
+
+@dataclass(frozen=True)
+class Options:
+    """The integration options of a run (checked by :func:`check_options`)."""
+
+    rtol: float = DEFAULT_RTOL
+    atol: float = DEFAULT_ATOL
+    max_step: float = math.inf
+    method: str = "DOP853"
+
+    def integrator(self):
+        """SciPy's integrator class (imported on first use)."""
+        import scipy.integrate
+        return getattr(scipy.integrate, self.method)
+
+
+def sample_times(t0: float, t_end: float, samples: int | None, dt: float | None) -> np.ndarray:
+    """The output times: every ``dt`` from ``t0`` (and ``t_end``), or ``samples`` (default
+    1001) evenly spaced, both ends counted."""
+    if dt is not None:
+        count = int(math.floor((t_end - t0) / dt + 1e-9))
+        times = t0 + dt * np.arange(count + 1)
+        if times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
+            times = np.append(times, t_end)
+        return times
+    return np.linspace(t0, t_end, 1001 if samples is None else int(samples))
+
+
+def check_options(t_end, t0, rtol, atol, max_step, samples, dt,
+                  method: str = "DOP853") -> None:
+    """Raise :class:`SimulationError` naming the first bad option."""
+    def bad(x):
+        return not isinstance(x, (int, float, np.floating, np.integer)) or not math.isfinite(x)
+    if bad(t_end) or bad(t0) or t_end <= t0:
+        raise SimulationError(f"t_end must be a finite number after the start time {t0} "
+                              f"(got {t_end})")
+    if bad(rtol) or rtol <= 0 or rtol >= 1:
+        raise SimulationError(f"rtol must be in (0, 1) (got {rtol}); default {DEFAULT_RTOL}")
+    if rtol < 1e-14:
+        raise SimulationError(f"rtol {rtol} is below 1e-14, which double precision cannot "
+                              "honour; use rtol >= 1e-14")
+    if bad(atol) or atol <= 0:
+        raise SimulationError(f"atol must be positive (got {atol}); default {DEFAULT_ATOL}")
+    if max_step is not None and (not isinstance(max_step, (int, float)) or
+                                 math.isnan(max_step) or max_step <= 0):
+        raise SimulationError(f"max_step must be positive (got {max_step})")
+    if samples is not None and dt is not None:
+        raise SimulationError("give samples or dt, not both")
+    if samples is not None and (not isinstance(samples, (int, np.integer)) or samples < 2):
+        raise SimulationError(f"samples counts both ends and must be an integer >= 2 "
+                              f"(got {samples})")
+    if dt is not None and (bad(dt) or dt <= 0):
+        raise SimulationError(f"dt must be a positive number (got {dt})")
+    if method not in METHODS:
+        raise SimulationError(f"unknown method {method!r}; one of {', '.join(METHODS)}")

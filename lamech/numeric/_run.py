@@ -1,0 +1,170 @@
+"""One simulation run, in the spirit of MuJoCo's mjModel/mjData: :class:`Setup` holds the
+constants (the compiled system, the parameter vector, the options, the constraints'
+kinds, the event thresholds), :class:`Run` the data that change (the :class:`Mode`, the
+projection's metric, the counters and the event log) with the evaluations at a state:
+the KKT solve, the right-hand side, the projection and the residuals."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ..linalg import kkt_matrix, kkt_rhs
+from ._codegen import NumericSystem
+from ._events import Event, EventKind
+from ._kkt import slip_directions
+from ._mode import ConstraintKinds, Mode, slip_sign
+from ._options import Options, Stop
+from ._project import Metric, project_positions, project_velocities
+
+__all__ = ["Setup", "Run", "Accel"]
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The constants of a run. ``arm_pos`` and ``arm_vel``: how far a gap or a slip
+    velocity must move from zero before its contact or stick event may fire again (and
+    the slip speed below which a slip starts from rest)."""
+
+    ns: NumericSystem
+    p: np.ndarray
+    options: Options
+    kinds: ConstraintKinds
+    arm_pos: float
+    arm_vel: float
+
+    @classmethod
+    def of(cls, ns: NumericSystem, p: np.ndarray, options: Options) -> Setup:
+        arm = max(100.0 * options.atol, 1e-13)
+        return cls(ns, p, options, ConstraintKinds.of(ns.system), arm, arm)
+
+    @property
+    def n(self) -> int:
+        return self.ns.n
+
+    @property
+    def m(self) -> int:
+        return self.ns.m
+
+
+class Accel(NamedTuple):
+    """The KKT solve at a state: q'', lam (m,) (NaN where inactive, the kinetic friction
+    where slipping), and the A, gamma, mu and KKT matrix K it came from."""
+
+    qdd: np.ndarray
+    lam: np.ndarray
+    A: np.ndarray
+    gam: np.ndarray
+    mu: np.ndarray
+    K: np.ndarray
+
+
+class Run:
+    """The data of one run: ``mode``, ``metric`` (mass matrix, or Euclidean once M is
+    singular), ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic
+    impact happened) and ``events``."""
+
+    def __init__(self, setup: Setup):
+        self.setup = setup
+        self.mode = Mode(setup.kinds)
+        self.metric = Metric(setup.ns, setup.p)
+        self.evaluations = 0
+        self.dissipative = False
+        self.events: list[Event] = []
+
+    def constraints(self, t: float, q: np.ndarray):
+        """(f, A, b) at (t, q)."""
+        return self.setup.ns.constraints(t, q, self.setup.p)
+
+    # ----- evaluations --------------------------------------------------------------
+    def kkt(self, t: float, q: np.ndarray, v: np.ndarray) -> Accel:
+        """The KKT solve on the mode's rows; :class:`Stop` where it cannot be done."""
+        self.evaluations += 1
+        M, rhs, A, gam, mu = self._dynamics(t, q, v)
+        mode = self.mode
+        rows = mode.rows
+        slip_c = np.array([mode.sN[j] * mode.sigma[j] for j, _ in mode.slips], dtype=float)
+        G = slip_directions(A, rows, mu, mode.kernel_args[1], mode.kernel_args[2], slip_c)
+        K = kkt_matrix(M, A[rows], G)
+        try:
+            sol = np.linalg.solve(K, kkt_rhs(rhs, gam[rows]))
+        except np.linalg.LinAlgError:
+            raise Stop(f"singular KKT matrix at t = {t:.12g}: the constraints are "
+                       "dependent here (a singular configuration) or a motion they allow "
+                       "has no inertia; start elsewhere or remove a redundant "
+                       "constraint") from None
+        if not np.all(np.isfinite(sol)):
+            raise Stop(f"non-finite accelerations or multipliers at t = {t:.12g} "
+                       "(NaN/inf in the dynamics: a coordinate left the domain of an "
+                       "expression, or the KKT matrix is singular)")
+        n = self.setup.n
+        lam = np.full(self.setup.m, np.nan)
+        lam[rows] = sol[n:]
+        for j, k in mode.slips:
+            lam[j] = -mu[j] * mode.sN[j] * mode.sigma[j] * lam[k]
+        return Accel(sol[:n], lam, A, gam, mu, K)
+
+    def _dynamics(self, t, q, v):
+        try:
+            return self.setup.ns.dynamics(t, q, v, self.setup.p)
+        except (ValueError, ArithmeticError) as exc:
+            raise Stop(f"the dynamics cannot be evaluated at t = {t:.12g} ({exc}): a "
+                       "coordinate, parameter or time left the domain of an expression "
+                       "(sqrt or log of a negative number, division by zero); check the "
+                       "expressions, the parameters and the initial state") from None
+
+    def fun(self, t: float, y: np.ndarray) -> np.ndarray:
+        """The right-hand side; NaN where the KKT system fails, so that the integrator
+        rejects the trial step and shrinks it (a failure at an accepted state stops the
+        run with the cause)."""
+        self.evaluations += 1
+        try:
+            return self.setup.ns.rhs_kernel(t, y, self.setup.p, *self.mode.kernel_args)
+        except (ValueError, ArithmeticError):    # e.g. sqrt of a negative number
+            return np.full(y.shape, np.nan)
+
+    def project(self, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
+        """y projected onto the mode's manifold (:mod:`._project`); also the size of the
+        correction."""
+        ns, p, n, mode = self.setup.ns, self.setup.p, self.setup.n, self.mode
+        q, v = y[:n].copy(), y[n:].copy()
+        moved = 0.0
+        if len(mode.hrows):
+            q, moved = project_positions(ns, p, self.metric, t, q, v, mode.hrows,
+                                         mode.offset)
+        if len(mode.rows):
+            v, moved_v = project_velocities(ns, p, self.metric, t, q, v, mode.rows)
+            moved = max(moved, moved_v)
+        return np.concatenate((q, v)), moved
+
+    def residuals(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+        """(max |f - offset|, max |F|) over the mode's rows."""
+        mode = self.mode
+        if not len(mode.rows):
+            return 0.0, 0.0
+        f, A, b = self.constraints(t, q)
+        h = mode.hrows
+        rp = float(np.max(np.abs(f[h] - mode.offset[h]), initial=0.0)) if len(h) else 0.0
+        rv = float(np.max(np.abs(A[mode.rows] @ v + b[mode.rows]), initial=0.0))
+        return rp, rv
+
+    # ----- switches that need numbers -------------------------------------------
+    def start_slip(self, j: int, lam_j: float, s: float = 0.0) -> None:
+        """Friction j starts slipping (slip velocity s, or from rest against lam_j)."""
+        self.mode.start_slip(j, slip_sign(lam_j, s, self.setup.arm_vel))
+        self.dissipative = True
+
+    def stick(self, t: float, y: np.ndarray, j: int) -> None:
+        """Friction j sticks from now on: its f is held at its present value."""
+        f, _, _ = self.constraints(t, y[:self.setup.n])
+        self.mode.stick(j, f[j] if self.setup.kinds.holonomic[j] else 0.0)
+
+    def log(self, t: float, y: np.ndarray, kind: EventKind, j: int, **details) -> None:
+        """Record an event at (t, y)."""
+        n, names = self.setup.n, self.setup.ns.coordinate_names
+        coords = {c: float(y[i]) for i, c in enumerate(names)}
+        coords.update({c + "'": float(y[n + i]) for i, c in enumerate(names)})
+        self.events.append(Event(float(t), EventKind(kind),
+                                 self.setup.ns.constraint_names[j], coords, **details))
