@@ -23,6 +23,7 @@ from lamech.numeric import (
     SimulationError,
     Status,
     compile_system,
+    consistent_initial,
     numba_available,
     simulate,
 )
@@ -400,6 +401,19 @@ def test_initial_values_held_and_friction_as_parameter():
         lamech.simulate(cyl, 1.0, initial={"phi": 1.0})
     with pytest.raises(SimulationError, match="known: .*mu:rolling"):
         lamech.simulate(cyl, 1.0, params={"nu": 1.0})
+
+
+def test_held_initial_values_move_the_others_least_in_the_mass_metric():
+    """consistent_initial uses the simulator's projection: the free coordinates move to
+    the constraints by the smallest change in kinetic metric. Double Atwood machine
+    (m1, m2, m3 = 3, 1, 2; the pulley yp massless): holding yp 0.05 higher makes the upper
+    string lower y1 by 0.05 and the lower string share its 0.1 as m3 : m2 between y2 and
+    y3; holding y3' = 0.3 gives yp' = 0.6 m2 / (m1 + 4 m2) (least m1 y1'^2 + m2 y2'^2)."""
+    ns = compile_system(lamech.load("double_atwood"))
+    q, v = consistent_initial(ns, ns.parameters, [("yp", -0.95), ("y3'", 0.3)])
+    assert np.allclose(q, [-0.95, -1.05, -1.5 + 0.2 / 3, -1.5 + 0.1 / 3], rtol=0, atol=1e-15)
+    vp = 0.6 / 7
+    assert np.allclose(v, [vp, -vp, -0.3 + 2 * vp, 0.3], rtol=0, atol=1e-15)
 
 
 def test_trajectory_as_dataframe():

@@ -39,7 +39,9 @@ source; the NumPy/``math`` version is the reference and gives the same numbers.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -96,14 +98,14 @@ class NumericSystem:
     constraint_names: list[str]
     parameter_names: list[str]
     parameters: np.ndarray
-    dynamics: object
-    constraints: object
-    energy: object
-    restitution: object
-    force_jacobians: object
+    dynamics: Callable[..., Any]
+    constraints: Callable[..., Any]
+    energy: Callable[..., Any]
+    restitution: Callable[..., Any]
+    force_jacobians: Callable[..., Any]
     force_specs: list = field(default_factory=list)  # [(constraint index, [direction names])]
-    rhs_kernel: object = None
-    accelerations: object = None  # (t, y, p) -> [q''; lambda], every constraint active
+    rhs_kernel: Callable[..., Any] = None  # type: ignore[assignment]
+    accelerations: Callable[..., Any] = None  # type: ignore[assignment]  # (t, y, p) -> [q''; lambda]
     pattern: tuple = ()           # structural nonzeros of A (see _kkt.sparsity)
     mass_diagonal: bool = False   # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
@@ -192,9 +194,8 @@ def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp
     repl, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c_"), optimizations="basic")
     lines = [f"def {name}({args}):", f'    """{doc}"""']
     for var in used_inputs:
-        count = n if var in ("q", "v") else None
         if var == "q" or var == "v":
-            for i in range(count):
+            for i in range(n):
                 lines.append(f"    {var}_{i} = {var}[{i}]")
         elif var == "p":
             for i in range(len([s for s in mapping.values() if s.name.startswith('p_')])):
@@ -243,15 +244,29 @@ def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
     return (*numpy_kernels(fns["dynamics"], diagonal), False)
 
 
-def compile_system(system: System, jit: bool = False) -> NumericSystem:
-    """Generate and compile the numeric functions of ``system`` (see the module docstring).
+def _force_geometry(system: System):
+    """(force_specs [(constraint index, [direction names])], [(name, matrix)]): the
+    partial velocities J_k and directions D_k of each constraint with a ``force`` spec."""
+    force_specs: list[tuple[int, list[str]]] = []
+    outputs = []
+    for j, c in enumerate(system.constraints):
+        spec = c.force
+        if spec is None:
+            continue
+        J = contact_partial_velocities(system, spec)
+        dim = J.rows
+        dirs = spec.along or tuple(
+            (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
+            for i, axis in enumerate("xyz"[:dim]))
+        D = sp.Matrix([list(d) for _, d in dirs])
+        k = len(force_specs)
+        force_specs.append((j, [name for name, _ in dirs]))
+        outputs += [(f"J{k}", J), (f"D{k}", D)]
+    return force_specs, outputs
 
-    ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise).
-    """
-    import time as _time
 
-    t0 = _time.perf_counter()
-    dyn = derive_dynamics(system)
+def _source(system: System, dyn: Dynamics):
+    """(source, A, force_specs): the generated module of the system's functions."""
     n, m = len(system.coordinates), len(system.constraints)
     mapping = _rename(system)
     qd0 = {v: sp.Integer(0) for v in system.qd}
@@ -283,29 +298,26 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         _function_source("restitution", "t, q, p", "e per constraint. " + order,
                          [("e", e)], mapping, n, m, ("q", "p")),
     ]
-    # Cartesian force geometry
-    force_specs = []
-    jac_outputs = []
-    for j, c in enumerate(system.constraints):
-        spec = c.force
-        if spec is None:
-            continue
-        J = contact_partial_velocities(system, spec)
-        dim = J.rows
-        dirs = spec.along or tuple(
-            (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
-            for i, axis in enumerate("xyz"[:dim]))
-        D = sp.Matrix([list(d) for _, d in dirs])
-        k = len(force_specs)
-        force_specs.append((j, [name for name, _ in dirs]))
-        jac_outputs += [(f"J{k}", J), (f"D{k}", D)]
+    force_specs, jac_outputs = _force_geometry(system)
     if jac_outputs:
         srcs.append(_function_source("force_jacobians_flat", "t, q, p",
                                      "J0, D0, J1, D1, ... " + order, jac_outputs, mapping,
                                      n, m, ("q", "p")))
     else:
         srcs.append("def force_jacobians_flat(t, q, p):\n    return ()")
-    source = "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n"
+    return "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n", A, force_specs
+
+
+def compile_system(system: System, jit: bool = False) -> NumericSystem:
+    """Generate and compile the numeric functions of ``system`` (see the module docstring).
+
+    ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise).
+    """
+    import time as _time
+
+    t0 = _time.perf_counter()
+    dyn = derive_dynamics(system)
+    source, A, force_specs = _source(system, dyn)
     namespace: dict = {"math": math, "numpy": np}
     exec(compile(source, f"<lamech generated: {system.title}>", "exec"), namespace)
 

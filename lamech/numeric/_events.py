@@ -16,9 +16,14 @@ __all__ = ["Status", "EventKind", "FrictionState", "Event"]
 class _Text(str, enum.Enum):
     """A str enumeration that prints, formats and hashes as its value."""
 
-    __str__ = str.__str__
-    __format__ = str.__format__
-    __hash__ = str.__hash__
+    def __str__(self) -> str:
+        return str.__str__(self)
+
+    def __format__(self, spec: str) -> str:
+        return str.__format__(str.__str__(self), spec)
+
+    def __hash__(self) -> int:
+        return str.__hash__(self)
 
 
 class Status(_Text):

@@ -66,6 +66,7 @@ def with_friction_parameters(system: System, names: Iterable[str]) -> System:
         done.add(cname)
         j = next(i for i, c in enumerate(constraints) if c.name == cname)
         c = constraints[j]
+        assert c.friction is not None      # friction_names lists friction constraints only
         sym_name = f"mu_{cname}"
         while sym_name in taken:
             sym_name += "_"

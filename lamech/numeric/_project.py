@@ -85,7 +85,8 @@ def project_positions(ns, p, metric: Metric, t: float, q: np.ndarray, v: np.ndar
             break
         if W is None:
             W = metric.matrix(t, q, v)
-        dq = metric.correction(*_restrict(W, A, act, free), -r)
+        Wf, Af = _restrict(W, A, act, free)
+        dq = metric.correction(Wf, Af, -r)
         if free is None:
             q += dq
         else:
@@ -107,7 +108,8 @@ def project_velocities(ns, p, metric: Metric, t: float, q: np.ndarray, v: np.nda
     if not np.any(r != 0):
         return v, 0.0
     W = metric.matrix(t, q, v)
-    dv = metric.correction(*_restrict(W, A, act, free), -r)
+    Wf, Af = _restrict(W, A, act, free)
+    dv = metric.correction(Wf, Af, -r)
     if free is None:
         v += dv
     else:

@@ -51,6 +51,11 @@ class Recorder:
     def pending(self) -> bool:
         return self.next < len(self.times)
 
+    def start(self, t0: float, y: np.ndarray) -> None:
+        """The sample at the start, the first output time."""
+        self.record(t0, y)
+        self.next = 1
+
     def record(self, t: float, y: np.ndarray) -> None:
         """Sample at (t, y) (the state on the manifold)."""
         n, setup = self.run.setup.n, self.run.setup

@@ -114,11 +114,10 @@ def _integrate(run: Run, rec: Recorder, at: Progress, t_end: float, progress,
     saved = np.seterr(invalid="ignore", over="ignore", divide="ignore")
     try:
         at.y = settle(run, at.t, at.y)
-        rec.record(at.t, at.y)
+        rec.start(at.t, at.y)
         # A state 1e12 times its start (in size) is a blow-up, not physics to follow with
         # ever smaller steps (a 1/(1 - t)^3 force took 175 000 steps to fail otherwise).
         blow_up = BLOW_UP * (1.0 + float(np.max(np.abs(at.y), initial=0.0)))
-        rec.next = 1
         zeno = _Zeno()
         while at.t < t_end and rec.pending:
             _segment(run, rec, at, t_end, blow_up, zeno, progress)

@@ -116,7 +116,7 @@ class Trajectory:
         rp = float(np.nanmax(self.residual_position)) if len(self.t) else None
         rv = float(np.nanmax(self.residual_velocity)) if len(self.t) else None
         final = {}
-        if self.final_q is not None:
+        if self.final_q is not None and self.final_qd is not None:
             for i, c in enumerate(self.coordinates):
                 final[c] = float(self.final_q[i])
             for i, c in enumerate(self.coordinates):
@@ -127,7 +127,7 @@ class Trajectory:
             "final_time": self.final_time,
             "events": [e.to_json() for e in self.events],
             "final": final,
-            "max_residual": None if rp is None else max(rp, rv),
+            "max_residual": None if rp is None or rv is None else max(rp, rv),
             "max_residual_position": rp,
             "max_residual_velocity": rv,
             "max_projection": self.max_projection,
