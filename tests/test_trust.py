@@ -199,3 +199,16 @@ def test_solve_takes_param_and_initial_like_simulate():
     bad = subprocess.run([sys.executable, "-m", "lamech", "solve", "pendulum", "--param",
                           "m=-1"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "sign" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_simulate_warns_first_and_writes_into_new_folders(tmp_path):
+    """The T/[[bodies]] disagreement is said by simulate too, before anything else; the
+    README's `--out out/traj.csv` creates out/."""
+    path = tmp_path / "t.toml"
+    path.write_text(PENDULUM.replace("r^2*theta'^2", "r*theta'^2"), encoding="utf-8")
+    out = subprocess.run([sys.executable, "-m", "lamech", "simulate", str(path), "--t-end",
+                          "0.2", "--samples", "5", "--out", str(tmp_path / "out" / "t.csv")],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.splitlines()[0].startswith("lamech: warning: [lagrangian] T differs")
+    assert len((tmp_path / "out" / "t.csv").read_text().splitlines()) == 6

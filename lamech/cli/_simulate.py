@@ -3,8 +3,10 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
+from pathlib import Path
 
 from ._args import assignment, evaluate_assignments, positive_float, samples
 
@@ -53,9 +55,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--project-initial", action="store_true",
                    help="move an initial state that violates the constraints to the nearest "
                         "consistent one (mass-matrix metric) instead of failing")
+    s.add_argument("--fps", type=positive_float, default=20.0,
+                   help="animation frames per second (default %(default)s)")
+    s.add_argument("--duration", type=positive_float, default=None, metavar="SECONDS",
+                   help="how long the animation plays (default: the simulated time, "
+                        "clamped to 2..20 s); the picture states the time scale")
     s.add_argument("--jit", action="store_true",
-                   help="compile the dynamics with numba when it is installed (pays a few "
-                        "seconds of compilation; faster for long runs) " + from_defaults[:0])
+                   help="compile the dynamics with numba when it is installed. It costs a "
+                        "few seconds of compilation and does not make one run faster today: "
+                        "SciPy's integrator is driven from Python and its per-step overhead "
+                        "dominates (1000 pendulum periods take about as long either way); "
+                        "the compiled path pays in lamech.integrate_batch" + from_defaults[:0])
     return s
 
 
@@ -74,6 +84,8 @@ def run(args) -> int:
     except DegenerateConstraintsError as exc:
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
+    for note in system.notes:     # a T that disagrees with the bodies: say it first
+        print(f"lamech: warning: {note}", file=sys.stderr)
     try:
         params = evaluate_assignments(args.param, system, "--param")
         env = dict(system.parameter_values)
@@ -98,6 +110,9 @@ def run(args) -> int:
     if progress:
         progress.close()
     from ..present import to_text, trajectory_csv
+    for target in (args.out, args.plot, args.animate):
+        if target:      # outputs go where asked: out/traj.csv makes out/
+            Path(target).parent.mkdir(parents=True, exist_ok=True)
     if args.out:
         try:
             trajectory_csv(traj, args.out)
@@ -118,7 +133,12 @@ def run(args) -> int:
     if args.animate:
         from ..present import animate
         try:
-            animate(traj, system, args.animate, params=params or None)
+            animate(traj, system, args.animate, params=params or None, fps=args.fps,
+                    duration=args.duration)
+        except ImportError as exc:
+            print(f"lamech: --animate needs matplotlib ({exc}); pip install matplotlib",
+                  file=sys.stderr)
+            return 2
         except ValueError as exc:
             print(f"lamech: --animate: {exc}", file=sys.stderr)
             return 2

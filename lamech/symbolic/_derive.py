@@ -32,8 +32,7 @@ import sympy as sp
 from ..linalg import kkt_matrix, kkt_rhs
 from ..model import System, constraint_jacobian, dependent_group, numeric_matrix
 
-__all__ = ["Dynamics", "dynamics", "dependent_constraints", "kkt_numeric",
-           "DegenerateConstraintsError"]
+__all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError"]
 
 
 class DegenerateConstraintsError(ValueError):
