@@ -30,38 +30,84 @@ from ._version import __version__
 
 _PUBLIC = {
     # model
-    "System": "model", "Parameter": "model", "Coordinate": "model", "Constraint": "model",
-    "Body": "model", "Friction": "model", "ForceSpec": "model", "ModelError": "model",
+    "System": "model",
+    "Parameter": "model",
+    "Coordinate": "model",
+    "Constraint": "model",
+    "Body": "model",
+    "Friction": "model",
+    "ForceSpec": "model",
+    "ModelError": "model",
     # problem
-    "load": "problem", "loads": "problem", "from_dict": "problem",
-    "example_names": "problem", "ProblemFileError": "problem",
+    "load": "problem",
+    "loads": "problem",
+    "from_dict": "problem",
+    "example_names": "problem",
+    "ProblemFileError": "problem",
     # expressions
     "ExpressionError": "expr",
     # symbolic
-    "solve": "symbolic", "Solution": "symbolic", "dynamics": "symbolic",
-    "Dynamics": "symbolic", "DegenerateConstraintsError": "symbolic",
+    "solve": "symbolic",
+    "Solution": "symbolic",
+    "dynamics": "symbolic",
+    "Dynamics": "symbolic",
+    "DegenerateConstraintsError": "symbolic",
     # numeric
-    "simulate": "numeric", "Trajectory": "numeric", "SimulationError": "numeric",
-    "compile_system": "numeric", "integrate_batch": "numeric",
+    "simulate": "numeric",
+    "Trajectory": "numeric",
+    "SimulationError": "numeric",
+    "compile_system": "numeric",
+    "integrate_batch": "numeric",
     # sweep
-    "sweep": "sweeps", "run_sweep": "sweeps", "SweepError": "sweeps",
+    "sweep": "sweeps",
+    "run_sweep": "sweeps",
+    "SweepError": "sweeps",
     # present
-    "to_text": "present", "to_latex": "present", "to_json": "present",
-    "plot_trajectory": "present", "animate": "present",
+    "to_text": "present",
+    "to_latex": "present",
+    "to_json": "present",
+    "plot_trajectory": "present",
+    "animate": "present",
 }
 
 __all__ = [
-    "Body", "Constraint", "Coordinate", "DegenerateConstraintsError", "Dynamics",
-    "ExpressionError", "ForceSpec", "Friction", "ModelError", "Parameter",
-    "ProblemFileError", "SimulationError", "Solution", "SweepError", "System", "Trajectory",
-    "animate", "compile_system", "dynamics", "example_names", "from_dict",
-    "integrate_batch", "load", "loads", "plot_trajectory", "run_sweep", "simulate", "solve",
-    "sweep", "to_json", "to_latex", "to_text", "__version__",
+    "Body",
+    "Constraint",
+    "Coordinate",
+    "DegenerateConstraintsError",
+    "Dynamics",
+    "ExpressionError",
+    "ForceSpec",
+    "Friction",
+    "ModelError",
+    "Parameter",
+    "ProblemFileError",
+    "SimulationError",
+    "Solution",
+    "SweepError",
+    "System",
+    "Trajectory",
+    "animate",
+    "compile_system",
+    "dynamics",
+    "example_names",
+    "from_dict",
+    "integrate_batch",
+    "load",
+    "loads",
+    "plot_trajectory",
+    "run_sweep",
+    "simulate",
+    "solve",
+    "sweep",
+    "to_json",
+    "to_latex",
+    "to_text",
+    "__version__",
 ]
 
 
-_LAYERS = ("cli", "present", "sweeps", "numeric", "symbolic", "problem", "model", "expr",
-           "linalg")
+_LAYERS = ("cli", "present", "sweeps", "numeric", "symbolic", "problem", "model", "expr", "linalg")
 
 
 def __getattr__(name: str) -> Any:

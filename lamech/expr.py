@@ -23,8 +23,17 @@ from collections.abc import Mapping
 import sympy as sp
 from sympy.printing.str import StrPrinter
 
-__all__ = ["ExpressionError", "FUNCTIONS", "parse", "to_text", "velocity_name",
-           "acceleration_name", "MAX_LENGTH", "MAX_DEPTH", "TimeDerivative"]
+__all__ = [
+    "ExpressionError",
+    "FUNCTIONS",
+    "parse",
+    "to_text",
+    "velocity_name",
+    "acceleration_name",
+    "MAX_LENGTH",
+    "MAX_DEPTH",
+    "TimeDerivative",
+]
 
 MAX_LENGTH = 4000
 """Longest expression text accepted, in characters."""
@@ -54,10 +63,21 @@ def _atan2(y, x):
 
 
 FUNCTIONS: dict[str, object] = {
-    "sin": sp.sin, "cos": sp.cos, "tan": sp.tan,
-    "asin": sp.asin, "acos": sp.acos, "atan": sp.atan, "atan2": _atan2,
-    "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
-    "exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt, "abs": sp.Abs, "sign": sp.sign,
+    "sin": sp.sin,
+    "cos": sp.cos,
+    "tan": sp.tan,
+    "asin": sp.asin,
+    "acos": sp.acos,
+    "atan": sp.atan,
+    "atan2": _atan2,
+    "sinh": sp.sinh,
+    "cosh": sp.cosh,
+    "tanh": sp.tanh,
+    "exp": sp.exp,
+    "log": sp.log,
+    "sqrt": sp.sqrt,
+    "abs": sp.Abs,
+    "sign": sp.sign,
 }
 _ARITY = {name: (2 if name == "atan2" else 1) for name in FUNCTIONS}
 RESERVED = frozenset(FUNCTIONS) | {"t", "pi"}
@@ -128,7 +148,10 @@ def _lex(text: str) -> tuple[str, list[int]]:
         col = origin[src.find("'") if "'" in src else src.find('"')] + 1
         raise ExpressionError(
             "a quote may only follow a coordinate name (x' is the velocity of x); "
-            "strings are not allowed in expressions", text, col)
+            "strings are not allowed in expressions",
+            text,
+            col,
+        )
     final: list[str] = []
     final_origin: list[int] = []
     for ch, k in zip(src, origin):
@@ -154,14 +177,25 @@ def _depth(text: str) -> int:
 
 def _describe(node: ast.AST) -> str:
     kinds = {
-        ast.Attribute: "attribute access (a.b)", ast.Lambda: "lambda",
-        ast.ListComp: "comprehension", ast.GeneratorExp: "comprehension",
-        ast.SetComp: "comprehension", ast.DictComp: "comprehension",
-        ast.Subscript: "indexing (a[b])", ast.Compare: "comparison",
-        ast.BoolOp: "and/or", ast.IfExp: "if/else", ast.List: "list",
-        ast.Tuple: "tuple (a comma)", ast.Dict: "dict", ast.Set: "set",
-        ast.NamedExpr: "assignment (:=)", ast.Starred: "starred argument",
-        ast.Await: "await", ast.Yield: "yield", ast.JoinedStr: "string",
+        ast.Attribute: "attribute access (a.b)",
+        ast.Lambda: "lambda",
+        ast.ListComp: "comprehension",
+        ast.GeneratorExp: "comprehension",
+        ast.SetComp: "comprehension",
+        ast.DictComp: "comprehension",
+        ast.Subscript: "indexing (a[b])",
+        ast.Compare: "comparison",
+        ast.BoolOp: "and/or",
+        ast.IfExp: "if/else",
+        ast.List: "list",
+        ast.Tuple: "tuple (a comma)",
+        ast.Dict: "dict",
+        ast.Set: "set",
+        ast.NamedExpr: "assignment (:=)",
+        ast.Starred: "starred argument",
+        ast.Await: "await",
+        ast.Yield: "yield",
+        ast.JoinedStr: "string",
     }
     for kind, label in kinds.items():
         if isinstance(node, kind):
@@ -181,8 +215,7 @@ def _plain(expr: sp.Expr) -> str:
 class _Builder:
     """Walk a whitelisted ``ast`` tree and build SymPy, with bounds on every number."""
 
-    def __init__(self, text: str, names: Mapping[str, sp.Expr], what: str, src: str,
-                 column_of):
+    def __init__(self, text: str, names: Mapping[str, sp.Expr], what: str, src: str, column_of):
         self.text = text
         self.names = names
         self.what = what
@@ -196,9 +229,11 @@ class _Builder:
     def build(self, node: ast.AST) -> sp.Expr:
         method = getattr(self, "_" + type(node).__name__, None)
         if method is None:
-            raise self.fail(f"{_describe(node)} is not allowed in an expression; use numbers, "
-                            "names, + - * / ^, parentheses and the functions "
-                            + ", ".join(sorted(FUNCTIONS)), node)
+            raise self.fail(
+                f"{_describe(node)} is not allowed in an expression; use numbers, "
+                "names, + - * / ^, parentheses and the functions " + ", ".join(sorted(FUNCTIONS)),
+                node,
+            )
         return method(node)
 
     def _Expression(self, node: ast.Expression) -> sp.Expr:
@@ -211,8 +246,9 @@ class _Builder:
         segment = (ast.get_source_segment(self.src, node) or repr(value)).replace("_", "")
         match = _DECIMAL.fullmatch(segment)
         if match is None:
-            raise self.fail(f"`{segment}` is not a decimal number (write numbers like 3, "
-                            "0.25 or 1.5e-3)", node)
+            raise self.fail(
+                f"`{segment}` is not a decimal number (write numbers like 3, 0.25 or 1.5e-3)", node
+            )
         # Bound the size of the exact number before building it: '1e-999999999' would
         # otherwise ask for a billion-digit integer.
         mantissa, exponent = match.group(1), int(match.group(2) or 0)
@@ -220,8 +256,11 @@ class _Builder:
         point = mantissa.find(".")
         magnitude = (len(mantissa) - point - 1 if point >= 0 else 0) - exponent
         if digits + abs(magnitude) > MAX_NUMBER_DIGITS:
-            raise self.fail(f"number `{segment}` is out of range (more than "
-                            f"{MAX_NUMBER_DIGITS} digits written out)", node)
+            raise self.fail(
+                f"number `{segment}` is out of range (more than "
+                f"{MAX_NUMBER_DIGITS} digits written out)",
+                node,
+            )
         if isinstance(value, int):
             return sp.Integer(value)
         # Exact decimal: 0.3 means 3/10, so results print as exact rationals.
@@ -258,8 +297,15 @@ class _Builder:
     def _BinOp(self, node: ast.BinOp) -> sp.Expr:
         op = node.op
         if not isinstance(op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)):
-            symbol = {ast.Mod: "%", ast.FloorDiv: "//", ast.BitAnd: "&", ast.BitOr: "|",
-                      ast.LShift: "<<", ast.RShift: ">>", ast.MatMult: "@"}.get(type(op), "?")
+            symbol = {
+                ast.Mod: "%",
+                ast.FloorDiv: "//",
+                ast.BitAnd: "&",
+                ast.BitOr: "|",
+                ast.LShift: "<<",
+                ast.RShift: ">>",
+                ast.MatMult: "@",
+            }.get(type(op), "?")
             raise self.fail(f"operator `{symbol}` is not allowed; use + - * / ^", node)
         if isinstance(op, ast.Pow):
             out = self._power(self.build(node.left), self.build(node.right), node)
@@ -267,7 +313,7 @@ class _Builder:
             return out
         # A long sum (a + b - c + ...) is one chain, not deep nesting: walk it iteratively.
         group = _GROUP[type(op)]
-        items: list[tuple[ast.AST | None, ast.AST]] = []   # (operator's node, operand)
+        items: list[tuple[ast.AST | None, ast.AST]] = []  # (operator's node, operand)
         current: ast.AST = node
         while isinstance(current, ast.BinOp) and _GROUP.get(type(current.op)) == group:
             items.append((current, current.right))
@@ -293,22 +339,36 @@ class _Builder:
 
     def _power(self, base: sp.Expr, exponent: sp.Expr, node: ast.AST) -> sp.Expr:
         if exponent.is_Number:
-            if exponent.is_Integer and abs(int(exponent)) > MAX_INT_EXPONENT and not (
-                    base.is_Number and abs(base) in (0, 1)):
-                raise self.fail(f"exponent {exponent} is too large (at most "
-                                f"{MAX_INT_EXPONENT} in absolute value)", node)
+            if (
+                exponent.is_Integer
+                and abs(int(exponent)) > MAX_INT_EXPONENT
+                and not (base.is_Number and abs(base) in (0, 1))
+            ):
+                raise self.fail(
+                    f"exponent {exponent} is too large (at most "
+                    f"{MAX_INT_EXPONENT} in absolute value)",
+                    node,
+                )
             if base.is_Number and base != 0:
-                digits = abs(float(exponent)) * abs(math.log10(abs(float(base)))) \
-                    if abs(float(base)) not in (0.0, float("inf")) else 0.0
+                digits = (
+                    abs(float(exponent)) * abs(math.log10(abs(float(base))))
+                    if abs(float(base)) not in (0.0, float("inf"))
+                    else 0.0
+                )
                 if digits > MAX_NUMBER_DIGITS:
-                    raise self.fail("number too large: the power has more than "
-                                    f"{MAX_NUMBER_DIGITS} digits", node)
+                    raise self.fail(
+                        f"number too large: the power has more than {MAX_NUMBER_DIGITS} digits",
+                        node,
+                    )
             if base == 0 and exponent.is_negative:
                 raise self.fail("division by zero (0 to a negative power)", node)
         out = sp.Pow(base, exponent)
         if out.has(*_UNDEFINED):
-            raise self.fail(f"undefined: {_plain(base)}^({_plain(exponent)}) is not a finite "
-                            "number (0 to a power that may be negative)", node)
+            raise self.fail(
+                f"undefined: {_plain(base)}^({_plain(exponent)}) is not a finite "
+                "number (0 to a power that may be negative)",
+                node,
+            )
         return out
 
     def _check_size(self, out: sp.Expr, node: ast.AST) -> None:
@@ -323,24 +383,32 @@ class _Builder:
 
     def _Call(self, node: ast.Call) -> sp.Expr:
         if not isinstance(node.func, ast.Name):
-            raise self.fail(f"only the functions {', '.join(sorted(FUNCTIONS))} may be called",
-                            node)
+            raise self.fail(
+                f"only the functions {', '.join(sorted(FUNCTIONS))} may be called", node
+            )
         name = node.func.id
         if name not in FUNCTIONS:
-            raise self.fail(f"unknown function `{name}`; known: " + ", ".join(sorted(FUNCTIONS)),
-                            node)
+            raise self.fail(
+                f"unknown function `{name}`; known: " + ", ".join(sorted(FUNCTIONS)), node
+            )
         if node.keywords:
             raise self.fail(f"`{name}` takes no keyword arguments", node)
         if len(node.args) != _ARITY[name]:
-            raise self.fail(f"`{name}` takes {_ARITY[name]} argument"
-                            f"{'s' if _ARITY[name] > 1 else ''}, got {len(node.args)}", node)
+            raise self.fail(
+                f"`{name}` takes {_ARITY[name]} argument"
+                f"{'s' if _ARITY[name] > 1 else ''}, got {len(node.args)}",
+                node,
+            )
         args = [self.build(a) for a in node.args]
         if name == "log" and args[0] == 0:
             raise self.fail("log(0) is undefined", node)
         out = FUNCTIONS[name](*args)  # type: ignore[operator]
         if out.has(*_UNDEFINED):
-            raise self.fail(f"undefined: {name}({', '.join(_plain(a) for a in args)}) is not a "
-                            "finite number (a pole, or atan2(0, 0))", node)
+            raise self.fail(
+                f"undefined: {name}({', '.join(_plain(a) for a in args)}) is not a "
+                "finite number (a pole, or atan2(0, 0))",
+                node,
+            )
         return out
 
 
@@ -372,21 +440,25 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
             raise ExpressionError(f"expected a finite number, got {text!r}", str(text))
         text = repr(text)
     if not isinstance(text, str):
-        raise ExpressionError(f"expected an expression as a string or number, "
-                              f"got {type(text).__name__}", str(text))
+        raise ExpressionError(
+            f"expected an expression as a string or number, got {type(text).__name__}", str(text)
+        )
     if len(text) > MAX_LENGTH:
-        raise ExpressionError(f"expression too long ({len(text)} characters; at most "
-                              f"{MAX_LENGTH})", text[:40] + "...")
+        raise ExpressionError(
+            f"expression too long ({len(text)} characters; at most {MAX_LENGTH})", text[:40] + "..."
+        )
     if not text.strip():
         raise ExpressionError("empty expression", text)
     bad = next((c for c in text if not (c.isascii() and (c.isprintable() or c in " \t"))), None)
     if bad is not None:
-        raise ExpressionError(f"character {bad!r} is not allowed in an expression", text,
-                              text.index(bad) + 1)
+        raise ExpressionError(
+            f"character {bad!r} is not allowed in an expression", text, text.index(bad) + 1
+        )
     if "\\" in text or "#" in text or ";" in text or "\n" in text:
         ch = next(c for c in "\\#;\n" if c in text)
-        raise ExpressionError(f"character {ch!r} is not allowed in an expression", text,
-                              text.index(ch) + 1)
+        raise ExpressionError(
+            f"character {ch!r} is not allowed in an expression", text, text.index(ch) + 1
+        )
     src, origin = _lex(text)
     lead = len(src) - len(src.lstrip())
     src = src.strip()
@@ -399,8 +471,7 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
         return origin[max(index, 0)] + 1
 
     if _depth(src) > MAX_DEPTH:
-        raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)",
-                              text)
+        raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)", text)
     try:
         with warnings.catch_warnings():
             # Python warns on stderr about text like '0x1Fin'; the error below says it.
@@ -412,8 +483,7 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression too complex to parse", text) from None
     if _tree_depth(tree) > MAX_DEPTH:
-        raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)",
-                              text)
+        raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)", text)
     builder = _Builder(text, names, what, src, column_of)
     try:
         return builder.build(tree)
@@ -432,8 +502,11 @@ def _tree_depth(node: ast.AST) -> int:
             return d
         group = _GROUP.get(type(current.op)) if isinstance(current, ast.BinOp) else None
         for child in ast.iter_child_nodes(current):
-            same = (group is not None and isinstance(child, ast.BinOp)
-                    and _GROUP.get(type(child.op)) == group)
+            same = (
+                group is not None
+                and isinstance(child, ast.BinOp)
+                and _GROUP.get(type(child.op)) == group
+            )
             stack.append((child, d if same else d + 1))
     return best
 
@@ -473,11 +546,17 @@ class TextPrinter(StrPrinter):
         raise ValueError("piecewise result: no closed form in the grammar")
 
 
-_REWRITES = ((sp.sec, lambda x: 1 / sp.cos(x)), (sp.csc, lambda x: 1 / sp.sin(x)),
-             (sp.cot, lambda x: sp.cos(x) / sp.sin(x)), (sp.asec, lambda x: sp.acos(1 / x)),
-             (sp.acsc, lambda x: sp.asin(1 / x)), (sp.acot, lambda x: sp.atan(1 / x)),
-             (sp.coth, lambda x: sp.cosh(x) / sp.sinh(x)),
-             (sp.sech, lambda x: 1 / sp.cosh(x)), (sp.csch, lambda x: 1 / sp.sinh(x)))
+_REWRITES = (
+    (sp.sec, lambda x: 1 / sp.cos(x)),
+    (sp.csc, lambda x: 1 / sp.sin(x)),
+    (sp.cot, lambda x: sp.cos(x) / sp.sin(x)),
+    (sp.asec, lambda x: sp.acos(1 / x)),
+    (sp.acsc, lambda x: sp.asin(1 / x)),
+    (sp.acot, lambda x: sp.atan(1 / x)),
+    (sp.coth, lambda x: sp.cosh(x) / sp.sinh(x)),
+    (sp.sech, lambda x: 1 / sp.cosh(x)),
+    (sp.csch, lambda x: 1 / sp.sinh(x)),
+)
 
 
 def grammar_form(expr: sp.Expr) -> sp.Expr:

@@ -21,8 +21,14 @@ import math
 
 import numpy as np
 
-__all__ = ["kkt_matrix", "kkt_rhs", "solve_kkt", "min_norm_correction", "gauss_inplace",
-           "cholesky_inplace"]
+__all__ = [
+    "kkt_matrix",
+    "kkt_rhs",
+    "solve_kkt",
+    "min_norm_correction",
+    "gauss_inplace",
+    "cholesky_inplace",
+]
 
 
 def kkt_matrix(M: np.ndarray, A: np.ndarray, G: np.ndarray | None = None) -> np.ndarray:
@@ -40,8 +46,9 @@ def kkt_rhs(rhs: np.ndarray, gamma: np.ndarray) -> np.ndarray:
     return np.concatenate((rhs, -gamma))
 
 
-def solve_kkt(M: np.ndarray, rhs: np.ndarray, A: np.ndarray, gamma: np.ndarray,
-              G: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def solve_kkt(
+    M: np.ndarray, rhs: np.ndarray, A: np.ndarray, gamma: np.ndarray, G: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(q'', lam) of the KKT system; raises numpy.linalg.LinAlgError when singular."""
     n = M.shape[0]
     sol = np.linalg.solve(kkt_matrix(M, A, G), kkt_rhs(rhs, gamma))
@@ -79,7 +86,7 @@ def cholesky_inplace(K, x):
         if not acc > 0.0:
             return False
         K[i, i] = math.sqrt(acc)
-    for i in range(N):             # L y = x
+    for i in range(N):  # L y = x
         acc = x[i]
         for k in range(first[i], i):
             acc -= K[i, k] * x[k]
@@ -114,7 +121,7 @@ def gauss_inplace(K, x):
             tmp = x[c]
             x[c] = x[piv]
             x[piv] = tmp
-        last = N - 1         # the pivot row's last nonzero: banded matrices stay cheap
+        last = N - 1  # the pivot row's last nonzero: banded matrices stay cheap
         while K[c, last] == 0.0:
             last -= 1
         inv = 1.0 / K[c, c]

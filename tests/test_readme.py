@@ -25,8 +25,9 @@ def test_tour_output_is_what_lamech_prints():
     assert tour.strip() == actual.strip()
 
 
-@pytest.mark.parametrize("snippet", [b for b in _blocks("python")
-                                     if re.search(r"^print\(.*#", b, re.M)])
+@pytest.mark.parametrize("snippet", [
+    pytest.param(b, marks=[pytest.mark.slow] if "jit=True" in b else [])   # numba compiles
+    for b in _blocks("python") if re.search(r"^print\(.*#", b, re.M)])
 def test_python_snippet_prints_what_its_comments_say(snippet):
     out = io.StringIO()
     with contextlib.redirect_stdout(out):

@@ -136,6 +136,7 @@ def test_local_processes_match_in_process(tmp_path):
     assert two.rows == one.rows
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
@@ -149,6 +150,7 @@ def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
     assert run.rows == one.rows
 
 
+@pytest.mark.slow
 def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
@@ -166,6 +168,7 @@ def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
     assert _read(remote) == _read(local)
 
 
+@pytest.mark.slow
 def test_dask_worker_killed_mid_sweep_is_rescheduled(tmp_path):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")

@@ -40,6 +40,7 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
     problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
     evaluated at ``env`` (default: the file's parameter values)."""
     from ..expr import ExpressionError, parse
+
     names = {p.name: p.symbol for p in system.parameters}
     env = system.parameter_values if env is None else env
     out = {}

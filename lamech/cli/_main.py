@@ -19,22 +19,38 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="lamech",
         description="Constrained mechanics by Lagrange multipliers. With no arguments, "
-                    "solves the bundled cylinder-rolling-on-a-cylinder problem.")
+        "solves the bundled cylinder-rolling-on-a-cylinder problem.",
+    )
     sub = p.add_subparsers(dest="command")
-    s = sub.add_parser("solve", help="equations, multipliers, forces, lift-off and slip of a "
-                                     "problem file")
-    s.add_argument("problem", nargs="?", default=DEFAULT_PROBLEM,
-                   help="a .toml problem file or a bundled example name "
-                        f"(default: {DEFAULT_PROBLEM}; see `lamech examples`)")
-    s.add_argument("--param", action="append", default=[], type=assignment,
-                   metavar="NAME=VALUE",
-                   help="override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
-                        "coefficient) for the numbers: lift-off and slip angles, the "
-                        "verdicts at the start. Repeatable")
-    s.add_argument("--initial", action="append", default=[], type=assignment,
-                   metavar="NAME=VALUE",
-                   help="start with coordinate (or velocity x') NAME at VALUE; the other "
-                        "coordinates move to meet the constraints. Repeatable")
+    s = sub.add_parser(
+        "solve", help="equations, multipliers, forces, lift-off and slip of a problem file"
+    )
+    s.add_argument(
+        "problem",
+        nargs="?",
+        default=DEFAULT_PROBLEM,
+        help="a .toml problem file or a bundled example name "
+        f"(default: {DEFAULT_PROBLEM}; see `lamech examples`)",
+    )
+    s.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
+        "coefficient) for the numbers: lift-off and slip angles, the "
+        "verdicts at the start. Repeatable",
+    )
+    s.add_argument(
+        "--initial",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="start with coordinate (or velocity x') NAME at VALUE; the other "
+        "coordinates move to meet the constraints. Repeatable",
+    )
     fmt = s.add_mutually_exclusive_group()
     fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
@@ -64,18 +80,22 @@ def _dispatch(args: argparse.Namespace) -> int:
     command = args.command or "solve"
     if command == "simulate":
         from ._simulate import run
+
         return run(args)
     if command == "sweep":
         from ._sweep import run as run_sweep
+
         return run_sweep(args)
     if command == "examples":
         from ..problem import example_names, example_title
+
         for name in example_names():
             print(f"{name:<18} {example_title(name)}")
         return 0
     from ..present import to_json, to_latex, to_text
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError, solve
+
     problem = getattr(args, "problem", DEFAULT_PROBLEM)
     try:
         system = load(problem)
@@ -109,12 +129,20 @@ def _overridden(system, param_pairs, initial_pairs):
     from ..numeric import compile_system, consistent_initial
     from ._args import evaluate_assignments
 
-    friction = {name: text for name, text in param_pairs if name.startswith("mu")
-                and name not in {p.name for p in system.parameters}}
-    params = evaluate_assignments([(n, v) for n, v in param_pairs if n not in friction],
-                                  system, "--param")
-    params.update({n: float(v) for n, v in evaluate_assignments(
-        list(friction.items()), system, "--param").items()})
+    friction = {
+        name: text
+        for name, text in param_pairs
+        if name.startswith("mu") and name not in {p.name for p in system.parameters}
+    }
+    params = evaluate_assignments(
+        [(n, v) for n, v in param_pairs if n not in friction], system, "--param"
+    )
+    params.update(
+        {
+            n: float(v)
+            for n, v in evaluate_assignments(list(friction.items()), system, "--param").items()
+        }
+    )
     try:
         system = with_values(system, parameters=params)
         if initial_pairs:
@@ -122,8 +150,10 @@ def _overridden(system, param_pairs, initial_pairs):
             ns = compile_system(system)
             q, v = consistent_initial(ns, ns.parameter_vector(), list(held.items()))
             names = ns.coordinate_names
-            values = {**{c: float(x) for c, x in zip(names, q)},
-                      **{c + "'": float(x) for c, x in zip(names, v)}}
+            values = {
+                **{c: float(x) for c, x in zip(names, q)},
+                **{c + "'": float(x) for c, x in zip(names, v)},
+            }
             system = with_values(system, initial=values)
     except ModelError as exc:
         raise ValueError(f"with these values: {exc}") from None

@@ -16,56 +16,106 @@ __all__ = ["add_parser", "run"]
 def add_parser(subparsers) -> argparse.ArgumentParser:
     from_defaults = "(default %(default)s)"
     s = subparsers.add_parser(
-        "simulate", help="integrate the motion; multipliers, forces, contact events",
+        "simulate",
+        help="integrate the motion; multipliers, forces, contact events",
         description="Integrate the constrained motion (KKT index-1 form, DOP853, projection "
-                    "onto the constraints after every step), locating lift-off, impacts, "
-                    "slip and stick on the dense output. Prints a summary; writes a CSV "
-                    "and a plot on request.")
+        "onto the constraints after every step), locating lift-off, impacts, "
+        "slip and stick on the dense output. Prints a summary; writes a CSV "
+        "and a plot on request.",
+    )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
-    s.add_argument("--t-end", type=positive_float, required=True, metavar="T",
-                   help="end time (start at t = 0)")
-    s.add_argument("--initial", action="append", default=[], type=assignment,
-                   metavar="NAME=VALUE",
-                   help="start with coordinate (or velocity x') NAME at VALUE (a number or an "
-                        "expression of parameters); the other coordinates move to meet the "
-                        "constraints. Repeatable. E.g. --initial theta1=0.01")
-    s.add_argument("--param", action="append", default=[], type=assignment,
-                   metavar="NAME=VALUE",
-                   help="override a parameter (or `mu`/`mu:<constraint>`, a friction "
-                        "coefficient). Repeatable")
-    s.add_argument("--out", metavar="CSV", help="write the sampled trajectory (t, coordinates, "
-                   "velocities x', lambda:<c>, force:<c>:<dir>, energy, residual)")
+    s.add_argument(
+        "--t-end", type=positive_float, required=True, metavar="T", help="end time (start at t = 0)"
+    )
+    s.add_argument(
+        "--initial",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="start with coordinate (or velocity x') NAME at VALUE (a number or an "
+        "expression of parameters); the other coordinates move to meet the "
+        "constraints. Repeatable. E.g. --initial theta1=0.01",
+    )
+    s.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="override a parameter (or `mu`/`mu:<constraint>`, a friction coefficient). Repeatable",
+    )
+    s.add_argument(
+        "--out",
+        metavar="CSV",
+        help="write the sampled trajectory (t, coordinates, "
+        "velocities x', lambda:<c>, force:<c>:<dir>, energy, residual)",
+    )
     grid = s.add_mutually_exclusive_group()
-    grid.add_argument("--samples", type=samples, metavar="N",
-                      help="output times: N evenly spaced, both ends counted (default 1001)")
+    grid.add_argument(
+        "--samples",
+        type=samples,
+        metavar="N",
+        help="output times: N evenly spaced, both ends counted (default 1001)",
+    )
     grid.add_argument("--dt", type=positive_float, help="output spacing")
-    s.add_argument("--rtol", type=positive_float, default=None,
-                   help="relative tolerance (default 1e-11; down to 1e-14)")
-    s.add_argument("--atol", type=positive_float, default=None,
-                   help="absolute tolerance (default 1e-12)")
-    s.add_argument("--max-step", type=positive_float, default=None,
-                   help="largest integrator step (default: unlimited)")
+    s.add_argument(
+        "--rtol",
+        type=positive_float,
+        default=None,
+        help="relative tolerance (default 1e-11; down to 1e-14)",
+    )
+    s.add_argument(
+        "--atol", type=positive_float, default=None, help="absolute tolerance (default 1e-12)"
+    )
+    s.add_argument(
+        "--max-step",
+        type=positive_float,
+        default=None,
+        help="largest integrator step (default: unlimited)",
+    )
     s.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    s.add_argument("--plot", metavar="PNG", help="plot multipliers/forces with the events "
-                   "marked, and the coordinates (matplotlib)")
-    s.add_argument("--animate", metavar="FILE",
-                   help="write an animation: .gif, .mp4 (needs ffmpeg) or .html (one "
-                        "self-contained page): the bodies, their trails, the constraint "
-                        "forces as arrows, the events")
-    s.add_argument("--project-initial", action="store_true",
-                   help="move an initial state that violates the constraints to the nearest "
-                        "consistent one (mass-matrix metric) instead of failing")
-    s.add_argument("--fps", type=positive_float, default=20.0,
-                   help="animation frames per second (default %(default)s)")
-    s.add_argument("--duration", type=positive_float, default=None, metavar="SECONDS",
-                   help="how long the animation plays (default: the simulated time, "
-                        "clamped to 2..20 s); the picture states the time scale")
-    s.add_argument("--jit", action="store_true",
-                   help="compile the dynamics with numba when it is installed. It costs a "
-                        "few seconds of compilation and does not make one run faster today: "
-                        "SciPy's integrator is driven from Python and its per-step overhead "
-                        "dominates (1000 pendulum periods take about as long either way); "
-                        "the compiled path pays in lamech.integrate_batch" + from_defaults[:0])
+    s.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="plot multipliers/forces with the events marked, and the coordinates (matplotlib)",
+    )
+    s.add_argument(
+        "--animate",
+        metavar="FILE",
+        help="write an animation: .gif, .mp4 (needs ffmpeg) or .html (one "
+        "self-contained page): the bodies, their trails, the constraint "
+        "forces as arrows, the events",
+    )
+    s.add_argument(
+        "--project-initial",
+        action="store_true",
+        help="move an initial state that violates the constraints to the nearest "
+        "consistent one (mass-matrix metric) instead of failing",
+    )
+    s.add_argument(
+        "--fps",
+        type=positive_float,
+        default=20.0,
+        help="animation frames per second (default %(default)s)",
+    )
+    s.add_argument(
+        "--duration",
+        type=positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="how long the animation plays (default: the simulated time, "
+        "clamped to 2..20 s); the picture states the time scale",
+    )
+    s.add_argument(
+        "--jit",
+        action="store_true",
+        help="compile the dynamics with numba when it is installed. It costs a "
+        "few seconds of compilation and does not make one run faster today: "
+        "SciPy's integrator is driven from Python and its per-step overhead "
+        "dominates (1000 pendulum periods take about as long either way); "
+        "the compiled path pays in lamech.integrate_batch" + from_defaults[:0],
+    )
     return s
 
 
@@ -84,7 +134,7 @@ def run(args) -> int:
     except DegenerateConstraintsError as exc:
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
-    for note in system.notes:     # a T that disagrees with the bodies: say it first
+    for note in system.notes:  # a T that disagrees with the bodies: say it first
         print(f"lamech: warning: {note}", file=sys.stderr)
     try:
         params = evaluate_assignments(args.param, system, "--param")
@@ -96,12 +146,20 @@ def run(args) -> int:
         return 2
     progress = _Progress(args.t_end) if sys.stderr.isatty() and not args.json else None
     try:
-        traj = simulate(system, args.t_end, samples=args.samples, dt=args.dt,
-                        params=params or None, initial=initial or None,
-                        rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
-                        atol=args.atol if args.atol is not None else DEFAULT_ATOL,
-                        max_step=args.max_step, project_initial=args.project_initial,
-                        progress=progress, jit=args.jit)
+        traj = simulate(
+            system,
+            args.t_end,
+            samples=args.samples,
+            dt=args.dt,
+            params=params or None,
+            initial=initial or None,
+            rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
+            atol=args.atol if args.atol is not None else DEFAULT_ATOL,
+            max_step=args.max_step,
+            project_initial=args.project_initial,
+            progress=progress,
+            jit=args.jit,
+        )
     except SimulationError as exc:
         if progress:
             progress.close()
@@ -110,8 +168,9 @@ def run(args) -> int:
     if progress:
         progress.close()
     from ..present import to_text, trajectory_csv
+
     for target in (args.out, args.plot, args.animate):
-        if target:      # outputs go where asked: out/traj.csv makes out/
+        if target:  # outputs go where asked: out/traj.csv makes out/
             Path(target).parent.mkdir(parents=True, exist_ok=True)
     if args.out:
         try:
@@ -122,22 +181,33 @@ def run(args) -> int:
     if args.plot:
         try:
             from ..present import plot_trajectory
+
             plot_trajectory(traj, args.plot)
         except ImportError as exc:
-            print(f"lamech: --plot needs matplotlib ({exc}); pip install matplotlib",
-                  file=sys.stderr)
+            print(
+                f"lamech: --plot needs matplotlib ({exc}); pip install matplotlib", file=sys.stderr
+            )
             return 2
         except OSError as exc:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
     if args.animate:
         from ..present import animate
+
         try:
-            animate(traj, system, args.animate, params=params or None, fps=args.fps,
-                    duration=args.duration)
+            animate(
+                traj,
+                system,
+                args.animate,
+                params=params or None,
+                fps=args.fps,
+                duration=args.duration,
+            )
         except ImportError as exc:
-            print(f"lamech: --animate needs matplotlib ({exc}); pip install matplotlib",
-                  file=sys.stderr)
+            print(
+                f"lamech: --animate needs matplotlib ({exc}); pip install matplotlib",
+                file=sys.stderr,
+            )
             return 2
         except ValueError as exc:
             print(f"lamech: --animate: {exc}", file=sys.stderr)
@@ -146,8 +216,7 @@ def run(args) -> int:
             print(f"lamech: cannot write {args.animate}: {exc}", file=sys.stderr)
             return 2
     if args.json:
-        print(json.dumps(traj.summary(), indent=2, ensure_ascii=False,
-                         default=_json_default))
+        print(json.dumps(traj.summary(), indent=2, ensure_ascii=False, default=_json_default))
     else:
         print(to_text(traj), end="")
         if args.out:
@@ -173,6 +242,7 @@ class _Progress:
 
     def __init__(self, t_end: float):
         import time
+
         self.t_end, self.last, self.clock = t_end, -1, time.monotonic
         self.start = self.clock()
         self.shown = False

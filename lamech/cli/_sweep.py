@@ -15,48 +15,94 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
-        "sweep", help="simulate every combination of parameter values; a table of measures",
+        "sweep",
+        help="simulate every combination of parameter values; a table of measures",
         description="Simulate every combination of the swept parameter values (one compiled "
-                    "system, a different parameter vector per case) and measure each case: "
-                    "the first lift-off/slip (time and coordinates), the max/min of a "
-                    "multiplier or force, the final value of a coordinate. Rows are appended "
-                    "to the table as cases finish; --resume skips the cases already there.")
+        "system, a different parameter vector per case) and measure each case: "
+        "the first lift-off/slip (time and coordinates), the max/min of a "
+        "multiplier or force, the final value of a coordinate. Rows are appended "
+        "to the table as cases finish; --resume skips the cases already there.",
+    )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
-    s.add_argument("--param", action="append", default=[], metavar="NAME=VALUES",
-                   required=True,
-                   help="a parameter (or `mu`/`mu:<constraint>`, a friction coefficient) and "
-                        "its values: A:B:N (N values, both ends included), a,b,c or one "
-                        "value; repeat for a grid")
-    s.add_argument("--measure", action="append", default=[], metavar="MEASURE",
-                   help="liftoff, slip, stick, contact, impact (each optionally "
-                        ":<constraint>), max:<series>, min:<series>, final:<series>; a "
-                        "series is x, x', lambda:<constraint>, force:<constraint>:<dir>, "
-                        "energy or residual (default: liftoff)")
-    s.add_argument("--t-end", type=positive_float, required=True, metavar="T",
-                   help="end time of every simulation (start at t = 0)")
-    s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE",
-                   help="set an initial coordinate (or velocity x') for every case; the "
-                        "other coordinates move to meet the constraints")
-    s.add_argument("--out", metavar="TABLE",
-                   help="the table: CSV, or Parquet when it ends .parquet (needs pyarrow); "
-                        "default: CSV on standard output")
-    s.add_argument("--plot", metavar="PNG",
-                   help="a line plot (one swept parameter) or heat maps (two)")
-    s.add_argument("--workers", type=positive_int, metavar="N",
-                   help="local worker processes (default: the CPU count)")
-    s.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run on a Dask cluster (dask.distributed scheduler address, e.g. "
-                        "tcp://host:8786)")
-    s.add_argument("--resume", action="store_true",
-                   help="keep the cases already in --out and run only the missing ones")
-    s.add_argument("--samples", type=positive_int, default=1001, metavar="N",
-                   help="output samples per run, for max/min/final (default %(default)s)")
-    s.add_argument("--rtol", type=positive_float, default=None,
-                   help="relative tolerance (default 1e-11)")
-    s.add_argument("--atol", type=positive_float, default=None,
-                   help="absolute tolerance (default 1e-12)")
-    s.add_argument("--max-step", type=positive_float, default=None,
-                   help="largest integrator step (default: unlimited)")
+    s.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUES",
+        required=True,
+        help="a parameter (or `mu`/`mu:<constraint>`, a friction coefficient) and "
+        "its values: A:B:N (N values, both ends included), a,b,c or one "
+        "value; repeat for a grid",
+    )
+    s.add_argument(
+        "--measure",
+        action="append",
+        default=[],
+        metavar="MEASURE",
+        help="liftoff, slip, stick, contact, impact (each optionally "
+        ":<constraint>), max:<series>, min:<series>, final:<series>; a "
+        "series is x, x', lambda:<constraint>, force:<constraint>:<dir>, "
+        "energy or residual (default: liftoff)",
+    )
+    s.add_argument(
+        "--t-end",
+        type=positive_float,
+        required=True,
+        metavar="T",
+        help="end time of every simulation (start at t = 0)",
+    )
+    s.add_argument(
+        "--initial",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="set an initial coordinate (or velocity x') for every case; the "
+        "other coordinates move to meet the constraints",
+    )
+    s.add_argument(
+        "--out",
+        metavar="TABLE",
+        help="the table: CSV, or Parquet when it ends .parquet (needs pyarrow); "
+        "default: CSV on standard output",
+    )
+    s.add_argument(
+        "--plot", metavar="PNG", help="a line plot (one swept parameter) or heat maps (two)"
+    )
+    s.add_argument(
+        "--workers",
+        type=positive_int,
+        metavar="N",
+        help="local worker processes (default: the CPU count)",
+    )
+    s.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a Dask cluster (dask.distributed scheduler address, e.g. tcp://host:8786)",
+    )
+    s.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the cases already in --out and run only the missing ones",
+    )
+    s.add_argument(
+        "--samples",
+        type=positive_int,
+        default=1001,
+        metavar="N",
+        help="output samples per run, for max/min/final (default %(default)s)",
+    )
+    s.add_argument(
+        "--rtol", type=positive_float, default=None, help="relative tolerance (default 1e-11)"
+    )
+    s.add_argument(
+        "--atol", type=positive_float, default=None, help="absolute tolerance (default 1e-12)"
+    )
+    s.add_argument(
+        "--max-step",
+        type=positive_float,
+        default=None,
+        help="largest integrator step (default: unlimited)",
+    )
     return s
 
 
@@ -79,13 +125,25 @@ def run(args) -> int:
             try:
                 import pyarrow  # noqa: F401
             except ImportError:
-                raise SweepError("a .parquet table needs pyarrow (and pandas): pip install "
-                                 "pyarrow pandas; or write a .csv") from None
-        result = run_sweep(args.problem, params, args.measure or ["liftoff"],
-                           t_end=args.t_end, initial=initial, out=args.out,
-                           resume=args.resume, workers=args.workers,
-                           scheduler=args.scheduler, samples=args.samples, rtol=args.rtol,
-                           atol=args.atol, max_step=args.max_step)
+                raise SweepError(
+                    "a .parquet table needs pyarrow (and pandas): pip install "
+                    "pyarrow pandas; or write a .csv"
+                ) from None
+        result = run_sweep(
+            args.problem,
+            params,
+            args.measure or ["liftoff"],
+            t_end=args.t_end,
+            initial=initial,
+            out=args.out,
+            resume=args.resume,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            samples=args.samples,
+            rtol=args.rtol,
+            atol=args.atol,
+            max_step=args.max_step,
+        )
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
@@ -96,32 +154,41 @@ def run(args) -> int:
         print(f"lamech: {exc}", file=sys.stderr)
         return 2
     if result.interrupted:
-        print(f"lamech: interrupted: {len(result.rows)} of "
-              f"{_total(result)} cases done"
-              + (f" and kept in {args.out}; rerun with --resume to finish" if args.out
-                 else ""), file=sys.stderr)
+        print(
+            f"lamech: interrupted: {len(result.rows)} of "
+            f"{_total(result)} cases done"
+            + (f" and kept in {args.out}; rerun with --resume to finish" if args.out else ""),
+            file=sys.stderr,
+        )
         return 130
     if result.stopped:
-        print(f"lamech: the sweep stopped ({result.stopped}): {len(result.rows)} of "
-              f"{_total(result)} cases done"
-              + (f" and kept in {args.out}; rerun with --resume to finish" if args.out
-                 else ""), file=sys.stderr)
+        print(
+            f"lamech: the sweep stopped ({result.stopped}): {len(result.rows)} of "
+            f"{_total(result)} cases done"
+            + (f" and kept in {args.out}; rerun with --resume to finish" if args.out else ""),
+            file=sys.stderr,
+        )
         return 1
     if not args.out:
         _print_csv(result)
     out = sys.stdout if args.out else sys.stderr
     counts = ", ".join(f"{k} {v}" for k, v in sorted(result.counts.items()))
     sizes = ", ".join(f"{n}: {len(a)}" for n, a in result.parameters.items())
-    print(f"{len(result.rows)} cases ({sizes}): {counts}; ran {result.ran}"
-          + (f", kept {result.kept} from the table" if result.kept else "")
-          + f" in {result.seconds:.3g} s on {result.backend}", file=out)
+    print(
+        f"{len(result.rows)} cases ({sizes}): {counts}; ran {result.ran}"
+        + (f", kept {result.kept} from the table" if result.kept else "")
+        + f" in {result.seconds:.3g} s on {result.backend}",
+        file=out,
+    )
     failed = [r for r in result.rows if r["status"] != "ok"]
     for r in failed[:3]:
         where = ", ".join(f"{n} = {r[n]:g}" for n in result.parameters)
         print(f"  case {r['case']} ({where}): {r['status']}: {r['message']}", file=sys.stderr)
     if len(failed) > 3:
-        print(f"  ... and {len(failed) - 3} more (see the status and message columns)",
-              file=sys.stderr)
+        print(
+            f"  ... and {len(failed) - 3} more (see the status and message columns)",
+            file=sys.stderr,
+        )
     if args.out:
         print(f"  wrote {args.out}", file=out)
     if args.plot:
@@ -145,6 +212,7 @@ def _print_csv(result) -> None:
     import csv
 
     from ..sweeps import format_value
+
     w = csv.writer(sys.stdout, lineterminator="\n")
     w.writerow(result.columns)
     for row in result.rows:

@@ -9,18 +9,65 @@ velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
 """
 
-from ._checks import (INITIAL_TOLERANCE, dependent_constraints, dependent_group,
-                      initial_values, numeric_matrix, open_at_start, probe_states, value)
-from ._kinematics import (body_energy, constraint_jacobian, contact_partial_velocities,
-                          partial_velocities, time_derivative, velocity_form)
+from ._checks import (
+    INITIAL_TOLERANCE,
+    dependent_constraints,
+    dependent_group,
+    initial_values,
+    numeric_matrix,
+    open_at_start,
+    probe_states,
+    value,
+)
+from ._kinematics import (
+    body_energy,
+    constraint_jacobian,
+    contact_partial_velocities,
+    partial_velocities,
+    time_derivative,
+    velocity_form,
+)
 from ._rules import FIELDS, name_problem
+from ._system import (
+    Body,
+    Constraint,
+    ConstraintKind,
+    Coordinate,
+    ForceSpec,
+    Friction,
+    ModelError,
+    Parameter,
+    ShapeKind,
+    System,
+)
 from ._values import with_values
-from ._system import (Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
-                      ModelError, Parameter, ShapeKind, System)
 
-__all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body", "System",
-           "ModelError", "ConstraintKind", "ShapeKind", "FIELDS", "name_problem",
-           "time_derivative", "body_energy", "partial_velocities", "contact_partial_velocities",
-           "velocity_form", "constraint_jacobian", "INITIAL_TOLERANCE", "value",
-           "numeric_matrix", "initial_values", "probe_states", "open_at_start",
-           "dependent_constraints", "dependent_group", "with_values"]
+__all__ = [
+    "Parameter",
+    "Coordinate",
+    "Friction",
+    "ForceSpec",
+    "Constraint",
+    "Body",
+    "System",
+    "ModelError",
+    "ConstraintKind",
+    "ShapeKind",
+    "FIELDS",
+    "name_problem",
+    "time_derivative",
+    "body_energy",
+    "partial_velocities",
+    "contact_partial_velocities",
+    "velocity_form",
+    "constraint_jacobian",
+    "INITIAL_TOLERANCE",
+    "value",
+    "numeric_matrix",
+    "initial_values",
+    "probe_states",
+    "open_at_start",
+    "dependent_constraints",
+    "dependent_group",
+    "with_values",
+]

@@ -13,8 +13,16 @@ import sympy as sp
 from ._kinematics import constraint_jacobian, time_derivative
 from ._system import System
 
-__all__ = ["INITIAL_TOLERANCE", "value", "numeric_matrix", "initial_values", "open_at_start",
-           "dependent_constraints", "dependent_group", "probe_states"]
+__all__ = [
+    "INITIAL_TOLERANCE",
+    "value",
+    "numeric_matrix",
+    "initial_values",
+    "open_at_start",
+    "dependent_constraints",
+    "dependent_group",
+    "probe_states",
+]
 
 INITIAL_TOLERANCE = 1e-10
 """An initial state violates a constraint when |f| > INITIAL_TOLERANCE*(1 + |q|)."""
@@ -28,8 +36,7 @@ def initial_values(system: System, parameters: dict | None = None) -> dict:
     return {s: value(e, pv) for s, e in system.initial_state.items()}
 
 
-def probe_states(system: System, count: int = 2, seed: int = 11,
-                 spread: float = 0.3) -> list[dict]:
+def probe_states(system: System, count: int = 2, seed: int = 11, spread: float = 0.3) -> list[dict]:
     """Seeded numeric environments near the initial state, {symbol: value}: parameters at
     their values, every coordinate and velocity moved by a random amount up to
     ``spread``, t in (0.1, 1). Used wherever a property is checked "at random states"
@@ -42,8 +49,13 @@ def probe_states(system: System, count: int = 2, seed: int = 11,
     rng = np.random.default_rng(seed)
     envs = []
     for _ in range(count):
-        envs.append({**pv, system.t: float(rng.uniform(0.1, 1.0)),
-                     **{s: v + float(rng.uniform(-spread, spread)) for s, v in init.items()}})
+        envs.append(
+            {
+                **pv,
+                system.t: float(rng.uniform(0.1, 1.0)),
+                **{s: v + float(rng.uniform(-spread, spread)) for s, v in init.items()},
+            }
+        )
     return envs
 
 
@@ -135,5 +147,3 @@ def dependent_group(a: np.ndarray, names: list[str]) -> tuple[str, ...] | None:
     null = vt[rank:] if vt.shape[0] > rank else vt[-1:]
     combo = null[0]
     return tuple(n for n, c in zip(names, combo) if abs(c) > 1e-6)
-
-

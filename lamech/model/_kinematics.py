@@ -7,8 +7,14 @@ import sympy as sp
 
 from ._system import Body, System
 
-__all__ = ["time_derivative", "body_energy", "partial_velocities", "contact_partial_velocities",
-           "velocity_form", "constraint_jacobian"]
+__all__ = [
+    "time_derivative",
+    "body_energy",
+    "partial_velocities",
+    "contact_partial_velocities",
+    "velocity_form",
+    "constraint_jacobian",
+]
 
 
 def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
@@ -25,8 +31,9 @@ def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
     return out
 
 
-def body_energy(system: System, bodies: tuple[Body, ...], gravity: sp.Expr | None
-                ) -> tuple[sp.Expr, sp.Expr]:
+def body_energy(
+    system: System, bodies: tuple[Body, ...], gravity: sp.Expr | None
+) -> tuple[sp.Expr, sp.Expr]:
     """Kinetic and gravitational potential energy of ``bodies`` (gravity along -y or -z)."""
     T = sp.Integer(0)
     V = sp.Integer(0)
@@ -79,4 +86,3 @@ def constraint_jacobian(system: System) -> tuple[sp.Matrix, sp.Matrix]:
     if not system.constraints:
         return sp.zeros(0, len(system.coordinates)), F
     return F.jacobian(sp.Matrix(system.qd)), F
-

@@ -24,9 +24,17 @@ from ..expr import FUNCTIONS, RESERVED
 if TYPE_CHECKING:  # pragma: no cover
     from ._system import Body, Constraint, Coordinate, ForceSpec, Friction, Parameter, System
 
-__all__ = ["FIELDS", "name_problem", "parameter_issues", "coordinate_issues",
-           "friction_issues", "force_issues", "constraint_issues", "body_issues",
-           "system_issues"]
+__all__ = [
+    "FIELDS",
+    "name_problem",
+    "parameter_issues",
+    "coordinate_issues",
+    "friction_issues",
+    "force_issues",
+    "constraint_issues",
+    "body_issues",
+    "system_issues",
+]
 
 Issues = list[tuple[str, str]]
 
@@ -42,8 +50,11 @@ FIELDS: dict[str, tuple[str, str]] = {
     "T": ("velocities", "T"),
     "V": ("positions", "V (positions only)"),
     "L": ("velocities", "L"),
-    "f": ("positions", "a holonomic constraint f (positions only; use `velocity = \"...\"` "
-          "for a velocity constraint)"),
+    "f": (
+        "positions",
+        'a holonomic constraint f (positions only; use `velocity = "..."` '
+        "for a velocity constraint)",
+    ),
     "velocity": ("velocities", "velocity constraints"),
     "restitution": ("positions", "restitution"),
     "mu": ("positions", "mu"),
@@ -66,21 +77,21 @@ def name_problem(name: Any) -> str | None:
     """Why ``name`` cannot name a parameter or coordinate, or None: an identifier, not a
     function or ``t``/``pi``, not ``lambda_...`` (the multipliers) nor containing ``__``."""
     if not isinstance(name, str) or not _IDENT.match(name):
-        return (f"`{name}` is not a valid name (letters, digits and _, not starting with a "
-                "digit)")
+        return f"`{name}` is not a valid name (letters, digits and _, not starting with a digit)"
     if name in RESERVED:
         kind = "a function" if name in FUNCTIONS else "reserved"
         return f"`{name}` is {kind} and cannot be a parameter or coordinate name; rename it"
     if name.startswith("lambda_") or "__" in name:
-        return (f"`{name}`: names starting with `lambda_` or containing `__` are reserved "
-                "(lambda_<constraint> names the multipliers); rename it")
+        return (
+            f"`{name}`: names starting with `lambda_` or containing `__` are reserved "
+            "(lambda_<constraint> names the multipliers); rename it"
+        )
     return None
 
 
 def _identifier_problem(name: Any) -> str | None:
     if not isinstance(name, str) or not _IDENT.match(name):
-        return (f"`{name}` is not a valid name (letters, digits and _, not starting with a "
-                "digit)")
+        return f"`{name}` is not a valid name (letters, digits and _, not starting with a digit)"
     return None
 
 
@@ -89,8 +100,10 @@ def _join(where: str, field: str) -> str:
 
 
 def _not_expr(value: Any, what: str) -> str:
-    return (f"{what} must be a SymPy expression (a number as sp.Integer/sp.Float, or in "
-            f"the declared symbols), not {type(value).__name__}")
+    return (
+        f"{what} must be a SymPy expression (a number as sp.Integer/sp.Float, or in "
+        f"the declared symbols), not {type(value).__name__}"
+    )
 
 
 def _is_expr(value: Any) -> bool:
@@ -113,11 +126,15 @@ def parameter_issues(p: Parameter) -> Issues:
         out.append((where, problem))
     if not _is_expr(p.value):
         out.append((where, _not_expr(p.value, "the value")))
-    if _is_bool(p.numeric) or not isinstance(p.numeric, (int, float)) \
-            or not math.isfinite(p.numeric):
+    if (
+        _is_bool(p.numeric)
+        or not isinstance(p.numeric, (int, float))
+        or not math.isfinite(p.numeric)
+    ):
         out.append((where, "value is not a finite real number"))
     elif isinstance(p.symbol, sp.Symbol) and (
-            (p.symbol.is_positive and p.numeric < 0) or (p.symbol.is_negative and p.numeric > 0)):
+        (p.symbol.is_positive and p.numeric < 0) or (p.symbol.is_negative and p.numeric > 0)
+    ):
         sign = "positive" if p.symbol.is_positive else "negative"
         out.append((where, f"the symbol is declared {sign} but the value is {p.numeric:g}"))
     return out
@@ -129,20 +146,25 @@ def coordinate_issues(c: Coordinate) -> Issues:
     if (problem := name_problem(c.name)) is not None:
         out.append((where, problem))
         return out
-    for label, sym, expected in (("symbol", c.symbol, c.name),
-                                 ("velocity", c.velocity, c.name + "'"),
-                                 ("acceleration", c.acceleration, c.name + "''")):
+    for label, sym, expected in (
+        ("symbol", c.symbol, c.name),
+        ("velocity", c.velocity, c.name + "'"),
+        ("acceleration", c.acceleration, c.name + "''"),
+    ):
         if not isinstance(sym, sp.Symbol):
-            out.append((where, f"the {label} symbol must be a SymPy Symbol named "
-                               f"`{expected}`, not {type(sym).__name__}"))
+            out.append(
+                (
+                    where,
+                    f"the {label} symbol must be a SymPy Symbol named "
+                    f"`{expected}`, not {type(sym).__name__}",
+                )
+            )
         elif sym.name != expected:
-            out.append((where, f"the {label} symbol must be named `{expected}`, got "
-                               f"`{sym.name}`"))
+            out.append((where, f"the {label} symbol must be named `{expected}`, got `{sym.name}`"))
     if not _is_expr(c.initial):
         out.append((where + ".initial", _not_expr(c.initial, "the initial value")))
     if not _is_expr(c.initial_velocity):
-        out.append((where + ".velocity", _not_expr(c.initial_velocity,
-                                                    "the initial velocity")))
+        out.append((where + ".velocity", _not_expr(c.initial_velocity, "the initial velocity")))
     if not _is_bool(c.keep):
         out.append((where + ".keep", "`keep` must be true or false"))
     return out
@@ -153,23 +175,27 @@ def friction_issues(f: Friction) -> Issues:
     if not _is_expr(f.mu):
         out.append(("friction.mu", _not_expr(f.mu, "the coefficient of friction")))
     if not isinstance(f.normal, str):
-        out.append(("friction.normal", "must be the name of the normal constraint (a "
-                                       "string)"))
+        out.append(("friction.normal", "must be the name of the normal constraint (a string)"))
     return out
 
 
 def force_issues(fs: ForceSpec) -> Issues:
     out: Issues = []
-    if not isinstance(fs.bodies, tuple) or len(fs.bodies) not in (1, 2) or \
-            not all(isinstance(n, str) for n in fs.bodies):
-        out.append(("force.body", "one body name, or two (force on the first, reaction on "
-                                  "the second)"))
+    if (
+        not isinstance(fs.bodies, tuple)
+        or len(fs.bodies) not in (1, 2)
+        or not all(isinstance(n, str) for n in fs.bodies)
+    ):
+        out.append(
+            ("force.body", "one body name, or two (force on the first, reaction on the second)")
+        )
     if not isinstance(fs.at, tuple) or len(fs.at) not in (2, 3):
         n = len(fs.at) if isinstance(fs.at, tuple) else 1
         out.append(("force.at", f"must be a list of 2 or 3 expressions (x, y[, z]); got {n}"))
     elif not all(_is_expr(x) for x in fs.at):
-        out.append(("force.at", _not_expr(next(x for x in fs.at if not _is_expr(x)),
-                                          "each component")))
+        out.append(
+            ("force.at", _not_expr(next(x for x in fs.at if not _is_expr(x)), "each component"))
+        )
     if not isinstance(fs.along, tuple):
         out.append(("force.along", "must be a tuple of (name, direction) pairs"))
         return out
@@ -181,8 +207,13 @@ def force_issues(fs: ForceSpec) -> Issues:
         name, vec = item
         where = f"force.along.{name}"
         if name == "residual":
-            out.append((where, "a direction may not be called `residual` (that name reports "
-                               "what the point cannot carry); rename it"))
+            out.append(
+                (
+                    where,
+                    "a direction may not be called `residual` (that name reports "
+                    "what the point cannot carry); rename it",
+                )
+            )
             continue
         if name in seen:
             out.append((where, f"the direction `{name}` is given twice"))
@@ -191,16 +222,23 @@ def force_issues(fs: ForceSpec) -> Issues:
             n = len(vec) if isinstance(vec, tuple) else 1
             out.append((where, f"must be a list of 2 or 3 expressions (x, y[, z]); got {n}"))
         elif not all(_is_expr(x) for x in vec):
-            out.append((where, _not_expr(next(x for x in vec if not _is_expr(x)),
-                                         "each component")))
+            out.append(
+                (where, _not_expr(next(x for x in vec if not _is_expr(x)), "each component"))
+            )
         elif all(x.is_zero for x in vec):
-            out.append((where, "the direction is the zero vector; give one to project the "
-                               "force on, e.g. [\"sin(x)\", \"cos(x)\"]"))
+            out.append(
+                (
+                    where,
+                    "the direction is the zero vector; give one to project the "
+                    'force on, e.g. ["sin(x)", "cos(x)"]',
+                )
+            )
     return out
 
 
 def constraint_issues(c: Constraint) -> Issues:
     from ._system import ConstraintKind, ForceSpec, Friction
+
     where = f"constraint `{c.name}`"
     out: Issues = []
     if (problem := _identifier_problem(c.name)) is not None:
@@ -208,8 +246,7 @@ def constraint_issues(c: Constraint) -> Issues:
     kinds = [k.value for k in ConstraintKind]
     field = "velocity" if c.kind == ConstraintKind.VELOCITY else "f"
     if not isinstance(c.kind, ConstraintKind):
-        out.append((_join(where, "kind"), f"kind `{c.kind}` is not one of "
-                                          + ", ".join(kinds)))
+        out.append((_join(where, "kind"), f"kind `{c.kind}` is not one of " + ", ".join(kinds)))
     if not _is_expr(c.expr):
         out.append((_join(where, field), _not_expr(c.expr, "the constraint")))
     elif c.expr == 0:
@@ -217,25 +254,29 @@ def constraint_issues(c: Constraint) -> Issues:
     if not _is_bool(c.unilateral):
         out.append((_join(where, "unilateral"), "`unilateral` must be true or false"))
     elif c.unilateral and c.kind != ConstraintKind.HOLONOMIC:
-        out.append((_join(where, "unilateral"), "only holonomic constraints (f) can be "
-                                                "unilateral"))
+        out.append((_join(where, "unilateral"), "only holonomic constraints (f) can be unilateral"))
     if c.friction is not None and not isinstance(c.friction, Friction):
         out.append((_join(where, "friction"), "must be a Friction or None"))
     if c.force is not None and not isinstance(c.force, ForceSpec):
         out.append((_join(where, "force"), "must be a ForceSpec or None"))
     if not _is_expr(c.restitution):
-        out.append((_join(where, "restitution"), _not_expr(c.restitution,
-                                                           "the restitution")))
+        out.append((_join(where, "restitution"), _not_expr(c.restitution, "the restitution")))
     expected = f"lambda_{c.name}"
-    if isinstance(c.name, str) and (not isinstance(c.multiplier, sp.Symbol)
-                                    or c.multiplier.name != expected):
-        out.append((_join(where, "multiplier"), f"the multiplier must be the Symbol "
-                                                f"`{expected}` (leave it out to get it)"))
+    if isinstance(c.name, str) and (
+        not isinstance(c.multiplier, sp.Symbol) or c.multiplier.name != expected
+    ):
+        out.append(
+            (
+                _join(where, "multiplier"),
+                f"the multiplier must be the Symbol `{expected}` (leave it out to get it)",
+            )
+        )
     return out
 
 
 def body_issues(b: Body) -> Issues:
     from ._system import ShapeKind
+
     where = f"body `{b.name}`"
     out: Issues = []
     if (problem := _identifier_problem(b.name)) is not None:
@@ -244,40 +285,63 @@ def body_issues(b: Body) -> Issues:
         out.append((_join(where, "mass"), _not_expr(b.mass, "the mass")))
     if not isinstance(b.position, tuple) or len(b.position) not in (2, 3):
         n = len(b.position) if isinstance(b.position, tuple) else 1
-        out.append((_join(where, "position"), f"must be a list of 2 or 3 expressions "
-                                              f"(x, y[, z]); got {n}"))
+        out.append(
+            (_join(where, "position"), f"must be a list of 2 or 3 expressions (x, y[, z]); got {n}")
+        )
     elif not all(_is_expr(x) for x in b.position):
-        out.append((_join(where, "position"), _not_expr(
-            next(x for x in b.position if not _is_expr(x)), "each component")))
+        out.append(
+            (
+                _join(where, "position"),
+                _not_expr(next(x for x in b.position if not _is_expr(x)), "each component"),
+            )
+        )
     if b.angle is not None:
         if not _is_expr(b.angle):
             out.append((_join(where, "angle"), _not_expr(b.angle, "the angle")))
         if b.inertia is None:
-            out.append((_join(where, "angle"), "a body with an `angle` needs its `inertia` "
-                                               "about the centre of mass (e.g. inertia = "
-                                               "\"m*R^2/2\")"))
+            out.append(
+                (
+                    _join(where, "angle"),
+                    "a body with an `angle` needs its `inertia` "
+                    "about the centre of mass (e.g. inertia = "
+                    '"m*R^2/2")',
+                )
+            )
         if isinstance(b.position, tuple) and len(b.position) == 3:
-            out.append((_join(where, "angle"), "rigid bodies (with an angle) must be planar: "
-                                               "give a 2-component position"))
+            out.append(
+                (
+                    _join(where, "angle"),
+                    "rigid bodies (with an angle) must be planar: give a 2-component position",
+                )
+            )
     if b.inertia is not None and not _is_expr(b.inertia):
         out.append((_join(where, "inertia"), _not_expr(b.inertia, "the inertia")))
     shape = b.shape
     if not (isinstance(shape, tuple) and len(shape) == 2):
-        out.append((_join(where, "shape"), "shape is (kind, size): (\"point\", None), "
-                                           "(\"circle\", R) or (\"rod\", l)"))
+        out.append(
+            (
+                _join(where, "shape"),
+                'shape is (kind, size): ("point", None), ("circle", R) or ("rod", l)',
+            )
+        )
     elif not isinstance(shape[0], ShapeKind):
-        out.append((_join(where, "shape"), f"unknown shape `{shape[0]}`; use circle, rod or "
-                                           "point"))
+        out.append((_join(where, "shape"), f"unknown shape `{shape[0]}`; use circle, rod or point"))
     elif shape[0] == ShapeKind.POINT and shape[1] is not None:
         out.append((_join(where, "shape"), "a point has no size (give None)"))
     elif shape[0] != ShapeKind.POINT and not _is_expr(shape[1]):
-        out.append((_join(where, "shape"), _not_expr(shape[1], f"the size of the "
-                                                               f"{shape[0].value}")))
+        out.append(
+            (_join(where, "shape"), _not_expr(shape[1], f"the size of the {shape[0].value}"))
+        )
     return out
 
 
-_PLURAL = {"velocity": "velocities are", "acceleration": "accelerations are",
-           "coordinate": "coordinates are", "time": "time is", "parameter": "parameters are"}
+_PLURAL = {
+    "velocity": "velocities are",
+    "acceleration": "accelerations are",
+    "coordinate": "coordinates are",
+    "time": "time is",
+    "parameter": "parameters are",
+}
 
 
 # ----- the whole -----------------------------------------------------------------------
@@ -295,11 +359,16 @@ class _Scope:
             self.roles[c.acceleration] = "acceleration"
         coords = {c.symbol for c in s.coordinates}
         vels = {c.velocity for c in s.coordinates}
-        self.allowed = {"parameters": params, "positions": params | coords | {s.t},
-                        "velocities": params | coords | vels | {s.t}}
+        self.allowed = {
+            "parameters": params,
+            "positions": params | coords | {s.t},
+            "velocities": params | coords | vels | {s.t},
+        }
         self.by_name = {str(sym): sym for sym in self.roles}
-        self.known = {scope: ", ".join(sorted(str(x) for x in syms if "'" not in str(x)))
-                      or "(none)" for scope, syms in self.allowed.items()}
+        self.known = {
+            scope: ", ".join(sorted(str(x) for x in syms if "'" not in str(x))) or "(none)"
+            for scope, syms in self.allowed.items()
+        }
 
     def problem(self, expr: sp.Expr, field: str) -> str | None:
         """The first undeclared or disallowed name in ``expr`` as a field ``field``
@@ -313,13 +382,14 @@ class _Scope:
             if role is not None:
                 return f"`{sym}`: {_PLURAL[role]} not allowed in {what}"
             if str(sym) in self.by_name:
-                return (f"`{sym}` is not the declared symbol `{sym}` (same name, other "
-                        "assumptions); use the system's own symbol")
+                return (
+                    f"`{sym}` is not the declared symbol `{sym}` (same name, other "
+                    "assumptions); use the system's own symbol"
+                )
             return f"unknown name `{sym}`; known: {self.known[scope]}"
         undefined = sorted(expr.atoms(AppliedUndef), key=str)
         if undefined:
-            return (f"unknown function `{undefined[0].func}`; known: "
-                    + ", ".join(sorted(FUNCTIONS)))
+            return f"unknown function `{undefined[0].func}`; known: " + ", ".join(sorted(FUNCTIONS))
         return None
 
 
@@ -327,11 +397,14 @@ def system_issues(s: System) -> Issues:
     """Everything wrong with ``s`` as a whole. The checks at numbers that cost most (the
     initial state, dependent constraints) run only when everything else is right."""
     from ._system import Body, Constraint, Coordinate, Parameter
+
     out: Issues = []
-    for label, items, cls in (("parameters", s.parameters, Parameter),
-                              ("coordinates", s.coordinates, Coordinate),
-                              ("constraints", s.constraints, Constraint),
-                              ("bodies", s.bodies, Body)):
+    for label, items, cls in (
+        ("parameters", s.parameters, Parameter),
+        ("coordinates", s.coordinates, Coordinate),
+        ("constraints", s.constraints, Constraint),
+        ("bodies", s.bodies, Body),
+    ):
         if not isinstance(items, tuple) or not all(isinstance(x, cls) for x in items):
             out.append((label, f"{label} must be a tuple of {cls.__name__}"))
     if out:
@@ -354,14 +427,19 @@ def _name_issues(s: System) -> Issues:
     for p in s.parameters:
         for n in {p.name, p.symbol.name}:
             if n in seen:
-                out.append((f"parameters.{p.name}", f"`{n}` is declared twice as a "
-                                                    "parameter; rename one"))
+                out.append(
+                    (f"parameters.{p.name}", f"`{n}` is declared twice as a parameter; rename one")
+                )
             seen[n] = "parameter"
     for c in s.coordinates:
         where = f"coordinates.{c.name}"
         if seen.get(c.name) == "parameter":
-            out.append((where, f"`{c.name}` is declared both as a parameter and as a "
-                               "coordinate; rename one"))
+            out.append(
+                (
+                    where,
+                    f"`{c.name}` is declared both as a parameter and as a coordinate; rename one",
+                )
+            )
         elif c.name in seen:
             out.append((where, f"`{c.name}` is declared twice as a coordinate; rename one"))
         seen[c.name] = "coordinate"
@@ -370,9 +448,14 @@ def _name_issues(s: System) -> Issues:
         what = "constraint" if label == "constraints" else "body"
         for i, item in enumerate(items):
             if item.name in first:
-                out.append((f"{label}[{i + 1}] `{item.name}` name", f"the name `{item.name}` "
-                            f"is already used by {label}[{first[item.name] + 1}]; each {what} "
-                            "needs a unique name"))
+                out.append(
+                    (
+                        f"{label}[{i + 1}] `{item.name}` name",
+                        f"the name `{item.name}` "
+                        f"is already used by {label}[{first[item.name] + 1}]; each {what} "
+                        "needs a unique name",
+                    )
+                )
             else:
                 first[item.name] = i
     return out
@@ -385,7 +468,7 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
 
     def check(expr: Any, field: str, where: str) -> None:
         if where in wrong:
-            return   # one issue per place: the first thing wrong there
+            return  # one issue per place: the first thing wrong there
         if not _is_expr(expr):
             problem: str | None = _not_expr(expr, FIELDS[field][1])
         else:
@@ -437,6 +520,7 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
 
 def _structure_issues(s: System, scope: _Scope) -> Issues:
     from ._system import ConstraintKind
+
     out: Issues = []
     qd = s.qd
     if _is_expr(s.T) and (s.T == 0 or not s.T.has(*qd)):
@@ -448,16 +532,31 @@ def _structure_issues(s: System, scope: _Scope) -> Issues:
         if c.kind == ConstraintKind.VELOCITY and _is_expr(c.expr):
             e = c.expr
             if not e.has(*qd):
-                out.append((f"{where} velocity", "a velocity constraint must contain a "
-                            "velocity (x'); for a constraint on positions use `f`"))
+                out.append(
+                    (
+                        f"{where} velocity",
+                        "a velocity constraint must contain a "
+                        "velocity (x'); for a constraint on positions use `f`",
+                    )
+                )
             elif any(sp.diff(e, a, b) != 0 for a in qd if e.has(a) for b in qd):
-                out.append((f"{where} velocity", "a non-holonomic constraint must be linear "
-                            "in the velocities (a(q,t).q' + b = 0)"))
-        if c.friction is not None and (c.friction.normal == c.name
-                                       or c.friction.normal not in names):
+                out.append(
+                    (
+                        f"{where} velocity",
+                        "a non-holonomic constraint must be linear "
+                        "in the velocities (a(q,t).q' + b = 0)",
+                    )
+                )
+        if c.friction is not None and (
+            c.friction.normal == c.name or c.friction.normal not in names
+        ):
             known = ", ".join(n for n in names if n != c.name) or "(none)"
-            out.append((f"{where} friction.normal", f"`{c.friction.normal}` is not another "
-                        f"constraint; known: {known}"))
+            out.append(
+                (
+                    f"{where} friction.normal",
+                    f"`{c.friction.normal}` is not another constraint; known: {known}",
+                )
+            )
         if c.force is not None:
             known = ", ".join(bodies) or "(none: declare bodies)"
             unknown = [n for n in c.force.bodies if n not in bodies]
@@ -466,30 +565,45 @@ def _structure_issues(s: System, scope: _Scope) -> Issues:
             if not unknown:
                 dim = len(bodies[c.force.bodies[0]].position)
                 if len(c.force.at) != dim:
-                    out.append((f"{where} force.at", f"must have {dim} components, like the "
-                                f"position of body `{c.force.bodies[0]}`; got "
-                                f"{len(c.force.at)}"))
+                    out.append(
+                        (
+                            f"{where} force.at",
+                            f"must have {dim} components, like the "
+                            f"position of body `{c.force.bodies[0]}`; got "
+                            f"{len(c.force.at)}",
+                        )
+                    )
                 for name, vec in c.force.along:
                     if len(vec) != dim:
-                        out.append((f"{where} force.along.{name}", f"must have {dim} "
-                                    f"components, like the position of body "
-                                    f"`{c.force.bodies[0]}`; got {len(vec)}"))
+                        out.append(
+                            (
+                                f"{where} force.along.{name}",
+                                f"must have {dim} "
+                                f"components, like the position of body "
+                                f"`{c.force.bodies[0]}`; got {len(vec)}",
+                            )
+                        )
     if len({len(b.position) for b in s.bodies}) > 1:
-        out.append(("bodies", "all bodies must have positions of the same size (2 for a "
-                              "plane, 3 for space)"))
+        out.append(
+            (
+                "bodies",
+                "all bodies must have positions of the same size (2 for a plane, 3 for space)",
+            )
+        )
     return out
 
 
 def _value_issues(s: System, scope: _Scope) -> Issues:
     """Masses and inertias positive, friction coefficients >= 0, at the parameter values."""
     from ._checks import value
+
     out: Issues = []
     pv = s.parameter_values
     params = scope.allowed["parameters"]
 
     def at_parameters(expr: Any) -> float | None:
         if not _is_expr(expr) or not expr.free_symbols <= params:
-            return None   # reported as a name problem
+            return None  # reported as a name problem
         try:
             return value(expr, pv)
         except (TypeError, ValueError):
@@ -508,8 +622,12 @@ def _value_issues(s: System, scope: _Scope) -> Issues:
             continue
         v = at_parameters(c.friction.mu)
         if v is not None and not (math.isfinite(v) and v >= 0):
-            out.append((f"constraints[{i + 1}] `{c.name}` friction.mu",
-                        f"must be a coefficient of friction >= 0, got {v:g}"))
+            out.append(
+                (
+                    f"constraints[{i + 1}] `{c.name}` friction.mu",
+                    f"must be a coefficient of friction >= 0, got {v:g}",
+                )
+            )
     return out
 
 
@@ -518,19 +636,26 @@ def _initial_issues(s: System) -> Issues:
     :func:`~lamech.model.open_at_start`, not on its forbidden side)."""
     from ._checks import INITIAL_TOLERANCE, value
     from ._kinematics import time_derivative
+
     out: Issues = []
     pv = s.parameter_values
     state = {}
     for c in s.coordinates:
-        for sym, expr, label in ((c.symbol, c.initial, "initial"),
-                                 (c.velocity, c.initial_velocity, "velocity")):
+        for sym, expr, label in (
+            (c.symbol, c.initial, "initial"),
+            (c.velocity, c.initial_velocity, "velocity"),
+        ):
             try:
                 state[sym] = value(expr, pv)
             except (TypeError, ValueError):
                 state[sym] = float("nan")
             if not math.isfinite(state[sym]):
-                out.append((f"coordinates.{c.name}.{label}", "the initial value is not a "
-                            "finite real number at the parameter values"))
+                out.append(
+                    (
+                        f"coordinates.{c.name}.{label}",
+                        "the initial value is not a finite real number at the parameter values",
+                    )
+                )
     if out:
         return out
     scale = 1 + max((abs(v) for v in state.values()), default=0.0)
@@ -546,39 +671,73 @@ def _initial_issues(s: System) -> Issues:
             else:
                 res, vres = 0.0, value(c.expr, env)
         except (TypeError, ValueError):
-            out.append((where, "cannot evaluate the constraint at the initial state "
-                               "(complex or undefined value)"))
+            out.append(
+                (
+                    where,
+                    "cannot evaluate the constraint at the initial state "
+                    "(complex or undefined value)",
+                )
+            )
             continue
         if c.unilateral and c.holonomic and (res > tol or (abs(res) <= tol and vres > tol)):
-            continue   # an open (or opening) contact: allowed, see open_at_start
+            continue  # an open (or opening) contact: allowed, see open_at_start
         if c.unilateral and c.holonomic and res < -tol:
-            out.append((where, f"the initial state is on the forbidden side of the "
-                               f"unilateral constraint: f = {res:.6g} < 0 (f >= 0 is "
-                               "allowed); change the coordinates' initial values"))
+            out.append(
+                (
+                    where,
+                    f"the initial state is on the forbidden side of the "
+                    f"unilateral constraint: f = {res:.6g} < 0 (f >= 0 is "
+                    "allowed); change the coordinates' initial values",
+                )
+            )
         elif abs(res) > tol:
-            out.append((where, f"the initial state violates the constraint: f = {res:.6g} "
-                               "(should be 0); change the coordinates' initial values"))
+            out.append(
+                (
+                    where,
+                    f"the initial state violates the constraint: f = {res:.6g} "
+                    "(should be 0); change the coordinates' initial values",
+                )
+            )
         elif abs(vres) > tol:
             label = "df/dt" if c.holonomic else "the constraint"
-            out.append((where, f"the initial velocities violate the constraint: {label} = "
-                               f"{vres:.6g} (should be 0); change the coordinates' initial "
-                               "velocities"))
+            out.append(
+                (
+                    where,
+                    f"the initial velocities violate the constraint: {label} = "
+                    f"{vres:.6g} (should be 0); change the coordinates' initial "
+                    "velocities",
+                )
+            )
     return out
 
 
 def _dependent_issues(s: System) -> Issues:
     from ._checks import dependent_constraints
+
     out: Issues = []
     for group, singular in dependent_constraints(s):
         idx = [c.name for c in s.constraints].index(group[0])
         where = f"constraints[{idx + 1}] `{group[0]}`"
-        names = " and ".join(f"`{n}`" for n in group) if len(group) <= 2 else \
-            ", ".join(f"`{n}`" for n in group)
+        names = (
+            " and ".join(f"`{n}`" for n in group)
+            if len(group) <= 2
+            else ", ".join(f"`{n}`" for n in group)
+        )
         if singular:
-            out.append((where, f"constraints {names} are dependent at the initial state (a "
-                               "singular configuration): forces cannot be uniquely "
-                               "determined there; start elsewhere"))
+            out.append(
+                (
+                    where,
+                    f"constraints {names} are dependent at the initial state (a "
+                    "singular configuration): forces cannot be uniquely "
+                    "determined there; start elsewhere",
+                )
+            )
         else:
-            out.append((where, f"constraints {names} are dependent: forces cannot be "
-                               "uniquely determined; remove the redundant one"))
+            out.append(
+                (
+                    where,
+                    f"constraints {names} are dependent: forces cannot be "
+                    "uniquely determined; remove the redundant one",
+                )
+            )
     return out

@@ -27,8 +27,18 @@ import sympy as sp
 
 from . import _rules
 
-__all__ = ["Parameter", "Coordinate", "Friction", "ForceSpec", "Constraint", "Body",
-           "System", "ModelError", "ConstraintKind", "ShapeKind"]
+__all__ = [
+    "Parameter",
+    "Coordinate",
+    "Friction",
+    "ForceSpec",
+    "Constraint",
+    "Body",
+    "System",
+    "ModelError",
+    "ConstraintKind",
+    "ShapeKind",
+]
 
 
 class ModelError(ValueError):
@@ -78,7 +88,7 @@ def _as_enum(obj, name: str, enum: type[Enum]) -> None:
         try:
             object.__setattr__(obj, name, enum(raw))
         except ValueError:
-            pass   # reported by the checks
+            pass  # reported by the checks
 
 
 def _as_tuple(obj, *names: str) -> None:
@@ -95,8 +105,8 @@ class Parameter:
 
     name: str
     symbol: sp.Symbol
-    value: sp.Expr          # as written: a number or an expression of other parameters
-    numeric: float          # ``value`` with every parameter substituted
+    value: sp.Expr  # as written: a number or an expression of other parameters
+    numeric: float  # ``value`` with every parameter substituted
 
     def __post_init__(self) -> None:
         ModelError.check(_rules.parameter_issues(self))
@@ -110,9 +120,9 @@ class Coordinate:
     symbol: sp.Symbol
     velocity: sp.Symbol
     acceleration: sp.Symbol
-    initial: sp.Expr            # expression of parameters
-    initial_velocity: sp.Expr   # expression of parameters
-    keep: bool = False          # never eliminated
+    initial: sp.Expr  # expression of parameters
+    initial_velocity: sp.Expr  # expression of parameters
+    keep: bool = False  # never eliminated
 
     def __post_init__(self) -> None:
         ModelError.check(_rules.coordinate_issues(self))
@@ -146,10 +156,18 @@ class ForceSpec:
             object.__setattr__(self, "bodies", (self.bodies,))
         _as_tuple(self, "bodies", "at", "along")
         if isinstance(self.along, tuple):
-            object.__setattr__(self, "along", tuple(
-                (d[0], tuple(d[1])) if isinstance(d, (tuple, list)) and len(d) == 2
-                and isinstance(d[1], list) else tuple(d) if isinstance(d, list) else d
-                for d in self.along))
+            object.__setattr__(
+                self,
+                "along",
+                tuple(
+                    (d[0], tuple(d[1]))
+                    if isinstance(d, (tuple, list)) and len(d) == 2 and isinstance(d[1], list)
+                    else tuple(d)
+                    if isinstance(d, list)
+                    else d
+                    for d in self.along
+                ),
+            )
         ModelError.check(_rules.force_issues(self))
 
 
@@ -227,8 +245,7 @@ class System:
     def __post_init__(self) -> None:
         # Every check, once per construction (``dataclasses.replace`` included): the
         # rules are in lamech.model._rules.
-        _as_tuple(self, "parameters", "coordinates", "constraints", "bodies", "forces",
-                  "notes")
+        _as_tuple(self, "parameters", "coordinates", "constraints", "bodies", "forces", "notes")
         ModelError.check(_rules.system_issues(self))
 
     # ----- views -----------------------------------------------------------------

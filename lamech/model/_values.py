@@ -18,8 +18,11 @@ def _exact(x: float) -> sp.Rational:
     return sp.Rational(repr(float(x)))
 
 
-def with_values(system: System, parameters: Mapping[str, float] | None = None,
-                initial: Mapping[str, float] | None = None) -> System:
+def with_values(
+    system: System,
+    parameters: Mapping[str, float] | None = None,
+    initial: Mapping[str, float] | None = None,
+) -> System:
     """``system`` with parameter values (``mu`` / ``mu:<constraint>`` for a friction
     coefficient) and initial values (a coordinate, or ``x'`` for its velocity) replaced.
 
@@ -35,45 +38,60 @@ def with_values(system: System, parameters: Mapping[str, float] | None = None,
     friction = {c.name: c for c in system.constraints if c.friction is not None}
     constraints = list(system.constraints)
     for name in [n for n in parameters if n not in by_name]:
-        target = name.partition(":")[2] if name.startswith("mu:") else (
-            next(iter(friction)) if name == "mu" and len(friction) == 1 else None)
+        target = (
+            name.partition(":")[2]
+            if name.startswith("mu:")
+            else (next(iter(friction)) if name == "mu" and len(friction) == 1 else None)
+        )
         if target not in friction:
-            known = list(by_name) + [f"mu:{c}" for c in friction] + (
-                ["mu"] if len(friction) == 1 else [])
+            known = (
+                list(by_name)
+                + [f"mu:{c}" for c in friction]
+                + (["mu"] if len(friction) == 1 else [])
+            )
             raise ValueError(f"unknown parameter `{name}`; known: {', '.join(known)}")
         value = parameters.pop(name)
         if not value >= 0:
             raise ValueError(f"{name}: a coefficient of friction is >= 0 (got {value:g})")
         j = constraints.index(friction[target])
         c = constraints[j]
-        constraints[j] = dataclasses.replace(c, friction=dataclasses.replace(
-            c.friction, mu=_exact(value)))
+        constraints[j] = dataclasses.replace(
+            c, friction=dataclasses.replace(c.friction, mu=_exact(value))
+        )
     numbers = {p.symbol: p.numeric for p in system.parameters}
     for name, value in parameters.items():
         p = by_name[name]
-        if (p.symbol.is_positive and not value > 0) or (p.symbol.is_negative and
-                                                        not value < 0):
-            raise ValueError(f"parameter `{name}` is {p.numeric:g} in the file and its sign "
-                             f"is part of the derivation; {value:g} needs the file changed")
+        if (p.symbol.is_positive and not value > 0) or (p.symbol.is_negative and not value < 0):
+            raise ValueError(
+                f"parameter `{name}` is {p.numeric:g} in the file and its sign "
+                f"is part of the derivation; {value:g} needs the file changed"
+            )
         numbers[p.symbol] = float(value)
     fixed = {by_name[n].symbol for n in parameters}
-    for _ in range(len(system.parameters)):     # values that are expressions follow
+    for _ in range(len(system.parameters)):  # values that are expressions follow
         for p in system.parameters:
             if p.symbol not in fixed and p.value.free_symbols:
                 numbers[p.symbol] = float(p.value.xreplace(numbers))
     new_params = tuple(
-        dataclasses.replace(p, value=_exact(parameters[p.name]) if p.name in parameters
-                            else p.value, numeric=numbers[p.symbol])
-        for p in system.parameters)
+        dataclasses.replace(
+            p,
+            value=_exact(parameters[p.name]) if p.name in parameters else p.value,
+            numeric=numbers[p.symbol],
+        )
+        for p in system.parameters
+    )
     coords = list(system.coordinates)
     names = {c.name: i for i, c in enumerate(coords)}
     for name, value in (initial or {}).items():
         base = name.rstrip("'")
         if base not in names or name.count("'") > 1:
-            raise ValueError(f"initial value for unknown coordinate `{name}`; known: "
-                             + ", ".join(list(names) + [n + "'" for n in names]))
+            raise ValueError(
+                f"initial value for unknown coordinate `{name}`; known: "
+                + ", ".join(list(names) + [n + "'" for n in names])
+            )
         i = names[base]
         field = "initial_velocity" if name.endswith("'") else "initial"
         coords[i] = dataclasses.replace(coords[i], **{field: _exact(value)})
-    return dataclasses.replace(system, parameters=new_params, coordinates=tuple(coords),
-                               constraints=tuple(constraints))
+    return dataclasses.replace(
+        system, parameters=new_params, coordinates=tuple(coords), constraints=tuple(constraints)
+    )

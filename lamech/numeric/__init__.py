@@ -16,7 +16,24 @@ from ._params import friction_names, with_friction_parameters
 from ._simulate import simulate
 from ._trajectory import Trajectory
 
-__all__ = ["NumericSystem", "compile_system", "numba_available", "kkt_solve_numpy", "simulate",
-           "SimulationError", "DEFAULT_RTOL", "DEFAULT_ATOL", "check_options",
-           "consistent_initial", "friction_names", "with_friction_parameters", "Trajectory",
-           "Event", "EventKind", "FrictionState", "Status", "integrate_batch", "BatchResult"]
+__all__ = [
+    "NumericSystem",
+    "compile_system",
+    "numba_available",
+    "kkt_solve_numpy",
+    "simulate",
+    "SimulationError",
+    "DEFAULT_RTOL",
+    "DEFAULT_ATOL",
+    "check_options",
+    "consistent_initial",
+    "friction_names",
+    "with_friction_parameters",
+    "Trajectory",
+    "Event",
+    "EventKind",
+    "FrictionState",
+    "Status",
+    "integrate_batch",
+    "BatchResult",
+]

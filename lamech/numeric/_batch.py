@@ -37,10 +37,15 @@ _S = 12
 def _tableau():
     """SciPy's DOP853 coefficients (A, B, C, E3, E5), imported on first use."""
     from scipy.integrate._ivp import dop853_coefficients as dop
+
     assert dop.N_STAGES == _S
-    return (np.ascontiguousarray(dop.A[:_S, :_S]), np.ascontiguousarray(dop.B),
-            np.ascontiguousarray(dop.C[:_S]), np.ascontiguousarray(dop.E3),
-            np.ascontiguousarray(dop.E5))
+    return (
+        np.ascontiguousarray(dop.A[:_S, :_S]),
+        np.ascontiguousarray(dop.B),
+        np.ascontiguousarray(dop.C[:_S]),
+        np.ascontiguousarray(dop.E3),
+        np.ascontiguousarray(dop.E5),
+    )
 
 
 class BatchResult:
@@ -63,10 +68,13 @@ def _build(accel, cons, jit: bool):
     (numba-compiled when ``jit``: the same solve ``simulate`` uses, compiled once)."""
     if jit:
         import numba
+
         njit = numba.njit(cache=False)
     else:
+
         def njit(f):
             return f
+
     gauss_inplace = njit(_gauss)
 
     def gauss(K, r):
@@ -189,6 +197,7 @@ def _build(accel, cons, jit: bool):
 
     if jit:
         import numba
+
         prange = numba.prange
         run_batch = numba.njit(parallel=True, cache=False)(run_batch)
     else:
@@ -199,9 +208,16 @@ def _build(accel, cons, jit: bool):
 _CACHE: dict[int, tuple] = {}
 
 
-def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
-                    rtol: float = 1e-10, atol: float = 1e-12,
-                    max_steps: int = 1_000_000) -> BatchResult:
+def integrate_batch(
+    ns: NumericSystem,
+    y0s,
+    t_end: float,
+    *,
+    params=None,
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    max_steps: int = 1_000_000,
+) -> BatchResult:
     """Integrate every row of ``y0s`` ((B, 2n): positions then velocities, consistent
     with the constraints) from t = 0 to ``t_end`` in one compiled loop.
 
@@ -216,35 +232,40 @@ def integrate_batch(ns: NumericSystem, y0s, t_end: float, *, params=None,
     """
     system = ns.system
     if any(c.unilateral or c.friction is not None for c in system.constraints):
-        raise ValueError("integrate_batch handles bilateral constraints only (no lift-off, "
-                         "impact or slip events); use lamech.simulate for this system")
+        raise ValueError(
+            "integrate_batch handles bilateral constraints only (no lift-off, "
+            "impact or slip events); use lamech.simulate for this system"
+        )
     if not (t_end > 0 and np.isfinite(t_end)):
         raise ValueError(f"t_end must be a positive finite number, got {t_end}")
     if not (0 < rtol < 1 and atol > 0):
         raise ValueError("need 0 < rtol < 1 and atol > 0")
     Y0 = np.ascontiguousarray(np.atleast_2d(np.asarray(y0s, dtype=float)))
     if Y0.shape[1] != 2 * ns.n:
-        raise ValueError(f"each initial state has {2 * ns.n} entries (q then q'), got "
-                         f"{Y0.shape[1]}")
+        raise ValueError(
+            f"each initial state has {2 * ns.n} entries (q then q'), got {Y0.shape[1]}"
+        )
     if params is None or isinstance(params, dict):
         P = np.tile(ns.parameter_vector(params), (Y0.shape[0], 1))
     else:
         params = list(params)
         if len(params) != Y0.shape[0]:
-            raise ValueError(f"params: {len(params)} parameter sets for {Y0.shape[0]} "
-                             "initial states; give one dict per row of y0s, or one dict "
-                             "for all")
+            raise ValueError(
+                f"params: {len(params)} parameter sets for {Y0.shape[0]} "
+                "initial states; give one dict per row of y0s, or one dict "
+                "for all"
+            )
         P = np.array([ns.parameter_vector(d) for d in params], dtype=float)
     P = np.ascontiguousarray(P.reshape(Y0.shape[0], len(ns.parameter_names)))
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
-        _CACHE[key] = (ns, _build(ns.accelerations, ns.constraints,
-                                  ns.jit and numba_available()))
+        _CACHE[key] = (ns, _build(ns.accelerations, ns.constraints, ns.jit and numba_available()))
     _, run_batch = _CACHE[key]
     out = np.empty_like(Y0)
     steps = np.zeros(Y0.shape[0], dtype=np.int64)
-    run_batch(Y0, P, float(t_end), float(rtol), float(atol), int(max_steps),
-              *_tableau(), out, steps)
+    run_batch(
+        Y0, P, float(t_end), float(rtol), float(atol), int(max_steps), *_tableau(), out, steps
+    )
     lam = np.full((Y0.shape[0], ns.m), np.nan)
     n = ns.n
     for b in range(Y0.shape[0]):

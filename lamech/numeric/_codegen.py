@@ -106,8 +106,8 @@ class NumericSystem:
     force_specs: list = field(default_factory=list)  # [(constraint index, [direction names])]
     rhs_kernel: Callable[..., Any] = None  # type: ignore[assignment]
     accelerations: Callable[..., Any] = None  # type: ignore[assignment]  # (t, y, p) -> [q''; lambda]
-    pattern: tuple = ()           # structural nonzeros of A (see _kkt.sparsity)
-    mass_diagonal: bool = False   # M diagonal symbolically: KKT solved by Schur complement
+    pattern: tuple = ()  # structural nonzeros of A (see _kkt.sparsity)
+    mass_diagonal: bool = False  # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
     jit: bool = False
     time_dependent: bool = False
@@ -129,10 +129,14 @@ class NumericSystem:
             return self.parameters.copy()
         unknown = set(overrides) - set(self.parameter_names)
         if unknown:
-            raise KeyError(f"unknown parameter(s) {sorted(unknown)}; known: "
-                           f"{', '.join(self.parameter_names)}")
-        env = {p.symbol: sp.Float(float(overrides[p.name])) for p in self.system.parameters
-               if p.name in overrides}
+            raise KeyError(
+                f"unknown parameter(s) {sorted(unknown)}; known: {', '.join(self.parameter_names)}"
+            )
+        env = {
+            p.symbol: sp.Float(float(overrides[p.name]))
+            for p in self.system.parameters
+            if p.name in overrides
+        }
         out = []
         for p in self.system.parameters:
             if p.name in overrides:
@@ -170,8 +174,16 @@ def _rename(system: System):
 _VECTORS = {"rhs", "gamma", "mu", "f", "b", "E", "e"}
 
 
-def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp.Matrix]],
-                     mapping: dict, n: int, m: int, used_inputs: tuple[str, ...]) -> str:
+def _function_source(
+    name: str,
+    args: str,
+    doc: str,
+    outputs: list[tuple[str, sp.Matrix]],
+    mapping: dict,
+    n: int,
+    m: int,
+    used_inputs: tuple[str, ...],
+) -> str:
     """Source of one function computing several matrices with a shared CSE."""
     printer = _Printer()
     exprs: list[sp.Expr] = []
@@ -187,8 +199,9 @@ def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp
     for e in exprs:
         extra = e.free_symbols - allowed
         if extra:
-            raise ValueError(f"{name}: unexpected symbols {sorted(map(str, extra))} in the "
-                             "derived expressions")
+            raise ValueError(
+                f"{name}: unexpected symbols {sorted(map(str, extra))} in the derived expressions"
+            )
     # The "basic" pre-pass costs 40% of code generation on the chains but makes the numba
     # kernel faster (8-link chain: 3.3 us against 4.4-5.2 us without it): kept.
     repl, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c_"), optimizations="basic")
@@ -198,7 +211,7 @@ def _function_source(name: str, args: str, doc: str, outputs: list[tuple[str, sp
             for i in range(n):
                 lines.append(f"    {var}_{i} = {var}[{i}]")
         elif var == "p":
-            for i in range(len([s for s in mapping.values() if s.name.startswith('p_')])):
+            for i in range(len([s for s in mapping.values() if s.name.startswith("p_")])):
                 lines.append(f"    p_{i} = p[{i}]")
     for sym, e in repl:
         lines.append(f"    {sym} = {printer.doprint(e)}")
@@ -226,6 +239,7 @@ def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
     if jit and numba_available():
         try:
             import numba
+
             jd = numba.njit(cache=False)(fns["dynamics"])
             jc = numba.njit(cache=False)(fns["constraints"])
             kernel, accel = jit_kernels(jd, diagonal, pattern)
@@ -234,8 +248,15 @@ def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
             p0 = np.array([p.numeric for p in system.parameters], dtype=float)
             jd(0.0, q0, q0, p0)  # compile now: a numba failure shows here, not mid-run
             jc(0.0, q0, p0)
-            kernel(0.0, np.zeros(2 * n), p0, np.zeros(0, dtype=np.int64),
-                   np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
+            kernel(
+                0.0,
+                np.zeros(2 * n),
+                p0,
+                np.zeros(0, dtype=np.int64),
+                np.zeros(0, dtype=np.int64),
+                np.zeros(0, dtype=np.int64),
+                np.zeros(0),
+            )
             accel(0.0, np.zeros(2 * n), p0)
             fns["dynamics"], fns["constraints"] = jd, jc
             return kernel, accel, True
@@ -257,7 +278,8 @@ def _force_geometry(system: System):
         dim = J.rows
         dirs = spec.along or tuple(
             (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
-            for i, axis in enumerate("xyz"[:dim]))
+            for i, axis in enumerate("xyz"[:dim])
+        )
         D = sp.Matrix([list(d) for _, d in dirs])
         k = len(force_specs)
         force_specs.append((j, [name for name, _ in dirs]))
@@ -273,36 +295,86 @@ def _source(system: System, dyn: Dynamics):
     F = dyn.velocity_forms
     A = dyn.A if m else sp.zeros(0, n)
     b = sp.Matrix([F[j].xreplace(qd0) for j in range(m)]) if m else sp.zeros(0, 1)
-    f = sp.Matrix([c.expr if c.holonomic else 0 for c in system.constraints]) \
-        if m else sp.zeros(0, 1)
-    mu = sp.Matrix([c.friction.mu if c.friction is not None else sp.nan
-                    for c in system.constraints]) if m else sp.zeros(0, 1)
+    f = (
+        sp.Matrix([c.expr if c.holonomic else 0 for c in system.constraints])
+        if m
+        else sp.zeros(0, 1)
+    )
+    mu = (
+        sp.Matrix([c.friction.mu if c.friction is not None else sp.nan for c in system.constraints])
+        if m
+        else sp.zeros(0, 1)
+    )
     e = sp.Matrix([c.restitution for c in system.constraints]) if m else sp.zeros(0, 1)
     rhs = dyn.Q - dyn.h
-    order = (f"q = [{', '.join(c.name for c in system.coordinates)}]; "
-             f"v = [{', '.join(c.name + chr(39) for c in system.coordinates)}]; "
-             f"p = [{', '.join(p.name for p in system.parameters)}]; "
-             f"constraints = [{', '.join(c.name for c in system.constraints)}]")
+    order = (
+        f"q = [{', '.join(c.name for c in system.coordinates)}]; "
+        f"v = [{', '.join(c.name + chr(39) for c in system.coordinates)}]; "
+        f"p = [{', '.join(p.name for p in system.parameters)}]; "
+        f"constraints = [{', '.join(c.name for c in system.constraints)}]"
+    )
     srcs = [
-        _function_source("dynamics", "t, q, v, p",
-                         "(M, rhs = Q - h, A, gamma, mu) of '" + system.title.replace('"', "'")
-                         + "'. " + order,
-                         [("M", dyn.M), ("rhs", rhs), ("A", A), ("gamma", dyn.gamma
-                                                                if m else sp.zeros(0, 1)),
-                          ("mu", mu)], mapping, n, m, ("q", "v", "p")),
-        _function_source("constraints", "t, q, p", "(f, A, b) with F = A v + b. " + order,
-                         [("f", f), ("A", A), ("b", b)], mapping, n, m, ("q", "p")),
-        _function_source("energy", "t, q, v, p", "(T, V). " + order,
-                         [("E", sp.Matrix([system.T, system.V]))], mapping, n, m,
-                         ("q", "v", "p")),
-        _function_source("restitution", "t, q, p", "e per constraint. " + order,
-                         [("e", e)], mapping, n, m, ("q", "p")),
+        _function_source(
+            "dynamics",
+            "t, q, v, p",
+            "(M, rhs = Q - h, A, gamma, mu) of '" + system.title.replace('"', "'") + "'. " + order,
+            [
+                ("M", dyn.M),
+                ("rhs", rhs),
+                ("A", A),
+                ("gamma", dyn.gamma if m else sp.zeros(0, 1)),
+                ("mu", mu),
+            ],
+            mapping,
+            n,
+            m,
+            ("q", "v", "p"),
+        ),
+        _function_source(
+            "constraints",
+            "t, q, p",
+            "(f, A, b) with F = A v + b. " + order,
+            [("f", f), ("A", A), ("b", b)],
+            mapping,
+            n,
+            m,
+            ("q", "p"),
+        ),
+        _function_source(
+            "energy",
+            "t, q, v, p",
+            "(T, V). " + order,
+            [("E", sp.Matrix([system.T, system.V]))],
+            mapping,
+            n,
+            m,
+            ("q", "v", "p"),
+        ),
+        _function_source(
+            "restitution",
+            "t, q, p",
+            "e per constraint. " + order,
+            [("e", e)],
+            mapping,
+            n,
+            m,
+            ("q", "p"),
+        ),
     ]
     force_specs, jac_outputs = _force_geometry(system)
     if jac_outputs:
-        srcs.append(_function_source("force_jacobians_flat", "t, q, p",
-                                     "J0, D0, J1, D1, ... " + order, jac_outputs, mapping,
-                                     n, m, ("q", "p")))
+        srcs.append(
+            _function_source(
+                "force_jacobians_flat",
+                "t, q, p",
+                "J0, D0, J1, D1, ... " + order,
+                jac_outputs,
+                mapping,
+                n,
+                m,
+                ("q", "p"),
+            )
+        )
     else:
         srcs.append("def force_jacobians_flat(t, q, p):\n    return ()")
     return "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n", A, force_specs
@@ -321,8 +393,10 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
     namespace: dict = {"math": math, "numpy": np}
     exec(compile(source, f"<lamech generated: {system.title}>", "exec"), namespace)
 
-    fns = {k: namespace[k] for k in ("dynamics", "constraints", "energy", "restitution",
-                                     "force_jacobians_flat")}
+    fns = {
+        k: namespace[k]
+        for k in ("dynamics", "constraints", "energy", "restitution", "force_jacobians_flat")
+    }
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
     kernel, accel, used_jit = _kernels(fns, system, diagonal, pattern, jit)
@@ -334,19 +408,29 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         return [(out[2 * k], out[2 * k + 1]) for k in range(len(out) // 2)]
 
     t_sym = system.t
-    time_dependent = bool(system.L.has(t_sym) or any(c.expr.has(t_sym)
-                                                     for c in system.constraints))
+    time_dependent = bool(system.L.has(t_sym) or any(c.expr.has(t_sym) for c in system.constraints))
     conservative = all(sp.sympify(x) == 0 for x in (system.forces or ()))
     params = np.array([p.numeric for p in system.parameters], dtype=float)
     return NumericSystem(
-        system=system, dyn=dyn,
+        system=system,
+        dyn=dyn,
         coordinate_names=[c.name for c in system.coordinates],
         constraint_names=[c.name for c in system.constraints],
         parameter_names=[p.name for p in system.parameters],
         parameters=params,
-        dynamics=fns["dynamics"], constraints=fns["constraints"], energy=fns["energy"],
-        restitution=fns["restitution"], force_jacobians=force_jacobians,
-        force_specs=force_specs, source=source, jit=used_jit, rhs_kernel=kernel,
-        mass_diagonal=diagonal, accelerations=accel, pattern=pattern,
-        time_dependent=time_dependent, conservative=conservative,
-        generation_seconds=_time.perf_counter() - t0)
+        dynamics=fns["dynamics"],
+        constraints=fns["constraints"],
+        energy=fns["energy"],
+        restitution=fns["restitution"],
+        force_jacobians=force_jacobians,
+        force_specs=force_specs,
+        source=source,
+        jit=used_jit,
+        rhs_kernel=kernel,
+        mass_diagonal=diagonal,
+        accelerations=accel,
+        pattern=pattern,
+        time_dependent=time_dependent,
+        conservative=conservative,
+        generation_seconds=_time.perf_counter() - t0,
+    )

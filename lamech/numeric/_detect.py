@@ -45,7 +45,7 @@ def _value(run: Run, kind: EventKind, j: int, lam, mu, f, A, b, v) -> float:
     if kind == EventKind.SLIP:
         k = setup.kinds.normal[j]
         return mu[j] * mode.sN[j] * lam[k] - abs(lam[j])
-    s = float(A[j] @ v + b[j])       # stick: the slip velocity reaching zero
+    s = float(A[j] @ v + b[j])  # stick: the slip velocity reaching zero
     return mode.sigma[j] * s + (0.0 if mode.is_armed(kind, j) else setup.arm_vel)
 
 
@@ -59,8 +59,10 @@ def update_arming(run: Run, t: float, y: np.ndarray) -> None:
             continue
         if kind == EventKind.CONTACT and f[j] > run.setup.arm_pos:
             mode.arm(kind, j)
-        elif (kind == EventKind.STICK
-              and mode.sigma[j] * float(A[j] @ y[n:] + b[j]) > run.setup.arm_vel):
+        elif (
+            kind == EventKind.STICK
+            and mode.sigma[j] * float(A[j] @ y[n:] + b[j]) > run.setup.arm_vel
+        ):
             mode.arm(kind, j)
 
 
@@ -71,11 +73,19 @@ def locate(run: Run, dense, hit, t_a: float, t_b: float) -> tuple[float, int]:
 
     te, ie = t_b, -1
     for i in hit:
+
         def g(s, i=i):
             return event_values(run, s, dense(s))[i]
+
         try:
-            r = brentq(g, t_a, t_b, xtol=1e-15 * max(1.0, abs(t_b)),
-                       rtol=4 * np.finfo(float).eps, maxiter=200)
+            r = brentq(
+                g,
+                t_a,
+                t_b,
+                xtol=1e-15 * max(1.0, abs(t_b)),
+                rtol=4 * np.finfo(float).eps,
+                maxiter=200,
+            )
         except ValueError:
             r = t_b
         if r < te or ie < 0:

@@ -42,10 +42,9 @@ class Status(_Text):
 
 _MEANINGS = {
     Status.OK: "the run reached t_end",
-    Status.FAILED: "the run stopped early: see the message for the time, cause and what "
-                   "to try",
+    Status.FAILED: "the run stopped early: see the message for the time, cause and what to try",
     Status.INTERRUPTED: "the run was interrupted (Ctrl-C): the trajectory up to there is "
-                        "kept; run again to go further",
+    "kept; run again to go further",
 }
 
 
@@ -92,8 +91,12 @@ class Event:
     def to_json(self) -> dict:
         """The event as the ``--json`` summary gives it: t, kind, constraint,
         coordinates, then the details this event has."""
-        out = {"t": float(self.t), "kind": self.kind.value, "constraint": self.constraint,
-               "coordinates": {k: float(v) for k, v in self.coordinates.items()}}
+        out = {
+            "t": float(self.t),
+            "kind": self.kind.value,
+            "constraint": self.constraint,
+            "coordinates": {k: float(v) for k, v in self.coordinates.items()},
+        }
         for name in ("multiplier", "ratio", "impulse", "velocity_before", "restitution"):
             value = getattr(self, name)
             if value is not None:

@@ -22,8 +22,7 @@ def expression_values(ns, p: np.ndarray | None = None) -> tuple[np.ndarray, np.n
     p = ns.parameters if p is None else p
     env = {par.symbol: float(val) for par, val in zip(system.parameters, p)}
     q0 = np.array([float(sp.sympify(c.initial).subs(env)) for c in system.coordinates])
-    v0 = np.array([float(sp.sympify(c.initial_velocity).subs(env))
-                   for c in system.coordinates])
+    v0 = np.array([float(sp.sympify(c.initial_velocity).subs(env)) for c in system.coordinates])
     return q0, v0
 
 
@@ -61,16 +60,16 @@ def consistent_initial(ns, p: np.ndarray, initial: Sequence[tuple[str, float]]):
     metric = Metric(ns, p)
     free_q = [i for i in range(ns.n) if i not in fixed_q]
     if rows_q and free_q:
-        project_positions(ns, p, metric, 0.0, q, v, np.array(rows_q, dtype=int),
-                          np.zeros(ns.m), free_q)
+        project_positions(
+            ns, p, metric, 0.0, q, v, np.array(rows_q, dtype=int), np.zeros(ns.m), free_q
+        )
     free_v = [i for i in range(ns.n) if i not in fixed_v]
     if rows_v and free_v:
         project_velocities(ns, p, metric, 0.0, q, v, np.array(rows_v, dtype=int), free_v)
     return q, v
 
 
-def initial_state(ns, p: np.ndarray, initial: dict | None = None, q0=None,
-                  qd0=None) -> np.ndarray:
+def initial_state(ns, p: np.ndarray, initial: dict | None = None, q0=None, qd0=None) -> np.ndarray:
     """y0 = [q0; q0'] of a run: :func:`consistent_initial` with ``initial``
     {coordinate or ``x'``: value} held, then ``q0``/``qd0`` (dicts by coordinate name, or
     arrays in coordinate order) set as given. Raises :class:`SimulationError` for unknown
@@ -88,13 +87,15 @@ def _held(ns, initial: dict) -> list[tuple[str, float]]:
     held = []
     for name, value in initial.items():
         if name not in known:
-            raise SimulationError(f"initial value for unknown coordinate `{name}`; "
-                                  f"known: {', '.join(known)}")
+            raise SimulationError(
+                f"initial value for unknown coordinate `{name}`; known: {', '.join(known)}"
+            )
         try:
             held.append((name, float(value)))
         except (TypeError, ValueError):
-            raise SimulationError(f"initial value of `{name}` must be a number, "
-                                  f"got {value!r}") from None
+            raise SimulationError(
+                f"initial value of `{name}` must be a number, got {value!r}"
+            ) from None
     return held
 
 

@@ -19,8 +19,14 @@ import numpy as np
 
 from ..linalg import cholesky_inplace, gauss_inplace, solve_kkt
 
-__all__ = ["slip_directions", "kkt_solve_numpy", "make_kkt_solve", "sparsity",
-           "numpy_kernels", "jit_kernels"]
+__all__ = [
+    "slip_directions",
+    "kkt_solve_numpy",
+    "make_kkt_solve",
+    "sparsity",
+    "numpy_kernels",
+    "jit_kernels",
+]
 
 
 def slip_directions(A, rows, mu, slip_j, slip_k, slip_c) -> np.ndarray:
@@ -205,7 +211,7 @@ def make_kkt_solve(njit, diagonal: bool, pattern=None):
             for i in range(n):
                 out[i] *= minv[i]
             return out
-        pos = np.full(m, -1)            # position of each constraint among the rows
+        pos = np.full(m, -1)  # position of each constraint among the rows
         for a in range(na):
             pos[rows[a]] = a
         S = np.zeros((na, na))
@@ -227,10 +233,10 @@ def make_kkt_solve(njit, diagonal: bool, pattern=None):
         if slip_j.shape[0] == 0 and positive:
             # S = A_r M^-1 A_r^T is symmetric positive definite (M_ii > 0, independent
             # rows): Cholesky, half the work of elimination and no pivot search.
-            if not cholesky(S, r):       # dependent rows here: let the full KKT decide
+            if not cholesky(S, r):  # dependent rows here: let the full KKT decide
                 return dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
         else:
-            gauss(S, r)     # r becomes lambda
+            gauss(S, r)  # r becomes lambda
         for a in range(na):
             j = rows[a]
             out[n + a] = r[a]

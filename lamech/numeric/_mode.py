@@ -30,8 +30,11 @@ class ConstraintKinds:
         return cls(
             unilateral=np.array([c.unilateral for c in system.constraints], dtype=bool),
             holonomic=np.array([c.holonomic for c in system.constraints], dtype=bool),
-            normal=np.array([names.index(c.friction.normal) if c.friction else -1
-                             for c in system.constraints], dtype=int))
+            normal=np.array(
+                [names.index(c.friction.normal) if c.friction else -1 for c in system.constraints],
+                dtype=int,
+            ),
+        )
 
     @property
     def m(self) -> int:
@@ -83,13 +86,17 @@ class Mode:
         self.rows = np.array(rows, dtype=int)
         self.hrows = np.array([j for j in rows if self.kinds.holonomic[j]], dtype=int)
         self.pos = {j: i for i, j in enumerate(rows)}
-        self.slips = [(j, int(normal[j])) for j in range(self.kinds.m)
-                      if normal[j] >= 0 and self.friction[j] == FrictionState.SLIP]
+        self.slips = [
+            (j, int(normal[j]))
+            for j in range(self.kinds.m)
+            if normal[j] >= 0 and self.friction[j] == FrictionState.SLIP
+        ]
         self.kernel_args = (
             self.rows.astype(np.int64),
             np.array([j for j, _ in self.slips], dtype=np.int64),
             np.array([self.pos[k] for _, k in self.slips], dtype=np.int64),
-            np.array([self.sN[j] * self.sigma[j] for j, _ in self.slips], dtype=float))
+            np.array([self.sN[j] * self.sigma[j] for j, _ in self.slips], dtype=float),
+        )
         self.watch = self._watched()
 
     def _watched(self) -> list[tuple[EventKind, int]]:

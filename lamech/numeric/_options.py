@@ -9,8 +9,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DEFAULT_RTOL", "DEFAULT_ATOL", "INITIAL_TOLERANCE", "BLOW_UP", "METHODS",
-           "SimulationError", "Stop", "Options", "check_options", "sample_times"]
+__all__ = [
+    "DEFAULT_RTOL",
+    "DEFAULT_ATOL",
+    "INITIAL_TOLERANCE",
+    "BLOW_UP",
+    "METHODS",
+    "SimulationError",
+    "Stop",
+    "Options",
+    "check_options",
+    "sample_times",
+]
 
 DEFAULT_RTOL = 1e-11
 DEFAULT_ATOL = 1e-12
@@ -46,6 +56,7 @@ class Options:
     def integrator(self):
         """SciPy's integrator class (imported on first use)."""
         import scipy.integrate
+
         return getattr(scipy.integrate, self.method)
 
 
@@ -61,29 +72,34 @@ def sample_times(t0: float, t_end: float, samples: int | None, dt: float | None)
     return np.linspace(t0, t_end, 1001 if samples is None else int(samples))
 
 
-def check_options(t_end, t0, rtol, atol, max_step, samples, dt,
-                  method: str = "DOP853") -> None:
+def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "DOP853") -> None:
     """Raise :class:`SimulationError` naming the first bad option."""
+
     def bad(x):
         return not isinstance(x, (int, float, np.floating, np.integer)) or not math.isfinite(x)
+
     if bad(t_end) or bad(t0) or t_end <= t0:
-        raise SimulationError(f"t_end must be a finite number after the start time {t0} "
-                              f"(got {t_end})")
+        raise SimulationError(
+            f"t_end must be a finite number after the start time {t0} (got {t_end})"
+        )
     if bad(rtol) or rtol <= 0 or rtol >= 1:
         raise SimulationError(f"rtol must be in (0, 1) (got {rtol}); default {DEFAULT_RTOL}")
     if rtol < 1e-14:
-        raise SimulationError(f"rtol {rtol} is below 1e-14, which double precision cannot "
-                              "honour; use rtol >= 1e-14")
+        raise SimulationError(
+            f"rtol {rtol} is below 1e-14, which double precision cannot honour; use rtol >= 1e-14"
+        )
     if bad(atol) or atol <= 0:
         raise SimulationError(f"atol must be positive (got {atol}); default {DEFAULT_ATOL}")
-    if max_step is not None and (not isinstance(max_step, (int, float)) or
-                                 math.isnan(max_step) or max_step <= 0):
+    if max_step is not None and (
+        not isinstance(max_step, (int, float)) or math.isnan(max_step) or max_step <= 0
+    ):
         raise SimulationError(f"max_step must be positive (got {max_step})")
     if samples is not None and dt is not None:
         raise SimulationError("give samples or dt, not both")
     if samples is not None and (not isinstance(samples, (int, np.integer)) or samples < 2):
-        raise SimulationError(f"samples counts both ends and must be an integer >= 2 "
-                              f"(got {samples})")
+        raise SimulationError(
+            f"samples counts both ends and must be an integer >= 2 (got {samples})"
+        )
     if dt is not None and (bad(dt) or dt <= 0):
         raise SimulationError(f"dt must be a positive number (got {dt})")
     if method not in METHODS:

@@ -16,8 +16,9 @@ from ._options import SimulationError
 __all__ = ["friction_names", "with_friction_parameters", "numeric_system"]
 
 
-def numeric_system(system: System | NumericSystem, params: dict | None,
-                   jit: bool) -> tuple[NumericSystem, np.ndarray]:
+def numeric_system(
+    system: System | NumericSystem, params: dict | None, jit: bool
+) -> tuple[NumericSystem, np.ndarray]:
     """(compiled system, parameter vector with ``params`` {name: value} applied); a
     friction coefficient named in ``params`` becomes a parameter first. Raises
     :class:`SimulationError` for unknown names and values that are not numbers."""
@@ -53,8 +54,10 @@ def with_friction_parameters(system: System, names: Iterable[str]) -> System:
     known = [p.name for p in system.parameters] + list(friction)
     unknown = [n for n in names if n not in params and n not in friction]
     if unknown:
-        raise ValueError(f"unknown parameter{'s' if len(unknown) > 1 else ''} "
-                         f"{', '.join(f'`{n}`' for n in unknown)}; known: {', '.join(known)}")
+        raise ValueError(
+            f"unknown parameter{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(f'`{n}`' for n in unknown)}; known: {', '.join(known)}"
+        )
     new_params = list(system.parameters)
     constraints = list(system.constraints)
     taken = {str(s) for s in system.symbols.values()}
@@ -66,7 +69,7 @@ def with_friction_parameters(system: System, names: Iterable[str]) -> System:
         done.add(cname)
         j = next(i for i, c in enumerate(constraints) if c.name == cname)
         c = constraints[j]
-        assert c.friction is not None      # friction_names lists friction constraints only
+        assert c.friction is not None  # friction_names lists friction constraints only
         sym_name = f"mu_{cname}"
         while sym_name in taken:
             sym_name += "_"
@@ -74,9 +77,7 @@ def with_friction_parameters(system: System, names: Iterable[str]) -> System:
         sym = sp.Symbol(sym_name, positive=True)
         value = c.friction.mu
         new_params.append(Parameter(name, sym, value, float(system.numeric(value))))
-        constraints[j] = dataclasses.replace(
-            c, friction=dataclasses.replace(c.friction, mu=sym))
+        constraints[j] = dataclasses.replace(c, friction=dataclasses.replace(c.friction, mu=sym))
     if not done:
         return system
-    return dataclasses.replace(system, parameters=tuple(new_params),
-                               constraints=tuple(constraints))
+    return dataclasses.replace(system, parameters=tuple(new_params), constraints=tuple(constraints))

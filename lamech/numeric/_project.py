@@ -68,8 +68,9 @@ def _movable(A, rows, free):
     return np.array([j for j in rows if np.any(A[j, free] != 0)], dtype=int)
 
 
-def project_positions(ns, p, metric: Metric, t: float, q: np.ndarray, v: np.ndarray,
-                      rows, target, free=None) -> tuple[np.ndarray, float]:
+def project_positions(
+    ns, p, metric: Metric, t: float, q: np.ndarray, v: np.ndarray, rows, target, free=None
+) -> tuple[np.ndarray, float]:
     """(q moved onto f_rows = target (Gauss-Newton), the largest |dq| of a step); ``q``
     is moved in place. ``free``: the indices of the coordinates allowed to move."""
     moved = 0.0
@@ -97,8 +98,9 @@ def project_positions(ns, p, metric: Metric, t: float, q: np.ndarray, v: np.ndar
     return q, moved
 
 
-def project_velocities(ns, p, metric: Metric, t: float, q: np.ndarray, v: np.ndarray,
-                       rows, free=None) -> tuple[np.ndarray, float]:
+def project_velocities(
+    ns, p, metric: Metric, t: float, q: np.ndarray, v: np.ndarray, rows, free=None
+) -> tuple[np.ndarray, float]:
     """(v moved onto A_rows v + b_rows = 0, |dv| max); ``v`` is moved in place."""
     _, A, b = ns.constraints(t, q, p)
     act = _movable(A, rows, free)

@@ -63,13 +63,12 @@ class Recorder:
         lam = self.run.kkt(t, q, v).lam
         rp, rv = self.run.residuals(t, q, v)
         T, V = setup.ns.energy(t, q, v, setup.p)
-        self.samples.append(Sample(float(t), q.copy(), v.copy(), lam, rp, rv, float(T),
-                                   float(V)))
+        self.samples.append(Sample(float(t), q.copy(), v.copy(), lam, rp, rv, float(T), float(V)))
 
     def up_to(self, t: float, dense_output, y_at_t: np.ndarray | None = None) -> None:
         """Sample every pending time <= t on the step's dense output (``dense_output()``
         makes it, once, if needed; ``y_at_t`` at t itself, when given)."""
-        dense = None       # made before the first sample, as its evaluations count
+        dense = None  # made before the first sample, as its evaluations count
         while self.pending and self.times[self.next] <= t:
             if dense is None:
                 dense = dense_output()
@@ -78,8 +77,15 @@ class Recorder:
             self.next += 1
 
 
-def assemble(run: Run, rec: Recorder, notes: list[str], status: Status, message: str,
-             t_end: float, at: Progress) -> Trajectory:
+def assemble(
+    run: Run,
+    rec: Recorder,
+    notes: list[str],
+    status: Status,
+    message: str,
+    t_end: float,
+    at: Progress,
+) -> Trajectory:
     """The :class:`Trajectory` of the samples so far (the final state is ``at``'s when
     there is none)."""
     ns, n, m = run.setup.ns, run.setup.n, run.setup.m
@@ -90,23 +96,41 @@ def assemble(run: Run, rec: Recorder, notes: list[str], status: Status, message:
     v = np.array([s.v for s in out]).reshape(N, n)
     conserved = ns.conservative and not ns.time_dependent and not run.dissipative
     return Trajectory(
-        coordinates=list(ns.coordinate_names), constraints=list(ns.constraint_names),
-        t=tt, q=q, qd=v, lambdas=np.array([s.lam for s in out]).reshape(N, m),
-        forces=_forces(run, out), energy=np.array([s.T + s.V for s in out]),
+        coordinates=list(ns.coordinate_names),
+        constraints=list(ns.constraint_names),
+        t=tt,
+        q=q,
+        qd=v,
+        lambdas=np.array([s.lam for s in out]).reshape(N, m),
+        forces=_forces(run, out),
+        energy=np.array([s.T + s.V for s in out]),
         residual_position=np.array([s.rp for s in out]),
         residual_velocity=np.array([s.rv for s in out]),
-        events=run.events, status=status, message=message, t_end=float(t_end),
-        final_time=float(tt[-1]) if N else float(at.t), final_q=q[-1] if N else at.y[:n],
-        final_qd=v[-1] if N else at.y[n:], energy_conserved=conserved,
-        max_projection=at.max_projection, steps=at.steps, evaluations=run.evaluations,
-        notes=notes, title=ns.system.title, kinetic=np.array([s.T for s in out]))
+        events=run.events,
+        status=status,
+        message=message,
+        t_end=float(t_end),
+        final_time=float(tt[-1]) if N else float(at.t),
+        final_q=q[-1] if N else at.y[:n],
+        final_qd=v[-1] if N else at.y[n:],
+        energy_conserved=conserved,
+        max_projection=at.max_projection,
+        steps=at.steps,
+        evaluations=run.evaluations,
+        notes=notes,
+        title=ns.system.title,
+        kinetic=np.array([s.T for s in out]),
+    )
 
 
 def _forces(run: Run, out: list[Sample]) -> dict[str, np.ndarray]:
     """The Cartesian constraint forces "<constraint>:<direction>" by virtual work."""
     ns, p = run.setup.ns, run.setup.p
-    forces = {f"{ns.constraint_names[j]}:{d}": np.full(len(out), np.nan)
-              for j, dirs in ns.force_specs for d in dirs}
+    forces = {
+        f"{ns.constraint_names[j]}:{d}": np.full(len(out), np.nan)
+        for j, dirs in ns.force_specs
+        for d in dirs
+    }
     if not ns.force_specs:
         return forces
     for r, s in enumerate(out):

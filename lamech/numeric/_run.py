@@ -91,14 +91,18 @@ class Run:
         try:
             sol = np.linalg.solve(K, kkt_rhs(rhs, gam[rows]))
         except np.linalg.LinAlgError:
-            raise Stop(f"singular KKT matrix at t = {t:.12g}: the constraints are "
-                       "dependent here (a singular configuration) or a motion they allow "
-                       "has no inertia; start elsewhere or remove a redundant "
-                       "constraint") from None
+            raise Stop(
+                f"singular KKT matrix at t = {t:.12g}: the constraints are "
+                "dependent here (a singular configuration) or a motion they allow "
+                "has no inertia; start elsewhere or remove a redundant "
+                "constraint"
+            ) from None
         if not np.all(np.isfinite(sol)):
-            raise Stop(f"non-finite accelerations or multipliers at t = {t:.12g} "
-                       "(NaN/inf in the dynamics: a coordinate left the domain of an "
-                       "expression, or the KKT matrix is singular)")
+            raise Stop(
+                f"non-finite accelerations or multipliers at t = {t:.12g} "
+                "(NaN/inf in the dynamics: a coordinate left the domain of an "
+                "expression, or the KKT matrix is singular)"
+            )
         n = self.setup.n
         lam = np.full(self.setup.m, np.nan)
         lam[rows] = sol[n:]
@@ -110,10 +114,12 @@ class Run:
         try:
             return self.setup.ns.dynamics(t, q, v, self.setup.p)
         except (ValueError, ArithmeticError) as exc:
-            raise Stop(f"the dynamics cannot be evaluated at t = {t:.12g} ({exc}): a "
-                       "coordinate, parameter or time left the domain of an expression "
-                       "(sqrt or log of a negative number, division by zero); check the "
-                       "expressions, the parameters and the initial state") from None
+            raise Stop(
+                f"the dynamics cannot be evaluated at t = {t:.12g} ({exc}): a "
+                "coordinate, parameter or time left the domain of an expression "
+                "(sqrt or log of a negative number, division by zero); check the "
+                "expressions, the parameters and the initial state"
+            ) from None
 
     def fun(self, t: float, y: np.ndarray) -> np.ndarray:
         """The right-hand side; NaN where the KKT system fails, so that the integrator
@@ -122,7 +128,7 @@ class Run:
         self.evaluations += 1
         try:
             return self.setup.ns.rhs_kernel(t, y, self.setup.p, *self.mode.kernel_args)
-        except (ValueError, ArithmeticError):    # e.g. sqrt of a negative number
+        except (ValueError, ArithmeticError):  # e.g. sqrt of a negative number
             return np.full(y.shape, np.nan)
 
     def project(self, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
@@ -132,8 +138,7 @@ class Run:
         q, v = y[:n].copy(), y[n:].copy()
         moved = 0.0
         if len(mode.hrows):
-            q, moved = project_positions(ns, p, self.metric, t, q, v, mode.hrows,
-                                         mode.offset)
+            q, moved = project_positions(ns, p, self.metric, t, q, v, mode.hrows, mode.offset)
         if len(mode.rows):
             v, moved_v = project_velocities(ns, p, self.metric, t, q, v, mode.rows)
             moved = max(moved, moved_v)
@@ -158,7 +163,7 @@ class Run:
 
     def stick(self, t: float, y: np.ndarray, j: int) -> None:
         """Friction j sticks from now on: its f is held at its present value."""
-        f, _, _ = self.constraints(t, y[:self.setup.n])
+        f, _, _ = self.constraints(t, y[: self.setup.n])
         self.mode.stick(j, f[j] if self.setup.kinds.holonomic[j] else 0.0)
 
     def log(self, t: float, y: np.ndarray, kind: EventKind, j: int, **details) -> None:
@@ -166,5 +171,6 @@ class Run:
         n, names = self.setup.n, self.setup.ns.coordinate_names
         coords = {c: float(y[i]) for i, c in enumerate(names)}
         coords.update({c + "'": float(y[n + i]) for i, c in enumerate(names)})
-        self.events.append(Event(float(t), EventKind(kind),
-                                 self.setup.ns.constraint_names[j], coords, **details))
+        self.events.append(
+            Event(float(t), EventKind(kind), self.setup.ns.constraint_names[j], coords, **details)
+        )

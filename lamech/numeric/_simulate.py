@@ -65,13 +65,25 @@ from ._trajectory import Trajectory
 __all__ = ["simulate"]
 
 
-def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
-             samples: int | None = None, dt: float | None = None,
-             rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL,
-             max_step: float | None = None, params: dict | None = None,
-             q0=None, qd0=None, initial: dict | None = None,
-             project_initial: bool = False, method: str = "DOP853",
-             progress=None, jit: bool = False) -> Trajectory:
+def simulate(
+    system: System | NumericSystem,
+    t_end: float,
+    *,
+    t0: float = 0.0,
+    samples: int | None = None,
+    dt: float | None = None,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    max_step: float | None = None,
+    params: dict | None = None,
+    q0=None,
+    qd0=None,
+    initial: dict | None = None,
+    project_initial: bool = False,
+    method: str = "DOP853",
+    progress=None,
+    jit: bool = False,
+) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
 
     ``samples`` (default 1001, both ends counted) or ``dt`` set the output times (dense
@@ -102,8 +114,9 @@ def simulate(system: System | NumericSystem, t_end: float, *, t0: float = 0.0,
     return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, progress, notes)
 
 
-def _integrate(run: Run, rec: Recorder, at: Progress, t_end: float, progress,
-               notes: list[str]) -> Trajectory:
+def _integrate(
+    run: Run, rec: Recorder, at: Progress, t_end: float, progress, notes: list[str]
+) -> Trajectory:
     """Settle the initial mode, then integrate segment by segment (a new integrator after
     each event) until t_end or the last sample; a failure or Ctrl-C ends the run early
     with what it computed."""
@@ -124,20 +137,24 @@ def _integrate(run: Run, rec: Recorder, at: Progress, t_end: float, progress,
     except Stop as stop:
         status, message = Status.FAILED, stop.cause
     except KeyboardInterrupt:
-        status, message = (Status.INTERRUPTED, f"interrupted at t = {at.t:.12g}; the "
-                           "trajectory up to there is kept")
+        status, message = (
+            Status.INTERRUPTED,
+            f"interrupted at t = {at.t:.12g}; the trajectory up to there is kept",
+        )
     finally:
         np.seterr(**saved)
     return assemble(run, rec, notes, status, message, t_end, at)
 
 
-def _segment(run: Run, rec: Recorder, at: Progress, t_end: float, blow_up: float,
-             zeno: _Zeno, progress) -> None:
+def _segment(
+    run: Run, rec: Recorder, at: Progress, t_end: float, blow_up: float, zeno: _Zeno, progress
+) -> None:
     """Integrate from ``at`` until an event (applied) or t_end: step, project, look for
     an event, sample; ``at`` follows every accepted step."""
     n, opts = run.setup.n, run.setup.options
-    solver = opts.integrator()(run.fun, at.t, at.y, t_end, rtol=opts.rtol, atol=opts.atol,
-                               max_step=opts.max_step)
+    solver = opts.integrator()(
+        run.fun, at.t, at.y, t_end, rtol=opts.rtol, atol=opts.atol, max_step=opts.max_step
+    )
     g_old = event_values(run, at.t, at.y)
     while solver.status == "running":
         msg = solver.step()
@@ -164,11 +181,12 @@ def _segment(run: Run, rec: Recorder, at: Progress, t_end: float, blow_up: float
         at.t, at.y = t_b, yb
         if progress is not None:
             progress(at.t)
-    at.t = t_end        # finished
+    at.t = t_end  # finished
 
 
-def _event(run: Run, rec: Recorder, at: Progress, dense, hit, t_a: float, t_b: float,
-           zeno: _Zeno) -> None:
+def _event(
+    run: Run, rec: Recorder, at: Progress, dense, hit, t_a: float, t_b: float, zeno: _Zeno
+) -> None:
     """Locate the first event of the step, sample up to it, and apply it."""
     te, ie = locate(run, dense, hit, t_a, t_b)
     rec.up_to(te, lambda: dense)
@@ -190,9 +208,11 @@ class _Zeno:
         if self.last is not None and te - self.last <= 1e-12 * max(1, abs(te)):
             self.burst += 1
             if self.burst > 50:
-                raise Stop(f"more than 50 events at t = {te:.12g} (Zeno behaviour or "
-                           "chattering contact); try a smaller restitution or check the "
-                           "friction data")
+                raise Stop(
+                    f"more than 50 events at t = {te:.12g} (Zeno behaviour or "
+                    "chattering contact); try a smaller restitution or check the "
+                    "friction data"
+                )
         else:
             self.burst = 0
         self.last = te
@@ -201,9 +221,11 @@ class _Zeno:
 def _check_growth(y: np.ndarray, t: float, blow_up: float) -> None:
     big = float(np.max(np.abs(y)))
     if not math.isfinite(big) or big > blow_up:
-        raise Stop(f"the state grows without bound at t = {t:.12g} (max |q|, "
-                   f"|q'| = {big:.3g}): a force or a singularity that blows up; "
-                   "check [forces], the parameters and the initial state")
+        raise Stop(
+            f"the state grows without bound at t = {t:.12g} (max |q|, "
+            f"|q'| = {big:.3g}): a force or a singularity that blows up; "
+            "check [forces], the parameters and the initial state"
+        )
 
 
 def _check_conditioning(acc: Accel, t: float, steps: int) -> None:
@@ -212,12 +234,14 @@ def _check_conditioning(acc: Accel, t: float, steps: int) -> None:
         return
     cond = np.linalg.cond(acc.K)
     if cond > 1e13:
-        raise Stop(f"the KKT matrix is nearly singular at t = {t:.12g} "
-                   f"(condition number {cond:.3g}): a singular "
-                   "configuration (dependent constraints) or a motion without "
-                   "inertia; forces there are not determined. Try "
-                   "starting elsewhere, a shorter --t-end, or removing "
-                   "a redundant constraint")
+        raise Stop(
+            f"the KKT matrix is nearly singular at t = {t:.12g} "
+            f"(condition number {cond:.3g}): a singular "
+            "configuration (dependent constraints) or a motion without "
+            "inertia; forces there are not determined. Try "
+            "starting elsewhere, a shorter --t-end, or removing "
+            "a redundant constraint"
+        )
 
 
 def diagnose_failure(run: Run, t: float, y: np.ndarray, msg) -> str:
@@ -234,7 +258,11 @@ def diagnose_failure(run: Run, t: float, y: np.ndarray, msg) -> str:
     if not extra:
         probe = run.fun(t + 1e-9 * max(1.0, abs(t)), y)
         if not np.all(np.isfinite(probe)):
-            extra = ("; the dynamics are NaN or undefined just after it (an expression "
-                     "left its domain, e.g. sqrt or log of a negative number)")
-    return (f"step size collapsed at t = {t:.12g} ({msg}){extra}; try a looser rtol/atol, "
-            "or check for a singular configuration or a force that blows up")
+            extra = (
+                "; the dynamics are NaN or undefined just after it (an expression "
+                "left its domain, e.g. sqrt or log of a negative number)"
+            )
+    return (
+        f"step size collapsed at t = {t:.12g} ({msg}){extra}; try a looser rtol/atol, "
+        "or check for a singular configuration or a force that blows up"
+    )

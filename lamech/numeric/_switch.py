@@ -18,8 +18,9 @@ __all__ = ["initial_mode", "settle", "apply", "impact"]
 
 
 # ----- the start ------------------------------------------------------------------
-def initial_mode(run: Run, t0: float, y: np.ndarray, project_initial: bool,
-                 notes: list[str]) -> np.ndarray:
+def initial_mode(
+    run: Run, t0: float, y: np.ndarray, project_initial: bool, notes: list[str]
+) -> np.ndarray:
     """Set the mode the initial state is in: a unilateral constraint open (f > 0) or
     opening starts released, a friction constraint with a slip velocity starts slipping.
     Returns y, projected onto the constraints when ``project_initial`` (else a state off
@@ -40,17 +41,26 @@ def initial_mode(run: Run, t0: float, y: np.ndarray, project_initial: bool,
     if not bad:
         return y
     if not project_initial:
-        raise SimulationError("the initial state violates the constraints: " + "; ".join(bad)
-                              + " (tolerance 1e-10 (1 + max |q|)); fix the initial values "
-                              "or use project_initial=True (--project-initial)")
+        raise SimulationError(
+            "the initial state violates the constraints: "
+            + "; ".join(bad)
+            + " (tolerance 1e-10 (1 + max |q|)); fix the initial values "
+            "or use project_initial=True (--project-initial)"
+        )
     y2, _ = run.project(t0, y)
     names = setup.ns.coordinate_names
-    changes = [f"{name}{s}: {a:.12g} -> {b_:.12g}"
-               for i, name in enumerate(names)
-               for s, a, b_ in (("", y[i], y2[i]), ("'", y[n + i], y2[n + i]))
-               if abs(a - b_) > 0]
-    notes.append("initial state projected onto the constraints (" + "; ".join(bad) + "): "
-                 + ", ".join(changes))
+    changes = [
+        f"{name}{s}: {a:.12g} -> {b_:.12g}"
+        for i, name in enumerate(names)
+        for s, a, b_ in (("", y[i], y2[i]), ("'", y[n + i], y2[n + i]))
+        if abs(a - b_) > 0
+    ]
+    notes.append(
+        "initial state projected onto the constraints ("
+        + "; ".join(bad)
+        + "): "
+        + ", ".join(changes)
+    )
     return y2
 
 
@@ -62,8 +72,9 @@ def _violations(run: Run, f, F, tol) -> list[str]:
         if hol[j] and abs(f[j]) > tol:
             bad.append(f"`{names[j]}` f = {f[j]:.6g}")
         elif abs(F[j]) > tol:
-            bad.append(f"`{names[j]}` df/dt = {F[j]:.6g}" if hol[j]
-                       else f"`{names[j]}` g = {F[j]:.6g}")
+            bad.append(
+                f"`{names[j]}` df/dt = {F[j]:.6g}" if hol[j] else f"`{names[j]}` g = {F[j]:.6g}"
+            )
     return bad
 
 
@@ -88,12 +99,19 @@ def settle(run: Run, t: float, y: np.ndarray) -> np.ndarray:
             f, Af, b = run.constraints(t, y[:n])
             run.start_slip(jw, lam[jw], float(Af[jw] @ y[n:] + b[jw]))
             normal = run.setup.kinds.normal[jw]
-            run.log(t, y, EventKind.SLIP, jw, ratio=float(abs(lam[jw]) / max(
-                abs(mu[jw] * lam[normal]), 1e-300)))
+            run.log(
+                t,
+                y,
+                EventKind.SLIP,
+                jw,
+                ratio=float(abs(lam[jw]) / max(abs(mu[jw] * lam[normal]), 1e-300)),
+            )
             continue
         return y
-    raise Stop(f"the contact mode does not settle at t = {t:.12g} (constraints switch "
-               "back and forth); the configuration may be degenerate")
+    raise Stop(
+        f"the contact mode does not settle at t = {t:.12g} (constraints switch "
+        "back and forth); the configuration may be degenerate"
+    )
 
 
 def _bilateral_normal_signs(run: Run, lam) -> None:
@@ -212,8 +230,10 @@ def _impulses(run: Run, t, j, target, M, A, b, v, mu, frows):
         if slipping:
             vp, imp = solve([i for i in frows if i not in slipping])
     except np.linalg.LinAlgError:
-        raise Stop(f"singular impact matrix at t = {t:.12g} (constraint "
-                   f"`{run.setup.ns.constraint_names[j]}`)") from None
+        raise Stop(
+            f"singular impact matrix at t = {t:.12g} (constraint "
+            f"`{run.setup.ns.constraint_names[j]}`)"
+        ) from None
     return vp, imp, slipping
 
 

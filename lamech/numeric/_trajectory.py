@@ -86,8 +86,12 @@ class Trajectory:
         e = self.energy[np.isfinite(self.energy)]
         if len(e) == 0:
             return None
-        scale = max(abs(e[0]), float(np.nanmax(self.kinetic)) if self.kinetic is not None
-                    and len(self.kinetic) else 0.0)
+        scale = max(
+            abs(e[0]),
+            float(np.nanmax(self.kinetic))
+            if self.kinetic is not None and len(self.kinetic)
+            else 0.0,
+        )
         if scale == 0:
             return 0.0
         return float(np.max(np.abs(e - e[0])) / scale)
@@ -139,4 +143,3 @@ class Trajectory:
             "message": self.message,
             "notes": list(self.notes),
         }
-

@@ -20,12 +20,23 @@ from ._report import to_text as _solution_text
 from ._sweep_plot import plot_sweep
 from ._trajectory import trajectory_csv, trajectory_text
 
-__all__ = ["to_text", "to_latex", "to_json", "trajectory_csv", "plot_trajectory",
-           "plot_sweep", "animate", "Scene", "FORMATS", "CONVENTION"]
+__all__ = [
+    "to_text",
+    "to_latex",
+    "to_json",
+    "trajectory_csv",
+    "plot_trajectory",
+    "plot_sweep",
+    "animate",
+    "Scene",
+    "FORMATS",
+    "CONVENTION",
+]
 
 
 def _is_trajectory(obj: Any) -> bool:
     from ..numeric import Trajectory
+
     return isinstance(obj, Trajectory)
 
 

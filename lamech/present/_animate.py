@@ -24,8 +24,13 @@ import sympy as sp
 __all__ = ["animate", "Scene", "FORMATS"]
 
 FORMATS = (".gif", ".mp4", ".html")
-_EVENT_COLOURS = {"lift-off": "tab:red", "contact": "tab:green", "impact": "tab:purple",
-                  "slip": "tab:orange", "stick": "tab:blue"}
+_EVENT_COLOURS = {
+    "lift-off": "tab:red",
+    "contact": "tab:green",
+    "impact": "tab:purple",
+    "slip": "tab:orange",
+    "stick": "tab:blue",
+}
 
 
 def _lambdify(system, params: dict | None, exprs):
@@ -41,8 +46,10 @@ def _lambdify(system, params: dict | None, exprs):
 
 def _series(fn, t: np.ndarray, q: np.ndarray) -> np.ndarray:
     """fn evaluated at every sample: shape (N, k)."""
-    out = [np.broadcast_to(np.asarray(fn(ti, qi), dtype=float), (len(fn(ti, qi)),))
-           for ti, qi in zip(t, q)]
+    out = [
+        np.broadcast_to(np.asarray(fn(ti, qi), dtype=float), (len(fn(ti, qi)),))
+        for ti, qi in zip(t, q)
+    ]
     return np.array(out, dtype=float)
 
 
@@ -63,16 +70,22 @@ class Scene:
         self.bodies = []
         for b in system.bodies:
             pos = _plane(_series(_lambdify(system, params, b.position), t, q))
-            angle = (_series(_lambdify(system, params, [b.angle]), t, q)[:, 0]
-                     if b.angle is not None and not self.space else None)
+            angle = (
+                _series(_lambdify(system, params, [b.angle]), t, q)[:, 0]
+                if b.angle is not None and not self.space
+                else None
+            )
             kind, size = b.shape
-            size = (float(np.asarray(_lambdify(system, params, [size])(t[0], q[0]))[0])
-                    if size is not None and kind in ("circle", "rod") else 0.0)
+            size = (
+                float(np.asarray(_lambdify(system, params, [size])(t[0], q[0]))[0])
+                if size is not None and kind in ("circle", "rod")
+                else 0.0
+            )
             if kind == "rod" and angle is None:
-                kind = "point"      # a rod needs an angle to be drawn as one
+                kind = "point"  # a rod needs an angle to be drawn as one
             self.bodies.append((b.name, kind, size, pos, angle))
-        self.arrows = []             # (name, points (F,2), vectors (F,2))
-        self.tracks = []             # (name, points (F,2)) while engaged
+        self.arrows = []  # (name, points (F,2), vectors (F,2))
+        self.tracks = []  # (name, points (F,2)) while engaged
         for j, c in enumerate(system.constraints):
             spec = c.force
             if spec is None:
@@ -85,11 +98,13 @@ class Scene:
                 self.tracks.append((c.name, track))
             if not spec.along:
                 continue
-            dirs = [_plane(_series(_lambdify(system, params, d), t, q))
-                    for _, d in spec.along]
-            comps = np.column_stack([traj.forces.get(f"{c.name}:{name}",
-                                                     np.full(len(traj.t), np.nan))[frames]
-                                     for name, _ in spec.along])
+            dirs = [_plane(_series(_lambdify(system, params, d), t, q)) for _, d in spec.along]
+            comps = np.column_stack(
+                [
+                    traj.forces.get(f"{c.name}:{name}", np.full(len(traj.t), np.nan))[frames]
+                    for name, _ in spec.along
+                ]
+            )
             vec = np.full((len(frames), 2), np.nan)
             for k in range(len(frames)):
                 D = np.array([d[k] / (np.linalg.norm(d[k]) or 1.0) for d in dirs])
@@ -124,15 +139,25 @@ def playing_time(t_span: float, duration: float | None = None) -> float:
     time, a 0.1 s impact is slowed down to be seen)."""
     if duration is not None:
         if not (duration > 0 and np.isfinite(duration)):
-            raise ValueError(f"the animation's duration must be a positive number of "
-                             f"seconds (got {duration})")
+            raise ValueError(
+                f"the animation's duration must be a positive number of seconds (got {duration})"
+            )
         return float(duration)
     return float(min(max(t_span, 2.0), 20.0))
 
 
-def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: int = 20,
-            duration: float | None = None, max_frames: int = 600, dpi: int = 100,
-            title: str | None = None) -> Path:
+def animate(
+    traj,
+    system,
+    path: str | Path,
+    *,
+    params: dict | None = None,
+    fps: int = 20,
+    duration: float | None = None,
+    max_frames: int = 600,
+    dpi: int = 100,
+    title: str | None = None,
+) -> Path:
     """Write an animation of ``traj`` (a run of ``system``) to ``path``.
 
     ``params`` are the parameter overrides the run used (sizes and positions depend on
@@ -152,14 +177,18 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
-        raise ValueError(f"cannot write an animation as {path.name!r}: use a name ending "
-                         f"in {', '.join(FORMATS)}")
+        raise ValueError(
+            f"cannot write an animation as {path.name!r}: use a name ending in {', '.join(FORMATS)}"
+        )
     if suffix == ".mp4" and shutil.which("ffmpeg") is None:
-        raise ValueError("writing .mp4 needs ffmpeg on PATH (e.g. apt install ffmpeg); "
-                         "or write .gif or .html")
+        raise ValueError(
+            "writing .mp4 needs ffmpeg on PATH (e.g. apt install ffmpeg); or write .gif or .html"
+        )
     if not system.bodies:
-        raise ValueError("nothing to draw: the problem declares no [[bodies]] (add them "
-                         "with position and shape to animate it)")
+        raise ValueError(
+            "nothing to draw: the problem declares no [[bodies]] (add them "
+            "with position and shape to animate it)"
+        )
     if len(traj.t) < 2:
         raise ValueError("the trajectory has fewer than 2 samples: nothing to animate")
     if not (isinstance(fps, (int, float)) and 1 <= fps <= 120):
@@ -168,11 +197,11 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     play = playing_time(t_span, duration)
     count = int(min(len(traj.t), max(2, max_frames), max(2, round(play * fps) + 1)))
     frames = np.unique(np.linspace(0, len(traj.t) - 1, count).round().astype(int))
-    fps = max(1.0, (len(frames) - 1) / play)      # the frames fill the playing time
+    fps = max(1.0, (len(frames) - 1) / play)  # the frames fill the playing time
     speed = t_span / play
     scene = Scene(traj, system, params, frames)
 
-    fig = Figure(figsize=(6.4, 6.4), dpi=dpi)   # no pyplot: the caller's backend stays
+    fig = Figure(figsize=(6.4, 6.4), dpi=dpi)  # no pyplot: the caller's backend stays
     ax = fig.subplots()
     x0, x1, y0, y1 = scene.limits()
     ax.set_xlim(x0, x1)
@@ -191,31 +220,41 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
     artists = []
     for i, (_name, kind, size, pos, _angle) in enumerate(scene.bodies):
         colour = colours[i % len(colours)]
-        trail, = ax.plot([], [], color=colour, lw=1, alpha=0.5, zorder=2)
+        (trail,) = ax.plot([], [], color=colour, lw=1, alpha=0.5, zorder=2)
         if kind == "circle":
-            patch = Circle((pos[0, 0], pos[0, 1]), size, fill=False, lw=2, color=colour,
-                           zorder=3)
+            patch = Circle((pos[0, 0], pos[0, 1]), size, fill=False, lw=2, color=colour, zorder=3)
             ax.add_patch(patch)
-            spoke, = ax.plot([], [], color=colour, lw=1.5, zorder=3)
+            (spoke,) = ax.plot([], [], color=colour, lw=1.5, zorder=3)
             artists.append(("circle", patch, spoke, trail))
         elif kind == "rod":
-            line, = ax.plot([], [], color=colour, lw=4, solid_capstyle="round", zorder=3)
+            (line,) = ax.plot([], [], color=colour, lw=4, solid_capstyle="round", zorder=3)
             artists.append(("rod", line, None, trail))
         else:
-            dot, = ax.plot([], [], "o", color=colour, ms=9, zorder=3)
+            (dot,) = ax.plot([], [], "o", color=colour, ms=9, zorder=3)
             artists.append(("point", dot, None, trail))
-    peak = max((np.nanmax(np.linalg.norm(v, axis=1)) for _, _, v in scene.arrows
-                if np.isfinite(v).any()), default=0.0)
+    peak = max(
+        (np.nanmax(np.linalg.norm(v, axis=1)) for _, _, v in scene.arrows if np.isfinite(v).any()),
+        default=0.0,
+    )
     scale = 0.15 * span / peak if peak > 0 else 0.0
     quivers = []
     for _name, at, vec in scene.arrows:
-        arrow = FancyArrowPatch((0, 0), (0, 0), arrowstyle="-|>", mutation_scale=14,
-                                color="tab:red", lw=2, zorder=4, visible=False)
+        arrow = FancyArrowPatch(
+            (0, 0),
+            (0, 0),
+            arrowstyle="-|>",
+            mutation_scale=14,
+            color="tab:red",
+            lw=2,
+            zorder=4,
+            visible=False,
+        )
         ax.add_patch(arrow)
         quivers.append((arrow, at, vec))
     clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
-    flash = ax.text(0.98, 0.97, "", transform=ax.transAxes, va="top", ha="right",
-                    fontsize=10, fontweight="bold")
+    flash = ax.text(
+        0.98, 0.97, "", transform=ax.transAxes, va="top", ha="right", fontsize=10, fontweight="bold"
+    )
     events = [(e.t, e.kind, e.constraint) for e in traj.events if not e.initial]
     hold = 0.06 * (scene.t[-1] - scene.t[0])
 
@@ -234,8 +273,9 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
                 main.set_data([x], [y])
         for arrow, at, vec in quivers:
             v = vec[k] * scale
-            visible = bool(np.isfinite(v).all() and np.isfinite(at[k]).all()
-                           and np.hypot(*v) > 1e-3 * span)
+            visible = bool(
+                np.isfinite(v).all() and np.isfinite(at[k]).all() and np.hypot(*v) > 1e-3 * span
+            )
             arrow.set_visible(visible)
             if visible:
                 arrow.set_positions(tuple(at[k]), tuple(at[k] + v))
@@ -250,15 +290,15 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
             flash.set_text("")
         return []
 
-    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
-                                   blit=False)
+    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps, blit=False)
     if suffix == ".gif":
         anim.save(str(path), writer=animation.PillowWriter(fps=fps), dpi=dpi)
     elif suffix == ".mp4":
         anim.save(str(path), writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
     else:
-        with matplotlib.rc_context({"animation.frame_format": "jpeg",
-                                    "animation.embed_limit": 200.0}):
+        with matplotlib.rc_context(
+            {"animation.frame_format": "jpeg", "animation.embed_limit": 200.0}
+        ):
             page = anim.to_jshtml(fps=fps, default_mode="once")
         path.write_text(offline_page(page), encoding="utf-8")
     return path
@@ -266,18 +306,24 @@ def animate(traj, system, path: str | Path, *, params: dict | None = None, fps: 
 
 # matplotlib's player draws its buttons with Font Awesome loaded from a CDN: offline they
 # are blank. Plain characters instead (the page then needs nothing from the network).
-_ICONS = {"fa-minus": "&minus;", "fa-fast-backward": "&#9198;", "fa-step-backward": "&#9664;|",
-          "fa-play fa-flip-horizontal": "&#9664;", "fa-pause": "&#10074;&#10074;",
-          "fa-play": "&#9654;", "fa-step-forward": "|&#9654;", "fa-fast-forward": "&#9197;",
-          "fa-plus": "+"}
+_ICONS = {
+    "fa-minus": "&minus;",
+    "fa-fast-backward": "&#9198;",
+    "fa-step-backward": "&#9664;|",
+    "fa-play fa-flip-horizontal": "&#9664;",
+    "fa-pause": "&#10074;&#10074;",
+    "fa-play": "&#9654;",
+    "fa-step-forward": "|&#9654;",
+    "fa-fast-forward": "&#9197;",
+    "fa-plus": "+",
+}
 
 
 def offline_page(page: str) -> str:
     """An HTML page from ``to_jshtml`` with no external resource (see ``_ICONS``)."""
     import re
 
-    page = re.sub(r'<link rel="stylesheet"\s*href="https?://[^"]*font-awesome[^"]*">', "",
-                  page)
+    page = re.sub(r'<link rel="stylesheet"\s*href="https?://[^"]*font-awesome[^"]*">', "", page)
     for cls, char in sorted(_ICONS.items(), key=lambda kv: -len(kv[0])):
         page = page.replace(f'<i class="fa {cls}"></i>', f"<span>{char}</span>")
     return page

@@ -8,8 +8,13 @@ import numpy as np
 
 __all__ = ["plot_trajectory"]
 
-_EVENT_COLOURS = {"lift-off": "tab:red", "contact": "tab:green", "impact": "tab:purple",
-                  "slip": "tab:orange", "stick": "tab:blue"}
+_EVENT_COLOURS = {
+    "lift-off": "tab:red",
+    "contact": "tab:green",
+    "impact": "tab:purple",
+    "slip": "tab:orange",
+    "stick": "tab:blue",
+}
 
 
 def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
@@ -29,8 +34,7 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     for key, arr in traj.forces.items():
         c, d = key.split(":", 1)
         j = traj.constraints.index(c)
-        if np.any(np.isfinite(arr)) and not np.allclose(arr, traj.lambdas[:, j],
-                                                         equal_nan=True):
+        if np.any(np.isfinite(arr)) and not np.allclose(arr, traj.lambdas[:, j], equal_nan=True):
             ax1.plot(t, arr, lw=1.0, ls="--", label=f"{c} force along {d}")
     ax1.axhline(0.0, color="0.6", lw=0.8)
     ax1.set_ylabel("multiplier / force (problem units)")
@@ -42,9 +46,16 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
         for ax in (ax1, ax2):
             ax.axvline(e.t, color=colour, lw=0.9, ls=":")
         if len(traj.events) <= 12 or e.kind not in seen:
-            ax1.annotate(f"{e.kind} ({e.constraint})\nt = {e.t:.4g}",
-                         xy=(e.t, ymax), xytext=(3, -3), textcoords="offset points",
-                         fontsize=7.5, color=colour, va="top", rotation=90)
+            ax1.annotate(
+                f"{e.kind} ({e.constraint})\nt = {e.t:.4g}",
+                xy=(e.t, ymax),
+                xytext=(3, -3),
+                textcoords="offset points",
+                fontsize=7.5,
+                color=colour,
+                va="top",
+                rotation=90,
+            )
         seen.add(e.kind)
     ax1.legend(fontsize=8, loc="best")
     ax1.grid(alpha=0.25)

@@ -15,8 +15,9 @@ from ..expr import to_text as _expr_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
-CONVENTION = ("d/dt dL/dq' - dL/dq - sum_j lambda_j df_j/dq = Q  "
-              "(unilateral: f >= 0 holds while lambda >= 0)")
+CONVENTION = (
+    "d/dt dL/dq' - dL/dq - sum_j lambda_j df_j/dq = Q  (unilateral: f >= 0 holds while lambda >= 0)"
+)
 
 
 def _t(expr) -> str:
@@ -58,8 +59,9 @@ def to_json(sol) -> dict:
     out["slips"] = {k: [r.to_json() for r in v] for k, v in sol.slips.items()}
     out["lets_go"] = {k: v.to_json() for k, v in sol.lets_go.items()}
     out["slipping"] = {k: v.to_json() for k, v in sol.slipping.items()}
-    out["generalized_forces"] = {k: {q: _t(e) for q, e in v.items()}
-                                 for k, v in sol.generalized_forces.items()}
+    out["generalized_forces"] = {
+        k: {q: _t(e) for q, e in v.items()} for k, v in sol.generalized_forces.items()
+    }
     out["forces"] = {k: {d: _json_expr(e) for d, e in v.items()} for k, v in sol.forces.items()}
     if sol.initial_multipliers:
         out["initial_multipliers"] = sol.initial_multipliers
@@ -105,9 +107,15 @@ def to_text(sol) -> str:
     # it may invalidate everything below.
     warnings = [n for n in sol.notes if n in s.notes]
     lines += [f"warning: {n}" for n in warnings] + ([""] if warnings else [])
-    lines.append("coordinates: " + ", ".join(sol.coordinates)
-                 + (f"   independent: {', '.join(sol.independent)}"
-                    if sol.independent != sol.coordinates else ""))
+    lines.append(
+        "coordinates: "
+        + ", ".join(sol.coordinates)
+        + (
+            f"   independent: {', '.join(sol.independent)}"
+            if sol.independent != sol.coordinates
+            else ""
+        )
+    )
     for coord, expr in sol.reduction.eliminated:
         lines.append(f"  eliminated: {coord.name} = {_t(expr)}")
     lines += ["", "Euler-Lagrange equations with multipliers", "  convention: " + CONVENTION]
@@ -147,8 +155,11 @@ def to_text(sol) -> str:
     if sol.shell is not None:
         sh = sol.shell
         x = sh.coordinate.name
-        lines += ["", f"On the energy shell (initial state {_initial_text(sol)})",
-                  f"  {x}'^2 = {_t(sh.speed_squared)}"]
+        lines += [
+            "",
+            f"On the energy shell (initial state {_initial_text(sol)})",
+            f"  {x}'^2 = {_t(sh.speed_squared)}",
+        ]
         lines += [f"  lambda_{k} = {_t(v)}" for k, v in sh.multipliers.items()]
         lines += [f"  lambda_{k}: omitted, {why}" for k, why in sh.omitted.items()]
     if sol.vanishes:
@@ -169,8 +180,11 @@ def to_text(sol) -> str:
             where = " on " + " / ".join(c.force.bodies) if c.force else ""
             lines.append(f"  {k}{where}:")
             for d, e in comps.items():
-                value = "undetermined (the point's motion cannot do work along it)" \
-                    if e is None else _t(e)
+                value = (
+                    "undetermined (the point's motion cannot do work along it)"
+                    if e is None
+                    else _t(e)
+                )
                 lines.append(f"    {d} = {value}")
     rest = [n for n in sol.notes if n not in s.notes]
     if rest:
@@ -218,15 +232,19 @@ def to_latex(sol, standalone_math: bool = False) -> str:
         add(label, "E", _tex(sol.energy, names))
     if sol.shell is not None:
         for k, v in sol.shell.multipliers.items():
-            add("on the energy shell", names[sol.system.constraint(k).multiplier],
-                _tex(v, names))
-    for kind, table, verdicts in (("lets go", sol.vanishes, sol.lets_go),
-                                  ("slips", sol.slips, sol.slipping)):
+            add("on the energy shell", names[sol.system.constraint(k).multiplier], _tex(v, names))
+    for kind, table, verdicts in (
+        ("lets go", sol.vanishes, sol.lets_go),
+        ("slips", sol.slips, sol.slipping),
+    ):
         for k, roots in table.items():
             v = verdicts.get(k)
             if v is not None and (v.when == "at the start" or v.constant):
-                add(f"{k} {kind}: {v.when}", rf"\text{{{_tex_text(k)}}}",
-                    rf"\text{{{_tex_text(v.when)}: {_tex_text(v.reason)}}}")
+                add(
+                    f"{k} {kind}: {v.when}",
+                    rf"\text{{{_tex_text(k)}}}",
+                    rf"\text{{{_tex_text(v.when)}: {_tex_text(v.reason)}}}",
+                )
                 continue
             for i, r in enumerate(roots):
                 # only the first root is an event; later ones are where the constraint
@@ -239,8 +257,9 @@ def to_latex(sol, standalone_math: bool = False) -> str:
                 except ExpressionError:
                     continue
                 deg = rf"\quad({r.degrees:.2f}^\circ)" if r.degrees is not None else ""
-                add(f"{label}: {r.coordinate} = {r.value:.6g}", _tex(L, names),
-                    _tex(R, names) + deg)
+                add(
+                    f"{label}: {r.coordinate} = {r.value:.6g}", _tex(L, names), _tex(R, names) + deg
+                )
     for k, comps in sol.forces.items():
         for d, e in comps.items():
             if e is not None:
@@ -249,5 +268,7 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     if standalone_math:
         return "$$\\begin{aligned}\n" + body.replace("&&", "&\\quad") + "\n\\end{aligned}$$"
     title = re.sub(r"([#$%&_{}])", r"\\\1", sol.system.title)
-    return (f"% lamech: {title}\n% requires \\usepackage{{amsmath}}\n"
-            f"\\subsection*{{{title}}}\n\\begin{{align*}}\n{body}\n\\end{{align*}}\n")
+    return (
+        f"% lamech: {title}\n% requires \\usepackage{{amsmath}}\n"
+        f"\\subsection*{{{title}}}\n\\begin{{align*}}\n{body}\n\\end{{align*}}\n"
+    )

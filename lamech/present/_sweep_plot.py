@@ -18,9 +18,11 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
 
     swept = [n for n, a in run.parameters.items() if len(a) > 1]
     if len(swept) not in (1, 2):
-        raise SweepError(f"a picture needs 1 or 2 parameters with several values (got "
-                         f"{len(swept)}: {', '.join(swept) or 'none'})")
-    cols = []   # the columns that vary (a constant one, e.g. r at a slip, says nothing)
+        raise SweepError(
+            f"a picture needs 1 or 2 parameters with several values (got "
+            f"{len(swept)}: {', '.join(swept) or 'none'})"
+        )
+    cols = []  # the columns that vary (a constant one, e.g. r at a slip, says nothing)
     for c in run.measure_columns:
         vals = np.array([r[c] for r in run.rows], dtype=float)
         if np.any(np.isfinite(vals)) and np.nanmax(vals) != np.nanmin(vals):
@@ -39,9 +41,15 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
             y = np.array([r[c] for r in run.rows], dtype=float)
             order = np.argsort(x)
             ax.plot(x[order], y[order], "o-", ms=3)
-            if failed.any():   # a failed run is not "no event": marked where it sits
-                ax.plot(x[failed], np.full(failed.sum(), np.nanmin(y) if np.isfinite(
-                    y).any() else 0.0), "x", color="tab:red", ms=7, label="run failed")
+            if failed.any():  # a failed run is not "no event": marked where it sits
+                ax.plot(
+                    x[failed],
+                    np.full(failed.sum(), np.nanmin(y) if np.isfinite(y).any() else 0.0),
+                    "x",
+                    color="tab:red",
+                    ms=7,
+                    label="run failed",
+                )
                 ax.legend(fontsize=7)
             ax.set_xlabel(swept[0])
             ax.set_ylabel(c)
@@ -55,15 +63,24 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
             for r, bad in zip(run.rows, failed):
                 Z[ib[r[b]], ia[r[a]]] = r[c]
                 F[ib[r[b]], ia[r[a]]] = bad
-            ax.set_facecolor("0.85")      # cells with no value (no such event): grey
-            mesh = ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_invalid(
-                np.where(F, np.nan, Z)), shading="flat")
+            ax.set_facecolor("0.85")  # cells with no value (no such event): grey
+            mesh = ax.pcolormesh(
+                _edges(xa), _edges(xb), np.ma.masked_invalid(np.where(F, np.nan, Z)), shading="flat"
+            )
             bar = fig.colorbar(mesh, ax=ax)
             bar.set_label(c, fontsize=8)
-            if F.any():                   # failed runs: red cross-hatched cells
-                ax.pcolormesh(_edges(xa), _edges(xb), np.ma.masked_where(~F, F.astype(float)),
-                              shading="flat", cmap="Reds", vmin=0, vmax=1.5, hatch="xx",
-                              alpha=0.9)
+            if F.any():  # failed runs: red cross-hatched cells
+                ax.pcolormesh(
+                    _edges(xa),
+                    _edges(xb),
+                    np.ma.masked_where(~F, F.astype(float)),
+                    shading="flat",
+                    cmap="Reds",
+                    vmin=0,
+                    vmax=1.5,
+                    hatch="xx",
+                    alpha=0.9,
+                )
             ax.set_xlabel(a)
             ax.set_ylabel(b)
         ax.set_title(c, fontsize=9)
@@ -85,4 +102,3 @@ def _edges(x: np.ndarray) -> np.ndarray:
         return np.array([x[0] - 0.5, x[0] + 0.5])
     mid = (x[1:] + x[:-1]) / 2
     return np.concatenate(([2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]))
-

@@ -39,23 +39,33 @@ def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
 def trajectory_text(traj) -> str:
     """The readable summary of a run: status, events, final state, residuals, energy."""
     s = traj.summary()
-    lines = [f"{traj.title}" if traj.title else "simulation",
-             f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
-             f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
-             f"{s['evaluations']} dynamics evaluations, {s['samples']} samples"]
+    lines = [
+        f"{traj.title}" if traj.title else "simulation",
+        f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
+        f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
+        f"{s['evaluations']} dynamics evaluations, {s['samples']} samples",
+    ]
     for note in s["notes"]:
         lines.append(f"  note: {note}")
     lines.append(f"  events: {len(s['events'])}")
     for e in traj.events:
-        coords = ", ".join(f"{k} = {v:.10g}" for k, v in e.coordinates.items()
-                           if not k.endswith("'"))
+        coords = ", ".join(
+            f"{k} = {v:.10g}" for k, v in e.coordinates.items() if not k.endswith("'")
+        )
         lines.append(f"    t = {e.t:.12g}  {e.kind:<8} {e.constraint}: {coords}")
-    lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}"
-                                               for k, v in s["final"].items()))
-    lines.append(f"  max residual: |f| {_g(s['max_residual_position'])}, "
-                 f"|f'| {_g(s['max_residual_velocity'])}"
-                 f" (largest projection {_g(s['max_projection'])})")
+    lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in s["final"].items()))
+    lines.append(
+        f"  max residual: |f| {_g(s['max_residual_position'])}, "
+        f"|f'| {_g(s['max_residual_velocity'])}"
+        f" (largest projection {_g(s['max_projection'])})"
+    )
     ee = s["energy_error"]
-    lines.append("  energy error: " + (_g(ee) + " (relative)" if ee is not None else
-                                       "n/a (driven, time-dependent or dissipative)"))
+    lines.append(
+        "  energy error: "
+        + (
+            _g(ee) + " (relative)"
+            if ee is not None
+            else "n/a (driven, time-dependent or dissipative)"
+        )
+    )
     return "\n".join(lines) + "\n"

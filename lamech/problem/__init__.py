@@ -16,11 +16,26 @@ from typing import TYPE_CHECKING, Any
 
 from ._examples import example_names, example_path, example_title
 
-__all__ = ["load", "loads", "from_dict", "example_names", "example_path", "example_title",
-           "ProblemFileError", "Issue", "chain_toml"]
+__all__ = [
+    "load",
+    "loads",
+    "from_dict",
+    "example_names",
+    "example_path",
+    "example_title",
+    "ProblemFileError",
+    "Issue",
+    "chain_toml",
+]
 
-_LAZY = {"load": "_loader", "loads": "_loader", "from_dict": "_loader",
-         "ProblemFileError": "_loader", "Issue": "_loader", "chain_toml": "_generated"}
+_LAZY = {
+    "load": "_loader",
+    "loads": "_loader",
+    "from_dict": "_loader",
+    "ProblemFileError": "_loader",
+    "Issue": "_loader",
+    "chain_toml": "_generated",
+}
 
 
 def __getattr__(name: str) -> Any:

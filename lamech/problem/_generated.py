@@ -13,8 +13,14 @@ def chain_toml(n: int, angle_deg: float = 30.0, keep: bool = False) -> str:
     ``angle_deg`` from the vertical at rest. ``keep`` keeps every coordinate (no
     elimination)."""
     a = math.radians(angle_deg)
-    lines = [f'title = "{n}-link pendulum chain (maximal coordinates)"',
-             "[parameters]", "m = 1.0", "g = 9.81", "l = 1.0", "[coordinates]"]
+    lines = [
+        f'title = "{n}-link pendulum chain (maximal coordinates)"',
+        "[parameters]",
+        "m = 1.0",
+        "g = 9.81",
+        "l = 1.0",
+        "[coordinates]",
+    ]
     for i in range(1, n + 1):
         x0, y0 = i * math.sin(a), -i * math.cos(a)
         k = ", keep = true" if keep else ""
@@ -25,6 +31,9 @@ def chain_toml(n: int, angle_deg: float = 30.0, keep: bool = False) -> str:
     lines += ["[lagrangian]", f'T = "m/2*({T})"', f'V = "m*g*({V})"']
     for i in range(1, n + 1):
         px, py = (f"x{i - 1}", f"y{i - 1}") if i > 1 else ("0", "0")
-        lines += ["[[constraints]]", f'name = "link{i}"',
-                  f'f = "(x{i} - {px})^2 + (y{i} - {py})^2 - l^2"']
+        lines += [
+            "[[constraints]]",
+            f'name = "link{i}"',
+            f'f = "(x{i} - {px})^2 + (y{i} - {py})^2 - l^2"',
+        ]
     return "\n".join(lines) + "\n"

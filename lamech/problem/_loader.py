@@ -19,8 +19,21 @@ from typing import Any
 import sympy as sp
 
 from ..expr import ExpressionError, TimeDerivative, parse, to_text
-from ..model import (FIELDS, Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
-                     ModelError, Parameter, ShapeKind, System, body_energy, name_problem)
+from ..model import (
+    FIELDS,
+    Body,
+    Constraint,
+    ConstraintKind,
+    Coordinate,
+    ForceSpec,
+    Friction,
+    ModelError,
+    Parameter,
+    ShapeKind,
+    System,
+    body_energy,
+    name_problem,
+)
 from ._examples import example_names, example_path
 
 if sys.version_info >= (3, 11):
@@ -34,8 +47,17 @@ __all__ = ["ProblemFileError", "Issue", "load", "loads", "from_dict"]
 # a part checked on its own (constraint `rolling` unilateral).
 _PART_IN_SYSTEM = re.compile(r"^(constraints|bodies)\[(\d+)\] `[^`]*`(?: (\S+))?")
 _PART_ALONE = re.compile(r"^(?:constraint|body) `[^`]*`")
-_KNOWN_SECTIONS = {"title", "parameters", "coordinates", "lagrangian", "constraints", "bodies",
-                   "gravity", "forces", "description"}
+_KNOWN_SECTIONS = {
+    "title",
+    "parameters",
+    "coordinates",
+    "lagrangian",
+    "constraints",
+    "bodies",
+    "gravity",
+    "forces",
+    "description",
+}
 
 
 @dataclass(frozen=True)
@@ -139,9 +161,16 @@ def load(path: str | Path) -> System:
         p = example_path(str(path))
     if not p.exists():
         hint = ", ".join(example_names())
-        raise ProblemFileError(str(path), [Issue(
-            "", f"no such file; give a path to a .toml problem file or a bundled example "
-                f"({hint})")])
+        raise ProblemFileError(
+            str(path),
+            [
+                Issue(
+                    "",
+                    f"no such file; give a path to a .toml problem file or a bundled example "
+                    f"({hint})",
+                )
+            ],
+        )
     if p.is_dir():
         raise ProblemFileError(str(path), [Issue("", "is a directory, not a problem file")])
     try:
@@ -162,18 +191,17 @@ def loads(text: str, name: str = "<string>") -> System:
         m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
         line = int(m.group(1)) if m else None
         bare = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
-        hint = "check quoting (expressions go in double quotes) and that each line is " \
-            "`key = value`"
+        hint = "check quoting (expressions go in double quotes) and that each line is `key = value`"
         if "overwrite" in bare or "twice" in bare:
             found = _repeated_key(text)
             if found:
                 line, key, first = found
                 bare = f"`{key}` is defined twice (first on line {first})"
                 hint = "each key may appear once in a table: remove or rename one of them"
-        offending = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) \
-            else None
-        raise ProblemFileError(name, [Issue(
-            "", f"TOML syntax error: {bare}; {hint}", line, offending)]) from None
+        offending = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) else None
+        raise ProblemFileError(
+            name, [Issue("", f"TOML syntax error: {bare}; {hint}", line, offending)]
+        ) from None
     return from_dict(data, name=name, text=text)
 
 
@@ -200,8 +228,9 @@ class _Loader:
         self.scopes: dict[str, dict[str, sp.Expr]] = {}
 
     # ----- reporting -----------------------------------------------------------------
-    def problem(self, where: str, message: str, loc: tuple = (None, None, None),
-                text: str | None = None) -> None:
+    def problem(
+        self, where: str, message: str, loc: tuple = (None, None, None), text: str | None = None
+    ) -> None:
         line = self.lines.find(*loc)
         if text is None and line and self.lines.lines:
             text = self.lines.lines[line - 1].strip()
@@ -252,8 +281,9 @@ class _Loader:
             self.model_problems(exc, part)
             return None
 
-    def expr(self, value: Any, names: dict[str, sp.Expr], where: str, loc: tuple,
-             what: str) -> sp.Expr | None:
+    def expr(
+        self, value: Any, names: dict[str, sp.Expr], where: str, loc: tuple, what: str
+    ) -> sp.Expr | None:
         if isinstance(value, sp.Basic):
             return self._sympy_value(value, names, where, loc)
         try:
@@ -270,13 +300,18 @@ class _Loader:
         scope, what = FIELDS[field]
         return self.expr(value, self.scopes[scope], where, loc, what)
 
-    def _sympy_value(self, value: sp.Basic, names: dict[str, sp.Expr], where: str,
-                     loc: tuple) -> sp.Expr | None:
+    def _sympy_value(
+        self, value: sp.Basic, names: dict[str, sp.Expr], where: str, loc: tuple
+    ) -> sp.Expr | None:
         by_name = {str(s): s for s in value.free_symbols}
         unknown = sorted(n for n in by_name if n not in names)
         if unknown:
-            self.problem(where, f"unknown name `{unknown[0]}`; known: "
-                         + ", ".join(sorted(n for n in names if "'" not in n)), loc)
+            self.problem(
+                where,
+                f"unknown name `{unknown[0]}`; known: "
+                + ", ".join(sorted(n for n in names if "'" not in n)),
+                loc,
+            )
             return None
         return value.xreplace({s: names[n] for n, s in by_name.items()})
 
@@ -284,12 +319,15 @@ class _Loader:
         value = self.data.get(key)
         if value is None:
             if required:
-                self.problem(key, f"missing section [{key}]; see the README's problem-file "
-                             "format")
+                self.problem(key, f"missing section [{key}]; see the README's problem-file format")
             return None
         if not isinstance(value, dict):
-            self.problem(key, f"[{key}] must be a table (`[{key}]` followed by `name = ...` "
-                         f"lines), not {type(value).__name__}", (None, None, key))
+            self.problem(
+                key,
+                f"[{key}] must be a table (`[{key}]` followed by `name = ...` "
+                f"lines), not {type(value).__name__}",
+                (None, None, key),
+            )
             return None
         return value
 
@@ -303,8 +341,11 @@ class _Loader:
             raise ProblemFileError(self.source, [Issue("", "a problem must be a table")])
         for key in self.data:
             if key not in _KNOWN_SECTIONS:
-                self.problem(key, f"unknown section or key `{key}`; known: "
-                             + ", ".join(sorted(_KNOWN_SECTIONS)), (None, None, key))
+                self.problem(
+                    key,
+                    f"unknown section or key `{key}`; known: " + ", ".join(sorted(_KNOWN_SECTIONS)),
+                    (None, None, key),
+                )
         title = self.data.get("title", Path(self.source).stem)
         if not isinstance(title, str):
             self.problem("title", "title must be a string", (None, None, "title"))
@@ -323,10 +364,16 @@ class _Loader:
         self.scopes.update(positions=positions, velocities=velocities)
         # The coordinates and parameters alone (checked as such), for the kinematics of
         # the bodies: T is a stand-in (time derivatives need only q and t).
-        skeleton = self.make(System, title=title, parameters=tuple(params),
-                             coordinates=tuple(coords),
-                             T=sum((c.velocity**2 for c in coords), sp.Integer(0)),
-                             V=sp.Integer(0), constraints=(), t=self.t)
+        skeleton = self.make(
+            System,
+            title=title,
+            parameters=tuple(params),
+            coordinates=tuple(coords),
+            T=sum((c.velocity**2 for c in coords), sp.Integer(0)),
+            V=sp.Integer(0),
+            constraints=(),
+            t=self.t,
+        )
         self.fail_if_any()
 
         gravity = self._gravity()
@@ -336,11 +383,21 @@ class _Loader:
         forces = self._forces(coords)
         self.fail_if_any()
         notes = self._compare_energy(skeleton, bodies, gravity, T, V)
-        system = self.make(System, title=title, parameters=tuple(params),
-                           coordinates=tuple(coords), T=T, V=V,
-                           constraints=tuple(constraints), bodies=tuple(bodies),
-                           gravity=gravity, forces=tuple(forces), t=self.t,
-                           source=self.source, notes=tuple(notes))
+        system = self.make(
+            System,
+            title=title,
+            parameters=tuple(params),
+            coordinates=tuple(coords),
+            T=T,
+            V=V,
+            constraints=tuple(constraints),
+            bodies=tuple(bodies),
+            gravity=gravity,
+            forces=tuple(forces),
+            t=self.t,
+            source=self.source,
+            notes=tuple(notes),
+        )
         self.fail_if_any()
         return system
 
@@ -357,11 +414,19 @@ class _Loader:
         exprs: dict[str, sp.Expr] = {}
         for n, value in raw.items():
             if isinstance(value, bool) or not isinstance(value, (int, float, str, sp.Basic)):
-                self.problem(f"parameters.{n}", f"value must be a number or an expression "
-                             f"string, not {type(value).__name__}", ("parameters", None, n))
+                self.problem(
+                    f"parameters.{n}",
+                    f"value must be a number or an expression string, not {type(value).__name__}",
+                    ("parameters", None, n),
+                )
                 continue
-            e = self.expr(value, symbols, f"parameters.{n}", ("parameters", None, n),
-                          FIELDS["parameter value"][1])
+            e = self.expr(
+                value,
+                symbols,
+                f"parameters.{n}",
+                ("parameters", None, n),
+                FIELDS["parameter value"][1],
+            )
             if e is not None:
                 exprs[n] = e
         numeric: dict[str, float] = {}
@@ -373,8 +438,9 @@ class _Loader:
             for n, e in list(pending.items()):
                 deps = {str(s) for s in e.free_symbols}
                 if deps <= set(numeric):
-                    env = {symbols[d]: numeric[d] if math.isfinite(numeric[d]) else 1.0
-                           for d in deps}
+                    env = {
+                        symbols[d]: numeric[d] if math.isfinite(numeric[d]) else 1.0 for d in deps
+                    }
                     try:
                         numeric[n] = float(e.subs(env).evalf(30))
                     except (TypeError, ValueError):
@@ -383,21 +449,26 @@ class _Loader:
                     progress = True
             if not progress:
                 cyc = ", ".join(sorted(pending))
-                self.problem("parameters", f"parameter values refer to each other in a cycle "
-                             f"({cyc}); give at least one of them a number",
-                             ("parameters", None, sorted(pending)[0]))
+                self.problem(
+                    "parameters",
+                    f"parameter values refer to each other in a cycle "
+                    f"({cyc}); give at least one of them a number",
+                    ("parameters", None, sorted(pending)[0]),
+                )
                 break
         final = {}
         for n in raw:
             v = numeric.get(n, float("nan"))
-            final[symbols[n]] = sp.Symbol(n, positive=True) if v > 0 else (
-                sp.Symbol(n, negative=True) if v < 0 else sp.Symbol(n, real=True))
+            final[symbols[n]] = (
+                sp.Symbol(n, positive=True)
+                if v > 0
+                else (sp.Symbol(n, negative=True) if v < 0 else sp.Symbol(n, real=True))
+            )
         out = []
         for n in raw:
             p = None
             if n in numeric:
-                p = self.make(Parameter, n, final[symbols[n]], exprs[n].xreplace(final),
-                              numeric[n])
+                p = self.make(Parameter, n, final[symbols[n]], exprs[n].xreplace(final), numeric[n])
             # On an error (recorded), keep the name known so that later expressions
             # using it do not report a misleading 'unknown name'.
             out.append(p or Parameter(n, symbols[n], symbols[n], 1.0))
@@ -407,35 +478,54 @@ class _Loader:
         table = self.table("coordinates", required=True)
         if not table:
             if table is not None:
-                self.problem("coordinates", "[coordinates] is empty; declare at least one "
-                             "coordinate as `x = { initial = 0, velocity = 0 }`",
-                             ("coordinates", None, None))
+                self.problem(
+                    "coordinates",
+                    "[coordinates] is empty; declare at least one "
+                    "coordinate as `x = { initial = 0, velocity = 0 }`",
+                    ("coordinates", None, None),
+                )
             return []
         out = []
         for name, spec in table.items():
             loc = ("coordinates", None, name)
             where = f"coordinates.{name}"
             if not isinstance(spec, dict):
-                self.problem(where, "a coordinate is an inline table: "
-                             f"`{name} = {{ initial = 0, velocity = 0 }}`", loc)
+                self.problem(
+                    where,
+                    f"a coordinate is an inline table: `{name} = {{ initial = 0, velocity = 0 }}`",
+                    loc,
+                )
                 continue
             extra = set(spec) - {"initial", "velocity", "keep"}
             if extra:
-                self.problem(where, f"unknown key `{sorted(extra)[0]}`; a coordinate takes "
-                             "initial, velocity and keep", loc)
+                self.problem(
+                    where,
+                    f"unknown key `{sorted(extra)[0]}`; a coordinate takes "
+                    "initial, velocity and keep",
+                    loc,
+                )
             if "initial" not in spec:
-                self.problem(where, "missing `initial` (the initial value, a number or an "
-                             "expression of parameters)", loc)
+                self.problem(
+                    where,
+                    "missing `initial` (the initial value, a number or an "
+                    "expression of parameters)",
+                    loc,
+                )
                 continue
             q0 = self.field(spec["initial"], "initial", where + ".initial", loc)
-            v0 = self.field(spec.get("velocity", 0), "initial velocity", where + ".velocity",
-                            loc)
+            v0 = self.field(spec.get("velocity", 0), "initial velocity", where + ".velocity", loc)
             if q0 is None or v0 is None:
                 continue
-            coordinate = self.make(Coordinate, name, sp.Symbol(name, real=True),
-                                   TimeDerivative(name + "'", real=True),
-                                   TimeDerivative(name + "''", real=True), q0, v0,
-                                   spec.get("keep", False))
+            coordinate = self.make(
+                Coordinate,
+                name,
+                sp.Symbol(name, real=True),
+                TimeDerivative(name + "'", real=True),
+                TimeDerivative(name + "''", real=True),
+                q0,
+                v0,
+                spec.get("keep", False),
+            )
             if coordinate is not None:
                 out.append(coordinate)
         return out
@@ -445,17 +535,27 @@ class _Loader:
         if table is None:
             return None
         if "acceleration" not in table:
-            self.problem("gravity", "missing `acceleration` (e.g. acceleration = \"g\")",
-                         ("gravity", None, None))
+            self.problem(
+                "gravity",
+                'missing `acceleration` (e.g. acceleration = "g")',
+                ("gravity", None, None),
+            )
             return None
-        return self.field(table["acceleration"], "gravity", "gravity.acceleration",
-                          ("gravity", None, "acceleration"))
+        return self.field(
+            table["acceleration"],
+            "gravity",
+            "gravity.acceleration",
+            ("gravity", None, "acceleration"),
+        )
 
     def _bodies(self) -> list[Body]:
         raw = self.data.get("bodies", [])
         if not isinstance(raw, list):
-            self.problem("bodies", "bodies are an array of tables: each starts with "
-                         "`[[bodies]]`", (None, None, "bodies"))
+            self.problem(
+                "bodies",
+                "bodies are an array of tables: each starts with `[[bodies]]`",
+                (None, None, "bodies"),
+            )
             return []
         out = []
         for i, spec in enumerate(raw):
@@ -468,8 +568,12 @@ class _Loader:
             before = len(self.problems)
             extra = set(spec) - {"name", "mass", "position", "angle", "inertia", "shape"}
             if extra:
-                self.problem(where, f"unknown key `{sorted(extra)[0]}`; a body takes name, "
-                             "mass, position, angle, inertia, shape", loc0)
+                self.problem(
+                    where,
+                    f"unknown key `{sorted(extra)[0]}`; a body takes name, "
+                    "mass, position, angle, inertia, shape",
+                    loc0,
+                )
             if "mass" not in spec:
                 self.problem(where, "missing `mass`", loc0)
                 continue
@@ -477,8 +581,9 @@ class _Loader:
             for key in ("mass", "angle", "inertia"):
                 if key in spec:
                     parts[key] = self.field(spec[key], key, f"{where} {key}", ("bodies", i, key))
-            parts["position"] = self._vector(spec.get("position"), "position",
-                                             f"{where} position", ("bodies", i, "position"))
+            parts["position"] = self._vector(
+                spec.get("position"), "position", f"{where} position", ("bodies", i, "position")
+            )
             parts["shape"] = self._shape(spec.get("shape"), where, ("bodies", i, "shape"))
             if len(self.problems) == before:
                 body = self.make(Body, name, part=where, **parts)
@@ -490,12 +595,13 @@ class _Loader:
         if spec is None:
             return (ShapeKind.POINT, None)
         if not isinstance(spec, dict) or len(spec) != 1:
-            self.problem(where, "shape is one of { circle = \"R\" }, { rod = \"l\" }, "
-                         "{ point = true }", loc)
+            self.problem(
+                where, 'shape is one of { circle = "R" }, { rod = "l" }, { point = true }', loc
+            )
             return None
-        (kind, value), = spec.items()
+        ((kind, value),) = spec.items()
         if kind == ShapeKind.POINT or kind not in [k.value for k in ShapeKind]:
-            return (kind, None)   # an unknown kind is the model's to report
+            return (kind, None)  # an unknown kind is the model's to report
         size = self.field(value, "shape", where + " shape", loc)
         return None if size is None else (kind, size)
 
@@ -516,8 +622,9 @@ class _Loader:
         if table is not None:
             extra = set(table) - {"T", "V", "L"}
             if extra:
-                self.problem("lagrangian", f"unknown key `{sorted(extra)[0]}`; give T and V, "
-                             "or L", loc)
+                self.problem(
+                    "lagrangian", f"unknown key `{sorted(extra)[0]}`; give T and V, or L", loc
+                )
             if "L" in table and ("T" in table or "V" in table):
                 self.problem("lagrangian", "give either L, or T and V, not both", loc)
                 return sp.Integer(0), sp.Integer(0)
@@ -532,8 +639,12 @@ class _Loader:
                 return T, sp.expand(T - L)
             if "T" not in table:
                 if not bodies:
-                    self.problem("lagrangian", "missing T (the kinetic energy); give T and V, "
-                                 "or L, or describe [[bodies]]", loc)
+                    self.problem(
+                        "lagrangian",
+                        "missing T (the kinetic energy); give T and V, "
+                        "or L, or describe [[bodies]]",
+                        loc,
+                    )
                     return sp.Integer(0), sp.Integer(0)
                 T = body_energy(skeleton, tuple(bodies), gravity)[0]
             else:
@@ -547,16 +658,22 @@ class _Loader:
                 return sp.Integer(0), sp.Integer(0)
             return T, V
         if not bodies:
-            self.problem("lagrangian", "missing [lagrangian] (T and V, or L) and no "
-                         "[[bodies]] to compute them from", (None, None, None))
+            self.problem(
+                "lagrangian",
+                "missing [lagrangian] (T and V, or L) and no [[bodies]] to compute them from",
+                (None, None, None),
+            )
             return sp.Integer(0), sp.Integer(0)
         return body_energy(skeleton, tuple(bodies), gravity)
 
     def _constraints(self) -> list[Constraint]:
         raw = self.data.get("constraints", [])
         if not isinstance(raw, list):
-            self.problem("constraints", "constraints are an array of tables: each starts "
-                         "with `[[constraints]]`", (None, None, "constraints"))
+            self.problem(
+                "constraints",
+                "constraints are an array of tables: each starts with `[[constraints]]`",
+                (None, None, "constraints"),
+            )
             return []
         out = []
         for i, spec in enumerate(raw):
@@ -567,28 +684,53 @@ class _Loader:
             name = spec.get("name", f"c{i + 1}")
             where = f"constraints[{i + 1}] `{name}`"
             before = len(self.problems)
-            extra = set(spec) - {"name", "f", "velocity", "unilateral", "friction", "force",
-                                 "restitution"}
+            extra = set(spec) - {
+                "name",
+                "f",
+                "velocity",
+                "unilateral",
+                "friction",
+                "force",
+                "restitution",
+            }
             if extra:
-                self.problem(where, f"unknown key `{sorted(extra)[0]}`; a constraint takes "
-                             "name, f or velocity, unilateral, friction, force, restitution",
-                             loc0)
+                self.problem(
+                    where,
+                    f"unknown key `{sorted(extra)[0]}`; a constraint takes "
+                    "name, f or velocity, unilateral, friction, force, restitution",
+                    loc0,
+                )
             if ("f" in spec) == ("velocity" in spec):
-                self.problem(where, "give exactly one of `f` (holonomic, f(q, t) = 0) or "
-                             "`velocity` (linear in the velocities, a(q,t).q' + b = 0)", loc0)
+                self.problem(
+                    where,
+                    "give exactly one of `f` (holonomic, f(q, t) = 0) or "
+                    "`velocity` (linear in the velocities, a(q,t).q' + b = 0)",
+                    loc0,
+                )
                 continue
             key = "f" if "f" in spec else "velocity"
             kind = ConstraintKind.HOLONOMIC if key == "f" else ConstraintKind.VELOCITY
             e = self.field(spec[key], key, f"{where} {key}", ("constraints", i, key))
-            friction = self._friction(spec.get("friction"), where,
-                                      ("constraints", i, "friction"))
+            friction = self._friction(spec.get("friction"), where, ("constraints", i, "friction"))
             force = self._force_spec(spec.get("force"), where, ("constraints", i, "force"))
-            restitution = self.field(spec.get("restitution", 0), "restitution",
-                                     f"{where} restitution", ("constraints", i, "restitution"))
+            restitution = self.field(
+                spec.get("restitution", 0),
+                "restitution",
+                f"{where} restitution",
+                ("constraints", i, "restitution"),
+            )
             if len(self.problems) == before:
-                constraint = self.make(Constraint, name, e, kind,
-                                       spec.get("unilateral", False), friction, force,
-                                       restitution, part=where)
+                constraint = self.make(
+                    Constraint,
+                    name,
+                    e,
+                    kind,
+                    spec.get("unilateral", False),
+                    friction,
+                    force,
+                    restitution,
+                    part=where,
+                )
                 if constraint is not None:
                     out.append(constraint)
         return out
@@ -597,8 +739,11 @@ class _Loader:
         if spec is None:
             return None
         if not isinstance(spec, dict) or set(spec) != {"mu", "normal"}:
-            self.problem(where, "friction is { mu = <coefficient>, normal = \"<name of the "
-                         "normal constraint>\" }", loc)
+            self.problem(
+                where,
+                'friction is { mu = <coefficient>, normal = "<name of the normal constraint>" }',
+                loc,
+            )
             return None
         mu = self.field(spec["mu"], "mu", where + " friction.mu", loc)
         return None if mu is None else self.make(Friction, mu, spec["normal"], part=where)
@@ -606,10 +751,17 @@ class _Loader:
     def _force_spec(self, spec, where, loc) -> ForceSpec | None:
         if spec is None:
             return None
-        if not isinstance(spec, dict) or not {"body", "at"} <= set(spec) or \
-                set(spec) - {"body", "at", "along"}:
-            self.problem(where, "force is { body = \"<body>\" (or [\"a\", \"b\"]), at = [x, y], "
-                         "along = { name = [dx, dy] } }", loc)
+        if (
+            not isinstance(spec, dict)
+            or not {"body", "at"} <= set(spec)
+            or set(spec) - {"body", "at", "along"}
+        ):
+            self.problem(
+                where,
+                'force is { body = "<body>" (or ["a", "b"]), at = [x, y], '
+                "along = { name = [dx, dy] } }",
+                loc,
+            )
             return None
         before = len(self.problems)
         names = spec["body"] if isinstance(spec["body"], list) else [spec["body"]]
@@ -617,8 +769,12 @@ class _Loader:
         along = []
         raw_along = spec.get("along", {})
         if not isinstance(raw_along, dict):
-            self.problem(where, "force.along is a table of named directions, e.g. "
-                         "{ normal = [\"sin(x)\", \"cos(x)\"] }", loc)
+            self.problem(
+                where,
+                "force.along is a table of named directions, e.g. "
+                '{ normal = ["sin(x)", "cos(x)"] }',
+                loc,
+            )
             return None
         for dname, vec in raw_along.items():
             v = self._vector(vec, "along", where + f" force.along.{dname}", loc)
@@ -633,8 +789,11 @@ class _Loader:
         out = [sp.Integer(0)] * len(coords)
         for name, value in table.items():
             if name not in by_name:
-                self.problem(f"forces.{name}", f"`{name}` is not a coordinate; known: "
-                             + ", ".join(by_name), ("forces", None, name))
+                self.problem(
+                    f"forces.{name}",
+                    f"`{name}` is not a coordinate; known: " + ", ".join(by_name),
+                    ("forces", None, name),
+                )
                 continue
             e = self.field(value, "forces", f"forces.{name}", ("forces", None, name))
             if e is not None:
@@ -658,12 +817,16 @@ class _Loader:
                 continue
             diff = sp.simplify(given - kin) if sp.count_ops(given - kin) < 200 else given - kin
             if label == "T":
-                notes.append(f"[lagrangian] T differs from the kinetic energy of [[bodies]] by "
-                             f"{to_text(diff)}; check for a missing term (T is used as given)")
+                notes.append(
+                    f"[lagrangian] T differs from the kinetic energy of [[bodies]] by "
+                    f"{to_text(diff)}; check for a missing term (T is used as given)"
+                )
             else:
-                notes.append(f"[lagrangian] V differs from the gravitational energy of "
-                             f"[[bodies]] by {to_text(diff)} (fine if that is a spring or "
-                             "other potential; V is used as given)")
+                notes.append(
+                    f"[lagrangian] V differs from the gravitational energy of "
+                    f"[[bodies]] by {to_text(diff)} (fine if that is a spring or "
+                    "other potential; V is used as given)"
+                )
         return notes
 
 

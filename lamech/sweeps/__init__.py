@@ -4,18 +4,30 @@ worker processes, or on a Dask cluster, with resume (see :mod:`lamech.sweep._run
 """
 
 from ._parse import (
-                     EVENT_MEASURES,
-                     MAX_CASES,
-                     SERIES_MEASURES,
-                     Measure,
-                     SweepError,
-                     parse_assignment,
-                     parse_measure,
-                     parse_values,
+    EVENT_MEASURES,
+    MAX_CASES,
+    SERIES_MEASURES,
+    Measure,
+    SweepError,
+    parse_assignment,
+    parse_measure,
+    parse_values,
 )
 from ._run import SweepRun, run_sweep, sweep, sweepable_names
 from ._table import format_value
 
-__all__ = ["sweep", "run_sweep", "SweepRun", "SweepError", "Measure", "parse_values",
-           "parse_assignment", "parse_measure", "sweepable_names", "format_value",
-           "EVENT_MEASURES", "SERIES_MEASURES", "MAX_CASES"]
+__all__ = [
+    "sweep",
+    "run_sweep",
+    "SweepRun",
+    "SweepError",
+    "Measure",
+    "parse_values",
+    "parse_assignment",
+    "parse_measure",
+    "sweepable_names",
+    "format_value",
+    "EVENT_MEASURES",
+    "SERIES_MEASURES",
+    "MAX_CASES",
+]

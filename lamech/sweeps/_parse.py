@@ -11,11 +11,25 @@ import numpy as np
 
 from ..model import System
 
-__all__ = ["SweepError", "Measure", "parse_values", "parse_assignment", "parse_measure",
-           "number", "EVENT_MEASURES", "SERIES_MEASURES", "MAX_CASES"]
+__all__ = [
+    "SweepError",
+    "Measure",
+    "parse_values",
+    "parse_assignment",
+    "parse_measure",
+    "number",
+    "EVENT_MEASURES",
+    "SERIES_MEASURES",
+    "MAX_CASES",
+]
 
-EVENT_MEASURES = {"liftoff": "lift-off", "slip": "slip", "stick": "stick",
-                  "contact": "contact", "impact": "impact"}
+EVENT_MEASURES = {
+    "liftoff": "lift-off",
+    "slip": "slip",
+    "stick": "stick",
+    "contact": "contact",
+    "impact": "impact",
+}
 SERIES_MEASURES = ("max", "min", "final")
 MAX_CASES = 1_000_000
 
@@ -47,14 +61,16 @@ def parse_values(text: str, name: str = "value") -> np.ndarray:
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
-            raise SweepError(f"{what}: range {text!r} must be A:B:N (start, stop, count), "
-                             "e.g. 0.1:1.0:50")
+            raise SweepError(
+                f"{what}: range {text!r} must be A:B:N (start, stop, count), e.g. 0.1:1.0:50"
+            )
         a, b = number(parts[0], what), number(parts[1], what)
         try:
             count = int(parts[2].strip())
         except ValueError:
-            raise SweepError(f"{what}: count {parts[2].strip()!r} in {text!r} is not an "
-                             "integer") from None
+            raise SweepError(
+                f"{what}: count {parts[2].strip()!r} in {text!r} is not an integer"
+            ) from None
         if count < 1 or (count == 1 and a != b):
             raise SweepError(f"{what}: range {text!r} needs a count >= 2 (or A = B)")
         if count > MAX_CASES:
@@ -77,8 +93,8 @@ def parse_assignment(text: str, what: str = "--param") -> tuple[str, str]:
 class Measure:
     """One measured quantity of a case (see the module docstring); ``text`` as written."""
 
-    kind: str        # liftoff, slip, stick, contact, impact, max, min, final
-    target: str      # a constraint ("" = any) for events; a series for max/min/final
+    kind: str  # liftoff, slip, stick, contact, impact, max, min, final
+    target: str  # a constraint ("" = any) for events; a series for max/min/final
     text: str
 
     def columns(self, coordinates: Sequence[str]) -> list[str]:
@@ -92,7 +108,7 @@ def _series_names(system: System) -> list[str]:
     names += ["lambda:" + c.name for c in system.constraints]
     for c in system.constraints:
         if c.force is not None:
-            dirs = [d for d, _ in c.force.along] or list("xyz"[:system.dimension])
+            dirs = [d for d, _ in c.force.along] or list("xyz"[: system.dimension])
             names += [f"force:{c.name}:{d}" for d in dirs]
     return names + ["energy", "residual"]
 
@@ -106,15 +122,15 @@ def parse_measure(text: str, system: System) -> Measure:
         if rest:
             known = [c.name for c in system.constraints]
             if rest not in known:
-                raise SweepError(f"measure {text!r}: unknown constraint `{rest}`; known: "
-                                 f"{', '.join(known)}")
+                raise SweepError(
+                    f"measure {text!r}: unknown constraint `{rest}`; known: {', '.join(known)}"
+                )
         return Measure(kind, rest, text)
     if kind in SERIES_MEASURES:
         known = _series_names(system)
         if rest not in known:
-            raise SweepError(f"measure {text!r}: unknown series `{rest}`; known: "
-                             f"{', '.join(known)}")
+            raise SweepError(
+                f"measure {text!r}: unknown series `{rest}`; known: {', '.join(known)}"
+            )
         return Measure(kind, rest, text)
     raise SweepError(f"unknown measure {text!r}; known: {', '.join(kinds)}")
-
-

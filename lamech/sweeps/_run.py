@@ -38,16 +38,23 @@ import pickle
 import sys
 import time
 import uuid
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from ..model import System
 from ..numeric import consistent_initial, friction_names, with_friction_parameters
-from ._parse import (EVENT_MEASURES, MAX_CASES, Measure, SweepError, number, parse_measure,
-                     parse_values)
+from ._parse import (
+    EVENT_MEASURES,
+    MAX_CASES,
+    Measure,
+    SweepError,
+    number,
+    parse_measure,
+    parse_values,
+)
 from ._table import Table
 
 __all__ = ["sweep", "run_sweep", "SweepRun", "sweepable_names"]
@@ -81,13 +88,14 @@ class _Plan:
     columns: tuple[str, ...]
 
 
-_COMPILED: dict[str, object] = {}   # token -> NumericSystem, one per worker process
+_COMPILED: dict[str, object] = {}  # token -> NumericSystem, one per worker process
 
 
 def _numeric(token: str, plan: _Plan):
     ns = _COMPILED.get(token)
     if ns is None:
         from ..numeric import compile_system
+
         ns = _COMPILED[token] = compile_system(plan.system)
     return ns
 
@@ -117,10 +125,18 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
     try:
         p = ns.parameter_vector(dict(values))
         q0, v0 = consistent_initial(ns, p, plan.initial)
-        traj = simulate(ns, plan.t_end, params=dict(values), q0=q0, qd0=v0,
-                        samples=plan.samples, rtol=plan.rtol, atol=plan.atol,
-                        max_step=plan.max_step)
-    except Exception as exc:    # a bad case is a row with its reason, not a dead sweep
+        traj = simulate(
+            ns,
+            plan.t_end,
+            params=dict(values),
+            q0=q0,
+            qd0=v0,
+            samples=plan.samples,
+            rtol=plan.rtol,
+            atol=plan.atol,
+            max_step=plan.max_step,
+        )
+    except Exception as exc:  # a bad case is a row with its reason, not a dead sweep
         for m in plan.measures:
             for col in m.columns(coords):
                 row[col] = math.nan
@@ -177,12 +193,15 @@ class SweepRun:
     stopped: str = ""
     path: Path | None = None
     notes: list[str] = field(default_factory=list)
-    ran_cases: list[int] = field(default_factory=list)   # the cases simulated now, in order
+    ran_cases: list[int] = field(default_factory=list)  # the cases simulated now, in order
 
     @property
     def measure_columns(self) -> list[str]:
-        return [c for c in self.columns
-                if c not in self.parameters and c not in ("case", "status", "message")]
+        return [
+            c
+            for c in self.columns
+            if c not in self.parameters and c not in ("case", "status", "message")
+        ]
 
     @property
     def counts(self) -> dict[str, int]:
@@ -222,15 +241,17 @@ def _grid(params: Mapping[str, object]) -> tuple[dict[str, np.ndarray], list[dic
         else:
             arr = np.atleast_1d(np.asarray(spec, dtype=float))
             if arr.ndim != 1 or not len(arr) or not np.all(np.isfinite(arr)):
-                raise SweepError(f"parameter `{name}`: values must be a non-empty "
-                                 "sequence of finite numbers")
+                raise SweepError(
+                    f"parameter `{name}`: values must be a non-empty sequence of finite numbers"
+                )
         values[name] = arr
     total = math.prod(len(a) for a in values.values())
     if total > MAX_CASES:
         raise SweepError(f"{total} cases exceed the limit of {MAX_CASES}")
     names = list(values)
-    cases = [dict(zip(names, (float(x) for x in combo)))
-             for combo in itertools.product(*values.values())]
+    cases = [
+        dict(zip(names, (float(x) for x in combo))) for combo in itertools.product(*values.values())
+    ]
     return values, cases
 
 
@@ -245,7 +266,7 @@ class _Bar:
         self.done += n
         now = time.monotonic()
         if self.shown and now - self.last < 0.1 and self.done < self.total:
-            return      # at most ten redraws a second
+            return  # at most ten redraws a second
         self.last = now
         frac = self.done / self.total if self.total else 1.0
         bar = "#" * int(25 * frac)
@@ -260,13 +281,23 @@ class _Bar:
             sys.stderr.flush()
 
 
-def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = ("liftoff",),
-              *, t_end: float, initial: Mapping[str, float] | None = None,
-              out: str | os.PathLike | None = None, resume: bool = False,
-              workers: int | None = None, scheduler=None, samples: int = 1001,
-              rtol: float | None = None, atol: float | None = None,
-              max_step: float | None = None,
-              progress: bool | Callable[[int, int], None] | None = None) -> SweepRun:
+def run_sweep(
+    problem,
+    params: Mapping[str, object],
+    measures: Sequence[str] = ("liftoff",),
+    *,
+    t_end: float,
+    initial: Mapping[str, float] | None = None,
+    out: str | os.PathLike | None = None,
+    resume: bool = False,
+    workers: int | None = None,
+    scheduler=None,
+    samples: int = 1001,
+    rtol: float | None = None,
+    atol: float | None = None,
+    max_step: float | None = None,
+    progress: bool | Callable[[int, int], None] | None = None,
+) -> SweepRun:
     """Run every combination of ``params`` and measure each case; see the module docstring.
 
     Parameters
@@ -290,39 +321,59 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
 
     system = problem if isinstance(problem, System) else load(problem)
     try:
-        check_options(t_end, 0.0, DEFAULT_RTOL if rtol is None else rtol,
-                       DEFAULT_ATOL if atol is None else atol, max_step, samples, None)
+        check_options(
+            t_end,
+            0.0,
+            DEFAULT_RTOL if rtol is None else rtol,
+            DEFAULT_ATOL if atol is None else atol,
+            max_step,
+            samples,
+            None,
+        )
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
     values, cases = _grid(params)
     system = _with_friction_parameters(system, list(values))
     ms = [parse_measure(m, system) for m in measures]
     if not ms:
-        raise SweepError("no measures; give at least one (e.g. liftoff, slip, "
-                         "max:lambda:<constraint>, final:<coordinate>)")
+        raise SweepError(
+            "no measures; give at least one (e.g. liftoff, slip, "
+            "max:lambda:<constraint>, final:<coordinate>)"
+        )
     if len({m.text for m in ms}) != len(ms):
         raise SweepError("a measure is given twice: " + ", ".join(m.text for m in ms))
     coords = [c.name for c in system.coordinates]
     init: list[tuple[str, float]] = []
     for name, x in (initial or {}).items():
         if name.rstrip("'") not in coords or name.count("'") > 1:
-            raise SweepError(f"initial value for unknown coordinate `{name}`; known: "
-                             + ", ".join(coords + [c + "'" for c in coords]))
+            raise SweepError(
+                f"initial value for unknown coordinate `{name}`; known: "
+                + ", ".join(coords + [c + "'" for c in coords])
+            )
         init.append((name, number(str(x), f"initial `{name}`")))
     columns = ["case", *values]
     for m in ms:
         columns += m.columns(coords)
     columns += ["status", "message"]
-    plan = _Plan(system, tuple(ms), float(t_end), tuple(init), int(samples),
-                 DEFAULT_RTOL if rtol is None else float(rtol),
-                 DEFAULT_ATOL if atol is None else float(atol), max_step, tuple(columns))
+    plan = _Plan(
+        system,
+        tuple(ms),
+        float(t_end),
+        tuple(init),
+        int(samples),
+        DEFAULT_RTOL if rtol is None else float(rtol),
+        DEFAULT_ATOL if atol is None else float(atol),
+        max_step,
+        tuple(columns),
+    )
 
     if scheduler is not None and isinstance(scheduler, str):
         try:
             import distributed  # noqa: F401
         except ImportError:
-            raise SweepError("a Dask scheduler needs dask.distributed: "
-                             "pip install 'lamech[dask]'") from None
+            raise SweepError(
+                "a Dask scheduler needs dask.distributed: pip install 'lamech[dask]'"
+            ) from None
     path = Path(out) if out is not None else None
     table = Table(path, columns)
     done = table.read(cases, list(values)) if resume else {}
@@ -331,11 +382,13 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
     t0 = time.perf_counter()
     token = uuid.uuid4().hex
     from ..numeric import compile_system
-    ns = _COMPILED[token] = compile_system(system)   # checks the model; forked workers reuse it
+
+    ns = _COMPILED[token] = compile_system(system)  # checks the model; forked workers reuse it
     compile_seconds = time.perf_counter() - t0
-    ns.parameter_vector(cases[0])     # overrides checked once, before any worker starts
-    run = SweepRun(values, ms, columns, [], kept=len(done), path=path,
-                   compile_seconds=compile_seconds)
+    ns.parameter_vector(cases[0])  # overrides checked once, before any worker starts
+    run = SweepRun(
+        values, ms, columns, [], kept=len(done), path=path, compile_seconds=compile_seconds
+    )
     if progress is None:
         progress = sys.stderr.isatty()
     bar: Callable[[int], None] | None
@@ -357,7 +410,7 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
     def record(row: dict) -> None:
         if row["status"] == "interrupted":
             raise KeyboardInterrupt
-        if row["case"] in results:    # recomputed after a worker died: already recorded
+        if row["case"] in results:  # recomputed after a worker died: already recorded
             return
         results[row["case"]] = row
         table.append(row)
@@ -377,8 +430,8 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
             run.backend = _run_pool(workers or _cpus(), token, plan, cases, todo, record)
     except KeyboardInterrupt:
         run.interrupted = True
-    except Exception as exc:    # a worker process died, the scheduler went away, ...
-        run.stopped = (f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
+    except Exception as exc:  # a worker process died, the scheduler went away, ...
+        run.stopped = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
     finally:
         if isinstance(bar, _Bar):
             bar.close()
@@ -386,7 +439,7 @@ def run_sweep(problem, params: Mapping[str, object], measures: Sequence[str] = (
         run.rows = [results[i] for i in sorted(results)]
         if len(results) == len(cases):
             table.finish(run.rows)
-        else:   # interrupted or a failure: the journal keeps what is done, for resume
+        else:  # interrupted or a failure: the journal keeps what is done, for resume
             table.close()
         run.seconds = time.perf_counter() - t0
     return run
@@ -405,8 +458,9 @@ def _run_pool(workers: int, token: str, plan: _Plan, cases, todo, record) -> str
 
     workers = min(workers, len(todo))
     blob = pickle.dumps(plan)
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
-                               initargs=(token, blob))
+    pool = ProcessPoolExecutor(
+        max_workers=workers, initializer=_worker_init, initargs=(token, blob)
+    )
     try:
         futures = [pool.submit(_pool_case, i, cases[i]) for i in todo]
         for fut in as_completed(futures):
@@ -422,15 +476,26 @@ def _run_dask(scheduler, token: str, plan: _Plan, cases, todo, record) -> str:
     try:
         from distributed import Client, as_completed
     except ImportError:
-        raise SweepError("a Dask scheduler needs dask.distributed: "
-                         "pip install 'lamech[dask]'") from None
+        raise SweepError(
+            "a Dask scheduler needs dask.distributed: pip install 'lamech[dask]'"
+        ) from None
     own = not isinstance(scheduler, Client)
     client = Client(scheduler) if own else scheduler
     try:
         blob = client.scatter(pickle.dumps(plan), broadcast=True)
-        futures = [client.submit(_dask_case, token, blob, i, cases[i], pure=False,
-                                 retries=2, key=f"lamech-case-{token}-{i}")
-                   for i in todo]
+        futures = [
+            client.submit(
+                _dask_case,
+                token,
+                blob,
+                i,
+                cases[i],
+                pure=False,
+                retries=2,
+                key=f"lamech-case-{token}-{i}",
+            )
+            for i in todo
+        ]
         try:
             for fut in as_completed(futures):
                 record(fut.result())
@@ -445,8 +510,14 @@ def _run_dask(scheduler, token: str, plan: _Plan, cases, todo, record) -> str:
             client.close()
 
 
-def sweep(problem, params: Mapping[str, object], measures: Sequence[str] = ("liftoff",),
-          *, output: str = "auto", **options):
+def sweep(
+    problem,
+    params: Mapping[str, object],
+    measures: Sequence[str] = ("liftoff",),
+    *,
+    output: str = "auto",
+    **options,
+):
     """Run a sweep (:func:`run_sweep`, same arguments) and return its table.
 
     ``output``: ``"auto"`` (a pandas DataFrame when pandas is installed, else a list of
@@ -459,10 +530,13 @@ def sweep(problem, params: Mapping[str, object], measures: Sequence[str] = ("lif
     if run.interrupted:
         raise KeyboardInterrupt
     if run.stopped:
-        where = f"; the finished rows are in {run.path}, resume=True completes it" \
-            if run.path else ""
-        raise SweepError(f"the sweep stopped ({run.stopped}) after {len(run.rows)} of "
-                         f"{math.prod(len(a) for a in run.parameters.values())} cases{where}")
+        where = (
+            f"; the finished rows are in {run.path}, resume=True completes it" if run.path else ""
+        )
+        raise SweepError(
+            f"the sweep stopped ({run.stopped}) after {len(run.rows)} of "
+            f"{math.prod(len(a) for a in run.parameters.values())} cases{where}"
+        )
     if output == "records":
         return run.records()
     if output == "xarray":
@@ -473,5 +547,3 @@ def sweep(problem, params: Mapping[str, object], measures: Sequence[str] = ("lif
         return run.to_dataframe()
     except ImportError:
         return run.records()
-
-

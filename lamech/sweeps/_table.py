@@ -15,6 +15,7 @@ from ._parse import SweepError
 
 __all__ = ["Table", "format_value"]
 
+
 def format_value(x) -> str:
     if isinstance(x, str):
         return x
@@ -31,8 +32,7 @@ class Table:
         self.path = path
         self.columns = list(columns)
         self.parquet = path is not None and path.suffix.lower() == ".parquet"
-        self.journal = (path.with_name(path.name + ".partial.csv") if self.parquet
-                        else path)
+        self.journal = path.with_name(path.name + ".partial.csv") if self.parquet else path
         self._fh = None
 
     def read(self, cases: list[dict], names: list[str]) -> dict[int, dict]:
@@ -45,26 +45,31 @@ class Table:
             source = self.journal
             with open(self.journal, newline="", encoding="utf-8") as fh:
                 text = fh.read()
-            complete = text if text.endswith("\n") else text[:text.rfind("\n") + 1]
+            complete = text if text.endswith("\n") else text[: text.rfind("\n") + 1]
             reader = csv.reader(complete.splitlines())
             header = next(reader, None)
             if header is None:
                 return {}
             if header != self.columns:
-                raise SweepError(f"cannot resume from {source}: its columns "
-                                 f"({', '.join(header)}) are not this sweep's "
-                                 f"({', '.join(self.columns)})")
+                raise SweepError(
+                    f"cannot resume from {source}: its columns "
+                    f"({', '.join(header)}) are not this sweep's "
+                    f"({', '.join(self.columns)})"
+                )
             for rec in reader:
                 if len(rec) == len(self.columns):
                     rows.append(dict(zip(self.columns, rec)))
         elif self.parquet and self.path.exists():
             source = self.path
             import pandas as pd
+
             df = pd.read_parquet(self.path)
             if list(df.columns) != self.columns:
-                raise SweepError(f"cannot resume from {source}: its columns "
-                                 f"({', '.join(df.columns)}) are not this sweep's "
-                                 f"({', '.join(self.columns)})")
+                raise SweepError(
+                    f"cannot resume from {source}: its columns "
+                    f"({', '.join(df.columns)}) are not this sweep's "
+                    f"({', '.join(self.columns)})"
+                )
             rows = df.to_dict("records")
         done: dict[int, dict] = {}
         for rec in rows:
@@ -74,9 +79,11 @@ class Table:
             row["message"] = "" if row["message"] is None else str(row["message"])
             case = int(row["case"])
             if not 0 <= case < len(cases) or any(row[n] != cases[case][n] for n in names):
-                raise SweepError(f"cannot resume from {source}: case {case} has "
-                                 + ", ".join(f"{n} = {row[n]!r}" for n in names)
-                                 + ", not a point of this sweep's grid (a different sweep?)")
+                raise SweepError(
+                    f"cannot resume from {source}: case {case} has "
+                    + ", ".join(f"{n} = {row[n]!r}" for n in names)
+                    + ", not a point of this sweep's grid (a different sweep?)"
+                )
             row["case"] = case
             done[case] = row
         return done
@@ -109,6 +116,7 @@ class Table:
             return
         if self.parquet:
             import pandas as pd
+
             pd.DataFrame(rows, columns=self.columns).to_parquet(self.path, index=False)
             self.journal.unlink(missing_ok=True)
             return
@@ -119,5 +127,3 @@ class Table:
             for row in rows:
                 w.writerow([format_value(row[c]) for c in self.columns])
         os.replace(tmp, self.path)
-
-

@@ -7,31 +7,56 @@ generalized and Cartesian constraint forces; all gathered by :func:`solve` into 
 """
 
 from ._conditions import (
-                          Root,
-                          Verdict,
-                          is_angle,
-                          lets_go_verdict,
-                          slip_points,
-                          slip_verdict,
-                          vanishing_points,
+    Root,
+    Verdict,
+    is_angle,
+    lets_go_verdict,
+    slip_points,
+    slip_verdict,
+    vanishing_points,
 )
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._reduce import (
-                          CLOSED_FORM_LIMIT,
-                          KKT_OPS,
-                          READABLE_OPS,
-                          ClosedForms,
-                          Reduction,
-                          closed_forms,
-                          eliminate,
-                          tidy,
+    CLOSED_FORM_LIMIT,
+    KKT_OPS,
+    READABLE_OPS,
+    ClosedForms,
+    Reduction,
+    closed_forms,
+    eliminate,
+    tidy,
 )
 from ._solution import Solution, readable, solve
 
-__all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError", "Reduction",
-           "eliminate", "ClosedForms", "closed_forms", "tidy", "CLOSED_FORM_LIMIT", "KKT_OPS",
-           "READABLE_OPS", "Integrals", "integrals", "Shell", "energy_shell", "Root", "Verdict",
-           "lets_go_verdict", "slip_verdict", "vanishing_points", "slip_points", "is_angle",
-           "generalized_forces", "cartesian_forces", "Solution", "solve", "readable"]
+__all__ = [
+    "Dynamics",
+    "dynamics",
+    "kkt_numeric",
+    "DegenerateConstraintsError",
+    "Reduction",
+    "eliminate",
+    "ClosedForms",
+    "closed_forms",
+    "tidy",
+    "CLOSED_FORM_LIMIT",
+    "KKT_OPS",
+    "READABLE_OPS",
+    "Integrals",
+    "integrals",
+    "Shell",
+    "energy_shell",
+    "Root",
+    "Verdict",
+    "lets_go_verdict",
+    "slip_verdict",
+    "vanishing_points",
+    "slip_points",
+    "is_angle",
+    "generalized_forces",
+    "cartesian_forces",
+    "Solution",
+    "solve",
+    "readable",
+]

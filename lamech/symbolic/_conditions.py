@@ -23,8 +23,15 @@ from ..expr import to_text
 from ..model import System
 from ._integrals import Shell
 
-__all__ = ["Root", "Verdict", "vanishing_points", "slip_points", "is_angle", "lets_go_verdict",
-           "slip_verdict"]
+__all__ = [
+    "Root",
+    "Verdict",
+    "vanishing_points",
+    "slip_points",
+    "is_angle",
+    "lets_go_verdict",
+    "slip_verdict",
+]
 
 GRID = 4001
 
@@ -40,8 +47,12 @@ class Root:
     degrees: float | None
 
     def to_json(self) -> dict:
-        return {"equation": self.equation, "coordinate": self.coordinate,
-                "value": self.value, "degrees": self.degrees}
+        return {
+            "equation": self.equation,
+            "coordinate": self.coordinate,
+            "value": self.value,
+            "degrees": self.degrees,
+        }
 
 
 def is_angle(system: System, symbol: sp.Symbol) -> bool:
@@ -50,8 +61,7 @@ def is_angle(system: System, symbol: sp.Symbol) -> bool:
     if not L.has(symbol):
         return False
     trig = (sp.sin, sp.cos, sp.tan)
-    stripped = L.replace(lambda e: isinstance(e, trig) and e.has(symbol),
-                         lambda e: sp.Dummy())
+    stripped = L.replace(lambda e: isinstance(e, trig) and e.has(symbol), lambda e: sp.Dummy())
     return not stripped.has(symbol)
 
 
@@ -63,6 +73,7 @@ def _numeric(system: System, expr: sp.Expr, x: sp.Symbol):
         with np.errstate(all="ignore"):
             out = np.asarray(f(np.asarray(v, dtype=float)), dtype=float)
         return np.broadcast_to(out, np.shape(v)).copy() if np.ndim(v) else float(out)
+
     return call
 
 
@@ -77,8 +88,11 @@ def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
     K = _numeric(system, shell.speed_squared, coord.symbol)
     dK = _numeric(system, sp.diff(shell.speed_squared, coord.symbol), coord.symbol)
     angle = is_angle(system, coord.symbol)
-    span = 2 * math.pi if angle else 100.0 * (1.0 + abs(x0) + max(
-        (abs(v) for v in pv.values()), default=1.0))
+    span = (
+        2 * math.pi
+        if angle
+        else 100.0 * (1.0 + abs(x0) + max((abs(v) for v in pv.values()), default=1.0))
+    )
     if v0 != 0:
         direction = 1.0 if v0 > 0 else -1.0
     else:
@@ -249,11 +263,16 @@ class Verdict:
     reason: str
     condition: str | None = None
     hint: str | None = None
-    constant: bool = False     # decided by a multiplier (or ratio) constant along the motion
+    constant: bool = False  # decided by a multiplier (or ratio) constant along the motion
 
     def to_json(self) -> dict:
-        return {"when": self.when, "reason": self.reason, "condition": self.condition,
-                "hint": self.hint, "constant": self.constant}
+        return {
+            "when": self.when,
+            "reason": self.reason,
+            "condition": self.condition,
+            "hint": self.hint,
+            "constant": self.constant,
+        }
 
 
 def _state_symbols(system: System) -> set:
@@ -286,8 +305,13 @@ def _depends_on_parameters(expr: sp.Expr, system: System) -> bool:
     return bool(expr.free_symbols & {p.symbol for p in system.parameters})
 
 
-def lets_go_verdict(system: System, name: str, multiplier: sp.Expr | None,
-                    roots: list[Root], shell_reason: str | None) -> Verdict:
+def lets_go_verdict(
+    system: System,
+    name: str,
+    multiplier: sp.Expr | None,
+    roots: list[Root],
+    shell_reason: str | None,
+) -> Verdict:
     """Whether and where unilateral constraint ``name`` lets go (lambda < 0 or = 0)."""
     kind = "lets go"
     if multiplier is None:
@@ -296,32 +320,46 @@ def lets_go_verdict(system: System, name: str, multiplier: sp.Expr | None,
     lam_name = f"lambda_{name}"
     scale = 1e-12 * (1 + max((abs(v) for v in system.parameter_values.values()), default=1))
     constant = not (sp.sympify(multiplier).free_symbols & _state_symbols(system))
-    cond = (f"{to_text(lam0)} >= 0" if _depends_on_parameters(lam0, system) else None)
+    cond = f"{to_text(lam0)} >= 0" if _depends_on_parameters(lam0, system) else None
     if value is not None and value < -scale:
-        at_rest = all(sp.sympify(c.initial_velocity).xreplace(system.parameter_values) == 0
-                      for c in system.coordinates)
+        at_rest = all(
+            sp.sympify(c.initial_velocity).xreplace(system.parameter_values) == 0
+            for c in system.coordinates
+        )
         hint = None
         if at_rest:
-            hint = (f"at rest the constraint would have to pull ({lam_name} < 0): if it is "
-                    "meant to push or hold (a floor, a taut string), it is written the wrong "
-                    "way round; write f with its allowed side f >= 0 (e.g. l - r for a "
-                    "string of length l)")
-        return Verdict(kind, "at the start", f"{lam_name} = {value:.6g} < 0 at the initial "
-                       f"state ({lam_name} = {to_text(lam0)} there)", cond, hint)
+            hint = (
+                f"at rest the constraint would have to pull ({lam_name} < 0): if it is "
+                "meant to push or hold (a floor, a taut string), it is written the wrong "
+                "way round; write f with its allowed side f >= 0 (e.g. l - r for a "
+                "string of length l)"
+            )
+        return Verdict(
+            kind,
+            "at the start",
+            f"{lam_name} = {value:.6g} < 0 at the initial "
+            f"state ({lam_name} = {to_text(lam0)} there)",
+            cond,
+            hint,
+        )
     if constant and value is not None:
-        return Verdict(kind, "never", f"{lam_name} is constant: {to_text(multiplier)} = "
-                       f"{value:.6g} > 0", cond, constant=True)
+        return Verdict(
+            kind,
+            "never",
+            f"{lam_name} is constant: {to_text(multiplier)} = {value:.6g} > 0",
+            cond,
+            constant=True,
+        )
     if roots:
-        return Verdict(kind, "at the roots", f"{lam_name} = 0 where the motion reaches it",
-                       cond)
+        return Verdict(kind, "at the roots", f"{lam_name} = 0 where the motion reaches it", cond)
     if shell_reason is None:
-        return Verdict(kind, "never", f"{lam_name} > 0 in the whole range the motion "
-                       "reaches", cond)
+        return Verdict(kind, "never", f"{lam_name} > 0 in the whole range the motion reaches", cond)
     return Verdict(kind, "not determined", shell_reason, cond)
 
 
-def slip_verdict(system: System, name: str, multipliers: dict, roots: list[Root],
-                 shell_reason: str | None) -> Verdict:
+def slip_verdict(
+    system: System, name: str, multipliers: dict, roots: list[Root], shell_reason: str | None
+) -> Verdict:
     """Whether and where friction constraint ``name`` starts to slip (|lambda| > mu N)."""
     kind = "slips"
     fr = system.constraint(name).friction
@@ -336,27 +374,52 @@ def slip_verdict(system: System, name: str, multipliers: dict, roots: list[Root]
     except (TypeError, ValueError):
         return Verdict(kind, "not determined", "mu is not a number at the parameter values")
     if f_value is None or n_value is None or n_value <= 0:
-        return Verdict(kind, "not determined", f"the normal force lambda_{fr.normal} is not "
-                       "positive at the start" if n_value is not None else
-                       "the multipliers cannot be evaluated at the start")
+        return Verdict(
+            kind,
+            "not determined",
+            f"the normal force lambda_{fr.normal} is not positive at the start"
+            if n_value is not None
+            else "the multipliers cannot be evaluated at the start",
+        )
     sign = 1 if f_value >= 0 else -1
     ratio0 = tidy_light(sign * lf0 / ln0)
     ratio_value = abs(f_value) / n_value
-    cond = f"{to_text(fr.mu)} >= {to_text(ratio0)}" if _depends_on_parameters(
-        ratio0, system) or _depends_on_parameters(mu, system) else None
+    cond = (
+        f"{to_text(fr.mu)} >= {to_text(ratio0)}"
+        if _depends_on_parameters(ratio0, system) or _depends_on_parameters(mu, system)
+        else None
+    )
     ratio = sp.sympify(lf) / sp.sympify(ln)
     constant = not (ratio.free_symbols & _state_symbols(system))
     needed = f"|lambda_{name}|/lambda_{fr.normal} = {to_text(ratio0)} = {ratio_value:.6g}"
     if ratio_value > mu_value * (1 + 1e-12):
-        return Verdict(kind, "at the start", f"{needed} > mu = {mu_value:.6g} at the "
-                       "initial state: the friction needed exceeds mu N", cond)
+        return Verdict(
+            kind,
+            "at the start",
+            f"{needed} > mu = {mu_value:.6g} at the "
+            "initial state: the friction needed exceeds mu N",
+            cond,
+        )
     if constant:
-        return Verdict(kind, "never", f"the ratio is constant: {needed} <= mu = "
-                       f"{mu_value:.6g}", cond, constant=True)
+        return Verdict(
+            kind,
+            "never",
+            f"the ratio is constant: {needed} <= mu = {mu_value:.6g}",
+            cond,
+            constant=True,
+        )
     if roots:
-        return Verdict(kind, "at the roots", f"|lambda_{name}| = mu lambda_{fr.normal} "
-                       "where the motion reaches it", cond)
+        return Verdict(
+            kind,
+            "at the roots",
+            f"|lambda_{name}| = mu lambda_{fr.normal} where the motion reaches it",
+            cond,
+        )
     if shell_reason is None:
-        return Verdict(kind, "never", f"|lambda_{name}| < mu lambda_{fr.normal} in the "
-                       "whole range the motion reaches", cond)
+        return Verdict(
+            kind,
+            "never",
+            f"|lambda_{name}| < mu lambda_{fr.normal} in the whole range the motion reaches",
+            cond,
+        )
     return Verdict(kind, "not determined", shell_reason, cond)

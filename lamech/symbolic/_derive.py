@@ -64,25 +64,33 @@ def dynamics(system: System) -> Dynamics:
     L = system.L
     p = [sp.diff(L, v) for v in qd]
     M = sp.Matrix(n, n, lambda i, j: sp.diff(p[i], qd[j]))
-    h = sp.Matrix([
-        sum((sp.diff(p[i], q[k]) * qd[k] for k in range(n) if p[i].has(q[k])), sp.Integer(0))
-        + sp.diff(p[i], system.t) - sp.diff(L, q[i])
-        for i in range(n)])
+    h = sp.Matrix(
+        [
+            sum((sp.diff(p[i], q[k]) * qd[k] for k in range(n) if p[i].has(q[k])), sp.Integer(0))
+            + sp.diff(p[i], system.t)
+            - sp.diff(L, q[i])
+            for i in range(n)
+        ]
+    )
     Q = sp.Matrix(list(system.forces) if system.forces else [0] * n)
     A, F = constraint_jacobian(system)
     m = len(system.constraints)
-    gamma = sp.Matrix([
-        sum((sp.diff(F[j], q[k]) * qd[k] for k in range(n) if F[j].has(q[k])), sp.Integer(0))
-        + sp.diff(F[j], system.t)
-        for j in range(m)])
+    gamma = sp.Matrix(
+        [
+            sum((sp.diff(F[j], q[k]) * qd[k] for k in range(n) if F[j].has(q[k])), sp.Integer(0))
+            + sp.diff(F[j], system.t)
+            for j in range(m)
+        ]
+    )
     lam = sp.Matrix(system.multipliers)
     acc = sp.Matrix(qdd)
     lhs = M * acc + h - (A.T * lam if m else sp.zeros(n, 1)) - Q
     return Dynamics(system, M, h, Q, A, gamma, F, tuple(lhs))
 
 
-def kkt_numeric(dyn: Dynamics, state: dict, active: list[int] | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
+def kkt_numeric(
+    dyn: Dynamics, state: dict, active: list[int] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Solve the KKT system numerically at ``state`` (symbols -> numbers, parameters too).
 
     Returns (q'', lambda) for the ``active`` constraints (all by default).
@@ -110,12 +118,17 @@ def _singular_message(dyn: Dynamics, M: np.ndarray, A: np.ndarray, rows: list[in
     names = [dyn.system.constraints[i].name for i in rows]
     group = dependent_group(A, names) if rows else None
     if group:
-        return ("constraints " + " and ".join(f"`{n}`" for n in group)
-                + " are dependent: forces cannot be uniquely determined")
+        return (
+            "constraints "
+            + " and ".join(f"`{n}`" for n in group)
+            + " are dependent: forces cannot be uniquely determined"
+        )
     coords = [c.name for c in dyn.system.coordinates]
     # M singular on the motions the constraints allow: name a coordinate without inertia.
     _, s, vt = np.linalg.svd(M)
     weak = [coords[int(np.argmax(np.abs(vt[-1])))]] if s[-1] < 1e-12 * max(1, s[0]) else []
     hint = f" (coordinate `{weak[0]}` has no inertia)" if weak else ""
-    return ("the KKT matrix is singular: the mass matrix gives no inertia to a motion the "
-            f"constraints allow{hint}; add a mass or a constraint")
+    return (
+        "the KKT matrix is singular: the mass matrix gives no inertia to a motion the "
+        f"constraints allow{hint}; add a mass or a constraint"
+    )

@@ -27,8 +27,10 @@ def generalized_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict
     out = {}
     for j, c in enumerate(dyn.system.constraints):
         lam = multipliers.get(c.name, c.multiplier)
-        out[c.name] = {coord.name: tidy(red.apply(lam * dyn.A[j, i]))
-                       for i, coord in enumerate(dyn.system.coordinates)}
+        out[c.name] = {
+            coord.name: tidy(red.apply(lam * dyn.A[j, i]))
+            for i, coord in enumerate(dyn.system.coordinates)
+        }
     return out
 
 
@@ -41,8 +43,11 @@ def _probe_states(system: System, red: Reduction, count: int = 2) -> list[dict]:
         env = dict(pv)
         env[system.t] = 0.3 * k
         for c in red.independent:
-            env[c.symbol] = float(sp.sympify(c.initial).subs(pv)) + 0.37 * (k + 1) \
+            env[c.symbol] = (
+                float(sp.sympify(c.initial).subs(pv))
+                + 0.37 * (k + 1)
                 + 0.05 * float(rng.standard_normal())
+            )
             env[c.velocity] = 0.4 + 0.1 * k
         envs.append(env)
     return envs
@@ -81,7 +86,8 @@ def cartesian_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
         residual = tidy(sp.sqrt(sum((e**2 for e in res_vec), sp.Integer(0))))
         directions = spec.along or tuple(
             (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
-            for i, axis in enumerate("xyz"[:dim]))
+            for i, axis in enumerate("xyz"[:dim])
+        )
         comps: dict = {}
         for name, d in directions:
             dvec = sp.Matrix(d).applyfunc(red.apply)

@@ -40,7 +40,7 @@ class Integrals:
     energy: sp.Expr | None
     is_jacobi: bool
     momenta: dict
-    reason: str | None        # why the energy is not conserved
+    reason: str | None  # why the energy is not conserved
 
     @property
     def conserved(self) -> list[sp.Expr]:
@@ -78,8 +78,9 @@ def _is_zero(e: sp.Expr) -> bool:
 
 
 def _remaining(dyn: Dynamics, red: Reduction) -> list[int]:
-    return [j for j, c in enumerate(dyn.system.constraints)
-            if c.name not in red.eliminated_constraints]
+    return [
+        j for j, c in enumerate(dyn.system.constraints) if c.name not in red.eliminated_constraints
+    ]
 
 
 def integrals(dyn: Dynamics, red: Reduction) -> Integrals:
@@ -151,8 +152,9 @@ class Shell:
     omitted: dict
 
 
-def energy_shell(dyn: Dynamics, red: Reduction, ints: Integrals, forms: ClosedForms
-                 ) -> tuple[Shell | None, str | None]:
+def energy_shell(
+    dyn: Dynamics, red: Reduction, ints: Integrals, forms: ClosedForms
+) -> tuple[Shell | None, str | None]:
     """The shell (or None and the reason) from the integrals and the initial state."""
     system = dyn.system
     if ints.energy is None:

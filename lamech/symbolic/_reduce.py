@@ -28,8 +28,15 @@ except ImportError:  # pragma: no cover - SymPy 1.12
 from ..model import Coordinate, System, open_at_start, time_derivative
 from ._derive import Dynamics
 
-__all__ = ["Reduction", "eliminate", "ClosedForms", "closed_forms", "tidy",
-           "CLOSED_FORM_LIMIT", "SIMPLIFY_OPS"]
+__all__ = [
+    "Reduction",
+    "eliminate",
+    "ClosedForms",
+    "closed_forms",
+    "tidy",
+    "CLOSED_FORM_LIMIT",
+    "SIMPLIFY_OPS",
+]
 
 CLOSED_FORM_LIMIT = 8
 """Largest number of unknowns (independent accelerations + multipliers) solved symbolically."""
@@ -136,9 +143,11 @@ def eliminate(system: System) -> Reduction:
     n, m = len(system.coordinates), len(system.constraints)
     m_hol = sum(1 for c in system.constraints if c.holonomic)
     if n - m_hol + m > CLOSED_FORM_LIMIT:
-        note = (f"{n} coordinates and {m} constraints: too large for closed forms (at least "
-                f"{n - m_hol + m} unknowns; the limit is {CLOSED_FORM_LIMIT}), so no "
-                "coordinate was eliminated")
+        note = (
+            f"{n} coordinates and {m} constraints: too large for closed forms (at least "
+            f"{n - m_hol + m} unknowns; the limit is {CLOSED_FORM_LIMIT}), so no "
+            "coordinate was eliminated"
+        )
         return Reduction(tuple(system.coordinates), (), {}, (), (note,))
     opened = open_at_start(system)
     env0 = _initial_numeric(system)
@@ -171,13 +180,17 @@ def eliminate(system: System) -> Reduction:
                 # state; a single root is still the contact's, two are ambiguous.
                 good = roots if len(roots) == 1 else []
                 if not good:
-                    notes.append(f"constraint `{con.name}` is open at the start, so the "
-                                 f"branch of its solution for `{coord.name}` is unknown; "
-                                 f"kept `{coord.name}`")
+                    notes.append(
+                        f"constraint `{con.name}` is open at the start, so the "
+                        f"branch of its solution for `{coord.name}` is unknown; "
+                        f"kept `{coord.name}`"
+                    )
                     continue
             elif len(good) != 1 or (len(roots) == 2 and _same(roots, env0)):
-                notes.append(f"constraint `{con.name}`: the initial state sits on a branch "
-                             f"point of its solution for `{coord.name}`; kept `{coord.name}`")
+                notes.append(
+                    f"constraint `{con.name}`: the initial state sits on a branch "
+                    f"point of its solution for `{coord.name}`; kept `{coord.name}`"
+                )
                 continue
             sol = good[0]
             positions = {k: v.xreplace({coord.symbol: sol}) for k, v in positions.items()}
@@ -187,12 +200,20 @@ def eliminate(system: System) -> Reduction:
             done = True
             break
         if not done:
-            free = [c.name for c in system.coordinates if f.has(c.symbol)
-                    and not c.keep and c.symbol not in positions]
-            why = "no closed-form solution for " + ", ".join(free) if free else \
-                "its coordinates are kept or already eliminated"
-            notes.append(f"constraint `{con.name}` was not used to eliminate a coordinate "
-                         f"({why}); results keep the full coordinates")
+            free = [
+                c.name
+                for c in system.coordinates
+                if f.has(c.symbol) and not c.keep and c.symbol not in positions
+            ]
+            why = (
+                "no closed-form solution for " + ", ".join(free)
+                if free
+                else "its coordinates are kept or already eliminated"
+            )
+            notes.append(
+                f"constraint `{con.name}` was not used to eliminate a coordinate "
+                f"({why}); results keep the full coordinates"
+            )
     substitution: dict = {}
     eliminated = []
     for coord in order:
@@ -220,21 +241,24 @@ class ClosedForms:
     """q'' of the independent coordinates and every multiplier, as functions of the
     independent coordinates, velocities, t and parameters (or ``None`` where skipped)."""
 
-    accelerations: dict          # Symbol (independent acceleration) -> Expr
-    multipliers: dict            # constraint name -> Expr
-    skipped: str | None = None   # why closed forms were not attempted
-    singular: bool = False       # the KKT matrix is singular identically
+    accelerations: dict  # Symbol (independent acceleration) -> Expr
+    multipliers: dict  # constraint name -> Expr
+    skipped: str | None = None  # why closed forms were not attempted
+    singular: bool = False  # the KKT matrix is singular identically
 
 
 def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     """Solve the substituted KKT system symbolically (bounded; see module docstring)."""
     system = dyn.system
-    rest = [j for j, c in enumerate(system.constraints) if c.name not in
-            red.eliminated_constraints]
+    rest = [j for j, c in enumerate(system.constraints) if c.name not in red.eliminated_constraints]
     unknowns = [c.acceleration for c in red.independent] + system.multipliers
     if len(unknowns) > CLOSED_FORM_LIMIT:
-        return ClosedForms({}, {}, f"system too large for closed forms ({len(unknowns)} "
-                                   f"unknowns; the limit is {CLOSED_FORM_LIMIT})")
+        return ClosedForms(
+            {},
+            {},
+            f"system too large for closed forms ({len(unknowns)} "
+            f"unknowns; the limit is {CLOSED_FORM_LIMIT})",
+        )
     qdd = sp.Matrix(system.qdd)
     eqs = [red.apply(e) for e in dyn.equations]
     eqs += [red.apply((dyn.A[j, :] * qdd)[0] + dyn.gamma[j]) for j in rest]
@@ -243,25 +267,33 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     rhs = -E.xreplace({u: 0 for u in unknowns})
     size = sum(sp.count_ops(e) for e in list(K) + list(rhs))
     if size > KKT_OPS:
-        return ClosedForms({}, {}, f"substituted KKT system too large for closed forms "
-                                   f"({size} operations; the limit is {KKT_OPS})")
+        return ClosedForms(
+            {},
+            {},
+            f"substituted KKT system too large for closed forms "
+            f"({size} operations; the limit is {KKT_OPS})",
+        )
     K = K.applyfunc(_pre)
     rhs = rhs.applyfunc(_pre)
     try:
         sol = _solve_linear(K, rhs)
     except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):
-        return ClosedForms({}, {}, "the substituted KKT matrix is singular symbolically",
-                           singular=True)
+        return ClosedForms(
+            {}, {}, "the substituted KKT matrix is singular symbolically", singular=True
+        )
     sol = [tidy(s) for s in sol]
     biggest = max((sp.count_ops(s) for s in sol), default=0)
     if biggest > READABLE_OPS:
-        return ClosedForms({}, {}, f"closed forms too large to be useful ({biggest} "
-                                   f"operations; the limit is {READABLE_OPS})")
+        return ClosedForms(
+            {},
+            {},
+            f"closed forms too large to be useful ({biggest} "
+            f"operations; the limit is {READABLE_OPS})",
+        )
     nacc = len(red.independent)
     acc = {c.acceleration: sol[i] for i, c in enumerate(red.independent)}
     velocities = [c.velocity for c in red.independent]
-    lam = {c.name: present(sol[nacc + j], velocities)
-           for j, c in enumerate(system.constraints)}
+    lam = {c.name: present(sol[nacc + j], velocities) for j, c in enumerate(system.constraints)}
     return ClosedForms(acc, lam)
 
 

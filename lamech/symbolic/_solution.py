@@ -37,9 +37,9 @@ class Solution:
     forces: dict
     initial_multipliers: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
-    lets_go: dict = field(default_factory=dict)    # unilateral constraint -> Verdict
-    slipping: dict = field(default_factory=dict)   # friction constraint -> Verdict
-    readable_equations: tuple = ()   # the equations as a student would simplify them
+    lets_go: dict = field(default_factory=dict)  # unilateral constraint -> Verdict
+    slipping: dict = field(default_factory=dict)  # friction constraint -> Verdict
+    readable_equations: tuple = ()  # the equations as a student would simplify them
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -62,9 +62,11 @@ class Solution:
 
     @property
     def reduced_equations(self) -> list[sp.Expr]:
-        return [c.acceleration - self.closed.accelerations[c.acceleration]
-                for c in self.reduction.independent
-                if c.acceleration in self.closed.accelerations]
+        return [
+            c.acceleration - self.closed.accelerations[c.acceleration]
+            for c in self.reduction.independent
+            if c.acceleration in self.closed.accelerations
+        ]
 
     @property
     def multipliers(self) -> dict[str, sp.Expr]:
@@ -103,11 +105,14 @@ class Solution:
         # one import against the layer order (symbolic -> present), declared as an
         # exception in the import-linter contract. Everywhere else: lamech.to_latex(sol).
         from ..present import to_latex
+
         return to_latex(self, standalone_math=True)
 
     def __repr__(self) -> str:
-        return f"<Solution of {self.system.title!r}: {len(self.coordinates)} coordinates, " \
-               f"{len(self.system.constraints)} constraints>"
+        return (
+            f"<Solution of {self.system.title!r}: {len(self.coordinates)} coordinates, "
+            f"{len(self.system.constraints)} constraints>"
+        )
 
 
 def solve(system: System) -> Solution:
@@ -121,8 +126,10 @@ def solve(system: System) -> Solution:
     if forms.singular:
         raise DegenerateConstraintsError(_singular_message(system, dyn))
     if forms.skipped:
-        notes.append(forms.skipped + "; M, h, A, gamma are given and the multipliers are "
-                     "evaluated numerically at the initial state")
+        notes.append(
+            forms.skipped + "; M, h, A, gamma are given and the multipliers are "
+            "evaluated numerically at the initial state"
+        )
         state = {**system.parameter_values, system.t: 0.0, **initial_values(system)}
         try:
             _, lam = kkt_numeric(dyn, state)
@@ -135,10 +142,12 @@ def solve(system: System) -> Solution:
     opened = open_at_start(system)
     if opened:
         listed = ", ".join(f"`{k}` (f = {v:.6g})" for k, v in opened.items())
-        notes.append(f"contact {listed} is open at the start: the equations, multipliers and "
-                     "forces hold while it is closed; the energy shell, lift-off and slip "
-                     "points need a start in contact (lamech simulate follows the motion "
-                     "through the landing)")
+        notes.append(
+            f"contact {listed} is open at the start: the equations, multipliers and "
+            "forces hold while it is closed; the energy shell, lift-off and slip "
+            "points need a start in contact (lamech simulate follows the motion "
+            "through the landing)"
+        )
         shell, why = None, "a unilateral contact is open at the start"
     vanishes: dict[str, list[Root]] = {}
     slips: dict[str, list[Root]] = {}
@@ -150,13 +159,29 @@ def solve(system: System) -> Solution:
     if shell:
         for name, reason in shell.omitted.items():
             notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
-    lets_go, slipping = _verdicts(system, forms, initial, opened, vanishes, slips,
-                                  None if shell else why)
+    lets_go, slipping = _verdicts(
+        system, forms, initial, opened, vanishes, slips, None if shell else why
+    )
     gen = generalized_forces(dyn, red, forms.multipliers)
     cart = cartesian_forces(dyn, red, forms.multipliers)
-    return Solution(system, dyn, red, forms, ints, shell, why, vanishes, slips, gen, cart,
-                    initial, tuple(notes), lets_go, slipping,
-                    tuple(readable(e, system) for e in dyn.equations))
+    return Solution(
+        system,
+        dyn,
+        red,
+        forms,
+        ints,
+        shell,
+        why,
+        vanishes,
+        slips,
+        gen,
+        cart,
+        initial,
+        tuple(notes),
+        lets_go,
+        slipping,
+        tuple(readable(e, system) for e in dyn.equations),
+    )
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:
@@ -168,16 +193,25 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
     if ops > 4 * SIMPLIFY_OPS:
         return equation
     try:
-        new = sp.collect(sp.expand(equation), system.qdd + system.multipliers,
-                         func=lambda c: sp.factor_terms(sp.trigsimp(c)))
+        new = sp.collect(
+            sp.expand(equation),
+            system.qdd + system.multipliers,
+            func=lambda c: sp.factor_terms(sp.trigsimp(c)),
+        )
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return equation
     return new if sp.count_ops(new) <= 0.75 * ops else equation
 
 
-def _verdicts(system: System, forms: ClosedForms, initial: dict, opened: dict,
-              vanishes: dict, slips: dict, shell_reason: str | None
-              ) -> tuple[dict[str, Verdict], dict[str, Verdict]]:
+def _verdicts(
+    system: System,
+    forms: ClosedForms,
+    initial: dict,
+    opened: dict,
+    vanishes: dict,
+    slips: dict,
+    shell_reason: str | None,
+) -> tuple[dict[str, Verdict], dict[str, Verdict]]:
     """Does each unilateral constraint let go, each friction constraint slip: at the
     start, never, at the roots, or not determined (see :class:`Verdict`)."""
     lets_go: dict[str, Verdict] = {}
@@ -187,15 +221,19 @@ def _verdicts(system: System, forms: ClosedForms, initial: dict, opened: dict,
             continue
         if c.unilateral:
             if forms.multipliers:
-                lets_go[c.name] = lets_go_verdict(system, c.name, forms.multipliers[c.name],
-                                                  vanishes[c.name], shell_reason)
+                lets_go[c.name] = lets_go_verdict(
+                    system, c.name, forms.multipliers[c.name], vanishes[c.name], shell_reason
+                )
             elif c.name in initial and initial[c.name] < 0:
-                lets_go[c.name] = Verdict("lets go", "at the start",
-                                          f"lambda_{c.name} = {initial[c.name]:.6g} < 0 at "
-                                          "the initial state (numeric)")
+                lets_go[c.name] = Verdict(
+                    "lets go",
+                    "at the start",
+                    f"lambda_{c.name} = {initial[c.name]:.6g} < 0 at the initial state (numeric)",
+                )
         if c.friction is not None and c.friction.normal not in opened and forms.multipliers:
-            slipping[c.name] = slip_verdict(system, c.name, forms.multipliers,
-                                            slips[c.name], shell_reason)
+            slipping[c.name] = slip_verdict(
+                system, c.name, forms.multipliers, slips[c.name], shell_reason
+            )
     return lets_go, slipping
 
 
@@ -212,7 +250,9 @@ def _singular_message(system: System, dyn: Dynamics) -> str:
     missing = [c for c in system.coordinates if not system.T.has(c.velocity)]
     if missing:
         names = ", ".join(f"`{c.name}'`" for c in missing)
-        detail += (f"; {names} does not appear in T, so nothing gives "
-                   f"`{missing[0].name}` inertia: check T for a missing prime "
-                   f"(e.g. {missing[0].name}'^2 where {missing[0].name}^2 was written)")
+        detail += (
+            f"; {names} does not appear in T, so nothing gives "
+            f"`{missing[0].name}` inertia: check T for a missing prime "
+            f"(e.g. {missing[0].name}'^2 where {missing[0].name}^2 was written)"
+        )
     return "the equations of motion cannot be solved for the accelerations: " + detail
