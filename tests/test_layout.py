@@ -70,3 +70,31 @@ def test_tests_use_public_names_only():
             continue
         for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             assert not private.search(line), f"{path.name}:{number}: {line.strip()}"
+
+
+def _tool(name: str) -> str:
+    exe = shutil.which(name, path=str(Path(sys.executable).parent))
+    if exe is None:
+        pytest.skip(f"{name} is not installed (it is in the test extra)")
+    return exe
+
+
+def test_ruff_check_and_format_are_clean():
+    for args in (["check", "lamech"], ["format", "--check", "lamech"]):
+        out = subprocess.run([_tool("ruff"), *args], capture_output=True, text=True,
+                             cwd=ROOT)
+        assert out.returncode == 0, out.stdout + out.stderr
+
+
+@pytest.mark.slow
+def test_mypy_is_clean():
+    out = subprocess.run([_tool("mypy")], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_the_version_is_in_one_place():
+    import lamech
+    text = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    assert 'dynamic = ["version"]' in text and "lamech._version.__version__" in text
+    assert re.fullmatch(r"\d+\.\d+\.\d+", lamech.__version__)
+    assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License")
