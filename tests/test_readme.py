@@ -36,3 +36,10 @@ def test_python_snippet_prints_what_its_comments_say(snippet):
     comments = [line.split("#", 1)[1].strip() for line in snippet.splitlines()
                 if line.startswith("print(") and "#" in line]
     assert printed == comments
+
+
+def test_latex_sample_is_what_lamech_prints():
+    """The README's `--latex` block is the whole real output (it once differed)."""
+    block = next(b for b in _blocks("console") if b.startswith("$ ./run solve pendulum --latex"))
+    shown = block.split("\n", 1)[1]
+    assert shown.strip() == lamech.to_latex(lamech.solve(lamech.load("pendulum"))).strip()
