@@ -37,7 +37,7 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
         if np.any(np.isfinite(arr)) and not np.allclose(arr, traj.lambdas[:, j], equal_nan=True):
             ax1.plot(t, arr, lw=1.0, ls="--", label=f"{c} force along {d}")
     ax1.axhline(0.0, color="0.6", lw=0.8)
-    ax1.set_ylabel("multiplier / force (problem units)")
+    ax1.set_ylabel("multiplier λ / constraint force")  # units: those of the file
     ax1.set_title(title or traj.title or "lamech simulation")
     seen = set()
     ymax = ax1.get_ylim()[1]
@@ -61,7 +61,7 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     ax1.grid(alpha=0.25)
     for i, name in enumerate(traj.coordinates):
         ax2.plot(t, traj.q[:, i], lw=1.3, label=name)
-    ax2.set_xlabel("time t (s)")
+    ax2.set_xlabel("time t")
     ax2.set_ylabel("coordinates")
     ax2.legend(fontsize=8, loc="best")
     ax2.grid(alpha=0.25)
