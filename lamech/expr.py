@@ -313,15 +313,14 @@ class _Builder:
             return out
         # A long sum (a + b - c + ...) is one chain, not deep nesting: walk it iteratively.
         group = _GROUP[type(op)]
-        items: list[tuple[ast.AST | None, ast.AST]] = []  # (operator's node, operand)
+        items: list[tuple[ast.BinOp, ast.AST]] = []  # (operator's node, right operand)
         current: ast.AST = node
         while isinstance(current, ast.BinOp) and _GROUP.get(type(current.op)) == group:
             items.append((current, current.right))
             current = current.left
-        items.append((None, current))
         items.reverse()
-        out = self.build(items[0][1])
-        for owner, operand in items[1:]:
+        out = self.build(current)  # the leftmost operand
+        for owner, operand in items:
             value = self.build(operand)
             kind = type(owner.op)
             if kind is ast.Add:

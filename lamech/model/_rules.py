@@ -443,21 +443,24 @@ def _name_issues(s: System) -> Issues:
         elif c.name in seen:
             out.append((where, f"`{c.name}` is declared twice as a coordinate; rename one"))
         seen[c.name] = "coordinate"
-    for label, items in (("constraints", s.constraints), ("bodies", s.bodies)):
+    for label, names in (
+        ("constraints", [con.name for con in s.constraints]),
+        ("bodies", [b.name for b in s.bodies]),
+    ):
         first: dict[str, int] = {}
         what = "constraint" if label == "constraints" else "body"
-        for i, item in enumerate(items):
-            if item.name in first:
+        for i, name in enumerate(names):
+            if name in first:
                 out.append(
                     (
-                        f"{label}[{i + 1}] `{item.name}` name",
-                        f"the name `{item.name}` "
-                        f"is already used by {label}[{first[item.name] + 1}]; each {what} "
+                        f"{label}[{i + 1}] `{name}` name",
+                        f"the name `{name}` "
+                        f"is already used by {label}[{first[name] + 1}]; each {what} "
                         "needs a unique name",
                     )
                 )
             else:
-                first[item.name] = i
+                first[name] = i
     return out
 
 
@@ -491,17 +494,17 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
     else:
         for c, Q in zip(s.coordinates, s.forces):
             check(Q, "forces", f"forces.{c.name}")
-    for i, c in enumerate(s.constraints):
-        where = f"constraints[{i + 1}] `{c.name}`"
-        field = "f" if c.holonomic else "velocity"
-        check(c.expr, field, f"{where} {field}")
-        check(c.restitution, "restitution", f"{where} restitution")
-        if c.friction is not None:
-            check(c.friction.mu, "mu", f"{where} friction.mu")
-        if c.force is not None:
-            for x in c.force.at:
+    for i, con in enumerate(s.constraints):
+        where = f"constraints[{i + 1}] `{con.name}`"
+        field = "f" if con.holonomic else "velocity"
+        check(con.expr, field, f"{where} {field}")
+        check(con.restitution, "restitution", f"{where} restitution")
+        if con.friction is not None:
+            check(con.friction.mu, "mu", f"{where} friction.mu")
+        if con.force is not None:
+            for x in con.force.at:
                 check(x, "at", f"{where} force.at")
-            for name, vec in c.force.along:
+            for name, vec in con.force.along:
                 for x in vec:
                     check(x, "along", f"{where} force.along.{name}")
     for i, b in enumerate(s.bodies):
@@ -662,14 +665,14 @@ def _initial_issues(s: System) -> Issues:
     tol = INITIAL_TOLERANCE * scale
     # Floats once, not in each value() call (the 30-link chain: 120 entries, 60 calls).
     env = {sym: sp.Float(v, 30) for sym, v in {**pv, **state, s.t: 0.0}.items()}
-    for i, c in enumerate(s.constraints):
-        where = f"constraints[{i + 1}] `{c.name}`"
+    for i, con in enumerate(s.constraints):
+        where = f"constraints[{i + 1}] `{con.name}`"
         try:
-            if c.holonomic:
-                res = value(c.expr, env)
-                vres = value(time_derivative(c.expr, s), env)
+            if con.holonomic:
+                res = value(con.expr, env)
+                vres = value(time_derivative(con.expr, s), env)
             else:
-                res, vres = 0.0, value(c.expr, env)
+                res, vres = 0.0, value(con.expr, env)
         except (TypeError, ValueError):
             out.append(
                 (
@@ -679,9 +682,9 @@ def _initial_issues(s: System) -> Issues:
                 )
             )
             continue
-        if c.unilateral and c.holonomic and (res > tol or (abs(res) <= tol and vres > tol)):
+        if con.unilateral and con.holonomic and (res > tol or (abs(res) <= tol and vres > tol)):
             continue  # an open (or opening) contact: allowed, see open_at_start
-        if c.unilateral and c.holonomic and res < -tol:
+        if con.unilateral and con.holonomic and res < -tol:
             out.append(
                 (
                     where,
@@ -699,7 +702,7 @@ def _initial_issues(s: System) -> Issues:
                 )
             )
         elif abs(vres) > tol:
-            label = "df/dt" if c.holonomic else "the constraint"
+            label = "df/dt" if con.holonomic else "the constraint"
             out.append(
                 (
                     where,

@@ -184,7 +184,7 @@ class Constraint:
     friction: Friction | None = None
     force: ForceSpec | None = None
     restitution: sp.Expr = sp.Integer(0)
-    multiplier: sp.Symbol = field(default=None)  # type: ignore[assignment]
+    multiplier: sp.Symbol = field(default=None)
 
     def __post_init__(self) -> None:
         _as_enum(self, "kind", ConstraintKind)
@@ -307,8 +307,8 @@ class System:
             out[c.name] = c.symbol
             out[c.name + "'"] = c.velocity
             out[c.name + "''"] = c.acceleration
-        for c in self.constraints:
-            out[c.multiplier.name] = c.multiplier
+        for con in self.constraints:
+            out[con.multiplier.name] = con.multiplier
         return out
 
     @property

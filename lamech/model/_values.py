@@ -55,6 +55,7 @@ def with_values(
             raise ValueError(f"{name}: a coefficient of friction is >= 0 (got {value:g})")
         j = constraints.index(friction[target])
         c = constraints[j]
+        assert c.friction is not None  # c is friction[target], which has friction
         constraints[j] = dataclasses.replace(
             c, friction=dataclasses.replace(c.friction, mu=_exact(value))
         )

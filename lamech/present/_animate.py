@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import sympy as sp
@@ -172,6 +173,7 @@ def animate(
     import matplotlib
     from matplotlib import animation
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Circle, FancyArrowPatch
 
     path = Path(path)
@@ -197,7 +199,9 @@ def animate(
     play = playing_time(t_span, duration)
     count = int(min(len(traj.t), max(2, max_frames), max(2, round(play * fps) + 1)))
     frames = np.unique(np.linspace(0, len(traj.t) - 1, count).round().astype(int))
-    fps = max(1.0, (len(frames) - 1) / play)  # the frames fill the playing time
+    rate = max(1.0, (len(frames) - 1) / play)  # frames a second: they fill the playing time
+    # matplotlib's stubs type ``fps`` as int; its writers and to_jshtml take a float.
+    fps_arg = cast(int, rate)
     speed = t_span / play
     scene = Scene(traj, system, params, frames)
 
@@ -217,7 +221,8 @@ def animate(
     for _name, track in scene.tracks:
         ax.plot(track[:, 0], track[:, 1], color="0.55", lw=3, alpha=0.6, zorder=1)
     colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
-    artists = []
+    # (kind, main artist: a Circle for "circle" else a Line2D, the circle's spoke, trail)
+    artists: list[tuple[str, Circle | Line2D, Line2D | None, Line2D]] = []
     for i, (_name, kind, size, pos, _angle) in enumerate(scene.bodies):
         colour = colours[i % len(colours)]
         (trail,) = ax.plot([], [], color=colour, lw=1, alpha=0.5, zorder=2)
@@ -263,13 +268,16 @@ def animate(
             x, y = pos[k]
             trail.set_data(pos[: k + 1, 0], pos[: k + 1, 1])
             if kind == "circle":
+                assert isinstance(main, Circle) and spoke is not None
                 main.center = (x, y)
                 a = angle[k] if angle is not None else 0.0
                 spoke.set_data([x, x + size * np.cos(a)], [y, y + size * np.sin(a)])
             elif kind == "rod":
+                assert isinstance(main, Line2D) and angle is not None  # a rod has an angle
                 dx, dy = 0.5 * size * np.cos(angle[k]), 0.5 * size * np.sin(angle[k])
                 main.set_data([x - dx, x + dx], [y - dy, y + dy])
             else:
+                assert isinstance(main, Line2D)
                 main.set_data([x], [y])
         for arrow, at, vec in quivers:
             v = vec[k] * scale
@@ -290,16 +298,16 @@ def animate(
             flash.set_text("")
         return []
 
-    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps, blit=False)
+    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / rate, blit=False)
     if suffix == ".gif":
-        anim.save(str(path), writer=animation.PillowWriter(fps=fps), dpi=dpi)
+        anim.save(str(path), writer=animation.PillowWriter(fps=fps_arg), dpi=dpi)
     elif suffix == ".mp4":
-        anim.save(str(path), writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
+        anim.save(str(path), writer=animation.FFMpegWriter(fps=fps_arg), dpi=dpi)
     else:
         with matplotlib.rc_context(
             {"animation.frame_format": "jpeg", "animation.embed_limit": 200.0}
         ):
-            page = anim.to_jshtml(fps=fps, default_mode="once")
+            page = anim.to_jshtml(fps=fps_arg, default_mode="once")
         path.write_text(offline_page(page), encoding="utf-8")
     return path
 

@@ -126,7 +126,8 @@ class _Lines:
         """Line (1-based) of ``key`` in ``[table]`` (the ``index``-th ``[[table]]``)."""
         if not self.lines:
             return None
-        current, count, header_line = None, -1, None
+        current: tuple[str, int | None] | None = None
+        count, header_line = -1, None
         key_re = re.compile(r"^\s*[\"']?" + re.escape(key) + r"[\"']?\s*=") if key else None
         for i, line in enumerate(self.lines, start=1):
             m = self._HEADER.match(line)

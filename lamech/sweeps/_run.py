@@ -287,7 +287,7 @@ def run_sweep(
     measures: Sequence[str] = ("liftoff",),
     *,
     t_end: float,
-    initial: Mapping[str, float] | None = None,
+    initial: Mapping[str, float | str] | None = None,
     out: str | os.PathLike | None = None,
     resume: bool = False,
     workers: int | None = None,
@@ -398,7 +398,7 @@ def run_sweep(
 
         def bar(n: int = 1) -> None:
             count[0] += n
-            progress(count[0], total)  # type: ignore[operator]
+            progress(count[0], total)
     elif progress:
         bar = _Bar(len(cases), len(done))
     else:

@@ -8,6 +8,7 @@ import math
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -32,18 +33,23 @@ class Table:
         self.path = path
         self.columns = list(columns)
         self.parquet = path is not None and path.suffix.lower() == ".parquet"
-        self.journal = path.with_name(path.name + ".partial.csv") if self.parquet else path
-        self._fh = None
+        # The file rows are appended to: the CSV itself, or a CSV beside a Parquet table.
+        self.journal: Path | None = path
+        if path is not None and self.parquet:
+            self.journal = path.with_name(path.name + ".partial.csv")
+        self._fh: TextIO | None = None
 
     def read(self, cases: list[dict], names: list[str]) -> dict[int, dict]:
         """Rows already in the table (resume), checked against this sweep's grid."""
         if self.path is None:
             raise SweepError("resume needs an output table (out=... / --out)")
+        journal = self.journal
+        assert journal is not None  # set from path, which is not None
         rows: list[dict] = []
         source = None
-        if self.journal.exists():
-            source = self.journal
-            with open(self.journal, newline="", encoding="utf-8") as fh:
+        if journal.exists():
+            source = journal
+            with open(journal, newline="", encoding="utf-8") as fh:
                 text = fh.read()
             complete = text if text.endswith("\n") else text[: text.rfind("\n") + 1]
             reader = csv.reader(complete.splitlines())
@@ -72,9 +78,9 @@ class Table:
                 )
             rows = df.to_dict("records")
         done: dict[int, dict] = {}
-        for rec in rows:
+        for record in rows:
             row = {}
-            for k, x in rec.items():
+            for k, x in record.items():
                 row[k] = x if k in ("status", "message") else float(x)
             row["message"] = "" if row["message"] is None else str(row["message"])
             case = int(row["case"])
@@ -118,6 +124,7 @@ class Table:
             import pandas as pd
 
             pd.DataFrame(rows, columns=self.columns).to_parquet(self.path, index=False)
+            assert self.journal is not None  # set from path, which is not None
             self.journal.unlink(missing_ok=True)
             return
         tmp = self.path.with_name(self.path.name + ".tmp")

@@ -123,6 +123,8 @@ def solve(system: System) -> Solution:
     ints = integrals(dyn, red)
     notes = list(system.notes) + list(red.notes)
     initial = {}
+    shell: Shell | None
+    why: str | None  # the reason there is no shell
     if forms.singular:
         raise DegenerateConstraintsError(_singular_message(system, dyn))
     if forms.skipped:
