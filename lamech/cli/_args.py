@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["positive_float", "positive_int", "samples", "assignment", "evaluate_assignments"]
+__all__ = [
+    "add_tolerance_options",
+    "positive_float",
+    "positive_int",
+    "samples",
+    "assignment",
+    "evaluate_assignments",
+]
 
 
 def positive_float(text: str) -> float:
@@ -65,3 +72,23 @@ def positive_int(text: str) -> int:
     if n < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1 (got {n})")
     return n
+
+
+def add_tolerance_options(parser: argparse.ArgumentParser) -> None:
+    """--rtol, --atol, --max-step: the integrator's options, the same for simulate and
+    sweep (defaults from lamech.numeric, applied when the option is absent)."""
+    parser.add_argument(
+        "--rtol",
+        type=positive_float,
+        default=None,
+        help="relative tolerance (default 1e-11; down to 1e-14)",
+    )
+    parser.add_argument(
+        "--atol", type=positive_float, default=None, help="absolute tolerance (default 1e-12)"
+    )
+    parser.add_argument(
+        "--max-step",
+        type=positive_float,
+        default=None,
+        help="largest integrator step (default: unlimited)",
+    )

@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from ._args import assignment, evaluate_assignments, positive_float, samples
+from ._args import add_tolerance_options, assignment, evaluate_assignments, positive_float, samples
 
 __all__ = ["add_parser", "run"]
 
@@ -59,21 +59,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="output times: N evenly spaced, both ends counted (default 1001)",
     )
     grid.add_argument("--dt", type=positive_float, help="output spacing")
-    s.add_argument(
-        "--rtol",
-        type=positive_float,
-        default=None,
-        help="relative tolerance (default 1e-11; down to 1e-14)",
-    )
-    s.add_argument(
-        "--atol", type=positive_float, default=None, help="absolute tolerance (default 1e-12)"
-    )
-    s.add_argument(
-        "--max-step",
-        type=positive_float,
-        default=None,
-        help="largest integrator step (default: unlimited)",
-    )
+    add_tolerance_options(s)
     s.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     s.add_argument(
         "--plot",

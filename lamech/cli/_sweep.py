@@ -8,7 +8,7 @@ import argparse
 import math
 import sys
 
-from ._args import positive_float, positive_int
+from ._args import add_tolerance_options, positive_float, positive_int
 
 __all__ = ["add_parser", "run"]
 
@@ -91,18 +91,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         metavar="N",
         help="output samples per run, for max/min/final (default %(default)s)",
     )
-    s.add_argument(
-        "--rtol", type=positive_float, default=None, help="relative tolerance (default 1e-11)"
-    )
-    s.add_argument(
-        "--atol", type=positive_float, default=None, help="absolute tolerance (default 1e-12)"
-    )
-    s.add_argument(
-        "--max-step",
-        type=positive_float,
-        default=None,
-        help="largest integrator step (default: unlimited)",
-    )
+    add_tolerance_options(s)
     return s
 
 

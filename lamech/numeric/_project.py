@@ -88,10 +88,7 @@ def project_positions(
             W = metric.matrix(t, q, v)
         Wf, Af = _restrict(W, A, act, free)
         dq = metric.correction(Wf, Af, -r)
-        if free is None:
-            q += dq
-        else:
-            q[free] += dq
+        _move(q, dq, free)
         moved = max(moved, float(np.max(np.abs(dq))))
         if np.max(np.abs(dq)) <= 1e-16 * scale:
             break
@@ -112,8 +109,13 @@ def project_velocities(
     W = metric.matrix(t, q, v)
     Wf, Af = _restrict(W, A, act, free)
     dv = metric.correction(Wf, Af, -r)
-    if free is None:
-        v += dv
-    else:
-        v[free] += dv
+    _move(v, dv, free)
     return v, float(np.max(np.abs(dv)))
+
+
+def _move(x: np.ndarray, dx: np.ndarray, free) -> None:
+    """x += dx in place, on the ``free`` entries only when given."""
+    if free is None:
+        x += dx
+    else:
+        x[free] += dx
