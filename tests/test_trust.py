@@ -19,8 +19,13 @@ def _closed_pipe_run(args: list[str]) -> subprocess.CompletedProcess:
     read, write = os.pipe()
     os.close(read)
     try:
-        return subprocess.run([sys.executable, "-m", "lamech", *args], stdout=write,
-                              stderr=subprocess.PIPE, text=True, timeout=120)
+        return subprocess.run(
+            [sys.executable, "-m", "lamech", *args],
+            stdout=write,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+        )
     finally:
         os.close(write)
 
@@ -33,9 +38,22 @@ def test_a_closed_pipe_ends_quietly(args):
 
 
 def test_sweep_into_a_closed_pipe_ends_quietly():
-    out = _closed_pipe_run(["sweep", "pendulum", "--param", "l=0.5,1", "--measure",
-                            "max:lambda:string", "--t-end", "0.2", "--samples", "3",
-                            "--workers", "1"])
+    out = _closed_pipe_run(
+        [
+            "sweep",
+            "pendulum",
+            "--param",
+            "l=0.5,1",
+            "--measure",
+            "max:lambda:string",
+            "--t-end",
+            "0.2",
+            "--samples",
+            "3",
+            "--workers",
+            "1",
+        ]
+    )
     assert "Traceback" not in out.stderr and "BrokenPipeError" not in out.stderr
     assert out.returncode == 141
 
@@ -53,8 +71,12 @@ def test_a_velocity_missing_from_T_is_named(tmp_path):
     assert "`theta'` does not appear in T" in message and "missing prime" in message
     path = tmp_path / "noprime.toml"
     path.write_text(text, encoding="utf-8")
-    out = subprocess.run([sys.executable, "-m", "lamech", "solve", str(path)],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-m", "lamech", "solve", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 2 and "Traceback" not in out.stderr
     assert "missing prime" in out.stderr
 
@@ -76,11 +98,12 @@ def test_a_disk_that_slips_at_once_says_so_with_the_rolling_condition():
     assert v.when == "at the start"
     alpha = s.system.parameter_values[s.symbols["alpha"]]
     import math
+
     assert f"= {math.tan(alpha) / 3:.6g} > mu = 0.05" in v.reason
     assert v.condition == "mu >= tan(alpha)/3"
     assert "rolling: at the start" in report and "never" not in report.split("slip")[1][:80]
     rolls = lamech.solve(lamech.load("incline_disk")).slipping["rolling"]
-    assert rolls.when == "never" and rolls.constant       # mu = 0.3 >= tan(alpha)/3
+    assert rolls.when == "never" and rolls.constant  # mu = 0.3 >= tan(alpha)/3
 
 
 def test_a_string_written_the_wrong_way_round_is_flagged():
@@ -90,8 +113,9 @@ def test_a_string_written_the_wrong_way_round_is_flagged():
     v = s.lets_go["string"]
     g, m, theta0 = (s.system.parameter_values[s.symbols[n]] for n in ("g", "m", "theta0"))
     import math
+
     assert v.when == "at the start"
-    assert f"= {-m * g * math.cos(theta0):.6g} < 0" in v.reason     # minus the tension
+    assert f"= {-m * g * math.cos(theta0):.6g} < 0" in v.reason  # minus the tension
     assert "wrong way round" in v.hint and "wrong way round" in report
     assert "never" not in report.split("lets go")[1][:200]
 
@@ -99,22 +123,35 @@ def test_a_string_written_the_wrong_way_round_is_flagged():
 def test_a_particle_too_fast_on_top_of_the_sphere_leaves_at_once():
     """m v^2/R > m g at the top: the sphere would have to pull; it lets go at t = 0."""
     base = lamech.problem.example_path("sphere_slide").read_text(encoding="utf-8")
-    text = base.replace("theta = { initial = 0, velocity = 0 }",
-                        "theta = { initial = 0, velocity = 4 }")
+    text = base.replace(
+        "theta = { initial = 0, velocity = 0 }", "theta = { initial = 0, velocity = 4 }"
+    )
     assert text != base
     s, report = _verdicts(text)
     v = s.lets_go["contact"]
     g, m, R = (s.system.parameter_values[s.symbols[n]] for n in ("g", "m", "R"))
-    assert v.when == "at the start" and v.hint is None       # moving: no sign suspicion
+    assert v.when == "at the start" and v.hint is None  # moving: no sign suspicion
     assert f"= {m * g - m * R * 16:.6g} < 0" in v.reason
     assert "contact: at the start" in report
 
 
-@pytest.mark.parametrize("name, constraint, expected", [
-    ("wedge", "contact", lambda p: p["M"] * p["m"] * p["g"] * __import__("math").cos(p["alpha"])
-     / (p["M"] + p["m"] * __import__("math").sin(p["alpha"]) ** 2)),
-    ("incline_disk", "contact", lambda p: p["m"] * p["g"] * __import__("math").cos(p["alpha"])),
-])
+@pytest.mark.parametrize(
+    "name, constraint, expected",
+    [
+        (
+            "wedge",
+            "contact",
+            lambda p: (
+                p["M"]
+                * p["m"]
+                * p["g"]
+                * __import__("math").cos(p["alpha"])
+                / (p["M"] + p["m"] * __import__("math").sin(p["alpha"]) ** 2)
+            ),
+        ),
+        ("incline_disk", "contact", lambda p: p["m"] * p["g"] * __import__("math").cos(p["alpha"])),
+    ],
+)
 def test_a_constant_positive_multiplier_never_lets_go(name, constraint, expected):
     """The block on a movable wedge keeps N = M m g cos(a)/(M + m sin^2 a) (textbook); a
     disk rolling down an incline N = m g cos(a): 'never', with the constant, not 'not
@@ -134,36 +171,41 @@ def test_a_T_that_disagrees_with_the_bodies_is_a_warning_at_the_top():
     assert text != PENDULUM
     report = lamech.to_text(lamech.solve(lamech.loads(text, "x.toml")))
     head = report.splitlines()[:5]
-    assert any(line.startswith("warning: [lagrangian] T differs from the kinetic energy")
-               for line in head), head
+    assert any(
+        line.startswith("warning: [lagrangian] T differs from the kinetic energy") for line in head
+    ), head
 
 
 def test_equations_are_simplified_as_a_student_would():
     """The driven pendulum's equations had (2 sin^2 + 2 cos^2)/2 left in them; the
     readable form is the derived one, simplified (the difference simplifies to 0)."""
     import sympy as sp
+
     s = lamech.solve(lamech.load("moving_support"))
     text = lamech.to_text(s)
     assert "sin(theta)^2 + 2*cos(theta)^2" not in text
     for shown, derived in zip(s.equations, s.dynamics.equations):
         assert sp.simplify(shown - derived) == 0
     assert sum(sp.count_ops(e) for e in s.equations) < 0.5 * sum(
-        sp.count_ops(e) for e in s.dynamics.equations)
+        sp.count_ops(e) for e in s.dynamics.equations
+    )
 
 
 def test_the_html_animation_works_offline_and_is_small(tmp_path):
     """It loaded an icon font from a CDN (blank buttons offline) and was 13.5 MB for
     1.5 s of motion with 300 frames whatever the length."""
     from lamech.present import animate
+
     system = lamech.load("cylinder")
     traj = lamech.simulate(system, 1.5, initial={"theta1": 0.3}, samples=301)
     page = animate(traj, system, tmp_path / "m.html").read_text(encoding="utf-8")
     assert "http://" not in page and "https://" not in page
     assert 'class="fa ' not in page
     assert (tmp_path / "m.html").stat().st_size < 2_000_000
-    assert page.count("data:image/jpeg") == 2 * 20 + 1     # 2 s of play at 20 frames/s
+    assert page.count("data:image/jpeg") == 2 * 20 + 1  # 2 s of play at 20 frames/s
     gif = animate(traj, system, tmp_path / "m.gif", duration=1.0, fps=10)
     from PIL import Image
+
     with Image.open(gif) as im:
         assert im.n_frames == 11
 
@@ -172,6 +214,7 @@ def test_velocities_render_with_dots_in_jupyter():
     """A multiplier shown raw in a notebook (SymPy's LaTeX) reads l m theta-dot^2, not
     theta'^{2}; the text form keeps the file grammar."""
     import sympy as sp
+
     s = lamech.solve(lamech.load("pendulum"))
     latex = sp.latex(s.multipliers["string"])
     assert latex == r"g m \cos{\left(\theta \right)} + l m \dot{\theta}^{2}"
@@ -185,19 +228,39 @@ def test_solve_takes_param_and_initial_like_simulate():
     simulation's slip event is (an independent integration)."""
     import json
     import math
-    out = subprocess.run([sys.executable, "-m", "lamech", "solve", "cylinder", "--initial",
-                          "theta1=0.01", "--param", "mu=0.1", "--json"], capture_output=True,
-                         text=True, timeout=120)
+
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lamech",
+            "solve",
+            "cylinder",
+            "--initial",
+            "theta1=0.01",
+            "--param",
+            "mu=0.1",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     j = json.loads(out.stdout)
     assert abs(j["vanishes"]["contact"][0]["value"] - math.acos(4 / 7 * math.cos(0.01))) < 1e-9
     slip = j["slips"]["rolling"][0]["value"]
-    traj = lamech.simulate(lamech.load("cylinder"), 3.0, initial={"theta1": 0.01},
-                           params={"mu": 0.1}, samples=3)
+    traj = lamech.simulate(
+        lamech.load("cylinder"), 3.0, initial={"theta1": 0.01}, params={"mu": 0.1}, samples=3
+    )
     event = next(e for e in traj.events if str(e.kind) == "slip")
     assert abs(event.coordinates["theta1"] - slip) < 1e-8
-    bad = subprocess.run([sys.executable, "-m", "lamech", "solve", "pendulum", "--param",
-                          "m=-1"], capture_output=True, text=True, timeout=120)
+    bad = subprocess.run(
+        [sys.executable, "-m", "lamech", "solve", "pendulum", "--param", "m=-1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert bad.returncode == 2 and "sign" in bad.stderr and "Traceback" not in bad.stderr
 
 
@@ -206,9 +269,108 @@ def test_simulate_warns_first_and_writes_into_new_folders(tmp_path):
     README's `--out out/traj.csv` creates out/."""
     path = tmp_path / "t.toml"
     path.write_text(PENDULUM.replace("r^2*theta'^2", "r*theta'^2"), encoding="utf-8")
-    out = subprocess.run([sys.executable, "-m", "lamech", "simulate", str(path), "--t-end",
-                          "0.2", "--samples", "5", "--out", str(tmp_path / "out" / "t.csv")],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lamech",
+            "simulate",
+            str(path),
+            "--t-end",
+            "0.2",
+            "--samples",
+            "5",
+            "--out",
+            str(tmp_path / "out" / "t.csv"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     assert out.stderr.splitlines()[0].startswith("lamech: warning: [lagrangian] T differs")
     assert len((tmp_path / "out" / "t.csv").read_text().splitlines()) == 6
+
+
+# ----- item 1: landing while slipping ------------------------------------------------
+LOOP = """
+title = "Solid disk inside a vertical loop"
+[parameters]
+m = 1.0
+g = 9.81
+R = 1.0
+a = 0.2
+w0 = 5.0
+mu = 0.1
+[coordinates]
+r     = { initial = "R - a", velocity = 0 }
+theta = { initial = 0, velocity = "w0" }
+phi   = { initial = 0, velocity = "-(R - a)*w0/a" }
+[lagrangian]
+T = "m/2*(r'^2 + r^2*theta'^2) + (m*a^2/2)/2*phi'^2"
+V = "-m*g*r*cos(theta)"
+[[constraints]]
+name = "contact"
+f = "(R - a) - r"
+unilateral = true
+[[constraints]]
+name = "rolling"
+f = "(R - a)*theta + a*phi"
+friction = { mu = "mu", normal = "contact" }
+[[bodies]]
+name = "disk"
+mass = "m"
+position = ["r*sin(theta)", "-r*cos(theta)"]
+angle = "phi"
+inertia = "m*a^2/2"
+shape = { circle = "a" }
+[gravity]
+acceleration = "g"
+"""
+
+
+def _disk_momenta(state, m, a):
+    """(centre velocity (2,), spin) of the loop's disk from (r, theta, phi, r', theta', phi')."""
+    import numpy as np
+
+    r, th, _, rd, thd, phd = state
+    v = np.array([rd * np.sin(th) + r * np.cos(th) * thd, -rd * np.cos(th) + r * np.sin(th) * thd])
+    return v, phd
+
+
+def test_a_disk_landing_on_the_loop_while_slipping_obeys_coulomb_and_newton_euler():
+    """The disk leaves the loop (w0 = 5, mu = 0.1) and lands back while slipping: this
+    died with KeyError in the impact. Now the landing is a Coulomb impact: checked with
+    Newton-Euler on the disk from the states just before and just after, the impulse
+    m (v+ - v-) has tangential part mu times its normal part, and I (phi'+ - phi'-) is its
+    moment about the centre; the radial velocity is stopped (e = 0) and energy is lost."""
+    import numpy as np
+
+    system = lamech.loads(LOOP, "loop.toml")
+    traj = lamech.simulate(system, 1.2, samples=50)
+    assert traj.status == "ok", traj.message
+    kinds = [(str(e.kind), e.constraint) for e in traj.events]
+    i = kinds.index(("contact", "contact"))
+    assert kinds[i + 1] == ("slip", "rolling") and kinds[:i].count(("lift-off", "contact")) == 1
+    landing = traj.events[i]
+    t_c = landing.t
+    before = lamech.simulate(system, t_c - 1e-9, samples=2)
+    y_minus = np.concatenate((before.final_q, before.final_qd))
+    c = landing.coordinates
+    y_plus = np.array([c[k] for k in ("r", "theta", "phi", "r'", "theta'", "phi'")])
+    m, a, mu, R = 1.0, 0.2, 0.1, 1.0
+    (v0, w0), (v1, w1) = _disk_momenta(y_minus, m, a), _disk_momenta(y_plus, m, a)
+    J = m * (v1 - v0)
+    th = y_plus[1]
+    outward = np.array([np.sin(th), -np.cos(th)])  # from the loop's centre to the disk
+    tangent = np.array([np.cos(th), np.sin(th)])
+    Jn, Jt = -J @ outward, J @ tangent  # the track pushes inward
+    assert Jn > 0 and abs(y_plus[3]) < 1e-9
+    assert abs(abs(Jt) - mu * Jn) < 1e-6 * Jn
+    torque = a * (outward[0] * J[1] - outward[1] * J[0])  # (a outward) x J
+    assert abs(m * a**2 / 2 * (w1 - w0) - torque) < 1e-6 * Jn * a
+    assert abs(traj.events[i + 1].impulse - Jt) < 1e-6 * Jn
+    slip = lambda y: (R - a) * y[4] + a * y[5]  # noqa: E731  the slip velocity
+    assert np.sign(slip(y_minus)) == np.sign(slip(y_plus)) != 0
+    energy = lambda y, v, w: m / 2 * v @ v + m * a**2 / 4 * w**2 - m * 9.81 * y[0] * np.cos(y[1])  # noqa: E731
+    assert energy(y_plus, v1, w1) < energy(y_minus, v0, w0)

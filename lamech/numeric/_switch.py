@@ -11,6 +11,7 @@ import numpy as np
 from ..linalg import solve_kkt
 from ._events import EventKind
 from ._initial import initial_residuals
+from ._kkt import slip_directions
 from ._options import SimulationError, Stop
 from ._run import Run
 
@@ -202,8 +203,10 @@ def impact(run: Run, t: float, y: np.ndarray, j: int) -> np.ndarray:
     y = np.concatenate((q, vp))
     details = {"impulse": float(imp[j]), "velocity_before": Fm, "restitution": e}
     if engage:
-        _engage(run, t, y, j, A, b, imp, slipping)
+        _engage(run, t, y, j, A, b, slipping)
         run.log(t, y, EventKind.CONTACT, j, **details)
+        for i in slipping:
+            run.log(t, y, EventKind.SLIP, i, impulse=float(imp[i]))
     else:
         run.mode.disarm(EventKind.CONTACT, j)
         run.log(t, y, EventKind.IMPACT, j, **details)
@@ -211,24 +214,47 @@ def impact(run: Run, t: float, y: np.ndarray, j: int) -> np.ndarray:
 
 
 def _impulses(run: Run, t, j, target, M, A, b, v, mu, frows):
-    """(q'+, {row: impulse}, slipping): the velocity jump on the active rows, j (its
-    velocity form brought to ``target`` - b_j) and the friction rows ``frows``; friction
-    rows whose impulse exceeds mu times j's are dropped (they slip)."""
-    active = list(run.mode.rows)
+    """(q'+, {row: impulse}, {friction row: trial impulse}): the velocity jump on the
+    active rows, j (its velocity form brought to ``target`` - b_j) and the friction rows
+    ``frows``. A friction row whose sticking impulse would exceed mu times j's slips
+    through the impact (Coulomb): its impulse is mu times j's, against the slip, and the
+    returned trial impulse (the one sticking would need) gives the slip its direction.
+    Friction already slipping on an active normal takes its share of that normal's
+    impulse the same way."""
+    mode = run.mode
+    active = list(mode.rows)
+    slip_j, slip_k, slip_c = (list(a) for a in mode.kernel_args[1:])
 
-    def solve(extra):
+    def solve(extra, slips):
         rows = active + [j] + extra
         goal = -b[rows]
         goal[len(active)] = target
-        vp, imp = solve_kkt(M, M @ v, A[rows], -goal)
-        return vp, dict(zip(rows, imp))
+        pj, pk, pc = list(slip_j), list(slip_k), list(slip_c)
+        for i, sigma in slips.items():
+            pj.append(i)
+            pk.append(len(active))
+            pc.append(sigma)
+        G = slip_directions(
+            A,
+            np.array(rows, dtype=np.int64),
+            mu,
+            np.array(pj, dtype=np.int64),
+            np.array(pk, dtype=np.int64),
+            np.array(pc, dtype=float),
+        )
+        vp, imp = solve_kkt(M, M @ v, A[rows], -goal, G)
+        out = dict(zip(rows, imp))
+        for i, k, c in zip(pj, pk, pc):
+            out[i] = -mu[i] * c * imp[k]
+        return vp, out
 
-    slipping: list[int] = []
+    slipping: dict[int, float] = {}
     try:
-        vp, imp = solve(frows)
-        slipping = [i for i in frows if abs(imp[i]) > mu[i] * imp[j] * (1 + 1e-9)]
+        vp, imp = solve(frows, {})
+        slipping = {i: imp[i] for i in frows if abs(imp[i]) > mu[i] * imp[j] * (1 + 1e-9)}
         if slipping:
-            vp, imp = solve([i for i in frows if i not in slipping])
+            sigma = {i: -math.copysign(1.0, p) for i, p in slipping.items()}
+            vp, imp = solve([i for i in frows if i not in slipping], sigma)
     except np.linalg.LinAlgError:
         raise Stop(
             f"singular impact matrix at t = {t:.12g} (constraint "
@@ -237,13 +263,14 @@ def _impulses(run: Run, t, j, target, M, A, b, v, mu, frows):
     return vp, imp, slipping
 
 
-def _engage(run: Run, t, y, j, A, b, imp, slipping) -> None:
-    """Unilateral j engages: its friction constraints stick, or slip (``slipping``)."""
+def _engage(run: Run, t, y, j, A, b, slipping) -> None:
+    """Unilateral j engages: its friction constraints stick, or slip through the impact
+    and on (``slipping``: their trial impulses give the direction)."""
     n = run.setup.n
     run.mode.engage(j)
     for i in range(run.setup.m):
         if run.setup.kinds.normal[i] == j:
             run.stick(t, y, i)
-    for i in slipping:
+    for i, trial in slipping.items():
         s = float(A[i] @ y[n:] + b[i])
-        run.start_slip(i, imp[i], s)
+        run.start_slip(i, trial, s)
