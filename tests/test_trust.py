@@ -374,3 +374,94 @@ def test_a_disk_landing_on_the_loop_while_slipping_obeys_coulomb_and_newton_eule
     assert np.sign(slip(y_minus)) == np.sign(slip(y_plus)) != 0
     energy = lambda y, v, w: m / 2 * v @ v + m * a**2 / 4 * w**2 - m * 9.81 * y[0] * np.cos(y[1])  # noqa: E731
     assert energy(y_plus, v1, w1) < energy(y_minus, v0, w0)
+
+
+# ----- item 5: no silent penetration after many impacts -----------------------------------
+BALL_2D = """
+title = "Ball bouncing across a floor"
+[parameters]
+m = 1.0
+g = 9.81
+e = 0.8
+[coordinates]
+x = { initial = 0, velocity = 1 }
+y = { initial = 1, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "m*g*y"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+restitution = "e"
+"""
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-8, 1e-10, 1e-12])
+def test_a_ball_bouncing_many_times_comes_to_rest_on_the_floor(rtol):
+    """With rtol <= 1e-8 the ball (e = 0.8) fell through the floor after ~20 bounces with
+    status ok: a bounce whose whole flight fits in one step never re-armed the contact.
+    Truth: bounce k rises to e^(2k) h at t_k = t1 (1 + 2 e + ... + 2 e^(k-1)); the
+    bounces accumulate at t1 (1 + e)/(1 - e), after which it rests (lambda = m g);
+    x' = 1 throughout (no horizontal impulse)."""
+    import math
+
+    import numpy as np
+    h, e, g = 1.0, 0.8, 9.81
+    traj = lamech.simulate(lamech.loads(BALL_2D, "ball.toml"), 6.0, samples=3001, rtol=rtol)
+    assert traj.status == "ok", traj.message
+    assert traj.coordinate("y").min() > -1e-9 and abs(traj.final_q[1]) < 1e-9
+    impacts = [ev for ev in traj.events if ev.kind == "impact"]
+    t1 = math.sqrt(2 * h / g)
+    t_k = t1
+    for k, ev in enumerate(impacts[:15], start=1):
+        up = ev.coordinates["y'"]
+        assert abs(up**2 / (2 * g) - e ** (2 * k) * h) <= 1e-7 * h
+        assert abs(ev.t - t_k) <= 1e-7
+        t_k += 2 * e**k * t1
+    rest = traj.events[-1]
+    assert rest.kind == "contact" and abs(rest.t - t1 * (1 + e) / (1 - e)) < 1e-3
+    after = traj.t > rest.t + 1e-6
+    assert np.allclose(traj.multiplier("floor")[after], g, rtol=1e-9)
+    assert np.allclose(traj.velocity("x"), 1.0, atol=1e-12)
+
+
+BUMP = """
+title = "A particle sent along the floor at a bump"
+[parameters]
+m = 1.0
+H = 0.1
+w = 0.2
+[coordinates]
+x = { initial = 0, velocity = 10 }
+y = { initial = 0.05, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "0"
+[[constraints]]
+name = "bump"
+f = "y - H*exp(-((x - 1)/w)^2)"
+unilateral = true
+restitution = 1
+"""
+
+
+def test_a_particle_does_not_pass_through_a_bump_inside_one_step():
+    """Force-free flight takes steps of a second: the bump's gap dipped below zero and
+    came back inside one step, unseen at its ends, and the particle went through it with
+    status ok. Truth: it hits where 0.05 = H exp(-((x - 1)/w)^2), x = 1 - w sqrt(ln 2),
+    and reflects elastically about the surface normal (-h'(x), 1)."""
+    import math
+
+    import numpy as np
+    traj = lamech.simulate(lamech.loads(BUMP, "bump.toml"), 0.3, samples=31)
+    assert traj.status == "ok", traj.message
+    assert [ev.kind for ev in traj.events] == ["impact"]
+    ev = traj.events[0]
+    x = 1 - 0.2 * math.sqrt(math.log(2))
+    assert abs(ev.coordinates["x"] - x) < 1e-9 and abs(ev.t - x / 10) < 1e-9
+    slope = -2 * (x - 1) / 0.2**2 * 0.05
+    n = np.array([-slope, 1.0]) / math.hypot(slope, 1.0)
+    v = np.array([10.0, 0.0])
+    reflected = v - 2 * (v @ n) * n
+    assert np.allclose([ev.coordinates["x'"], ev.coordinates["y'"]], reflected, atol=1e-8)

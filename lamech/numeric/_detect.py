@@ -9,7 +9,7 @@ import numpy as np
 from ._events import EventKind
 from ._run import Accel, Run
 
-__all__ = ["event_values", "update_arming", "locate"]
+__all__ = ["event_values", "update_arming", "inside_step", "locate"]
 
 
 def event_values(run: Run, t: float, y: np.ndarray, acc: Accel | None = None) -> np.ndarray:
@@ -66,13 +66,64 @@ def update_arming(run: Run, t: float, y: np.ndarray) -> None:
             mode.arm(kind, j)
 
 
-def locate(run: Run, dense, hit, t_a: float, t_b: float) -> tuple[float, int]:
+def inside_step(run: Run, dense, t_a: float, t_b: float) -> dict[int, tuple[float, float]]:
+    """Contacts made and unmade inside one step, which its ends cannot see, found where
+    a released gap's velocity changes sign on the dense output:
+
+    * a disarmed contact whose gap rises and falls again (a small bounce, the whole
+      flight in the step) is armed at the apex if the gap opened beyond ``arm_pos``;
+      its crossing is sought in (apex, t_b];
+    * an armed one whose gap falls and rises again (a narrow obstacle passed in one
+      step) hit the surface if the gap went negative; the crossing is in (t_a, bottom].
+
+    Returns {watch index: (t_from, t_to)}, the bracket to search."""
+    from scipy.optimize import brentq
+
+    n, mode, setup = run.setup.n, run.mode, run.setup
+    out: dict[int, tuple[float, float]] = {}
+
+    def gap(s: float, j: int) -> tuple[float, float]:
+        y = dense(s)
+        f, A, b = run.constraints(s, y[:n])
+        return float(f[j]), float(A[j] @ y[n:] + b[j])
+
+    def turn(j: int) -> float:
+        return brentq(lambda s: gap(s, j)[1], t_a, t_b, xtol=1e-15 * max(1.0, abs(t_b)))
+
+    for i, (kind, j) in enumerate(mode.watch):
+        if kind != EventKind.CONTACT:
+            continue
+        (_, rate_a), (_, rate_b) = gap(t_a, j), gap(t_b, j)
+        if not mode.is_armed(kind, j):
+            if rate_a > 0.0 > rate_b:
+                apex = turn(j)
+                if gap(apex, j)[0] > setup.arm_pos:
+                    mode.arm(kind, j)
+                    out[i] = (apex, t_b)
+        elif rate_a < 0.0 < rate_b:
+            bottom = turn(j)
+            if gap(bottom, j)[0] <= 0.0:
+                out[i] = (t_a, bottom)
+    return out
+
+
+def locate(
+    run: Run,
+    dense,
+    hit,
+    t_a: float,
+    t_b: float,
+    brackets: dict[int, tuple[float, float]] | None = None,
+) -> tuple[float, int]:
     """(te, i): the first of the events ``hit`` (indices into the mode's watch list)
-    within (t_a, t_b], located on the dense output."""
+    within (t_a, t_b] (for event i in ``brackets``, within that bracket), located on
+    the dense output."""
     from scipy.optimize import brentq
 
     te, ie = t_b, -1
+    brackets = brackets or {}
     for i in hit:
+        t_from, t_to = brackets.get(int(i), (t_a, t_b))
 
         def g(s, i=i):
             return event_values(run, s, dense(s))[i]
@@ -80,14 +131,14 @@ def locate(run: Run, dense, hit, t_a: float, t_b: float) -> tuple[float, int]:
         try:
             r = brentq(
                 g,
-                t_a,
-                t_b,
+                t_from,
+                t_to,
                 xtol=1e-15 * max(1.0, abs(t_b)),
                 rtol=4 * np.finfo(float).eps,
                 maxiter=200,
             )
         except ValueError:
-            r = t_b
+            r = t_to
         if r < te or ie < 0:
             te, ie = r, int(i)
     return te, ie

@@ -52,7 +52,8 @@ class Mode:
     Derived by :meth:`rebuild` after every switch: ``rows`` (the active constraint rows),
     ``hrows`` (the holonomic ones), ``pos`` (each row's position among them), ``slips``
     [(friction j, normal k)], ``kernel_args`` (the arrays the compiled right-hand side
-    takes) and ``watch`` [(kind, j)]: the events that can happen in this mode.
+    takes), ``watch`` [(kind, j)]: the events that can happen in this mode, and
+    ``released`` (a unilateral constraint is released: a contact is watched).
     """
 
     def __init__(self, kinds: ConstraintKinds):
@@ -98,6 +99,7 @@ class Mode:
             np.array([self.sN[j] * self.sigma[j] for j, _ in self.slips], dtype=float),
         )
         self.watch = self._watched()
+        self.released = any(kind == EventKind.CONTACT for kind, _ in self.watch)
 
     def _watched(self) -> list[tuple[EventKind, int]]:
         out = []

@@ -44,13 +44,14 @@ import numpy as np
 
 from ..model import System
 from ._codegen import NumericSystem
-from ._detect import event_values, locate, update_arming
-from ._events import Status
+from ._detect import event_values, inside_step, locate, update_arming
+from ._events import EventKind, Status
 from ._initial import initial_state
 from ._options import (
     BLOW_UP,
     DEFAULT_ATOL,
     DEFAULT_RTOL,
+    PENETRATION,
     Options,
     Stop,
     check_options,
@@ -167,10 +168,18 @@ def _segment(
         at.max_projection = max(at.max_projection, moved)
         acc = run.kkt(t_b, yb[:n], yb[n:])
         g_new = event_values(run, t_b, yb, acc)
-        hit = np.nonzero((g_old > 0) & (g_new <= 0))[0]
+        dense = solver.dense_output()
+        brackets = inside_step(run, dense, t_a, t_b) if run.mode.released else {}
+        if brackets:
+            g_new = event_values(run, t_b, yb, acc)  # arming changed them
+        crossed = (g_old > 0) & (g_new <= 0)
+        for i, (_, hi) in brackets.items():
+            crossed[i] = hi < t_b or g_new[i] <= 0  # a dip, or a crossing after the apex
+        hit = np.nonzero(crossed)[0]
         if len(hit):
-            _event(run, rec, at, solver.dense_output(), hit, t_a, t_b, zeno)
+            _event(run, rec, at, dense, hit, t_a, t_b, zeno, brackets)
             return
+        _check_penetration(run, t_b, yb)
         rec.up_to(t_b, solver.dense_output, yb)
         _check_conditioning(acc, t_b, at.steps)
         if not run.mode.all_armed():
@@ -185,10 +194,18 @@ def _segment(
 
 
 def _event(
-    run: Run, rec: Recorder, at: Progress, dense, hit, t_a: float, t_b: float, zeno: _Zeno
+    run: Run,
+    rec: Recorder,
+    at: Progress,
+    dense,
+    hit,
+    t_a: float,
+    t_b: float,
+    zeno: _Zeno,
+    brackets: dict[int, tuple[float, float]],
 ) -> None:
     """Locate the first event of the step, sample up to it, and apply it."""
-    te, ie = locate(run, dense, hit, t_a, t_b)
+    te, ie = locate(run, dense, hit, t_a, t_b, brackets)
     rec.up_to(te, lambda: dense)
     ye, _ = run.project(te, dense(te))
     kind, j = run.mode.watch[ie]
@@ -216,6 +233,26 @@ class _Zeno:
         else:
             self.burst = 0
         self.last = te
+
+
+def _check_penetration(run: Run, t: float, y: np.ndarray) -> None:
+    """A released unilateral constraint whose gap is below -``PENETRATION`` (relative
+    to the size of q) at a step end is a body through a surface the problem names: a
+    failure, never a silent ``ok``."""
+    mode, setup = run.mode, run.setup
+    if not mode.released:
+        return
+    released = [j for kind, j in mode.watch if kind == EventKind.CONTACT]
+    n = setup.n
+    f = run.constraints(t, y[:n])[0]
+    depth = PENETRATION * (1.0 + float(np.max(np.abs(y[:n]))))
+    for j in released:
+        if f[j] < -max(depth, 10.0 * setup.arm_pos):
+            raise Stop(
+                f"`{setup.ns.constraint_names[j]}` was passed through undetected at "
+                f"t = {t:.12g} (f = {f[j]:.3g} < 0 while released): a contact the "
+                "event detection missed; try a smaller --max-step or a tighter rtol"
+            )
 
 
 def _check_growth(y: np.ndarray, t: float, blow_up: float) -> None:
