@@ -236,8 +236,14 @@ f = "y"
 unilateral = true
 """
     sol = lamech.solve(lamech.loads(text))
-    assert str(sol.multipliers["floor"]) == "g*m"
+    # lambda = 0 until it closes: free fall, and the floor closes where y = 0
+    assert "floor" not in sol.multipliers
+    assert sol.reduced_equations == [sol.symbols["y''"] + sol.symbols["g"]]
     assert sol.vanishes["floor"] == []
+    assert sol.lets_go["floor"].when == "open at the start"
+    (closes,) = sol.closes["floor"]
+    assert closes.value == 0.0 and closes.equation == "y = 0"
+    assert "it closes where y = 0" in lamech.to_text(sol)
     assert any("open at the start" in n for n in sol.notes)
     with pytest.raises(lamech.ProblemFileError, match="forbidden side"):
         lamech.loads(text.replace("initial = 1.5", "initial = -0.5"))

@@ -573,13 +573,19 @@ def test_ladder_multipliers_and_reduced():
     assert_same(s.multipliers["floor"],
                 m * g - sp.Rational(3, 4) * m * g * sp.cos(ph)**2
                 - m * l / 2 * sp.sin(ph) * phd**2)
-    # full equations (phi, x, y): the rod's rotation carries both contact torques
+    # full equations (phi, x, y): the rod's rotation carries all three contact torques
+    # (the top end's floor contact, open at the start, pushes up at the other end)
     x, y = S["x''"], S["y''"]
-    lf, lw = S["lambda_floor"], S["lambda_wall"]
+    lf, lw, lt = S["lambda_floor"], S["lambda_wall"], S["lambda_top_floor"]
     assert_same(s.equations[0], m * l**2 / 12 * phdd + lf * l / 2 * sp.cos(ph)
-                - lw * l / 2 * sp.sin(ph))
+                - lw * l / 2 * sp.sin(ph) - lt * l / 2 * sp.cos(ph))
     assert_same(s.equations[1], m * x - lw)
-    assert_same(s.equations[2], m * y + m * g - lf)
+    assert_same(s.equations[2], m * y + m * g - lf - lt)
+    # open at the start: lambda = 0 until it closes, at phi = 0 (the ladder flat)
+    assert "top_floor" not in s.multipliers and "top_floor" not in s.forces
+    assert s.lets_go["top_floor"].when == "open at the start"
+    (closes, *later) = s.closes["top_floor"]
+    assert closes.value == 0.0 and closes.equation == "sin(phi) = 0"
 
 
 def test_ladder_leaves_wall_at_two_thirds_height():

@@ -302,7 +302,7 @@ def test_jit_gives_the_same_numbers():
 
 
 def test_ladder_leaves_the_wall_at_two_thirds_height():
-    tr = simulate(lamech.load("ladder"), 1.0, samples=101)
+    tr = simulate(lamech.load("ladder"), 0.8, samples=101)   # the top lands at t = 0.816
     assert tr.status == "ok", tr.message
     assert [(e.kind, e.constraint) for e in tr.events] == [("lift-off", "wall")]
     phi = tr.events[0].coordinates["phi"]
@@ -310,10 +310,37 @@ def test_ladder_leaves_the_wall_at_two_thirds_height():
     assert tr.energy_error < 1e-9          # frictionless: lift-off dissipates nothing
 
 
+def test_ladder_lands_flat_and_slides_on():
+    """After the wall, the ladder's top end falls to the floor (it swung through the floor
+    before `top_floor` was modelled). Truth: with no horizontal force x' keeps its
+    lift-off value; energy then gives the landing speed, m l^2 phi'^2 / 6 = E - m x'^2/2
+    at phi = 0 (foot on the floor), so the top meets the floor at l |phi'|; the plastic
+    landing leaves it flat (phi' = y' = 0), sliding at x'."""
+    m, g, l, phi0 = 1.0, G, 2.0, 1.2
+    tr = simulate(lamech.load("ladder"), 2.0, samples=201)
+    assert tr.status == "ok", tr.message
+    kinds = [(e.kind, e.constraint) for e in tr.events]
+    assert kinds == [("lift-off", "wall"), ("contact", "top_floor")]
+    lift, land = tr.events
+    vx = lift.coordinates["x'"]
+    assert abs(land.coordinates["x'"] - vx) < 1e-9 and abs(land.coordinates["phi"]) < 1e-9
+    E = m * g * l / 2 * math.sin(phi0)
+    phid = math.sqrt(6 * (E - m * vx**2 / 2) / (m * l**2))
+    assert abs(land.velocity_before + l * phid) < 1e-7
+    assert abs(land.coordinates["phi'"]) < 1e-12 and abs(land.coordinates["y'"]) < 1e-12
+    after = tr.t > land.t
+    assert np.allclose(tr.coordinate("y")[after], 0, atol=1e-12)
+    assert np.allclose(tr.coordinate("x")[after],
+                       land.coordinates["x"] + vx * (tr.t[after] - land.t), atol=1e-9)
+    assert tr.coordinate("y").min() > -1e-9
+    top = tr.coordinate("y") + l / 2 * np.sin(tr.coordinate("phi"))
+    assert top.min() > -1e-9                                # never through the floor
+
+
 def test_events_and_status_are_typed():
     """Events are typed records whose JSON is the --json summary's; statuses and kinds
     are str enumerations equal to their plain values."""
-    tr = simulate(lamech.load("ladder"), 1.0, samples=11)
+    tr = simulate(lamech.load("ladder"), 0.8, samples=11)
     assert tr.status is Status.OK and tr.status == "ok" and f"{tr.status}" == "ok"
     assert "what to try" in Status.FAILED.meaning
     (ev,) = tr.events
@@ -601,7 +628,7 @@ def test_cli_csv_and_json_contract(tmp_path, capsys):
     assert abs(float(last[3]) - th_ref[-1]) < 1e-7
     assert last[3] == f"{float(last[3]):.17g}"               # written with 17 digits
 
-    code = main(["simulate", "ladder", "--t-end", "1", "--samples", "3", "--json"])
+    code = main(["simulate", "ladder", "--t-end", "0.8", "--samples", "3", "--json"])
     summary = json.loads(capsys.readouterr().out)
     ev = summary["events"][0]
     assert {"t", "kind", "constraint", "coordinates"} <= set(ev)

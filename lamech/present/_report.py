@@ -57,6 +57,8 @@ def to_json(sol) -> dict:
         out["on_energy_shell"] = {k: _t(v) for k, v in sol.shell.multipliers.items()}
     out["vanishes"] = {k: [r.to_json() for r in v] for k, v in sol.vanishes.items()}
     out["slips"] = {k: [r.to_json() for r in v] for k, v in sol.slips.items()}
+    if sol.closes:
+        out["closes"] = {k: [r.to_json() for r in v] for k, v in sol.closes.items()}
     out["lets_go"] = {k: v.to_json() for k, v in sol.lets_go.items()}
     out["slipping"] = {k: v.to_json() for k, v in sol.slipping.items()}
     out["generalized_forces"] = {
@@ -82,7 +84,9 @@ def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
     for k, roots in table.items():
         v = verdicts.get(k)
         pad = " " * len(k)
-        if v is not None and (v.when == "at the start" or v.constant):
+        if v is not None and v.when == "open at the start":
+            lines.append(f"  {k}: open at the start ({v.reason})")
+        elif v is not None and (v.when == "at the start" or v.constant):
             lines.append(f"  {k}: {v.when} ({v.reason})")
             if v.condition and (v.when == "at the start" or v.kind == "slips"):
                 holds = "sticks" if v.kind == "slips" else "stays on"
@@ -239,7 +243,7 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     ):
         for k, roots in table.items():
             v = verdicts.get(k)
-            if v is not None and (v.when == "at the start" or v.constant):
+            if v is not None and (v.when in ("at the start", "open at the start") or v.constant):
                 add(
                     f"{k} {kind}: {v.when}",
                     rf"\text{{{_tex_text(k)}}}",

@@ -27,6 +27,7 @@ __all__ = [
     "Root",
     "Verdict",
     "vanishing_points",
+    "closing_points",
     "slip_points",
     "is_angle",
     "lets_go_verdict",
@@ -156,7 +157,20 @@ def _ordered_roots(system: System, shell: Shell, F) -> list[float]:
 
 
 def _symbolic_solutions(num: sp.Expr, x: sp.Symbol) -> list[tuple[sp.Expr, sp.Expr]]:
-    """(lhs, rhs) pairs with lhs in {cos x, sin x, x} solving num = 0 in closed form."""
+    """(lhs, rhs) pairs with lhs in {cos x, sin x, x} solving num = 0 in closed form, for
+    each factor of num that has x (3 g m (3 sin x - 2 sin a) cos x: sin x = 2 sin(a)/3
+    and cos x = 0)."""
+    try:
+        factors = [f for f, _ in sp.factor_list(num)[1] if f.has(x)]
+    except (sp.PolynomialError, TypeError, ValueError, NotImplementedError, RecursionError):
+        factors = [num]
+    out = []
+    for factor in factors or [num]:
+        out += _factor_solutions(factor, x)
+    return out
+
+
+def _factor_solutions(num: sp.Expr, x: sp.Symbol) -> list[tuple[sp.Expr, sp.Expr]]:
     out = []
     for lhs in (sp.cos(x), sp.sin(x), x):
         u = sp.Dummy("u")
@@ -179,6 +193,8 @@ def _symbolic_solutions(num: sp.Expr, x: sp.Symbol) -> list[tuple[sp.Expr, sp.Ex
 
 def _label(system, x, root: float, equation: str) -> Root:
     angle = is_angle(system, x.symbol)
+    if abs(root) < 1e-14:
+        root = 0.0  # a root at zero, found to rounding (4e-19)
     return Root(equation, x.name, root, math.degrees(root) if angle else None)
 
 
@@ -187,10 +203,26 @@ def vanishing_points(system: System, shell: Shell, name: str) -> list[Root]:
     lam = shell.multipliers.get(name)
     if lam is None:
         return []
+    return _zeros(system, shell, lam)
+
+
+def closing_points(system: System, shell: Shell, f: sp.Expr, reduction) -> list[Root]:
+    """Where an open contact's gap ``f`` (in the full coordinates; ``reduction`` brings
+    it to the independent one) reaches zero along the shell's motion, in the order
+    reached; [] when f depends on more of the state than the shell's coordinate."""
+    gap = tidy_light(reduction.apply(f))
+    if gap.free_symbols & (_state_symbols(system) - {shell.coordinate.symbol}):
+        return []
+    return _zeros(system, shell, gap)
+
+
+def _zeros(system: System, shell: Shell, expr: sp.Expr) -> list[Root]:
+    """Where ``expr`` (a function of the shell's coordinate) is zero along the motion,
+    each with its equation in closed form where one is found."""
     x = shell.coordinate
-    F = _numeric(system, lam, x.symbol)
+    F = _numeric(system, expr, x.symbol)
     roots = _ordered_roots(system, shell, F)
-    num = sp.numer(sp.together(lam))
+    num = sp.numer(sp.together(expr))
     sols = _symbolic_solutions(num, x.symbol)
     out = []
     pv = system.parameter_values

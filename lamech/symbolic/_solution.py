@@ -3,12 +3,21 @@ frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import sympy as sp
 
 from ..model import System, initial_values, open_at_start
-from ._conditions import Root, Verdict, lets_go_verdict, slip_points, slip_verdict, vanishing_points
+from ._conditions import (
+    Root,
+    Verdict,
+    closing_points,
+    lets_go_verdict,
+    slip_points,
+    slip_verdict,
+    vanishing_points,
+)
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
@@ -40,6 +49,7 @@ class Solution:
     lets_go: dict = field(default_factory=dict)  # unilateral constraint -> Verdict
     slipping: dict = field(default_factory=dict)  # friction constraint -> Verdict
     readable_equations: tuple = ()  # the equations as a student would simplify them
+    closes: dict = field(default_factory=dict)  # contact open at the start -> [Root] (f = 0)
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -116,17 +126,26 @@ class Solution:
 
 
 def solve(system: System) -> Solution:
-    """Derive equations, multipliers, integrals, vanishing/slip points and forces."""
+    """Derive equations, multipliers, integrals, vanishing/slip points and forces.
+
+    A unilateral contact open at the start (f > 0) has lambda = 0 until it closes: the
+    closed forms, the energy shell, the lift-off and slip points and the forces are
+    those of the constraints that hold at the start, and for the open contact the
+    points where it would close (f = 0) on that shell. The Euler-Lagrange equations
+    shown keep every multiplier."""
     dyn = dynamics(system)
-    red = eliminate(system)
-    forms = closed_forms(dyn, red)
-    ints = integrals(dyn, red)
+    opened = open_at_start(system)
+    holding = _holding(system, opened)
+    dyn_h = dynamics(holding) if holding is not system else dyn
+    red = eliminate(holding)
+    forms = closed_forms(dyn_h, red)
+    ints = integrals(dyn_h, red)
     notes = list(system.notes) + list(red.notes)
     initial = {}
     shell: Shell | None
     why: str | None  # the reason there is no shell
     if forms.singular:
-        raise DegenerateConstraintsError(_singular_message(system, dyn))
+        raise DegenerateConstraintsError(_singular_message(holding, dyn_h))
     if forms.skipped:
         notes.append(
             forms.skipped + "; M, h, A, gamma are given and the multipliers are "
@@ -134,38 +153,42 @@ def solve(system: System) -> Solution:
         )
         state = {**system.parameter_values, system.t: 0.0, **initial_values(system)}
         try:
-            _, lam = kkt_numeric(dyn, state)
-            initial = {c.name: float(v) for c, v in zip(system.constraints, lam)}
+            _, lam = kkt_numeric(dyn_h, state)
+            initial = {c.name: float(v) for c, v in zip(holding.constraints, lam)}
         except DegenerateConstraintsError as exc:
             notes.append(str(exc))
         shell, why = None, "closed forms were skipped"
     else:
-        shell, why = energy_shell(dyn, red, ints, forms)
-    opened = open_at_start(system)
+        shell, why = energy_shell(dyn_h, red, ints, forms)
     if opened:
         listed = ", ".join(f"`{k}` (f = {v:.6g})" for k, v in opened.items())
+        off = [c.name for c in system.constraints if c not in holding.constraints]
         notes.append(
-            f"contact {listed} is open at the start: the equations, multipliers and "
-            "forces hold while it is closed; the energy shell, lift-off and slip "
-            "points need a start in contact (lamech simulate follows the motion "
-            "through the landing)"
+            f"contact {listed} is open at the start: lambda = 0 until it closes, so the "
+            "multipliers, the energy shell, the lift-off and slip points and the forces "
+            f"are those of the other constraints (without {', '.join(off)}); lamech "
+            "simulate follows the motion through the landing"
         )
-        shell, why = None, "a unilateral contact is open at the start"
     vanishes: dict[str, list[Root]] = {}
     slips: dict[str, list[Root]] = {}
+    closes: dict[str, list[Root]] = {}
     for c in system.constraints:
+        if c.name in opened:
+            vanishes[c.name] = []
+            closes[c.name] = closing_points(holding, shell, c.expr, red) if shell else []
+            continue
         if c.unilateral:
-            vanishes[c.name] = vanishing_points(system, shell, c.name) if shell else []
+            vanishes[c.name] = vanishing_points(holding, shell, c.name) if shell else []
         if c.friction is not None:
-            slips[c.name] = slip_points(system, shell, c.name) if shell else []
+            slips[c.name] = slip_points(holding, shell, c.name) if shell else []
     if shell:
         for name, reason in shell.omitted.items():
             notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
     lets_go, slipping = _verdicts(
-        system, forms, initial, opened, vanishes, slips, None if shell else why
+        system, forms, initial, opened, vanishes, slips, closes, None if shell else why
     )
-    gen = generalized_forces(dyn, red, forms.multipliers)
-    cart = cartesian_forces(dyn, red, forms.multipliers)
+    gen = generalized_forces(dyn_h, red, forms.multipliers)
+    cart = cartesian_forces(dyn_h, red, forms.multipliers)
     return Solution(
         system,
         dyn,
@@ -183,7 +206,22 @@ def solve(system: System) -> Solution:
         lets_go,
         slipping,
         tuple(readable(e, system) for e in dyn.equations),
+        closes,
     )
+
+
+def _holding(system: System, opened: dict) -> System:
+    """The system with the constraints that hold at the start: without the contacts
+    open there and the friction constraints on them (``system`` itself when none is
+    open)."""
+    if not opened:
+        return system
+    kept = tuple(
+        c
+        for c in system.constraints
+        if c.name not in opened and not (c.friction is not None and c.friction.normal in opened)
+    )
+    return dataclasses.replace(system, constraints=kept)
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:
@@ -212,14 +250,25 @@ def _verdicts(
     opened: dict,
     vanishes: dict,
     slips: dict,
+    closes: dict,
     shell_reason: str | None,
 ) -> tuple[dict[str, Verdict], dict[str, Verdict]]:
     """Does each unilateral constraint let go, each friction constraint slip: at the
-    start, never, at the roots, or not determined (see :class:`Verdict`)."""
+    start, never, at the roots, open at the start, or not determined (see
+    :class:`Verdict`)."""
     lets_go: dict[str, Verdict] = {}
     slipping: dict[str, Verdict] = {}
     for c in system.constraints:
         if c.name in opened:
+            lets_go[c.name] = _open_verdict(c.name, opened[c.name], closes[c.name])
+            continue
+        if c.friction is not None and c.friction.normal in opened:
+            slipping[c.name] = Verdict(
+                "slips",
+                "open at the start",
+                f"its normal constraint `{c.friction.normal}` is open at the start: no "
+                "friction until it closes",
+            )
             continue
         if c.unilateral:
             if forms.multipliers:
@@ -232,11 +281,28 @@ def _verdicts(
                     "at the start",
                     f"lambda_{c.name} = {initial[c.name]:.6g} < 0 at the initial state (numeric)",
                 )
-        if c.friction is not None and c.friction.normal not in opened and forms.multipliers:
+        if c.friction is not None and forms.multipliers:
             slipping[c.name] = slip_verdict(
                 system, c.name, forms.multipliers, slips[c.name], shell_reason
             )
     return lets_go, slipping
+
+
+def _open_verdict(name: str, gap: float, roots: list[Root]) -> Verdict:
+    """A contact open at the start: lambda = 0 until it closes, where f = 0 (if the
+    other constraints still hold there)."""
+    where = (
+        f"; it closes where {roots[0].equation}: {roots[0].coordinate} = {roots[0].value:.10g}"
+        + (f" ({roots[0].degrees:.2f}°)" if roots[0].degrees is not None else "")
+        + ", if the other constraints still hold there"
+        if roots
+        else ""
+    )
+    return Verdict(
+        "lets go",
+        "open at the start",
+        f"f = {gap:.6g} > 0 at the initial state: lambda_{name} = 0 until it closes{where}",
+    )
 
 
 def _singular_message(system: System, dyn: Dynamics) -> str:
