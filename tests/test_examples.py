@@ -415,8 +415,11 @@ def test_atwood_tension_and_acceleration():
     y1, y2 = S["y1''"], S["y2''"]
     lam = S["lambda_string"]
     assert s.independent == ["y1"]
-    assert_same(s.equations[0], m1 * y1 + m1 * g - lam)
-    assert_same(s.equations[1], m2 * y2 + m2 * g - lam)
+    # the stops at the pulley (f = -y, open at the start) push down while closed
+    p1, p2 = S["lambda_pulley1"], S["lambda_pulley2"]
+    assert_same(s.equations[0], m1 * y1 + m1 * g - lam + p1)
+    assert_same(s.equations[1], m2 * y2 + m2 * g - lam + p2)
+    assert set(s.multipliers) == {"string"} and s.lets_go["pulley1"].when == "open at the start"
     tension = 2 * m1 * m2 * g / (m1 + m2)
     assert sp.simplify(s.multipliers["string"] - tension) == 0
     (red,) = s.reduced_equations
@@ -443,8 +446,10 @@ def test_atwood_force_at_one_end_leaves_a_residual():
     text = (EXAMPLES / "atwood.toml").read_text()
     spec = ('unilateral = true\nforce = { body = "mass1", at = ["-d", "y1"], '
             'along = { up = ["0", "1"] } }')
-    assert text.count("unilateral = true") == 1
-    s = lamech.solve(lamech.loads(text.replace("unilateral = true", spec), "atwood-one-end"))
+    string = 'f = "l + y1 + y2"\nunilateral = true'
+    assert text.count(string) == 1
+    s = lamech.solve(lamech.loads(text.replace(string, string.replace(
+        "unilateral = true", spec)), "atwood-one-end"))
     S = s.symbols
     m1, m2, g = S["m1"], S["m2"], S["g"]
     tension = 2 * m1 * m2 * g / (m1 + m2)
@@ -459,10 +464,13 @@ def test_double_atwood_singular_mass_matrix():
     T1, T2 = S["lambda_upper"], S["lambda_lower"]
     assert s.independent == ["yp", "y2"]
     # the massless pulley's equation is a force balance: T1 = 2 T2
-    assert_same(s.equations[0], -T1 + 2 * T2)
-    assert_same(s.equations[1], m1 * S["y1''"] + m1 * g - T1)
-    assert_same(s.equations[2], m2 * S["y2''"] + m2 * g - T2)
-    assert_same(s.equations[3], m3 * S["y3''"] + m3 * g - T2)
+    # the stops (open at the start) act while closed: at the fixed pulley on mass 1 and
+    # the movable pulley, at the movable one between it and masses 2 and 3
+    s1, sp_, s2, s3 = (S[f"lambda_{k}"] for k in ("stop1", "stop_pulley", "stop2", "stop3"))
+    assert_same(s.equations[0], -T1 + 2 * T2 + sp_ - s2 - s3)
+    assert_same(s.equations[1], m1 * S["y1''"] + m1 * g - T1 + s1)
+    assert_same(s.equations[2], m2 * S["y2''"] + m2 * g - T2 + s2)
+    assert_same(s.equations[3], m3 * S["y3''"] + m3 * g - T2 + s3)
     D = 4 * m2 * m3 + m1 * (m2 + m3)
     assert sp.simplify(s.multipliers["upper"] - 8 * m1 * m2 * m3 * g / D) == 0
     assert sp.simplify(s.multipliers["lower"] - 4 * m1 * m2 * m3 * g / D) == 0
@@ -750,7 +758,8 @@ def test_wedge():
     assert s.independent == ["X", "xb"]
     assert_same(s.equations[0], M * S["X''"] + lam * sp.sin(al))
     assert_same(s.equations[1], m * S["xb''"] - lam * sp.sin(al))
-    assert_same(s.equations[2], m * S["yb''"] + m * g - lam * sp.cos(al))
+    assert_same(s.equations[2], m * S["yb''"] + m * g - lam * sp.cos(al) - S["lambda_floor"])
+    assert s.lets_go["floor"].when == "open at the start"
     den = M + m * sp.sin(al)**2
     N = m * M * g * sp.cos(al) / den
     assert sp.simplify(s.multipliers["contact"] - N) == 0

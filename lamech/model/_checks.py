@@ -7,6 +7,8 @@ evaluating user text.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import sympy as sp
 
@@ -19,6 +21,7 @@ __all__ = [
     "numeric_matrix",
     "initial_values",
     "open_at_start",
+    "holding_at_start",
     "dependent_constraints",
     "dependent_group",
     "probe_states",
@@ -84,6 +87,21 @@ def open_at_start(system: System) -> dict[str, float]:
     return out
 
 
+def holding_at_start(system: System) -> System:
+    """The system with only the constraints that hold at the start: without the contacts
+    :func:`open_at_start` and the friction constraints on them (their multipliers are 0
+    until they close). ``system`` itself when every constraint holds."""
+    opened = open_at_start(system)
+    if not opened:
+        return system
+    kept = tuple(
+        c
+        for c in system.constraints
+        if c.name not in opened and not (c.friction is not None and c.friction.normal in opened)
+    )
+    return dataclasses.replace(system, constraints=kept)
+
+
 def value(expr, env: dict) -> float:
     """``expr`` at the numbers ``env`` ({symbol: value}), as a float.
 
@@ -107,12 +125,18 @@ def dependent_constraints(system: System) -> list[tuple[tuple[str, ...], bool]]:
 
     A is evaluated at the initial state and at two seeded random states; a group that
     is dependent at the random states is redundant, one dependent only at the initial
-    state marks a singular configuration (flag True).
+    state marks a singular configuration (flag True). Only the constraints that hold at
+    the start count: a contact open there (a stop at the pulley of an Atwood machine,
+    which can never close together with the other stop and the string) is checked by
+    the simulation when it closes.
     """
-    if not system.constraints:
+    holding = holding_at_start(system).constraints
+    rows = [i for i, c in enumerate(system.constraints) if c in holding]
+    if not rows:
         return []
     A, _ = constraint_jacobian(system)
-    names = [c.name for c in system.constraints]
+    A = A[rows, :]
+    names = [system.constraints[i].name for i in rows]
     pv = system.parameter_values
     try:
         init = initial_values(system)

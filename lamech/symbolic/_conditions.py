@@ -206,13 +206,13 @@ def vanishing_points(system: System, shell: Shell, name: str) -> list[Root]:
     return _zeros(system, shell, lam)
 
 
-def closing_points(system: System, shell: Shell, f: sp.Expr, reduction) -> list[Root]:
+def closing_points(system: System, shell: Shell, f: sp.Expr, reduction) -> list[Root] | None:
     """Where an open contact's gap ``f`` (in the full coordinates; ``reduction`` brings
     it to the independent one) reaches zero along the shell's motion, in the order
-    reached; [] when f depends on more of the state than the shell's coordinate."""
+    reached; None when f depends on more of the state than the shell's coordinate."""
     gap = tidy_light(reduction.apply(f))
     if gap.free_symbols & (_state_symbols(system) - {shell.coordinate.symbol}):
-        return []
+        return None
     return _zeros(system, shell, gap)
 
 

@@ -3,12 +3,11 @@ frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 import sympy as sp
 
-from ..model import System, initial_values, open_at_start
+from ..model import System, holding_at_start, initial_values, open_at_start
 from ._conditions import (
     Root,
     Verdict,
@@ -135,7 +134,7 @@ def solve(system: System) -> Solution:
     shown keep every multiplier."""
     dyn = dynamics(system)
     opened = open_at_start(system)
-    holding = _holding(system, opened)
+    holding = holding_at_start(system)
     dyn_h = dynamics(holding) if holding is not system else dyn
     red = eliminate(holding)
     forms = closed_forms(dyn_h, red)
@@ -172,10 +171,14 @@ def solve(system: System) -> Solution:
     vanishes: dict[str, list[Root]] = {}
     slips: dict[str, list[Root]] = {}
     closes: dict[str, list[Root]] = {}
+    undecided: set[str] = set()  # open contacts whose closing the shell cannot follow
     for c in system.constraints:
         if c.name in opened:
             vanishes[c.name] = []
-            closes[c.name] = closing_points(holding, shell, c.expr, red) if shell else []
+            found = closing_points(holding, shell, c.expr, red) if shell else None
+            closes[c.name] = found or []
+            if found is None:
+                undecided.add(c.name)
             continue
         if c.unilateral:
             vanishes[c.name] = vanishing_points(holding, shell, c.name) if shell else []
@@ -185,7 +188,7 @@ def solve(system: System) -> Solution:
         for name, reason in shell.omitted.items():
             notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
     lets_go, slipping = _verdicts(
-        system, forms, initial, opened, vanishes, slips, closes, None if shell else why
+        system, forms, initial, opened, vanishes, slips, closes, undecided, None if shell else why
     )
     gen = generalized_forces(dyn_h, red, forms.multipliers)
     cart = cartesian_forces(dyn_h, red, forms.multipliers)
@@ -208,20 +211,6 @@ def solve(system: System) -> Solution:
         tuple(readable(e, system) for e in dyn.equations),
         closes,
     )
-
-
-def _holding(system: System, opened: dict) -> System:
-    """The system with the constraints that hold at the start: without the contacts
-    open there and the friction constraints on them (``system`` itself when none is
-    open)."""
-    if not opened:
-        return system
-    kept = tuple(
-        c
-        for c in system.constraints
-        if c.name not in opened and not (c.friction is not None and c.friction.normal in opened)
-    )
-    return dataclasses.replace(system, constraints=kept)
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:
@@ -251,6 +240,7 @@ def _verdicts(
     vanishes: dict,
     slips: dict,
     closes: dict,
+    undecided: set,
     shell_reason: str | None,
 ) -> tuple[dict[str, Verdict], dict[str, Verdict]]:
     """Does each unilateral constraint let go, each friction constraint slip: at the
@@ -260,7 +250,9 @@ def _verdicts(
     slipping: dict[str, Verdict] = {}
     for c in system.constraints:
         if c.name in opened:
-            lets_go[c.name] = _open_verdict(c.name, opened[c.name], closes[c.name])
+            lets_go[c.name] = _open_verdict(
+                c.name, opened[c.name], closes[c.name], c.name in undecided
+            )
             continue
         if c.friction is not None and c.friction.normal in opened:
             slipping[c.name] = Verdict(
@@ -288,16 +280,20 @@ def _verdicts(
     return lets_go, slipping
 
 
-def _open_verdict(name: str, gap: float, roots: list[Root]) -> Verdict:
+def _open_verdict(name: str, gap: float, roots: list[Root], undecided: bool) -> Verdict:
     """A contact open at the start: lambda = 0 until it closes, where f = 0 (if the
-    other constraints still hold there)."""
-    where = (
-        f"; it closes where {roots[0].equation}: {roots[0].coordinate} = {roots[0].value:.10g}"
-        + (f" ({roots[0].degrees:.2f}°)" if roots[0].degrees is not None else "")
-        + ", if the other constraints still hold there"
-        if roots
-        else ""
-    )
+    other constraints still hold there), or never in the range the motion reaches."""
+    if roots:
+        r = roots[0]
+        deg = f" ({r.degrees:.2f}°)" if r.degrees is not None else ""
+        where = (
+            f"; it closes where {r.equation}: {r.coordinate} = {r.value:.10g}{deg}, if the "
+            "other constraints still hold there"
+        )
+    elif not undecided:
+        where = "; it never closes in the range the motion reaches"
+    else:
+        where = ""
     return Verdict(
         "lets go",
         "open at the start",
