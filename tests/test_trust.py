@@ -501,3 +501,31 @@ def test_the_atwood_mass_stops_at_the_pulley_when_the_closed_form_says():
     solved = lamech.solve(lamech.load("atwood"))
     assert solved.lets_go["pulley1"].when == "open at the start"
     assert "it closes where y1 = 0" in solved.lets_go["pulley1"].reason
+
+
+# ----- item 8: what a student would write ----------------------------------------------
+def test_results_read_as_a_student_would_write_them():
+    """X sin(a)/cos(a) was left for X tan(a); sin(2a) over a denominator with a leading
+    minus for the wedge's textbook acceleration m g sin(a) cos(a)/(M + m sin(a)^2);
+    factors 10000 from an initial velocity 0.01; sqrt(4 l^2 - 4 x^2)/2 for sqrt(l^2 - x^2);
+    -m theta'^2 (-R + a) for m theta'^2 (R - a). Each shown form equals the derived one."""
+    import sympy as sp
+    wedge = lamech.solve(lamech.load("wedge"))
+    text = lamech.to_text(wedge)
+    assert "yb = h + (X - xb)*tan(alpha)" in text
+    S = wedge.symbols
+    M, m, g, al = S["M"], S["m"], S["g"], S["alpha"]
+    assert sp.srepr(wedge.reduced_equations[0]) == sp.srepr(
+        S["X''"] + g * m * sp.sin(al) * sp.cos(al) / (M + m * sp.sin(al) ** 2))
+    assert "sin(2*alpha)" not in text
+    fast = lamech.to_text(lamech.solve(lamech.model.with_values(
+        lamech.load("cylinder"), initial={"theta1'": 0.01, "theta2'": 0.03})))
+    assert "10000*g" not in fast and "30000" not in fast
+    assert "theta1'^2 = 4*g*(1 - cos(theta1))/(3*(R1 + R2)) + 1/10000" in fast
+    chain = lamech.to_text(lamech.solve(lamech.loads(lamech.problem.chain_toml(2), "c.toml")))
+    assert "eliminated: y1 = -sqrt(l^2 - x1^2)" in chain
+    loop = lamech.solve(lamech.loads(LOOP, "loop.toml"))
+    assert "lambda_contact = g*m*cos(theta) + m*theta'^2*(R - a)" in lamech.to_text(loop)
+    for shown, derived in ((loop.multipliers["contact"], None),):
+        th, thd, R, a = (loop.symbols[k] for k in ("theta", "theta'", "R", "a"))
+        assert sp.simplify(shown - (g * m * sp.cos(th) + m * thd**2 * (R - a))) == 0

@@ -22,6 +22,7 @@ import sympy as sp
 from ..expr import to_text
 from ..model import System
 from ._integrals import Shell
+from ._student import has_big_integer, student
 
 __all__ = [
     "Root",
@@ -185,7 +186,7 @@ def _factor_solutions(num: sp.Expr, x: sp.Symbol) -> list[tuple[sp.Expr, sp.Expr
         if poly.degree() not in (1, 2) or any(c.has(x) for c in poly.all_coeffs()):
             continue
         for r in sp.roots(poly, multiple=True) or []:
-            out.append((lhs, sp.simplify(r)))
+            out.append((lhs, student(sp.simplify(r))))
         if out:
             return out
     return out
@@ -270,6 +271,9 @@ def slip_points(system: System, shell: Shell, name: str) -> list[Root]:
                 num, den = -num, -den
         except (TypeError, ValueError):
             pass
+        if has_big_integer(num) or has_big_integer(den):
+            # a small initial value's denominator cleared: 10000 g sin = 3 (70000 g ...)
+            num, den = student(s * lf), student(ln)
         eq = f"{to_text(num)} = {to_text(sp.Mul(fr.mu, den, evaluate=False))}"
         out.append(_label(system, x, r, eq))
     return out

@@ -27,6 +27,7 @@ except ImportError:  # pragma: no cover - SymPy 1.12
 
 from ..model import Coordinate, System, open_at_start, time_derivative
 from ._derive import Dynamics
+from ._student import outer_signs, student
 
 __all__ = [
     "Reduction",
@@ -69,7 +70,7 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         trig = sp.trigsimp(out)
         if sp.count_ops(trig) < sp.count_ops(out):
             out = trig
-        return out if sp.count_ops(out) <= ops else expr
+        return student(out if sp.count_ops(out) <= ops else expr)
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return expr
 
@@ -84,7 +85,7 @@ def present(expr: sp.Expr, velocities: list[sp.Symbol]) -> sp.Expr:
         grouped = sp.collect(sp.expand(expr), present_v, func=sp.factor)
     except (TypeError, ValueError, sp.PolynomialError):
         return expr
-    return grouped if sp.count_ops(grouped) <= sp.count_ops(expr) + 4 else expr
+    return outer_signs(grouped if sp.count_ops(grouped) <= sp.count_ops(expr) + 4 else expr)
 
 
 @dataclass(frozen=True)
@@ -129,7 +130,7 @@ def _solve_closed(f: sp.Expr, x: sp.Symbol) -> list[sp.Expr] | None:
         a, b = coeffs
         return [sp.expand(-b / a)] if a != 0 else None
     a, b, c = coeffs
-    disc = b**2 - 4 * a * c
+    disc = sp.factor_terms(sp.expand(b**2 - 4 * a * c))  # sqrt(4 (l^2 - x^2)) = 2 sqrt(...)
     return [(-b + sp.sqrt(disc)) / (2 * a), (-b - sp.sqrt(disc)) / (2 * a)]
 
 
@@ -223,7 +224,7 @@ def eliminate(system: System) -> Reduction:
         substitution[coord.symbol] = expr
         substitution[coord.velocity] = vel
         substitution[coord.acceleration] = acc
-        eliminated.append((coord, expr))
+        eliminated.append((coord, student(expr)))  # shown; the same function
     independent = tuple(c for c in system.coordinates if c.symbol not in positions)
     return Reduction(independent, tuple(eliminated), substitution, tuple(used), tuple(notes))
 
