@@ -66,7 +66,9 @@ def update_arming(run: Run, t: float, y: np.ndarray) -> None:
             mode.arm(kind, j)
 
 
-def inside_step(run: Run, dense, t_a: float, t_b: float) -> dict[int, tuple[float, float]]:
+def inside_step(
+    run: Run, dense, t_a: float, y_a: np.ndarray, t_b: float, y_b: np.ndarray
+) -> dict[int, tuple[float, float]]:
     """Contacts made and unmade inside one step, which its ends cannot see, found where
     a released gap's velocity changes sign on the dense output:
 
@@ -76,14 +78,16 @@ def inside_step(run: Run, dense, t_a: float, t_b: float) -> dict[int, tuple[floa
     * an armed one whose gap falls and rises again (a narrow obstacle passed in one
       step) hit the surface if the gap went negative; the crossing is in (t_a, bottom].
 
-    Returns {watch index: (t_from, t_to)}, the bracket to search."""
+    Returns {watch index: (t_from, t_to)}, the bracket to search. ``dense()`` gives the
+    step's dense output, asked for only when a gap velocity changes sign (y_a, y_b: the
+    states at the step's ends)."""
     from scipy.optimize import brentq
 
     n, mode, setup = run.setup.n, run.mode, run.setup
     out: dict[int, tuple[float, float]] = {}
 
-    def gap(s: float, j: int) -> tuple[float, float]:
-        y = dense(s)
+    def gap(s: float, j: int, y: np.ndarray | None = None) -> tuple[float, float]:
+        y = dense()(s) if y is None else y
         f, A, b = run.constraints(s, y[:n])
         return float(f[j]), float(A[j] @ y[n:] + b[j])
 
@@ -93,7 +97,7 @@ def inside_step(run: Run, dense, t_a: float, t_b: float) -> dict[int, tuple[floa
     for i, (kind, j) in enumerate(mode.watch):
         if kind != EventKind.CONTACT:
             continue
-        (_, rate_a), (_, rate_b) = gap(t_a, j), gap(t_b, j)
+        (_, rate_a), (_, rate_b) = gap(t_a, j, y_a), gap(t_b, j, y_b)
         if not mode.is_armed(kind, j):
             if rate_a > 0.0 > rate_b:
                 apex = turn(j)

@@ -168,8 +168,8 @@ def _segment(
         at.max_projection = max(at.max_projection, moved)
         acc = run.kkt(t_b, yb[:n], yb[n:])
         g_new = event_values(run, t_b, yb, acc)
-        dense = solver.dense_output()
-        brackets = inside_step(run, dense, t_a, t_b) if run.mode.released else {}
+        dense = _Lazy(solver.dense_output)  # DOP853's costs 3 more evaluations: on need
+        brackets = inside_step(run, dense, t_a, at.y, t_b, yb) if run.mode.released else {}
         if brackets:
             g_new = event_values(run, t_b, yb, acc)  # arming changed them
         crossed = (g_old > 0) & (g_new <= 0)
@@ -177,10 +177,10 @@ def _segment(
             crossed[i] = hi < t_b or g_new[i] <= 0  # a dip, or a crossing after the apex
         hit = np.nonzero(crossed)[0]
         if len(hit):
-            _event(run, rec, at, dense, hit, t_a, t_b, zeno, brackets)
+            _event(run, rec, at, dense(), hit, t_a, t_b, zeno, brackets)
             return
         _check_penetration(run, t_b, yb)
-        rec.up_to(t_b, solver.dense_output, yb)
+        rec.up_to(t_b, dense, yb)
         _check_conditioning(acc, t_b, at.steps)
         if not run.mode.all_armed():
             update_arming(run, t_b, yb)
@@ -212,6 +212,18 @@ def _event(
     zeno.check(te)
     at.y = apply(run, te, ye, kind, j)
     at.t = te
+
+
+class _Lazy:
+    """A value computed on the first call, then kept."""
+
+    def __init__(self, make):
+        self.make, self.value = make, None
+
+    def __call__(self):
+        if self.value is None:
+            self.value = self.make()
+        return self.value
 
 
 class _Zeno:
