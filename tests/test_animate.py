@@ -94,3 +94,35 @@ def test_pendulum_gif_frames_sampled_evenly(tmp_path):
     pos = scene.bodies[0][3]
     th = traj.coordinate("theta")[frames]
     assert np.allclose(pos, np.column_stack((np.sin(th), -np.cos(th))), atol=1e-12)
+
+
+def test_scenery_is_drawn_where_the_file_puts_it(tmp_path):
+    """``[[scenery]]``: the pivot stays at the origin, the string runs from it to the bob
+    at every frame (it moves with the coordinates), the ring has radius l and the view
+    holds all of it."""
+    from pathlib import Path
+
+    system = lamech.load(Path(__file__).parent / "bad" / "valid" / "scenery.toml")
+    assert [(g.name, g.kind.value, len(g.points)) for g in system.scenery] == [
+        ("pivot", "point", 1), ("string", "line", 2), ("ring", "circle", 1)]
+    traj = lamech.simulate(system, 1.0, samples=21)
+    scene = Scene(traj, system, None, np.arange(len(traj.t)))
+    (pk, pivot, _), (sk, string, _), (ck, centre, radius) = scene.scenery
+    assert (pk, sk, ck) == ("point", "line", "circle")
+    assert np.allclose(pivot, 0.0) and np.allclose(centre, 0.0)
+    bob = scene.bodies[0][3]
+    assert np.allclose(string[:, 0], 0.0) and np.allclose(string[:, 1], bob, atol=1e-12)
+    assert np.allclose(radius, 1.0)
+    x0, x1, y0, y1 = scene.limits()
+    assert x0 < -1 and x1 > 1 and y0 < -1 and y1 > 1   # the whole ring, not just the swing
+    out = animate(traj, system, tmp_path / "s.gif", max_frames=4, dpi=30)
+    assert out.stat().st_size > 0
+
+
+def test_every_example_declares_its_fixed_geometry():
+    """Each bundled example with bodies draws something besides them (a pivot, a floor,
+    the fixed cylinder): a body moving in empty space is not what the file describes."""
+    for name in lamech.examples():
+        system = lamech.load(name)
+        if system.bodies:
+            assert system.scenery, f"example {name!r} declares no [[scenery]]"

@@ -38,6 +38,8 @@ from ._system import (
     Friction,
     ModelError,
     Parameter,
+    Scenery,
+    SceneryKind,
     ShapeKind,
     System,
 )
@@ -50,6 +52,8 @@ __all__ = [
     "ForceSpec",
     "Constraint",
     "Body",
+    "Scenery",
+    "SceneryKind",
     "System",
     "ModelError",
     "ConstraintKind",

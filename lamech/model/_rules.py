@@ -5,7 +5,7 @@ find with the file and line.
 Every function returns a list of (where, message); ``where`` names the place the way a
 problem file does: ``parameters.l``, ``coordinates.x.initial``, ``lagrangian.V``,
 ``constraints[2] `rolling` friction.mu``, ``bodies[1] `wheel` mass``, ``forces.x``,
-``gravity.acceleration``. A part checked on its own, before it is in a system, does not
+``gravity.acceleration``, ``scenery[1] `pivot` point``. A part checked on its own, before it is in a system, does not
 know its index: ``constraint `rolling` unilateral``, ``body `wheel` position``, and a
 friction or force spec ``friction.mu``, ``force.at``.
 """
@@ -22,7 +22,16 @@ from sympy.core.function import AppliedUndef
 from ..expr import FUNCTIONS, RESERVED
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ._system import Body, Constraint, Coordinate, ForceSpec, Friction, Parameter, System
+    from ._system import (
+        Body,
+        Constraint,
+        Coordinate,
+        ForceSpec,
+        Friction,
+        Parameter,
+        Scenery,
+        System,
+    )
 
 __all__ = [
     "FIELDS",
@@ -33,6 +42,7 @@ __all__ = [
     "force_issues",
     "constraint_issues",
     "body_issues",
+    "scenery_issues",
     "system_issues",
 ]
 
@@ -66,6 +76,7 @@ FIELDS: dict[str, tuple[str, str]] = {
     "angle": ("positions", "angles"),
     "inertia": ("parameters", "inertia (parameters only)"),
     "shape": ("parameters", "shapes (parameters only)"),
+    "scenery": ("positions", "scenery"),
     "gravity": ("parameters", "gravity (parameters only)"),
 }
 """What each kind of expression may contain, and its name in messages (the loader
@@ -335,6 +346,49 @@ def body_issues(b: Body) -> Issues:
     return out
 
 
+_SCENERY_FORMS = 'point = [x, y], line = [[x1, y1], [x2, y2], ...] or circle = { center = [x, y], radius = "R" }'
+
+
+def scenery_issues(g: Scenery) -> Issues:
+    from ._system import SceneryKind
+
+    where = f"scenery `{g.name}`"
+    out: Issues = []
+    if not isinstance(g.name, str) or not g.name.strip():
+        out.append((_join(where, "name"), "a name must be a non-empty string"))
+    if not isinstance(g.kind, SceneryKind):
+        return out + [(where, f"unknown kind `{g.kind}`; scenery is one of {_SCENERY_FORMS}")]
+    kind = g.kind.value
+    if not isinstance(g.points, tuple) or not all(isinstance(p, tuple) for p in g.points):
+        return out + [(_join(where, kind), f"points must be lists of 2 or 3 expressions; {_SCENERY_FORMS}")]
+    wanted = "2 or more points" if g.kind == SceneryKind.LINE else "one point"
+    if (g.kind == SceneryKind.LINE) != (len(g.points) != 1) or not g.points:
+        out.append((_join(where, kind), f"a {kind} has {wanted}; got {len(g.points)}"))
+    sizes = {len(p) for p in g.points}
+    if sizes - {2, 3} or len(sizes) > 1:
+        out.append(
+            (
+                _join(where, kind),
+                "each point is a list of 2 or 3 expressions (x, y[, z]), all of one size",
+            )
+        )
+    for p in g.points:
+        for x in p:
+            if not _is_expr(x):
+                out.append((_join(where, kind), _not_expr(x, "each component")))
+                return out
+    if (g.kind == SceneryKind.CIRCLE) != (g.radius is not None):
+        out.append(
+            (
+                _join(where, kind),
+                "a circle needs a radius" if g.kind == SceneryKind.CIRCLE else f"a {kind} has no radius",
+            )
+        )
+    elif g.radius is not None and not _is_expr(g.radius):
+        out.append((_join(where, kind), _not_expr(g.radius, "the radius")))
+    return out
+
+
 _PLURAL = {
     "velocity": "velocities are",
     "acceleration": "accelerations are",
@@ -396,7 +450,7 @@ class _Scope:
 def system_issues(s: System) -> Issues:
     """Everything wrong with ``s`` as a whole. The checks at numbers that cost most (the
     initial state, dependent constraints) run only when everything else is right."""
-    from ._system import Body, Constraint, Coordinate, Parameter
+    from ._system import Body, Constraint, Coordinate, Parameter, Scenery
 
     out: Issues = []
     for label, items, cls in (
@@ -404,6 +458,7 @@ def system_issues(s: System) -> Issues:
         ("coordinates", s.coordinates, Coordinate),
         ("constraints", s.constraints, Constraint),
         ("bodies", s.bodies, Body),
+        ("scenery", s.scenery, Scenery),
     ):
         if not isinstance(items, tuple) or not all(isinstance(x, cls) for x in items):
             out.append((label, f"{label} must be a tuple of {cls.__name__}"))
@@ -518,6 +573,13 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
             check(b.inertia, "inertia", f"{where} inertia")
         if b.shape[1] is not None:
             check(b.shape[1], "shape", f"{where} shape")
+    for i, g in enumerate(s.scenery):
+        where = f"scenery[{i + 1}] `{g.name}` {g.kind.value}"
+        for p in g.points:
+            for x in p:
+                check(x, "scenery", where)
+        if g.radius is not None:
+            check(g.radius, "scenery", where)
     return out
 
 
@@ -593,6 +655,16 @@ def _structure_issues(s: System, scope: _Scope) -> Issues:
                 "all bodies must have positions of the same size (2 for a plane, 3 for space)",
             )
         )
+    if s.bodies:
+        dim = s.dimension
+        for i, g in enumerate(s.scenery):
+            if any(len(p) != dim for p in g.points):
+                out.append(
+                    (
+                        f"scenery[{i + 1}] `{g.name}` {g.kind.value}",
+                        f"points must have {dim} components, like the bodies' positions",
+                    )
+                )
     return out
 
 

@@ -81,6 +81,15 @@ class ShapeKind(_Text):
     ROD = "rod"
 
 
+class SceneryKind(_Text):
+    """What a piece of scenery is: ``Scenery.points`` holds one point, 2 or more, or the
+    centre (with ``radius``)."""
+
+    POINT = "point"
+    LINE = "line"
+    CIRCLE = "circle"
+
+
 def _as_enum(obj, name: str, enum: type[Enum]) -> None:
     """Store a field given as its string value (``"holonomic"``) as the enum member."""
     raw = getattr(obj, name)
@@ -221,12 +230,36 @@ class Body:
 
 
 @dataclass(frozen=True)
+class Scenery:
+    """Geometry drawn with the bodies but not a body: a fixed cylinder, a pivot, a wall, a
+    string from a pivot to a bob. ``points`` (each 2 or 3 expressions, like a body's
+    position) are one point (POINT), a polyline of 2 or more (LINE) or the centre of a
+    circle of ``radius`` (CIRCLE); they may depend on the coordinates and t, so a string
+    or a rod between bodies moves with them. It plays no part in the mechanics."""
+
+    name: str
+    kind: SceneryKind
+    points: tuple[tuple[sp.Expr, ...], ...]
+    radius: sp.Expr | None = None
+
+    def __post_init__(self) -> None:
+        _as_enum(self, "kind", SceneryKind)
+        if isinstance(self.points, (list, tuple)):
+            object.__setattr__(
+                self,
+                "points",
+                tuple(tuple(p) if isinstance(p, list) else p for p in self.points),
+            )
+        ModelError.check(_rules.scenery_issues(self))
+
+
+@dataclass(frozen=True)
 class System:
     """A constrained system: the input of every derivation (frozen, self-consistent).
 
     ``T`` and ``V`` are in coordinates, velocities, parameters and ``t``; ``forces`` is
     Q^nc, one entry per coordinate. ``notes`` carries warnings found while loading (a T
-    that disagrees with the bodies' kinematics).
+    that disagrees with the bodies' kinematics); ``scenery`` is drawn, never simulated.
     """
 
     title: str
@@ -241,11 +274,14 @@ class System:
     t: sp.Symbol = sp.Symbol("t", real=True)
     source: str | None = None
     notes: tuple[str, ...] = ()
+    scenery: tuple[Scenery, ...] = ()
 
     def __post_init__(self) -> None:
         # Every check, once per construction (``dataclasses.replace`` included): the
         # rules are in lamech.model._rules.
-        _as_tuple(self, "parameters", "coordinates", "constraints", "bodies", "forces", "notes")
+        _as_tuple(
+            self, "parameters", "coordinates", "constraints", "bodies", "forces", "notes", "scenery"
+        )
         ModelError.check(_rules.system_issues(self))
 
     # ----- views -----------------------------------------------------------------

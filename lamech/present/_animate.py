@@ -5,7 +5,9 @@ Everything drawn comes from the problem file, for any problem: each body by its
 a point), a trail of each body's centre, the Cartesian force of every active constraint
 that names a point (``force = { at, along }``) as an arrow there, the track of each
 contact point while the contact holds (the part of the fixed surface the motion
-touches), the time, and each event (lift-off, impact, slip, ...) flashed as it happens.
+touches), the problem's ``[[scenery]]`` (fixed cylinders, pivots, walls, strings and
+rods between bodies: points, lines and circles that may move with the coordinates), the
+time, and each event (lift-off, impact, slip, ...) flashed as it happens.
 The view is fitted once to the whole motion. Bodies in space are drawn in side view
 (x–z).
 
@@ -115,6 +117,18 @@ class Scene:
                     # components are F·d/|d|: F is the least-squares solution over them
                     vec[k], *_ = np.linalg.lstsq(D[ok], ck[ok], rcond=None)
             self.arrows.append((c.name, at, vec))
+        # (kind, points (F, k, 2), radius (F,) or None): scenery at every frame
+        self.scenery = []
+        for g in system.scenery:
+            pts = np.stack(
+                [_plane(_series(_lambdify(system, params, p), t, q)) for p in g.points], axis=1
+            )
+            radius = (
+                _series(_lambdify(system, params, [g.radius]), t, q)[:, 0]
+                if g.radius is not None
+                else None
+            )
+            self.scenery.append((g.kind.value, pts, radius))
 
     def limits(self) -> tuple[float, float, float, float]:
         xs, ys = [], []
@@ -122,6 +136,10 @@ class Scene:
             pad = size if kind == "circle" else size / 2 if kind == "rod" else 0.0
             xs += [np.nanmin(pos[:, 0]) - pad, np.nanmax(pos[:, 0]) + pad]
             ys += [np.nanmin(pos[:, 1]) - pad, np.nanmax(pos[:, 1]) + pad]
+        for _, pts, radius in self.scenery:
+            pad = np.abs(radius)[:, None] if radius is not None else 0.0
+            xs += [np.nanmin(pts[:, :, 0] - pad), np.nanmax(pts[:, :, 0] + pad)]
+            ys += [np.nanmin(pts[:, :, 1] - pad), np.nanmax(pts[:, :, 1] + pad)]
         for _, track in self.tracks:
             if np.isfinite(track).any():
                 xs += [np.nanmin(track[:, 0]), np.nanmax(track[:, 0])]
@@ -218,6 +236,18 @@ def animate(
     ax.set_title(heading + (" — side view (x, z)" if scene.space else ""), fontsize=10)
     span = max(x1 - x0, y1 - y0)
 
+    scenery: list[tuple[str, Circle | Line2D, np.ndarray, np.ndarray | None]] = []
+    for kind, pts, radius in scene.scenery:
+        if kind == "circle":
+            disc = Circle(
+                tuple(pts[0, 0]), abs(radius[0]), facecolor="0.88", edgecolor="0.35", lw=1.5
+            )
+            ax.add_patch(disc)
+            scenery.append((kind, disc, pts, radius))
+        else:
+            style = {"marker": "o", "ms": 6, "ls": "none"} if kind == "point" else {"lw": 1.5}
+            (art,) = ax.plot([], [], color="0.25", zorder=2.5, **style)
+            scenery.append((kind, art, pts, None))
     for _name, track in scene.tracks:
         ax.plot(track[:, 0], track[:, 1], color="0.55", lw=3, alpha=0.6, zorder=1)
     colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -264,6 +294,12 @@ def animate(
     hold = 0.06 * (scene.t[-1] - scene.t[0])
 
     def draw(k: int):
+        for kind, art, pts, radius in scenery:
+            if isinstance(art, Circle):
+                art.center = tuple(pts[k, 0])
+                art.set_radius(abs(radius[k]))
+            else:
+                art.set_data(pts[k, :, 0], pts[k, :, 1])
         for (kind, main, spoke, trail), (_, _, size, pos, angle) in zip(artists, scene.bodies):
             x, y = pos[k]
             trail.set_data(pos[: k + 1, 0], pos[: k + 1, 1])

@@ -29,6 +29,7 @@ from ..model import (
     Friction,
     ModelError,
     Parameter,
+    Scenery,
     ShapeKind,
     System,
     body_energy,
@@ -45,8 +46,8 @@ __all__ = ["ProblemFileError", "Issue", "load", "loads", "from_dict"]
 
 # A model's `where` for a part in a system (constraints[2] `rolling` friction.mu) and for
 # a part checked on its own (constraint `rolling` unilateral).
-_PART_IN_SYSTEM = re.compile(r"^(constraints|bodies)\[(\d+)\] `[^`]*`(?: (\S+))?")
-_PART_ALONE = re.compile(r"^(?:constraint|body) `[^`]*`")
+_PART_IN_SYSTEM = re.compile(r"^(constraints|bodies|scenery)\[(\d+)\] `[^`]*`(?: (\S+))?")
+_PART_ALONE = re.compile(r"^(?:constraint|body|scenery) `[^`]*`")
 _KNOWN_SECTIONS = {
     "title",
     "parameters",
@@ -57,6 +58,7 @@ _KNOWN_SECTIONS = {
     "gravity",
     "forces",
     "description",
+    "scenery",
 }
 
 
@@ -382,6 +384,7 @@ class _Loader:
         T, V = self._lagrangian(skeleton, bodies, gravity)
         constraints = self._constraints()
         forces = self._forces(coords)
+        scenery = self._scenery()
         self.fail_if_any()
         notes = self._compare_energy(skeleton, bodies, gravity, T, V)
         system = self.make(
@@ -398,6 +401,7 @@ class _Loader:
             t=self.t,
             source=self.source,
             notes=tuple(notes),
+            scenery=tuple(scenery),
         )
         self.fail_if_any()
         return system
@@ -590,6 +594,63 @@ class _Loader:
                 body = self.make(Body, name, part=where, **parts)
                 if body is not None:
                     out.append(body)
+        return out
+
+    def _scenery(self) -> list[Scenery]:
+        """``[[scenery]]``: drawn geometry, each entry a point, a line or a circle."""
+        raw = self.data.get("scenery", [])
+        forms = (
+            'point = [x, y], line = [[x1, y1], [x2, y2], ...] or circle = { center = [x, y], radius = "R" }'
+        )
+        if not isinstance(raw, list):
+            self.problem(
+                "scenery",
+                "scenery is an array of tables: each starts with `[[scenery]]`",
+                (None, None, "scenery"),
+            )
+            return []
+        out = []
+        for i, spec in enumerate(raw):
+            loc0 = ("scenery", i, None)
+            if not isinstance(spec, dict):
+                self.problem(f"scenery[{i + 1}]", "must be a table", loc0)
+                continue
+            name = spec.get("name", f"scenery{i + 1}")
+            where = f"scenery[{i + 1}] `{name}`"
+            extra = sorted(set(spec) - {"name", "point", "line", "circle"})
+            kinds = [k for k in ("point", "line", "circle") if k in spec]
+            if extra:
+                self.problem(
+                    where, f"unknown key `{extra[0]}`; a scenery entry takes name and {forms}", loc0
+                )
+                continue
+            if len(kinds) != 1:
+                self.problem(where, f"give exactly one of {forms}", loc0)
+                continue
+            kind = kinds[0]
+            value, loc, at = spec[kind], ("scenery", i, kind), f"{where} {kind}"
+            before, radius = len(self.problems), None
+            if kind == "circle":
+                if not isinstance(value, dict) or set(value) != {"center", "radius"}:
+                    self.problem(at, f"a circle is {{ center = [x, y], radius = \"R\" }}", loc)
+                    continue
+                radius = self.field(value["radius"], "scenery", at, loc)
+                points = [value["center"]]
+            elif kind == "line":
+                if not isinstance(value, list) or not all(isinstance(p, list) for p in value):
+                    self.problem(at, "a line is a list of points: [[x1, y1], [x2, y2], ...]", loc)
+                    continue
+                points = value
+            else:
+                points = [value]
+            if not all(isinstance(p, list) for p in points):
+                self.problem(at, "a point is a list of 2 or 3 expressions: [x, y]", loc)
+                continue
+            parsed = [tuple(self.field(x, "scenery", at, loc) for x in p) for p in points]
+            if len(self.problems) == before:
+                item = self.make(Scenery, str(name), kind, tuple(parsed), radius, part=where)
+                if item is not None:
+                    out.append(item)
         return out
 
     def _shape(self, spec, where, loc) -> tuple | None:
