@@ -122,7 +122,7 @@ def test_scenery_is_drawn_where_the_file_puts_it(tmp_path):
 def test_every_example_declares_its_fixed_geometry():
     """Each bundled example with bodies draws something besides them (a pivot, a floor,
     the fixed cylinder): a body moving in empty space is not what the file describes."""
-    for name in lamech.examples():
+    for name in lamech.example_names():
         system = lamech.load(name)
         if system.bodies:
             assert system.scenery, f"example {name!r} declares no [[scenery]]"
