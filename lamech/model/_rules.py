@@ -5,9 +5,9 @@ find with the file and line.
 Every function returns a list of (where, message); ``where`` names the place the way a
 problem file does: ``parameters.l``, ``coordinates.x.initial``, ``lagrangian.V``,
 ``constraints[2] `rolling` friction.mu``, ``bodies[1] `wheel` mass``, ``forces.x``,
-``gravity.acceleration``, ``scenery[1] `pivot` point``. A part checked on its own, before it is in a system, does not
-know its index: ``constraint `rolling` unilateral``, ``body `wheel` position``, and a
-friction or force spec ``friction.mu``, ``force.at``.
+``gravity.acceleration``, ``scenery[1] `pivot` point``. A part checked on its own,
+before it is in a system, does not know its index: ``constraint `rolling` unilateral``,
+``body `wheel` position``, and a friction or force spec ``friction.mu``, ``force.at``.
 """
 
 from __future__ import annotations
@@ -346,7 +346,9 @@ def body_issues(b: Body) -> Issues:
     return out
 
 
-_SCENERY_FORMS = 'point = [x, y], line = [[x1, y1], [x2, y2], ...] or circle = { center = [x, y], radius = "R" }'
+_SCENERY_FORMS = (
+    'point = [x, y], line = [[x1, y1], [x2, y2], ...] or circle = { center = [x, y], radius = "R" }'
+)
 
 
 def scenery_issues(g: Scenery) -> Issues:
@@ -360,7 +362,9 @@ def scenery_issues(g: Scenery) -> Issues:
         return out + [(where, f"unknown kind `{g.kind}`; scenery is one of {_SCENERY_FORMS}")]
     kind = g.kind.value
     if not isinstance(g.points, tuple) or not all(isinstance(p, tuple) for p in g.points):
-        return out + [(_join(where, kind), f"points must be lists of 2 or 3 expressions; {_SCENERY_FORMS}")]
+        return out + [
+            (_join(where, kind), f"points must be lists of 2 or 3 expressions; {_SCENERY_FORMS}")
+        ]
     wanted = "2 or more points" if g.kind == SceneryKind.LINE else "one point"
     if (g.kind == SceneryKind.LINE) != (len(g.points) != 1) or not g.points:
         out.append((_join(where, kind), f"a {kind} has {wanted}; got {len(g.points)}"))
@@ -381,7 +385,9 @@ def scenery_issues(g: Scenery) -> Issues:
         out.append(
             (
                 _join(where, kind),
-                "a circle needs a radius" if g.kind == SceneryKind.CIRCLE else f"a {kind} has no radius",
+                "a circle needs a radius"
+                if g.kind == SceneryKind.CIRCLE
+                else f"a {kind} has no radius",
             )
         )
     elif g.radius is not None and not _is_expr(g.radius):
@@ -575,8 +581,8 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
             check(b.shape[1], "shape", f"{where} shape")
     for i, g in enumerate(s.scenery):
         where = f"scenery[{i + 1}] `{g.name}` {g.kind.value}"
-        for p in g.points:
-            for x in p:
+        for point in g.points:
+            for x in point:
                 check(x, "scenery", where)
         if g.radius is not None:
             check(g.radius, "scenery", where)

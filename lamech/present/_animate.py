@@ -239,6 +239,7 @@ def animate(
     scenery: list[tuple[str, Circle | Line2D, np.ndarray, np.ndarray | None]] = []
     for kind, pts, radius in scene.scenery:
         if kind == "circle":
+            assert radius is not None  # a circle has one
             disc = Circle(
                 tuple(pts[0, 0]), abs(radius[0]), facecolor="0.88", edgecolor="0.35", lw=1.5
             )
@@ -294,8 +295,9 @@ def animate(
     hold = 0.06 * (scene.t[-1] - scene.t[0])
 
     def draw(k: int):
-        for kind, art, pts, radius in scenery:
+        for _kind, art, pts, radius in scenery:
             if isinstance(art, Circle):
+                assert radius is not None
                 art.center = tuple(pts[k, 0])
                 art.set_radius(abs(radius[k]))
             else:

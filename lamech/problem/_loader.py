@@ -600,7 +600,8 @@ class _Loader:
         """``[[scenery]]``: drawn geometry, each entry a point, a line or a circle."""
         raw = self.data.get("scenery", [])
         forms = (
-            'point = [x, y], line = [[x1, y1], [x2, y2], ...] or circle = { center = [x, y], radius = "R" }'
+            "point = [x, y], line = [[x1, y1], [x2, y2], ...] "
+            'or circle = { center = [x, y], radius = "R" }'
         )
         if not isinstance(raw, list):
             self.problem(
@@ -632,7 +633,7 @@ class _Loader:
             before, radius = len(self.problems), None
             if kind == "circle":
                 if not isinstance(value, dict) or set(value) != {"center", "radius"}:
-                    self.problem(at, f"a circle is {{ center = [x, y], radius = \"R\" }}", loc)
+                    self.problem(at, 'a circle is { center = [x, y], radius = "R" }', loc)
                     continue
                 radius = self.field(value["radius"], "scenery", at, loc)
                 points = [value["center"]]

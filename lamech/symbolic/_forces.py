@@ -22,15 +22,26 @@ from ._reduce import Reduction, tidy
 __all__ = ["generalized_forces", "cartesian_forces"]
 
 
-def generalized_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
-    """{constraint: {coordinate: Q^(j)_r}} on the manifold, every coordinate listed."""
+TIDY_PRODUCT_OPS = 150
+"""A multiplier longer than this is multiplied out without another ``simplify`` (which
+costs tens of seconds on a few hundred operations and rarely shortens a product)."""
+
+
+def generalized_forces(dyn: Dynamics, red: Reduction, multipliers: dict, on_manifold=None) -> dict:
+    """{constraint: {coordinate: Q^(j)_r}} on the manifold, every coordinate listed.
+    ``on_manifold`` (:func:`._manifold.manifold_simplifier`) writes them with the kept
+    constraints' values (sqrt(x1^2 + y1^2) -> l1)."""
     out = {}
     for j, c in enumerate(dyn.system.constraints):
         lam = multipliers.get(c.name, c.multiplier)
-        out[c.name] = {
-            coord.name: tidy(red.apply(lam * dyn.A[j, i]))
-            for i, coord in enumerate(dyn.system.coordinates)
-        }
+        long = sp.count_ops(lam) > TIDY_PRODUCT_OPS
+        row = {}
+        for i, coord in enumerate(dyn.system.coordinates):
+            Q = red.apply(lam * dyn.A[j, i])
+            if on_manifold is not None:
+                Q = on_manifold.radicals_replaced(Q) if long else on_manifold(tidy(Q))
+            row[coord.name] = Q if long else tidy(Q)
+        out[c.name] = row
     return out
 
 

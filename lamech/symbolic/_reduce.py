@@ -17,6 +17,7 @@ constraints not eliminated. Simplification is bounded by expression size
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import sympy as sp
 
@@ -27,6 +28,7 @@ except ImportError:  # pragma: no cover - SymPy 1.12
 
 from ..model import Coordinate, System, open_at_start, time_derivative
 from ._derive import Dynamics
+from ._manifold import manifold_simplifier
 from ._student import outer_signs, student
 
 __all__ = [
@@ -246,6 +248,7 @@ class ClosedForms:
     multipliers: dict  # constraint name -> Expr
     skipped: str | None = None  # why closed forms were not attempted
     singular: bool = False  # the KKT matrix is singular identically
+    manifold: Any = None  # the kept constraints' simplifier (symbolic._manifold)
 
 
 def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
@@ -274,15 +277,17 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
             f"substituted KKT system too large for closed forms "
             f"({size} operations; the limit is {KKT_OPS})",
         )
-    K = K.applyfunc(_pre)
-    rhs = rhs.applyfunc(_pre)
+    kept = [system.constraints[j].expr for j in rest if system.constraints[j].holonomic]
+    on_manifold = manifold_simplifier(system, kept)
+    K = K.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
+    rhs = rhs.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
     try:
         sol = _solve_linear(K, rhs)
     except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):
         return ClosedForms(
             {}, {}, "the substituted KKT matrix is singular symbolically", singular=True
         )
-    sol = [tidy(s) for s in sol]
+    sol = [on_manifold(tidy(s)) for s in sol]
     biggest = max((sp.count_ops(s) for s in sol), default=0)
     if biggest > READABLE_OPS:
         return ClosedForms(
@@ -295,7 +300,7 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     acc = {c.acceleration: sol[i] for i, c in enumerate(red.independent)}
     velocities = [c.velocity for c in red.independent]
     lam = {c.name: present(sol[nacc + j], velocities) for j, c in enumerate(system.constraints)}
-    return ClosedForms(acc, lam)
+    return ClosedForms(acc, lam, manifold=on_manifold)
 
 
 def _pre(e: sp.Expr) -> sp.Expr:

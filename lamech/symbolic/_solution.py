@@ -190,7 +190,7 @@ def solve(system: System) -> Solution:
     lets_go, slipping = _verdicts(
         system, forms, initial, opened, vanishes, slips, closes, undecided, None if shell else why
     )
-    gen = generalized_forces(dyn_h, red, forms.multipliers)
+    gen = generalized_forces(dyn_h, red, forms.multipliers, forms.manifold)
     cart = cartesian_forces(dyn_h, red, forms.multipliers)
     return Solution(
         system,

@@ -1,0 +1,185 @@
+"""Results written on the constraint manifold, as a student would: where a kept constraint
+says ``l1 - sqrt(x1^2 + y1^2) = 0``, every ``sqrt(x1^2 + y1^2)`` is ``l1``, ``x1^2 + y1^2``
+is ``l1^2`` and, along the motion, ``x1 x1' + y1 y1' = 0``. The Cartesian pendulum's
+tension then reads ``m (x1'^2 + y1'^2 - g y1) / l1`` (the textbook's m v^2/l - m g y/l)
+instead of a quartic over ``(x1^2 + y1^2)^(3/2)``.
+
+The constraints kept (not used to eliminate a coordinate) define a polynomial ideal:
+each one's polynomial form and its time derivative. The numerator and denominator of a
+result are replaced by their normal forms modulo a Groebner basis of that ideal (SymPy's
+``groebner``; the polynomial reduction is standard, its choice here is not), under a
+few variable orders, and the shortest candidate is kept; a result is never made longer.
+Every candidate equals the input wherever the kept constraints hold, which is where
+the closed forms are used. Bounded: only polynomial relations with few generators,
+only expressions below :data:`BUDGET` operations.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from ..model import System, time_derivative
+from ._student import student
+
+__all__ = ["manifold_simplifier"]
+
+BUDGET = 200
+"""Expressions with more operations than this get no Groebner normal form."""
+MAX_OPS = 3000
+"""Expressions with more operations than this are left as they are."""
+MAX_RELATIONS = 6
+"""At most this many polynomial relations (each constraint gives two)."""
+MAX_DEGREE = 4
+"""Relations of higher total degree are not used (Groebner bases grow fast)."""
+
+
+def _radical_rule(f: sp.Expr, coords: set) -> tuple[sp.Expr, sp.Expr] | None:
+    """(P, s) when f is linear in one square root sqrt(P) of a polynomial in the
+    coordinates and the constraint fixes it to s, free of the coordinates:
+    f = l1 - sqrt(x1^2 + y1^2) gives (x1^2 + y1^2, l1)."""
+    roots = [
+        a for a in f.atoms(sp.Pow) if a.exp == sp.Rational(1, 2) and a.base.free_symbols & coords
+    ]
+    if len(roots) != 1:
+        return None
+    (root,) = roots
+    u = sp.Dummy("u")
+    g = f.xreplace({root: u})
+    a, b = sp.diff(g, u), g.xreplace({u: 0})
+    if a == 0 or a.has(u) or (a.free_symbols | b.free_symbols) & coords:
+        return None
+    s = sp.simplify(-b / a)
+    return (sp.expand(root.base), s) if s.free_symbols.isdisjoint(coords) else None
+
+
+class _Manifold:
+    def __init__(self, system: System, kept: list[sp.Expr]):
+        self.system = system
+        coords = set(system.q)
+        self.radicals: list[tuple[sp.Expr, sp.Expr]] = []
+        relations: list[sp.Expr] = []
+        for f in kept:
+            rule = _radical_rule(f, coords)
+            if rule is not None:
+                self.radicals.append(rule)
+                P, s = rule
+                relations.append(P - s**2)
+            else:
+                num = sp.numer(sp.together(f))
+                if num.free_symbols & coords:
+                    relations.append(sp.expand(num))
+        gens = [s for s in system.q + system.qd]
+        self.relations: list[sp.Expr] = []
+        for r in relations:
+            try:
+                p = sp.Poly(r, *gens)
+            except sp.PolynomialError:
+                continue
+            if not p.domain.is_Numerical and not _symbols_only(p):
+                continue
+            if p.total_degree() > MAX_DEGREE:
+                continue
+            self.relations += [r, sp.expand(time_derivative(r, system))]
+        self.relations = [r for r in self.relations if r != 0][:MAX_RELATIONS]
+        used = set().union(*(r.free_symbols for r in self.relations)) if self.relations else set()
+        self.gens = [g for g in gens if g in used]
+        positions = [g for g in self.gens if g in coords]
+        velocities = [g for g in self.gens if g not in coords]
+        self.orders = (
+            [positions + velocities, positions[::-1] + velocities[::-1]] if self.gens else []
+        )
+        self._bases: dict[frozenset, list] = {}
+
+    def bases(self, symbols: frozenset) -> list:
+        """Groebner bases (one per variable order) over the rational functions of
+        ``symbols`` (the parameters and whatever else the expression holds)."""
+        if symbols not in self._bases:
+            domain = sp.QQ.frac_field(*sorted(symbols, key=str)) if symbols else sp.QQ
+            out = []
+            for order in self.orders:
+                try:
+                    out.append(sp.groebner(self.relations, *order, order="grevlex", domain=domain))
+                except (sp.PolynomialError, sp.CoercionFailed, ValueError):
+                    continue
+            self._bases[symbols] = out
+        return self._bases[symbols]
+
+    def __call__(self, expr: sp.Expr) -> sp.Expr:
+        expr = sp.sympify(expr)
+        if expr.is_Atom or not (self.radicals or self.orders) or sp.count_ops(expr) > MAX_OPS:
+            return expr
+        try:
+            first = self.radicals_replaced(expr)
+            best, score = expr, sp.count_ops(expr)
+            candidates = [first]
+            if self.orders and sp.count_ops(first) <= BUDGET:
+                num, den = sp.fraction(sp.together(first))
+                symbols = (num.free_symbols | den.free_symbols | _symbols(self.relations)) - set(
+                    self.gens
+                )
+                candidates += [self._normal(num, den, G) for G in self.bases(frozenset(symbols))]
+        except (sp.PolynomialError, sp.CoercionFailed, ValueError, TypeError, RecursionError):
+            return expr
+        for cand in candidates:
+            if cand is None:
+                continue
+            cand = student(sp.factor_terms(cand))
+            ops = sp.count_ops(cand)
+            if ops < score:
+                best, score = cand, ops
+        return best
+
+    def radicals_replaced(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` with each square root a kept constraint fixes replaced by its value
+        (sqrt(x1^2 + y1^2) -> l1, (x1^2 + y1^2)^(3/2) -> l1^3): cheap, for any size."""
+        for P, s in self.radicals:
+            expr = expr.replace(
+                lambda e, P=P: (
+                    (e.is_Pow and (2 * e.exp).is_Integer and _same(e.base, P))
+                    or (e.is_Add and _same(e, P))
+                ),
+                lambda e, s=s: s ** (2 * e.exp) if e.is_Pow else s**2,
+            )
+        return expr
+
+    def _normal(self, num: sp.Expr, den: sp.Expr, G) -> sp.Expr | None:
+        parts = []
+        for part in (num, den):
+            if not part.free_symbols & set(self.gens):
+                parts.append(part)
+                continue
+            poly = sp.Poly(sp.expand(part), *self.gens)
+            if not _symbols_only(poly):
+                return None  # sin(phi) as a coefficient: not over a field of symbols
+            _, r = G.reduce(poly.as_expr())
+            parts.append(sp.factor(r))
+        if parts[1] == 0:
+            return None
+        return sp.cancel(parts[0] / parts[1]) if parts[0] != 0 else sp.Integer(0)
+
+
+def _same(e: sp.Expr, P: sp.Expr) -> bool:
+    """e is the polynomial P (cheap tests first: most subexpressions are not)."""
+    return (
+        e.is_Add
+        and e.free_symbols == P.free_symbols
+        and sp.count_ops(e) <= 2 * sp.count_ops(P) + 4
+        and sp.expand(e) == P
+    )
+
+
+def _symbols(exprs) -> set:
+    return set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+
+
+def _symbols_only(p: sp.Poly) -> bool:
+    """The coefficients are rational functions of symbols (the parameters), so the
+    Groebner basis is over a field of fractions."""
+    return all(c.is_rational_function() for c in p.coeffs())
+
+
+def manifold_simplifier(system: System, kept: list[sp.Expr]) -> _Manifold:
+    """A callable that writes an expression on the manifold of the holonomic constraints
+    ``kept`` (see the module docstring); it returns its input when they give no relation.
+    Its ``radicals_replaced`` does only the square roots, for expressions of any size."""
+    return _Manifold(system, kept)
