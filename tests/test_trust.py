@@ -133,6 +133,8 @@ def test_a_particle_too_fast_on_top_of_the_sphere_leaves_at_once():
     assert v.when == "at the start" and v.hint is None  # moving: no sign suspicion
     assert f"= {m * g - m * R * 16:.6g} < 0" in v.reason
     assert "contact: at the start" in report
+    # the condition as a student states it (m R theta'0^2 <= m g, theta'0 = 4): m dropped
+    assert v.condition == "g >= 16*R"
 
 
 @pytest.mark.parametrize(

@@ -337,6 +337,23 @@ def tidy_light(expr: sp.Expr) -> sp.Expr:
         return expr
 
 
+def _at_least_zero(expr: sp.Expr) -> str:
+    """``expr >= 0`` as a student states it: positive factors (a mass, g) dropped, the
+    negative terms moved to the right: m (g - 16 R) >= 0 reads g >= 16 R."""
+    e = sp.factor_terms(expr)
+    coeff, factors = e.as_coeff_mul()
+    if coeff.is_negative:
+        return f"{to_text(expr)} >= 0"
+    kept = [f for f in factors if not f.is_positive]
+    rest = sp.Mul(*kept)
+    if len(kept) == 1 and rest.is_Add:
+        right = [-t for t in rest.args if t.could_extract_minus_sign()]
+        left = [t for t in rest.args if not t.could_extract_minus_sign()]
+        if left and right:
+            return f"{to_text(sp.Add(*left))} >= {to_text(sp.Add(*right))}"
+    return f"{to_text(rest)} >= 0" if kept else f"{to_text(expr)} >= 0"
+
+
 def _depends_on_parameters(expr: sp.Expr, system: System) -> bool:
     return bool(expr.free_symbols & {p.symbol for p in system.parameters})
 
@@ -356,7 +373,7 @@ def lets_go_verdict(
     lam_name = f"lambda_{name}"
     scale = 1e-12 * (1 + max((abs(v) for v in system.parameter_values.values()), default=1))
     constant = not (sp.sympify(multiplier).free_symbols & _state_symbols(system))
-    cond = f"{to_text(lam0)} >= 0" if _depends_on_parameters(lam0, system) else None
+    cond = _at_least_zero(lam0) if _depends_on_parameters(lam0, system) else None
     if value is not None and value < -scale:
         at_rest = all(
             sp.sympify(c.initial_velocity).xreplace(system.parameter_values) == 0
