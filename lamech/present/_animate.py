@@ -148,8 +148,18 @@ class Scene:
             return -1.0, 1.0, -1.0, 1.0
         x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
         span = max(x1 - x0, y1 - y0, 1e-9)
-        m = 0.12 * span
-        return x0 - m, x1 + m, y0 - m, y1 + m
+        # room for the force arrows (drawn up to 0.15 of the span long) at the edges
+        m = (0.18 if self.arrows else 0.12) * span
+        x0, x1, y0, y1 = x0 - m, x1 + m, y0 - m, y1 + m
+        # no sliver of a view: each side at least 0.6 of the other (the Atwood machine)
+        wide = 0.6 * max(x1 - x0, y1 - y0)
+        if x1 - x0 < wide:
+            c = 0.5 * (x0 + x1)
+            x0, x1 = c - wide / 2, c + wide / 2
+        if y1 - y0 < wide:
+            c = 0.5 * (y0 + y1)
+            y0, y1 = c - wide / 2, c + wide / 2
+        return x0, x1, y0, y1
 
 
 def playing_time(t_span: float, duration: float | None = None) -> float:
@@ -287,10 +297,10 @@ def animate(
         )
         ax.add_patch(arrow)
         quivers.append((arrow, at, vec))
-    clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
-    flash = ax.text(
-        0.98, 0.97, "", transform=ax.transAxes, va="top", ha="right", fontsize=10, fontweight="bold"
-    )
+    # the clock and the event flash under the title, in the figure (a narrow view, the
+    # Atwood machine's, has no room for them inside the axes)
+    clock = fig.text(0.03, 0.955, "", va="top", fontsize=10)
+    flash = fig.text(0.97, 0.955, "", va="top", ha="right", fontsize=10, fontweight="bold")
     events = [(e.t, e.kind, e.constraint) for e in traj.events if not e.initial]
     hold = 0.06 * (scene.t[-1] - scene.t[0])
 
