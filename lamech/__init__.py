@@ -48,6 +48,7 @@ _PUBLIC = {
     "ExpressionError": "expr",
     # symbolic
     "solve": "symbolic",
+    "modes": "symbolic",
     "Solution": "symbolic",
     "dynamics": "symbolic",
     "Dynamics": "symbolic",
@@ -95,6 +96,7 @@ __all__ = [
     "integrate_batch",
     "load",
     "loads",
+    "modes",
     "plot_trajectory",
     "run_sweep",
     "simulate",

@@ -54,6 +54,36 @@ def _parser() -> argparse.ArgumentParser:
     fmt = s.add_mutually_exclusive_group()
     fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
+    md = sub.add_parser(
+        "modes",
+        help="small oscillations: equilibria, their stability, frequencies and mode shapes",
+    )
+    md.add_argument(
+        "problem",
+        nargs="?",
+        default=DEFAULT_PROBLEM,
+        help="a .toml problem file or a bundled example name",
+    )
+    md.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="override a parameter's value. Repeatable",
+    )
+    md.add_argument(
+        "--at",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="linearise about this configuration at rest (every independent coordinate; "
+        "values may be expressions such as pi/2) instead of searching for equilibria",
+    )
+    mfmt = md.add_mutually_exclusive_group()
+    mfmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
+    mfmt.add_argument("--json", action="store_true", help="print one JSON object")
     sub.add_parser("examples", help="list the bundled example problems")
     add_simulate(sub)
     add_sweep(sub)
@@ -100,8 +130,22 @@ def _dispatch(args: argparse.Namespace) -> int:
     try:
         system = load(problem)
         if getattr(args, "param", None) or getattr(args, "initial", None):
-            system = _overridden(system, args.param, args.initial)
+            system = _overridden(system, args.param, getattr(args, "initial", []))
         solution = solve(system)
+        if command == "modes":
+            from ..present import modes_latex, modes_text
+            from ..symbolic import modes
+            from ._args import evaluate_assignments
+
+            at = evaluate_assignments(args.at, system, "--at") if args.at else None
+            found = modes(solution, at)
+            if args.json:
+                print(json.dumps(found.to_json(), indent=2, ensure_ascii=False))
+            elif args.latex:
+                print(modes_latex(found), end="")
+            else:
+                print(modes_text(found), end="")
+            return 0
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from ._animate import FORMATS, Scene, animate
+from ._modes import modes_latex, modes_text
 from ._plot import plot_trajectory
 from ._report import CONVENTION
 from ._report import to_json as _solution_json
@@ -28,6 +29,8 @@ __all__ = [
     "plot_trajectory",
     "plot_sweep",
     "animate",
+    "modes_text",
+    "modes_latex",
     "Scene",
     "FORMATS",
     "CONVENTION",

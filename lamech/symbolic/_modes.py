@@ -1,0 +1,407 @@
+"""Small oscillations: equilibria, their stability, and the normal modes.
+
+Built on the closed forms of :func:`~lamech.symbolic.solve`: with the independent
+coordinates u (the others eliminated through the constraints), the motion is
+u'' = F(u, u') (t absent: a steadily driven system, such as a hoop spun at a fixed
+rate, has its drive eliminated, so its relative equilibria are equilibria here).
+
+* **Equilibria**: F(u, 0) = 0 together with the constraints kept in u, solved by SymPy
+  (bounded in size); each solution with the condition for it to exist (the argument of
+  an acos within [-1, 1], of a square root >= 0) and the multipliers at rest there. A
+  unilateral constraint whose multiplier at rest is negative cannot hold it: such a
+  point is listed as no equilibrium of the real system.
+* **Linearisation**: d/dt [du, du'] = J [du, du'], J = [[0, I], [dF/du, dF/du']], on the
+  tangent space of the constraints kept in u (an orthonormal basis of the null space of
+  their Jacobian, so the coordinates used are regular there whatever the elimination).
+* **Modes**: the eigenvalues of J. lambda = +-i omega is an oscillation of angular
+  frequency omega, a positive real part a growth rate. Mode shapes are given in every
+  coordinate (the eliminated ones through d q / d u). Where J has no velocity block
+  (no gyroscopic or damping terms) and at most two degrees of freedom, omega^2 is also
+  given in closed form: the eigenvalues of -dF/du (det(K - omega^2 M) = 0 on the
+  tangent space).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from ..expr import to_text
+from ..model import System
+from ._conditions import is_angle
+from ._reduce import tidy
+from ._solution import Solution
+
+__all__ = ["Equilibrium", "Mode", "Modes", "modes"]
+
+SOLVE_OPS = 400
+"""Equilibrium equations larger than this (operations) are not solved symbolically."""
+SOLVE_UNKNOWNS = 3
+"""At most this many independent coordinates are solved for symbolically."""
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One eigenvalue of the linearised motion and its shape.
+
+    ``eigenvalue`` is complex; ``frequency`` omega (rad/s) when it oscillates, ``growth``
+    its real part when that is positive (unstable), ``squared`` omega^2 in closed form
+    (negative: the square of a growth rate) when available, ``shape`` the displacement
+    in every coordinate (largest component 1)."""
+
+    eigenvalue: complex
+    frequency: float | None
+    growth: float | None
+    shape: dict[str, float]
+    squared: sp.Expr | None = None
+
+    def to_json(self) -> dict:
+        return {
+            "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+            "frequency": self.frequency,
+            "growth": self.growth,
+            "shape": self.shape,
+            "squared": None if self.squared is None else to_text(self.squared),
+        }
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """A configuration where the system can rest (``at``: the independent coordinates,
+    symbolic; ``values``: every coordinate, numeric), the ``condition`` for it to exist,
+    whether it does at the parameter values (``exists``), the ``multipliers`` at rest,
+    whether every unilateral constraint can hold it (``holds``, with ``note`` saying which
+    cannot), its ``stability`` ("stable", "unstable", "marginal") and ``modes``."""
+
+    at: dict[str, sp.Expr]
+    values: dict[str, float]
+    condition: str | None = None
+    exists: bool = True
+    multipliers: dict[str, float] = field(default_factory=dict)
+    holds: bool = True
+    note: str | None = None
+    stability: str | None = None
+    modes: tuple[Mode, ...] = ()
+
+    def to_json(self) -> dict:
+        return {
+            "at": {k: to_text(v) for k, v in self.at.items()},
+            "values": self.values,
+            "condition": self.condition,
+            "exists": self.exists,
+            "multipliers": self.multipliers,
+            "holds": self.holds,
+            "note": self.note,
+            "stability": self.stability,
+            "modes": [m.to_json() for m in self.modes],
+        }
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Every equilibrium found (``equilibria``), or why none could be (``reason``)."""
+
+    system: System
+    independent: tuple[str, ...]
+    equilibria: tuple[Equilibrium, ...]
+    reason: str | None = None
+
+    def to_json(self) -> dict:
+        return {
+            "title": self.system.title,
+            "independent": list(self.independent),
+            "equilibria": [e.to_json() for e in self.equilibria],
+            "reason": self.reason,
+        }
+
+
+def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Modes:
+    """Equilibria, stability and normal modes of a system or its solution (see the
+    module docstring). ``at`` ({independent coordinate: value}) linearises about that
+    configuration at rest instead of searching for equilibria (a note says when it is
+    not one)."""
+    from ._solution import solve
+
+    sol = problem if isinstance(problem, Solution) else solve(problem)
+    system, red, forms = sol.system, sol.reduction, sol.closed
+    u = [c.symbol for c in red.independent]
+    names = tuple(c.name for c in red.independent)
+    if forms.skipped or not forms.accelerations:
+        return Modes(system, names, (), forms.skipped or "no closed-form accelerations")
+    ud = [c.velocity for c in red.independent]
+    F = [forms.accelerations[c.acceleration] for c in red.independent]
+    if any(f.has(system.t) for f in F):
+        return Modes(
+            system,
+            names,
+            (),
+            "the reduced equations depend on t explicitly: no equilibrium at rest",
+        )
+    kept = [
+        c.expr
+        for c in system.constraints
+        if c.holonomic and c.name not in red.eliminated_constraints
+    ]
+    kept = [red.apply(f) for f in kept]
+    if any(f.has(system.t) for f in kept):
+        return Modes(system, names, (), "a kept constraint depends on t explicitly")
+    rest = {v: 0 for v in ud}
+    pv = system.parameter_values
+    if at is not None:
+        unknown = sorted(set(at) - set(names))
+        if unknown:
+            raise ValueError(
+                f"--at {unknown[0]}: not an independent coordinate; these are: " + ", ".join(names)
+            )
+        missing = [n for n in names if n not in at]
+        if missing:
+            raise ValueError(
+                "--at must give every independent coordinate; missing: " + ", ".join(missing)
+            )
+        points = [({s: sp.nsimplify(at[n]) for s, n in zip(u, names)}, None)]
+        reason = None
+    else:
+        eqs = [sp.numer(sp.together(f.xreplace(rest))) for f in F] + [
+            sp.numer(sp.together(f)) for f in kept
+        ]
+        points, reason = _solve(eqs, u, system)
+    out = []
+    for point, condition in points:
+        out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, given=at is not None))
+    out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
+    return Modes(system, names, tuple(out), reason if not out else None)
+
+
+def _solve(eqs, u, system) -> tuple[list, str | None]:
+    """Solutions of eqs = 0 for u, each with its existence condition (bounded)."""
+    eqs = [e for e in eqs if e != 0]
+    if not eqs:
+        return [], "every configuration is an equilibrium (no force acts at rest)"
+    if len(u) > SOLVE_UNKNOWNS or sum(sp.count_ops(e) for e in eqs) > SOLVE_OPS:
+        return [], (
+            f"the equilibrium equations are too large to solve symbolically "
+            f"({len(u)} coordinates); give a point with --at"
+        )
+    try:
+        found = sp.solve(eqs, u, dict=True)
+    except (NotImplementedError, ValueError, TypeError, RecursionError) as exc:
+        return [], f"SymPy could not solve the equilibrium equations ({exc})"
+    points = []
+    seen = []
+    for sol in found:
+        if set(sol) != set(u):
+            free = [str(x) for x in u if x not in sol]
+            return [], (
+                "a continuum of equilibria (free: " + ", ".join(free) + "); give a point with --at"
+            )
+        point = {x: _principal(tidy(sol[x]), x, system) for x in u}
+        key = _numeric_point(point, system)
+        if key is not None and any(np.allclose(key, s, atol=1e-9) for s in seen):
+            continue
+        if key is not None:
+            seen.append(key)
+        points.append((point, _condition(point)))
+    return points, None if points else "the equilibrium equations have no solution"
+
+
+def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
+    """An angle in (-pi, pi] (2 pi - acos(a) is -acos(a)); other coordinates as they are."""
+    if not is_angle(system, x):
+        return value
+    try:
+        v = float(sp.N(value.xreplace(system.parameter_values)))
+    except (TypeError, ValueError):
+        return value
+    turns = int(np.floor((v + np.pi) / (2 * np.pi) - 1e-12))
+    return sp.expand(value - 2 * sp.pi * turns) if turns else value
+
+
+def _numeric_point(point: dict, system: System) -> np.ndarray | None:
+    try:
+        vals = [complex(v.xreplace(system.parameter_values).evalf()) for v in point.values()]
+    except (TypeError, ValueError):
+        return None
+    return np.array(vals)
+
+
+def _condition(point: dict) -> str | None:
+    """Where a solution exists: acos/asin arguments in [-1, 1], square roots of >= 0."""
+    parts = []
+    for v in point.values():
+        for f in v.atoms(sp.acos, sp.asin):
+            a = f.args[0]
+            if a.is_positive:
+                parts.append(f"{to_text(a)} <= 1")
+            elif a.is_negative:
+                parts.append(f"{to_text(-a)} <= 1")
+            else:
+                parts.append(f"-1 <= {to_text(a)} <= 1")
+        for p in v.atoms(sp.Pow):
+            if p.exp.is_Rational and p.exp.q == 2 and p.base.free_symbols:
+                parts.append(f"{to_text(p.base)} >= 0")
+    return " and ".join(dict.fromkeys(parts)) or None
+
+
+def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibrium:
+    system, red, forms = sol.system, sol.reduction, sol.closed
+    at_point = {**point, **{v: 0 for v in ud}}
+    num = {**pv, system.t: 0.0}
+    uval = _numeric_point(point, system)
+    if uval is None or np.abs(uval.imag).max(initial=0) > 1e-9 * (1 + np.abs(uval).max()):
+        return Equilibrium(
+            {str(x): v for x, v in point.items()},
+            {},
+            condition,
+            exists=False,
+            note="not real at the parameter values",
+        )
+    uval = uval.real
+    env = {**num, **dict(zip(u, uval)), **{v: 0.0 for v in ud}}
+    values = {}
+    for c in system.coordinates:
+        expr = red.position_substitution.get(c.symbol, c.symbol)
+        values[c.name] = _real(expr, env)
+    notes = []
+    residual = [_real(f, env) for f in F]
+    if given and max(map(abs, residual), default=0.0) > 1e-9:
+        notes.append(
+            "not an equilibrium: at rest there the accelerations are "
+            + ", ".join(f"{x}'' = {r:.6g}" for x, r in zip(u, residual))
+        )
+    lam = {}
+    holds = True
+    for c in system.constraints:
+        expr = forms.multipliers.get(c.name)
+        if expr is None:
+            continue
+        try:
+            lam[c.name] = _real(expr, env)
+        except (TypeError, ValueError):
+            continue
+        if c.unilateral and lam[c.name] < -1e-12:
+            holds = False
+            notes.append(
+                f"`{c.name}` cannot hold it (lambda_{c.name} = {lam[c.name]:.6g} < 0 at rest: "
+                "it would have to pull)"
+            )
+    stability, found = _linearise(sol, u, ud, F, kept, at_point, env, point)
+    return Equilibrium(
+        {str(x): v for x, v in point.items()},
+        values,
+        condition,
+        True,
+        lam,
+        holds,
+        "; ".join(notes) or None,
+        stability,
+        found,
+    )
+
+
+def _real(expr, env) -> float:
+    """``expr`` at the numbers ``env`` (a real number, or TypeError)."""
+    return float(sp.N(sp.sympify(sp.sympify(expr).xreplace(env))))
+
+
+def _null_basis(G: np.ndarray, n: int) -> np.ndarray:
+    """Orthonormal basis (n, k) of the null space of G (rows: constraints)."""
+    if G.size == 0:
+        return np.eye(n)
+    _, s, vt = np.linalg.svd(G)
+    rank = int((s > 1e-10 * max(1.0, s.max(initial=0.0))).sum())
+    return vt[rank:].T
+
+
+def _linearise(sol, u, ud, F, kept, at_point, env, point):
+    system, red = sol.system, sol.reduction
+    k = len(u)
+    Fu = sp.Matrix(F).jacobian(u)
+    Fv = sp.Matrix(F).jacobian(ud)
+
+    def num(M: sp.Matrix) -> np.ndarray:
+        return np.array(M.xreplace(env).evalf(), dtype=float).reshape(M.shape)
+
+    try:
+        A21, A22 = num(Fu), num(Fv)
+        G = num(sp.Matrix(kept).jacobian(u)) if kept else np.zeros((0, k))
+    except (TypeError, ValueError):
+        return None, ()
+    if not (np.isfinite(A21).all() and np.isfinite(A22).all()):
+        return None, ()
+    N = _null_basis(G, k)  # tangent directions of the kept constraints, in u
+    d = N.shape[1]
+    Jr = np.block([[np.zeros((d, d)), np.eye(d)], [N.T @ A21 @ N, N.T @ A22 @ N]])
+    w, V = np.linalg.eig(Jr)
+    # d q_all / d u at the point: the shapes in every coordinate
+    rows = []
+    for c in system.coordinates:
+        expr = red.position_substitution.get(c.symbol, c.symbol)
+        rows.append([sp.diff(expr, x) for x in u])
+    try:
+        Jq = num(sp.Matrix(rows)) @ N
+    except (TypeError, ValueError):
+        return None, ()
+    squared = _closed_squares(Fu, Fv, at_point, kept, k)
+    scale = max(1.0, float(np.abs(w).max(initial=0.0)))
+    out = []
+    for i in np.argsort(-w.real * 1e6 + np.abs(w.imag)):
+        lam = complex(w[i])
+        if lam.imag < -1e-9 * scale:
+            continue  # one of each conjugate pair
+        if abs(lam.imag) <= 1e-9 * scale and lam.real < -1e-9 * scale:
+            continue  # the decaying partner of a growing mode
+        shape = Jq @ V[:d, i]
+        big = shape[np.argmax(np.abs(shape))] if shape.size else 1.0
+        shape = (shape / big).real if abs(big) > 0 else shape.real
+        freq = lam.imag if lam.imag > 1e-9 * scale else None
+        growth = lam.real if lam.real > 1e-9 * scale else None
+        sq = _match_square(squared, lam, env)
+        out.append(
+            Mode(
+                lam,
+                freq,
+                growth,
+                {c.name: float(round(x, 12)) for c, x in zip(system.coordinates, shape)},
+                sq,
+            )
+        )
+    if any(m.growth for m in out):
+        stability = "unstable"
+    elif all(abs(complex(x).real) <= 1e-9 * scale for x in w) and all(
+        abs(x) > 1e-9 * scale for x in w
+    ):
+        stability = "stable"
+    elif all(complex(x).real < -1e-9 * scale for x in w):
+        stability = "stable"
+    else:
+        stability = "marginal"
+    return stability, tuple(out)
+
+
+def _closed_squares(Fu, Fv, at_point, kept, k) -> list[sp.Expr]:
+    """omega^2 in closed form: eigenvalues of -dF/du when there is no velocity block and
+    no kept constraint (at most two degrees of freedom)."""
+    if kept or k > 2:
+        return []
+    if any(tidy(e.xreplace(at_point)) != 0 for e in Fv):
+        return []
+    K = (-Fu).xreplace(at_point).applyfunc(tidy)
+    try:
+        return [tidy(e) for e in K.eigenvals(multiple=True)]
+    except (NotImplementedError, ValueError, TypeError):
+        return []
+
+
+def _match_square(squared, lam: complex, env) -> sp.Expr | None:
+    """The closed-form omega^2 (lambda^2 = -omega^2) equal to this eigenvalue's."""
+    target = -(lam**2)
+    for s in squared:
+        try:
+            v = complex(sp.N(sp.sympify(s.xreplace(env))))
+        except (TypeError, ValueError):
+            continue
+        if abs(v - target) <= 1e-8 * (1 + abs(target)):
+            return s
+    return None
