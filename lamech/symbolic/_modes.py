@@ -163,7 +163,7 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         points = [({s: sp.nsimplify(at[n]) for s, n in zip(u, names)}, None)]
         reason = None
     else:
-        eqs = [sp.numer(sp.together(f.xreplace(rest))) for f in F] + [
+        eqs = [sp.numer(sp.together(f)) for f in _forces_at_rest(sol, u, F, rest)] + [
             sp.numer(sp.together(f)) for f in kept
         ]
         points, reason = _solve(eqs, u, system)
@@ -172,6 +172,27 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, given=at is not None))
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None)
+
+
+def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
+    """J^T (h - Q) at rest, J = d q / d u: the generalized forces in u, which separate
+    where the accelerations mix them (the double pendulum's sin(th1) = 0, sin(th2) = 0).
+    The eliminated constraints' forces drop out (A J = 0); with constraints kept in u
+    they would not, so then the accelerations themselves are used."""
+    red, dyn = sol.reduction, sol.dynamics
+    if len(red.eliminated_constraints) != len(sol.system.constraints):
+        return [f.xreplace(rest) for f in F]
+    J = sp.Matrix(
+        [
+            [sp.diff(red.position_substitution.get(c.symbol, c.symbol), x) for x in u]
+            for c in sol.system.coordinates
+        ]
+    )
+    h = (dyn.h - dyn.Q).applyfunc(lambda e: red.apply(e).xreplace(rest))
+    forces = J.T * h
+    if sum(sp.count_ops(e) for e in forces) > SOLVE_OPS:
+        return [f.xreplace(rest) for f in F]
+    return [tidy(e) for e in forces]
 
 
 def _solve(eqs, u, system) -> tuple[list, str | None]:
@@ -184,12 +205,16 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
             f"the equilibrium equations are too large to solve symbolically "
             f"({len(u)} coordinates); give a point with --at"
         )
-    try:
-        found = sp.solve(eqs, u, dict=True)
-    except (NotImplementedError, ValueError, TypeError, RecursionError) as exc:
-        return [], f"SymPy could not solve the equilibrium equations ({exc})"
+    found = _separable(eqs, u)
+    if found is None:
+        if not all(e.is_polynomial(*u) for e in eqs):
+            return _numeric_equilibria(eqs, u, system)
+        try:
+            found = sp.solve(eqs, u, dict=True)
+        except (NotImplementedError, ValueError, TypeError, RecursionError) as exc:
+            return [], f"SymPy could not solve the equilibrium equations ({exc})"
     points = []
-    seen = []
+    seen: list[np.ndarray] = []
     for sol in found:
         if set(sol) != set(u):
             free = [str(x) for x in u if x not in sol]
@@ -204,6 +229,66 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
             seen.append(key)
         points.append((point, _condition(point)))
     return points, None if points else "the equilibrium equations have no solution"
+
+
+def _separable(eqs, u) -> list[dict] | None:
+    """Solutions of equations that each hold one unknown (solved one by one, then
+    combined), or None when they couple the unknowns."""
+    by: dict = {x: [] for x in u}
+    for e in eqs:
+        inside = e.free_symbols & set(u)
+        if len(inside) != 1:
+            return None
+        by[next(iter(inside))].append(e)
+    if any(not v for v in by.values()):
+        return None
+    choices = []
+    for x in u:
+        try:
+            sets = [set(sp.solve(e, x)) for e in by[x]]
+        except (NotImplementedError, ValueError, TypeError, RecursionError):
+            return None
+        common = set.intersection(*sets)
+        choices.append([(x, v) for v in common])
+    import itertools
+
+    return [dict(combo) for combo in itertools.product(*choices)]
+
+
+def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
+    """Roots of the equations at the parameter values from a grid of starts (angles at
+    multiples of pi/2, lengths at their initial values): numbers, no conditions."""
+    import itertools
+
+    from scipy.optimize import root
+
+    pv = system.parameter_values
+    f = sp.lambdify([u], [e.xreplace(pv) for e in eqs], modules="numpy")
+    init = {c.symbol: float(sp.N(c.initial.xreplace(pv))) for c in system.coordinates}
+    axes = [
+        [-np.pi / 2, 0.0, np.pi / 2, np.pi] if is_angle(system, x) else [init.get(x, 0.0)]
+        for x in u
+    ]
+    starts = list(itertools.product(*axes))[:256] + [tuple(init.get(x, 0.0) for x in u)]
+    found: list[np.ndarray] = []
+    for x0 in starts:
+        try:
+            r = root(lambda x: np.asarray(f(x), dtype=float)[: len(u)], x0, tol=1e-13)
+        except (ValueError, TypeError, ZeroDivisionError):
+            continue
+        if not r.success or np.abs(np.asarray(f(r.x), dtype=float)).max() > 1e-9:
+            continue
+        x = np.array(r.x, dtype=float)
+        for i, sym in enumerate(u):
+            if is_angle(system, sym):
+                x[i] = (x[i] + np.pi) % (2 * np.pi) - np.pi
+                if abs(x[i] + np.pi) < 1e-9:
+                    x[i] = np.pi
+        if not any(np.allclose(x, y, atol=1e-7) for y in found):
+            found.append(x)
+    points = [({sym: sp.Float(v, 12) for sym, v in zip(u, x)}, None) for x in found]
+    reason = None if points else "no equilibrium found numerically"
+    return points, reason
 
 
 def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
