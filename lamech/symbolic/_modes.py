@@ -164,7 +164,7 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         reason = None
     else:
         eqs = [sp.numer(sp.together(f)) for f in _forces_at_rest(sol, u, F, rest)] + [
-            sp.numer(sp.together(f)) for f in kept
+            _polynomial_form(f, system) for f in kept
         ]
         points, reason = _solve(eqs, u, system)
     out = []
@@ -231,6 +231,18 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
     return points, None if points else "the equilibrium equations have no solution"
 
 
+def _polynomial_form(f: sp.Expr, system: System) -> sp.Expr:
+    """A kept constraint as a polynomial where it fixes a square root
+    (l1 - sqrt(x1^2 + y1^2): x1^2 + y1^2 - l1^2), else its numerator."""
+    from ._manifold import _radical_rule
+
+    rule = _radical_rule(f, set(system.q))
+    if rule is not None:
+        P, s = rule
+        return sp.expand(P - s**2)
+    return sp.numer(sp.together(f))
+
+
 def _separable(eqs, u) -> list[dict] | None:
     """Solutions of equations that each hold one unknown (solved one by one, then
     combined), or None when they couple the unknowns."""
@@ -260,7 +272,7 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     multiples of pi/2, lengths at their initial values): numbers, no conditions."""
     import itertools
 
-    from scipy.optimize import root
+    from scipy.optimize import least_squares
 
     pv = system.parameter_values
     f = sp.lambdify([u], [e.xreplace(pv) for e in eqs], modules="numpy")
@@ -273,10 +285,12 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     found: list[np.ndarray] = []
     for x0 in starts:
         try:
-            r = root(lambda x: np.asarray(f(x), dtype=float)[: len(u)], x0, tol=1e-13)
+            r = least_squares(
+                lambda x: np.asarray(f(x), dtype=float), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14
+            )
         except (ValueError, TypeError, ZeroDivisionError):
             continue
-        if not r.success or np.abs(np.asarray(f(r.x), dtype=float)).max() > 1e-9:
+        if np.abs(np.asarray(f(r.x), dtype=float)).max() > 1e-9:
             continue
         x = np.array(r.x, dtype=float)
         for i, sym in enumerate(u):
@@ -305,7 +319,10 @@ def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
 
 def _numeric_point(point: dict, system: System) -> np.ndarray | None:
     try:
-        vals = [complex(v.xreplace(system.parameter_values).evalf()) for v in point.values()]
+        vals = [
+            complex(sp.N(sp.sympify(sp.sympify(v).xreplace(system.parameter_values))))
+            for v in point.values()
+        ]
     except (TypeError, ValueError):
         return None
     return np.array(vals)
