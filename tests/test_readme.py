@@ -43,3 +43,11 @@ def test_latex_sample_is_what_lamech_prints():
     block = next(b for b in _blocks("console") if b.startswith("$ ./run solve pendulum --latex"))
     shown = block.split("\n", 1)[1]
     assert shown.strip() == lamech.to_latex(lamech.solve(lamech.load("pendulum"))).strip()
+
+
+def test_readme_modes_block_is_real_output():
+    block = next(b for b in _blocks("text") if b.startswith("Small oscillations: Bead"))
+    found = lamech.modes(lamech.load("hoop_bead"))
+    from lamech.present import modes_text
+
+    assert block == modes_text(found)
