@@ -13,6 +13,7 @@ import sympy as sp
 import lamech
 from lamech.cli import main
 from lamech.model import with_values
+from test_trust import CARTESIAN_PENDULUM as CARTESIAN
 
 DOUBLE = """
 title = "Double pendulum"
@@ -35,22 +36,6 @@ position = ["l*sin(th1) + l*sin(th2)", "-l*cos(th1) - l*cos(th2)"]
 acceleration = "g"
 """
 
-CARTESIAN = """
-title = "Pendulum in Cartesian coordinates"
-[parameters]
-m = 1.0
-g = 9.81
-l1 = 1.0
-[coordinates]
-x1 = { initial = 0.6, velocity = 0 }
-y1 = { initial = -0.8, velocity = 0 }
-[lagrangian]
-T = "m/2*(x1'^2 + y1'^2)"
-V = "m*g*y1"
-[[constraints]]
-name = "rod"
-f = "l1 - sqrt(x1^2 + y1^2)"
-"""
 
 
 def _values(system):

@@ -32,28 +32,20 @@ def _parser() -> argparse.ArgumentParser:
         help="a .toml problem file or a bundled example name "
         f"(default: {DEFAULT_PROBLEM}; see `lamech examples`)",
     )
-    s.add_argument(
+    _assignments(
+        s,
         "--param",
-        action="append",
-        default=[],
-        type=assignment,
-        metavar="NAME=VALUE",
-        help="override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
+        "override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
         "coefficient) for the numbers: lift-off and slip angles, the "
         "verdicts at the start. Repeatable",
     )
-    s.add_argument(
+    _assignments(
+        s,
         "--initial",
-        action="append",
-        default=[],
-        type=assignment,
-        metavar="NAME=VALUE",
-        help="start with coordinate (or velocity x') NAME at VALUE; the other "
+        "start with coordinate (or velocity x') NAME at VALUE; the other "
         "coordinates move to meet the constraints. Repeatable",
     )
-    fmt = s.add_mutually_exclusive_group()
-    fmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
-    fmt.add_argument("--json", action="store_true", help="print one JSON object")
+    _formats(s)
     md = sub.add_parser(
         "modes",
         help="small oscillations: equilibria, their stability, frequencies and mode shapes",
@@ -64,30 +56,31 @@ def _parser() -> argparse.ArgumentParser:
         default=DEFAULT_PROBLEM,
         help="a .toml problem file or a bundled example name",
     )
-    md.add_argument(
-        "--param",
-        action="append",
-        default=[],
-        type=assignment,
-        metavar="NAME=VALUE",
-        help="override a parameter's value. Repeatable",
-    )
-    md.add_argument(
+    _assignments(md, "--param", "override a parameter's value. Repeatable")
+    _assignments(
+        md,
         "--at",
-        action="append",
-        default=[],
-        type=assignment,
-        metavar="NAME=VALUE",
-        help="linearise about this configuration at rest (every independent coordinate; "
+        "linearise about this configuration at rest (every independent coordinate; "
         "values may be expressions such as pi/2) instead of searching for equilibria",
     )
-    mfmt = md.add_mutually_exclusive_group()
-    mfmt.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
-    mfmt.add_argument("--json", action="store_true", help="print one JSON object")
+    _formats(md)
     sub.add_parser("examples", help="list the bundled example problems")
     add_simulate(sub)
     add_sweep(sub)
     return p
+
+
+def _assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> None:
+    """A repeatable NAME=VALUE option."""
+    parser.add_argument(
+        flag, action="append", default=[], type=assignment, metavar="NAME=VALUE", help=text
+    )
+
+
+def _formats(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--latex", action="store_true", help="print a LaTeX fragment")
+    group.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def main(argv: list[str] | None = None) -> int:
