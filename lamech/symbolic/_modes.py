@@ -31,6 +31,7 @@ import sympy as sp
 from ..expr import to_text
 from ..model import System
 from ._conditions import is_angle
+from ._integrals import _coordinate_jacobian
 from ._reduce import tidy
 from ._solution import Solution
 
@@ -182,12 +183,7 @@ def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
     red, dyn = sol.reduction, sol.dynamics
     if len(red.eliminated_constraints) != len(sol.system.constraints):
         return [f.xreplace(rest) for f in F]
-    J = sp.Matrix(
-        [
-            [sp.diff(red.position_substitution.get(c.symbol, c.symbol), x) for x in u]
-            for c in sol.system.coordinates
-        ]
-    )
+    J = _coordinate_jacobian(sol.system, red)
     h = (dyn.h - dyn.Q).applyfunc(lambda e: red.apply(e).xreplace(rest))
     forces = J.T * h
     if sum(sp.count_ops(e) for e in forces) > SOLVE_OPS:
@@ -437,12 +433,8 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     Jr = np.block([[np.zeros((d, d)), np.eye(d)], [N.T @ A21 @ N, N.T @ A22 @ N]])
     w, V = np.linalg.eig(Jr)
     # d q_all / d u at the point: the shapes in every coordinate
-    rows = []
-    for c in system.coordinates:
-        expr = red.position_substitution.get(c.symbol, c.symbol)
-        rows.append([sp.diff(expr, x) for x in u])
     try:
-        Jq = num(sp.Matrix(rows)) @ N
+        Jq = num(_coordinate_jacobian(system, red)) @ N
     except (TypeError, ValueError):
         return None, ()
     squared = _closed_squares(Fu, Fv, at_point, kept, k)
