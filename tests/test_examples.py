@@ -30,7 +30,7 @@ EXAMPLES = Path(lamech.__file__).resolve().parent / "examples"
 
 NAMES = ["pendulum", "cylinder", "atwood", "hoop_bead", "sphere_slide", "ladder",
          "incline_disk", "moving_support", "knife_edge", "vertical_disk", "wedge",
-         "spherical_pendulum", "vertical_circle", "double_atwood"]
+         "spherical_pendulum", "vertical_circle", "double_atwood", "rotating_table"]
 
 
 # --------------------------------------------------------------------------- helpers

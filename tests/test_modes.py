@@ -166,3 +166,187 @@ def test_cli_modes_text_json_and_bad_at(capsys):
     assert main(["modes", "pendulum", "--at", "phi=1"]) == 2
     err = capsys.readouterr().err
     assert "--at phi: not an independent coordinate; these are: theta" in err
+
+
+# SymPy's documented example (doc/src/modules/physics/mechanics/linearize.rst, "Nonminimal
+# Coordinates Pendulum", Lagrange's method): q1 along gravity, q2 across, the rod kept as
+# the constraint q1^2 + q2^2 = L^2; hanging at q1 = L its linearisation with q2
+# independent is A = [[0, 1], [-g/L, 0]].
+NONMINIMAL = """
+title = "SymPy's non-minimal pendulum"
+[parameters]
+m = 1.0
+g = 9.8
+L = 1.3
+[coordinates]
+q1 = { initial = 1.3, velocity = 0 }
+q2 = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*(q1'^2 + q2'^2)"
+V = "-m*g*q1"
+[[constraints]]
+name = "rod"
+f = "q1^2 + q2^2 - L^2"
+"""
+
+
+def _sympy_linearizer_A(g, L, m):
+    """SymPy's own answer, by its documented recipe."""
+    from sympy.physics.mechanics import (LagrangesMethod, Lagrangian, Particle, Point,
+                                         ReferenceFrame, dynamicsymbols)
+    q1, q2 = dynamicsymbols("q1:3")
+    q1d, q2d = dynamicsymbols("q1:3", level=1)
+    t = dynamicsymbols._t
+    N = ReferenceFrame("N")
+    pN = Point("N*")
+    pN.set_vel(N, 0)
+    P = pN.locatenew("P1", q1 * N.x + q2 * N.y)
+    P.set_vel(N, P.pos_from(pN).dt(N))
+    pP = Particle("pP", P, m)
+    LM = LagrangesMethod(Lagrangian(N, pP), [q1, q2], hol_coneqs=sp.Matrix([q1**2 + q2**2 - L**2]),
+                         forcelist=[(P, m * g * N.x)], frame=N)
+    LM.form_lagranges_equations()
+    op = {q1: L, q2: 0, q1d: 0, q2d: 0, q1d.diff(t): 0, q2d.diff(t): 0}
+    op.update(LM.solve_multipliers(op))
+    lin = LM.to_linearizer(q_ind=[q2], qd_ind=[q2d], q_dep=[q1], qd_dep=[q1d])
+    A, _ = lin.linearize(op_point=op, A_and_B=True)
+    return np.array(A.evalf(), dtype=float)
+
+
+def test_linearisation_equals_sympys_linearizer_on_its_documented_pendulum():
+    system = lamech.loads(NONMINIMAL, "nonminimal.toml")
+    md = lamech.modes(system)
+    down = _by_position(md, q1=1.3, q2=0.0)
+    lin = down.linear
+    assert lin.state == ("q2", "q2'")
+    assert np.allclose(lin.A, [[0, 1], [-9.8 / 1.3, 0]], atol=1e-12)
+    assert np.allclose(lin.A, _sympy_linearizer_A(9.8, 1.3, 1.0), atol=1e-12)
+    # at rest the rod pulls with m g; with f = q1^2 + q2^2 - L^2 the multiplier is
+    # -m g / (2 L) (grad f = 2 q), unchanged to first order (the hanging point is a minimum)
+    assert down.multipliers["rod"] == pytest.approx(-9.8 / (2 * 1.3), rel=1e-12)
+    assert np.allclose(lin.multipliers["rod"], [0, 0], atol=1e-12)
+
+
+def test_non_holonomic_linearisation_has_fewer_velocities_than_positions():
+    """The rolling disc at rest (theta = 0): four positions, two free velocities
+    (theta', phi'), and the rolling ties y' = -a phi' (x' = a sin(theta) phi' = 0)."""
+    system = lamech.load("vertical_disk")
+    a = _values(system)["a"]
+    (e,) = lamech.modes(system, at={"x": 0, "y": 0, "theta": 0, "phi": 0}).equilibria
+    lin = e.linear
+    assert lin.state == ("x", "y", "theta", "phi", "theta'", "phi'")
+    expected = np.zeros((6, 6))
+    expected[1, 5] = -a           # y' = -a phi'
+    expected[2, 4] = expected[3, 5] = 1
+    assert np.allclose(lin.A, expected, atol=1e-12)
+    assert e.stability == "marginal" and all(abs(m.eigenvalue) < 1e-6 for m in e.modes)
+    # the knife edge: the blade forbids y' at phi = 0
+    (k,) = lamech.modes(lamech.load("knife_edge"), at={"x": 0, "y": 0, "phi": 0}).equilibria
+    assert k.linear.state == ("x", "y", "phi", "x'", "phi'")
+
+
+def test_a_mass_on_a_turning_table_rests_at_the_relative_equilibrium():
+    """r* = k r0/(k - m Omega^2), omega^2 = k/m - Omega^2, and to first order the groove's
+    torque is the Coriolis 2 m r* Omega dr' (rotating_table's textbook answers)."""
+    system = lamech.load("rotating_table")
+    p = _values(system)
+    S = {q.name: q.symbol for q in system.parameters}
+    (e,) = lamech.modes(system).equilibria
+    m, k, r0, W = S["m"], S["k"], S["r0"], S["Omega"]
+    assert sp.simplify(e.at["r"] - k * r0 / (k - m * W**2)) == 0
+    r_star = p["k"] * p["r0"] / (p["k"] - p["m"] * p["Omega"] ** 2)
+    (mode,) = e.modes
+    assert sp.simplify(mode.squared - (k / m - W**2)) == 0
+    assert mode.frequency == pytest.approx(math.sqrt(p["k"] / p["m"] - p["Omega"] ** 2))
+    assert e.linear.state == ("r", "r'")
+    assert e.linear.multipliers["drive"] == pytest.approx((0, 2 * p["m"] * r_star * p["Omega"]))
+
+
+def test_the_linearised_multiplier_follows_the_simulated_one():
+    """Independent truth: the simulated bead near the spun hoop's side equilibrium, its
+    hoop force against lambda_0 + c . (dtheta, dtheta') from the linearisation."""
+    system = lamech.load("hoop_bead")
+    p = _values(system)
+    theta0 = math.acos(p["g"] / (p["omega"] ** 2 * p["R"]))
+    side = _by_position(lamech.modes(system), theta=theta0)
+    c = np.array(side.linear.multipliers["hoop"])
+    assert side.linear.state == ("theta", "theta'") and abs(c[0]) > 1
+    amp = 1e-4
+    start = with_values(system, initial={"theta": theta0 + amp})
+    traj = lamech.simulate(start, 2.0, samples=401, rtol=1e-11, atol=1e-13)
+    dth = traj.coordinate("theta") - theta0
+    dthd = traj.velocity("theta")
+    predicted = side.multipliers["hoop"] + c[0] * dth + c[1] * dthd
+    lam = traj.multiplier("hoop")
+    assert np.abs(lam - predicted).max() < 1e-6 * abs(side.multipliers["hoop"])  # second order
+    assert np.abs(lam - side.multipliers["hoop"]).max() > 1e-4                  # it does move
+
+
+TRIPLE = DOUBLE.replace('title = "Double pendulum"', 'title = "Triple pendulum"').replace(
+    'th2 = { initial = 0.1, velocity = 0 }',
+    'th2 = { initial = 0.1, velocity = 0 }\nth3 = { initial = 0.1, velocity = 0 }',
+) + """
+[[bodies]]
+name = "bob3"
+mass = "m"
+position = ["l*sin(th1) + l*sin(th2) + l*sin(th3)", "-l*cos(th1) - l*cos(th2) - l*cos(th3)"]
+"""
+
+
+def _spectral_peaks(t, x, count):
+    """The ``count`` strongest angular frequencies in x(t): Hann-windowed FFT, each peak
+    refined by a parabola through the log-magnitudes of its bin and neighbours."""
+    dt = t[1] - t[0]
+    spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(len(x))))
+    w = 2 * np.pi * np.fft.rfftfreq(len(x), dt)
+    interior = np.nonzero((spec[1:-1] > spec[:-2]) & (spec[1:-1] > spec[2:]))[0] + 1
+    out = []
+    for i in sorted(interior, key=lambda i: -spec[i])[:count]:
+        a, b, c = np.log(spec[i - 1 : i + 2])
+        out.append(w[i] + 0.5 * (a - c) / (a - 2 * b + c) * (w[1] - w[0]))
+    return sorted(out)
+
+
+def test_the_triple_pendulums_frequencies_are_the_peaks_of_its_simulated_spectrum():
+    """Independent truth: released at rest with all three angles at 0.01 rad, the
+    simulated triple pendulum's th1 has its spectral peaks at the three predicted
+    frequencies (also the textbook's: omega^2 l/g are the roots of
+    x^3 - 9 x^2 + 18 x - 6 = 0 for equal masses and lengths)."""
+    system = lamech.loads(TRIPLE, "triple.toml")
+    md = lamech.modes(system)
+    assert len(md.equilibria) == 8                      # each bob up or down
+    down = _by_position(md, th1=0.0, th2=0.0, th3=0.0)
+    assert down.stability == "stable"
+    predicted = sorted(m.frequency for m in down.modes)
+    textbook = sorted(np.sqrt(9.81 * np.roots([1, -9, 18, -6]).real))
+    assert predicted == pytest.approx(textbook, rel=1e-10)
+    start = with_values(system, initial={"th1": 0.01, "th2": 0.01, "th3": 0.01})
+    traj = lamech.simulate(start, 120.0, samples=12001, rtol=1e-10, atol=1e-12)
+    seen = _spectral_peaks(traj.t, traj.coordinate("th1"), 3)
+    assert seen == pytest.approx(predicted, rel=1e-3)   # bin width 0.052 rad/s, refined
+
+
+def test_simulate_mode_releases_the_system_along_one_mode(capsys, tmp_path):
+    """`lamech simulate --mode 1` on the turning table: r starts at r* + 0.05 at rest and,
+    after the default four periods of omega = sqrt(k/m - Omega^2), is back there."""
+    csv = tmp_path / "table.csv"
+    assert main(["simulate", "rotating_table", "--mode", "1", "--out", str(csv)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("released at rest along mode 1 (omega = 1.6 rad/s) of equilibrium 1")
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    r_star = 4.0 * 0.5 / (4.0 - 1.2**2)
+    assert data["t"][-1] == pytest.approx(4 * 2 * math.pi / 1.6)
+    assert data["r"][0] == pytest.approx(r_star + 0.05, rel=1e-12)
+    assert data["r"][-1] == pytest.approx(r_star + 0.05, rel=1e-6)
+    assert data["r"].min() == pytest.approx(r_star - 0.05, rel=1e-4)   # linear: symmetric
+
+
+def test_simulate_mode_and_end_time_errors(capsys):
+    assert main(["simulate", "pendulum", "--mode", "2"]) == 2
+    assert "mode 2: this equilibrium has modes 1 to 1" in capsys.readouterr().err
+    assert main(["simulate", "pendulum"]) == 2
+    assert "give the end time: --t-end T (or --mode K" in capsys.readouterr().err
+    assert main(["simulate", "pendulum", "--t-end", "1", "--equilibrium", "1"]) == 2
+    assert "give --mode K too" in capsys.readouterr().err
+    assert main(["simulate", "pendulum", "--mode", "1", "--equilibrium", "3"]) == 2
+    assert "`lamech modes` finds 2 equilibria" in capsys.readouterr().err

@@ -25,7 +25,33 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
     s.add_argument(
-        "--t-end", type=positive_float, required=True, metavar="T", help="end time (start at t = 0)"
+        "--t-end",
+        type=positive_float,
+        metavar="T",
+        help="end time (start at t = 0); required unless --mode is given "
+        "(then four periods of the mode, or three e-folding times)",
+    )
+    s.add_argument(
+        "--mode",
+        type=_counting,
+        metavar="K",
+        help="start at rest along normal mode K of an equilibrium, numbered as "
+        "`lamech modes` lists them (the small oscillation itself, e.g. to animate it)",
+    )
+    s.add_argument(
+        "--equilibrium",
+        type=_counting,
+        metavar="N",
+        help="with --mode: equilibrium N as `lamech modes` numbers them (default: "
+        "the first stable one the constraints can hold, else the first they can hold)",
+    )
+    s.add_argument(
+        "--amplitude",
+        type=positive_float,
+        default=0.05,
+        metavar="A",
+        help="with --mode: the largest coordinate's displacement (default %(default)s, "
+        "in that coordinate's units: radians for an angle)",
     )
     s.add_argument(
         "--initial",
@@ -105,6 +131,60 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
+def _counting(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"counts from 1, got {value}")
+    return value
+
+
+def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
+    """Initial values along the chosen mode, the default end time, and a line saying so
+    (ValueError with what to do when there is no such mode)."""
+    import math
+
+    from ..model import with_values
+    from ..symbolic import modes
+
+    found = modes(with_values(system, parameters=params) if params else system)
+    eqs = found.equilibria
+    if not eqs:
+        raise ValueError(f"--mode: no equilibrium to release the system from ({found.reason})")
+    if args.equilibrium is not None:
+        if args.equilibrium > len(eqs):
+            raise ValueError(
+                f"--equilibrium {args.equilibrium}: `lamech modes` finds {len(eqs)} equilibria"
+            )
+        number = args.equilibrium
+    else:
+        usable = [i for i, e in enumerate(eqs, 1) if e.exists and e.holds and e.modes]
+        stable = [i for i in usable if eqs[i - 1].stability == "stable"]
+        if not usable:
+            raise ValueError("--mode: no equilibrium the constraints can hold has modes")
+        number = (stable or usable)[0]
+    e = eqs[number - 1]
+    start = e.displaced(args.mode - 1, args.amplitude)
+    m = e.modes[args.mode - 1]
+    if m.frequency is not None:
+        t_end = 4 * 2 * math.pi / m.frequency
+        what = f"omega = {m.frequency:.6g} rad/s"
+    elif m.growth is not None:
+        t_end = 3 / m.growth
+        what = f"growth rate {m.growth:.6g} /s"
+    else:
+        t_end = 1.0
+        what = "neutral"
+    where = ", ".join(f"{k} = {v:.6g}" for k, v in e.values.items())
+    line = (
+        f"released at rest along mode {args.mode} ({what}) of equilibrium {number} "
+        f"({where}), amplitude {args.amplitude:g}"
+    )
+    return start, t_end, line
+
+
 def run(args) -> int:
     """Run ``lamech simulate``; returns the exit status (0 ok, 1 run failed, 2 bad input,
     130 interrupted)."""
@@ -127,6 +207,16 @@ def run(args) -> int:
         env = dict(system.parameter_values)
         env.update({p.symbol: params[p.name] for p in system.parameters if p.name in params})
         initial = evaluate_assignments(args.initial, system, "--initial", env)
+        released = None
+        if args.mode is not None:
+            start, t_mode, released = _mode_start(system, params, args)
+            initial = {**start, **initial}  # an --initial given as well wins
+            if args.t_end is None:
+                args.t_end = t_mode
+        elif args.equilibrium is not None:
+            raise ValueError("--equilibrium chooses where --mode starts: give --mode K too")
+        if args.t_end is None:
+            raise ValueError("give the end time: --t-end T (or --mode K, which has a default)")
     except ValueError as exc:
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
@@ -204,6 +294,8 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(traj.summary(), indent=2, ensure_ascii=False, default=_json_default))
     else:
+        if released:
+            print(released)
         print(to_text(traj), end="")
         if args.out:
             print(f"  wrote {args.out}")

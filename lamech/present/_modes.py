@@ -31,6 +31,9 @@ def _mode_line(m) -> list[str]:
         head = f"grows: rate {m.growth:.6g} /s (e-folding time {1 / m.growth:.6g} s)"
         if m.squared is not None:
             head += f"; rate^2 = {_t(-m.squared)}"
+    elif isinstance(m, _Neutral):
+        head = f"neutral: eigenvalue 0, {m.count} times (free directions: no restoring force)"
+        return [head] + [f"  direction: {s}" for s in m.shapes]
     else:
         head = "neutral: eigenvalue 0 (a free direction: no restoring force)"
     shape = ", ".join(f"{k} {v + 0.0:.6g}" for k, v in m.shape.items())  # no "-0"
@@ -68,11 +71,75 @@ def modes_text(md) -> str:
             lines.append("  stability: not determined (the linearisation has no numbers here)")
             continue
         lines.append(f"  {e.stability}: {len(e.modes)} mode(s)")
-        for m in e.modes:
+        for label, m in _merged(e.modes):
             first, *rest = _mode_line(m)
-            lines.append(f"    - {first}")
+            lines.append(f"    {label}: {first}")
             lines += [f"      {r}" for r in rest]
+        if e.linear is not None:
+            lines += _linear_lines(e)
     return "\n".join(lines) + "\n"
+
+
+def _merged(modes) -> list[tuple[str, object]]:
+    """The modes with their numbers ("mode 2"), the neutral ones (eigenvalue 0, repeated
+    for every free direction and its drift) as one entry ("modes 1-5") whose shape lists
+    the free directions."""
+    neutral = [i for i, m in enumerate(modes) if m.frequency is None and m.growth is None]
+    if len(neutral) < 2 or neutral != list(range(neutral[0], neutral[-1] + 1)):
+        return [(f"mode {i}", m) for i, m in enumerate(modes, 1)]
+    shapes: list[str] = []
+    for i in neutral:
+        text = ", ".join(f"{k} {v + 0.0:.6g}" for k, v in modes[i].shape.items())
+        if text not in shapes:
+            shapes.append(text)
+    out = [(f"mode {i}", m) for i, m in enumerate(modes[: neutral[0]], 1)]
+    out.append((f"modes {neutral[0] + 1}-{neutral[-1] + 1}", _Neutral(len(neutral), shapes)))
+    out += [(f"mode {i}", m) for i, m in enumerate(modes[neutral[-1] + 1 :], neutral[-1] + 2)]
+    return out
+
+
+class _Neutral:
+    frequency = growth = None
+
+    def __init__(self, count: int, shapes: list[str]):
+        self.count, self.shapes = count, shapes
+
+
+def _combination(coefficients, state) -> str:
+    """sum c_i x_i as text, zero terms left out ("0" when all are)."""
+    parts = []
+    for c, x in zip(coefficients, state):
+        if abs(c) < 1e-12:
+            continue
+        sign = "-" if c < 0 else "+"
+        mag = "" if abs(abs(c) - 1) < 1e-12 else f"{abs(c):.6g}*"
+        parts.append(f"{sign} {mag}d{x}")
+    if not parts:
+        return "0"
+    text = " ".join(parts)
+    return text[2:] if text.startswith("+ ") else "-" + text[2:]
+
+
+def _linear_lines(e) -> list[str]:
+    """The linearised equations, one per state entry, and the multipliers to first order."""
+    lin = e.linear
+    lines = [f"  linearised (dx: the change from here), in {', '.join(lin.state)}:"]
+    width = max(len(x) for x in lin.state) + 1
+    for x, row in zip(lin.state, lin.A):
+        lines.append(f"    d/dt d{x}{' ' * (width - len(x))}= {_combination(row, lin.state)}")
+    for name, row in lin.multipliers.items():
+        base = e.multipliers.get(name, 0.0)
+        change = _combination(row, lin.state)
+        if change == "0":
+            text = f"{base:.6g}"
+        elif abs(base) < 1e-12:
+            text = change
+        elif change.startswith("-"):
+            text = f"{base:.6g} - {change[1:]}"
+        else:
+            text = f"{base:.6g} + {change}"
+        lines.append(f"    lambda_{name} = {text}")
+    return lines
 
 
 def modes_latex(md) -> str:

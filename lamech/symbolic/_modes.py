@@ -35,7 +35,7 @@ from ._integrals import _coordinate_jacobian
 from ._reduce import tidy
 from ._solution import Solution
 
-__all__ = ["Equilibrium", "Mode", "Modes", "modes"]
+__all__ = ["Equilibrium", "Linear", "Mode", "Modes", "modes"]
 
 SOLVE_OPS = 400
 """Equilibrium equations larger than this (operations) are not solved symbolically."""
@@ -69,12 +69,32 @@ class Mode:
 
 
 @dataclass(frozen=True)
+class Linear:
+    """The linearised motion d/dt x = A x about a point at rest, in coordinates regular
+    there: ``state`` names the entries of x (positions, then velocities such as
+    ``"x'"``), ``A`` is the matrix (row i: d/dt of entry i), and ``multipliers`` gives
+    each multiplier's first-order change over x (lambda = lambda_0 + row . x)."""
+
+    state: tuple[str, ...]
+    A: tuple[tuple[float, ...], ...]
+    multipliers: dict[str, tuple[float, ...]] = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return {
+            "state": list(self.state),
+            "A": [list(r) for r in self.A],
+            "multipliers": {k: list(v) for k, v in self.multipliers.items()},
+        }
+
+
+@dataclass(frozen=True)
 class Equilibrium:
     """A configuration where the system can rest (``at``: the independent coordinates,
     symbolic; ``values``: every coordinate, numeric), the ``condition`` for it to exist,
     whether it does at the parameter values (``exists``), the ``multipliers`` at rest,
     whether every unilateral constraint can hold it (``holds``, with ``note`` saying which
-    cannot), its ``stability`` ("stable", "unstable", "marginal") and ``modes``."""
+    cannot), its ``stability`` ("stable", "unstable", "marginal"), ``modes``, and the
+    ``linear`` system (:class:`Linear`) about it."""
 
     at: dict[str, sp.Expr]
     values: dict[str, float]
@@ -85,6 +105,26 @@ class Equilibrium:
     note: str | None = None
     stability: str | None = None
     modes: tuple[Mode, ...] = ()
+    linear: Linear | None = None
+
+    def displaced(self, mode: int, amplitude: float) -> dict[str, float]:
+        """Initial values that release the system at rest along ``mode`` (0-based index
+        into ``modes``), its largest component moved by ``amplitude``: the regular
+        coordinates of the linearisation (``linear.state``) displaced, their velocities
+        zero, for :func:`lamech.model.with_values` or ``simulate(initial=...)`` (the
+        other coordinates follow from the constraints)."""
+        if not self.exists or not self.modes or self.linear is None:
+            raise ValueError("this equilibrium has no modes to release the system along")
+        if not 0 <= mode < len(self.modes):
+            raise ValueError(f"mode {mode + 1}: this equilibrium has modes 1 to {len(self.modes)}")
+        shape = self.modes[mode].shape
+        out = {}
+        for name in self.linear.state:
+            if name.endswith("'"):
+                out[name] = 0.0
+            else:
+                out[name] = self.values[name] + amplitude * shape[name]
+        return out
 
     def to_json(self) -> dict:
         return {
@@ -97,6 +137,7 @@ class Equilibrium:
             "note": self.note,
             "stability": self.stability,
             "modes": [m.to_json() for m in self.modes],
+            "linear": None if self.linear is None else self.linear.to_json(),
         }
 
 
@@ -195,7 +236,10 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
     """Solutions of eqs = 0 for u, each with its existence condition (bounded)."""
     eqs = [e for e in eqs if e != 0]
     if not eqs:
-        return [], "every configuration is an equilibrium (no force acts at rest)"
+        return [], (
+            "every configuration is an equilibrium (no force acts at rest); "
+            "give a point with --at to linearise about it"
+        )
     if len(u) > SOLVE_UNKNOWNS or sum(sp.count_ops(e) for e in eqs) > SOLVE_OPS:
         return [], (
             f"the equilibrium equations are too large to solve symbolically "
@@ -384,7 +428,9 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
                 f"`{c.name}` cannot hold it (lambda_{c.name} = {lam[c.name]:.6g} < 0 at rest: "
                 "it would have to pull)"
             )
-    stability, found = _linearise(sol, u, ud, F, kept, at_point, env, point)
+    big = max(map(abs, lam.values()), default=0.0)
+    lam = {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}  # rounding
+    stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
     return Equilibrium(
         {str(x): v for x, v in point.items()},
         values,
@@ -395,6 +441,7 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
         "; ".join(notes) or None,
         stability,
         found,
+        linear,
     )
 
 
@@ -413,10 +460,21 @@ def _null_basis(G: np.ndarray, n: int) -> np.ndarray:
 
 
 def _linearise(sol, u, ud, F, kept, at_point, env, point):
+    """Stability, modes and the named linear system about a point at rest.
+
+    The state (du, du') is restricted to the tangent space of the kept holonomic
+    constraints (du = N z, du' = N w) and then to the linearised velocity constraints
+    (Gq du + Gv du' = 0: a non-holonomic system has fewer velocities than positions),
+    as SymPy's ``Linearizer`` does; the eigenvalues are those of J on that subspace."""
     system, red = sol.system, sol.reduction
     k = len(u)
     Fu = sp.Matrix(F).jacobian(u)
     Fv = sp.Matrix(F).jacobian(ud)
+    velocity = [
+        red.apply(c.expr)
+        for c in system.constraints
+        if not c.holonomic and c.name not in red.eliminated_constraints
+    ]
 
     def num(M: sp.Matrix) -> np.ndarray:
         return np.array(M.xreplace(env).evalf(), dtype=float).reshape(M.shape)
@@ -424,54 +482,108 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     try:
         A21, A22 = num(Fu), num(Fv)
         G = num(sp.Matrix(kept).jacobian(u)) if kept else np.zeros((0, k))
+        g = sp.Matrix(velocity)
+        Gq = num(g.jacobian(u)) if velocity else np.zeros((0, k))
+        Gv = num(g.jacobian(ud)) if velocity else np.zeros((0, k))
+        Xq = num(_coordinate_jacobian(system, red))  # d q_all / d u
     except (TypeError, ValueError):
-        return None, ()
+        return None, (), None
     if not (np.isfinite(A21).all() and np.isfinite(A22).all()):
-        return None, ()
+        return None, (), None
     N = _null_basis(G, k)  # tangent directions of the kept constraints, in u
     d = N.shape[1]
-    Jr = np.block([[np.zeros((d, d)), np.eye(d)], [N.T @ A21 @ N, N.T @ A22 @ N]])
-    w, V = np.linalg.eig(Jr)
-    # d q_all / d u at the point: the shapes in every coordinate
-    try:
-        Jq = num(_coordinate_jacobian(system, red)) @ N
-    except (TypeError, ValueError):
-        return None, ()
-    squared = _closed_squares(Fu, Fv, at_point, kept, k)
-    scale = max(1.0, float(np.abs(w).max(initial=0.0)))
+    Jz = np.block([[np.zeros((d, d)), np.eye(d)], [N.T @ A21 @ N, N.T @ A22 @ N]])
+    P = _null_basis(np.hstack([Gq @ N, Gv @ N]), 2 * d)  # the velocity constraints
+    w, V = np.linalg.eig(P.T @ Jz @ P)
+    Y = P @ V  # eigenvectors in (z, w)
+    Xq = Xq @ N  # d q_all / d z: the shapes in every coordinate
+    squared = _closed_squares(Fu, Fv, at_point, kept, k) if not velocity else []
+    # zero to this tolerance: a defective zero eigenvalue (the rolling disc's free
+    # drift, a Jordan block) comes out of LAPACK as about sqrt(machine epsilon)
+    tol = 1e-6 * max(1.0, float(np.abs(w).max(initial=0.0)))
     out = []
     for i in np.argsort(-w.real * 1e6 + np.abs(w.imag)):
         lam = complex(w[i])
-        if lam.imag < -1e-9 * scale:
+        if lam.imag < -tol:
             continue  # one of each conjugate pair
-        if abs(lam.imag) <= 1e-9 * scale and lam.real < -1e-9 * scale:
-            continue  # the decaying partner of a growing mode
-        shape = Jq @ V[:d, i]
+        if abs(lam.imag) <= tol and lam.real < -tol and np.abs(w + lam).min() <= tol:
+            continue  # the decaying partner of a growing mode (a damped one is kept)
+        shape = Xq @ Y[:d, i]
         big = shape[np.argmax(np.abs(shape))] if shape.size else 1.0
-        shape = (shape / big).real if abs(big) > 0 else shape.real
-        freq = lam.imag if lam.imag > 1e-9 * scale else None
-        growth = lam.real if lam.real > 1e-9 * scale else None
+        shape = (shape / big).real if abs(big) > 1e-12 else shape.real
+        freq = lam.imag if lam.imag > tol else None
+        growth = lam.real if lam.real > tol else None
         sq = _match_square(squared, lam, env)
         out.append(
             Mode(
                 lam,
                 freq,
                 growth,
-                {c.name: float(round(x, 12)) for c, x in zip(system.coordinates, shape)},
+                {c.name: float(round(x, 12)) + 0.0 for c, x in zip(system.coordinates, shape)},
                 sq,
             )
         )
     if any(m.growth for m in out):
         stability = "unstable"
-    elif all(abs(complex(x).real) <= 1e-9 * scale for x in w) and all(
-        abs(x) > 1e-9 * scale for x in w
-    ):
+    elif all(abs(complex(x).real) <= tol for x in w) and all(abs(x) > tol for x in w):
         stability = "stable"
-    elif all(complex(x).real < -1e-9 * scale for x in w):
+    elif all(complex(x).real < -tol for x in w):
         stability = "stable"
     else:
         stability = "marginal"
-    return stability, tuple(out)
+    linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
+    return stability, tuple(out), linear
+
+
+def _pick(X: np.ndarray) -> list[int]:
+    """The rows of X (n, d) that make the best-conditioned d x d block (pivoted QR on
+    X^T), in their original order: the coordinates regular at the point."""
+    from scipy.linalg import qr
+
+    if X.shape[1] == 0:
+        return []
+    _, _, piv = qr(X.T, pivoting=True)
+    return sorted(int(i) for i in piv[: X.shape[1]])
+
+
+def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
+    """The linear system in coordinates regular at the point: d of the coordinates for
+    the positions (picked from d q / d z: the Cartesian pendulum hanging gives x, never
+    y), and for a non-holonomic system as many velocities as the velocity constraints
+    leave free; with the multipliers' first-order change over that state."""
+    system = sol.system
+    names = [c.name for c in system.coordinates]
+    d = N.shape[1]
+    if GqN.size and np.abs(GqN).max() > 1e-10:
+        return None  # velocity constraints that tie positions to velocities: no split
+    Nw = _null_basis(GvN, d)
+    own = [names.index(str(x)) for x in u]  # the independent coordinates, if regular
+    S = own if len(own) == d and np.linalg.cond(Xq[own]) < 1e8 else _pick(Xq)
+    own_v = own if len(own) == Nw.shape[1] and len(own) else []
+    W = own_v if own_v and np.linalg.cond((Xq @ Nw)[own_v]) < 1e8 else _pick(Xq @ Nw)
+    Tp, Tv = Xq[S], (Xq @ Nw)[W]
+    if np.linalg.cond(Tp) > 1e10 or (Tv.size and np.linalg.cond(Tv) > 1e10):
+        return None
+    Tp_inv = np.linalg.inv(Tp)
+    Tv_inv = np.linalg.inv(Tv) if Tv.size else np.zeros((0, 0))
+    dv = Nw.shape[1]
+    L = np.block([[Tp, np.zeros((d, d))], [np.zeros((dv, d)), Tv @ Nw.T]])
+    M = np.block([[Tp_inv, np.zeros((d, dv))], [np.zeros((d, d)), Nw @ Tv_inv]])
+    A = L @ Jz @ M
+    lam = {}
+    for c in system.constraints:
+        expr = sol.closed.multipliers.get(c.name)
+        if expr is None:
+            continue
+        try:
+            du = [_real(sp.diff(expr, x), env) for x in u]
+            dv_ = [_real(sp.diff(expr, v), env) for v in ud]
+        except (TypeError, ValueError):
+            continue
+        row = np.concatenate([np.array(du) @ N @ Tp_inv, np.array(dv_) @ N @ Nw @ Tv_inv])
+        lam[c.name] = tuple(float(round(x, 12)) for x in row)
+    state = tuple(names[i] for i in S) + tuple(names[i] + "'" for i in W)
+    return Linear(state, tuple(tuple(float(round(x, 12)) for x in r) for r in A), lam)
 
 
 def _closed_squares(Fu, Fv, at_point, kept, k) -> list[sp.Expr]:

@@ -4,6 +4,7 @@ frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import sympy as sp
 
@@ -108,6 +109,14 @@ class Solution:
     @property
     def gamma(self) -> sp.Matrix:
         return self.dynamics.gamma
+
+    @cached_property
+    def equilibria(self) -> tuple:
+        """Where the system can rest, each with its stability, normal modes and linear
+        system: :func:`lamech.modes` of this solution (found on first use, then kept)."""
+        from ._modes import modes  # _modes builds on this module
+
+        return modes(self).equilibria
 
     def _repr_latex_(self) -> str:
         # Jupyter's display protocol calls this method on the object itself, so it is the
