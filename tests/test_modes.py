@@ -350,3 +350,33 @@ def test_simulate_mode_and_end_time_errors(capsys):
     assert "give --mode K too" in capsys.readouterr().err
     assert main(["simulate", "pendulum", "--mode", "1", "--equilibrium", "3"]) == 2
     assert "`lamech modes` finds 2 equilibria" in capsys.readouterr().err
+
+
+def test_frequencies_agree_with_det_k_minus_omega_squared_m_on_the_tangent_space():
+    """The physical check, from the Euler-Lagrange equations before elimination, is made
+    and passes where it applies (scleronomic holonomic constraints, no velocity terms);
+    it is not claimed for the spun hoop (rheonomic: a relative equilibrium)."""
+    for system in (lamech.loads(TRIPLE, "triple.toml"), lamech.loads(NONMINIMAL, "n.toml"),
+                   lamech.load("cylinder"), lamech.loads(CARTESIAN, "cart.toml")):
+        for e in lamech.modes(system).equilibria:
+            assert e.check.startswith("omega^2 from det(K - omega^2 M) = 0 on the tangent "
+                                      "space agrees"), (system.title, e.values)
+    assert all(e.check is None for e in lamech.modes(lamech.load("hoop_bead")).equilibria)
+
+
+def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(capsys):
+    md = lamech.modes(lamech.load("spherical_pendulum"))
+    assert md.free.startswith("every value of phi rests as well")
+    bottom = _by_position(md, theta=0.0)
+    assert bottom.stability is None and bottom.modes == ()   # not a wrong answer: none
+    assert main(["modes", "spherical_pendulum"]) == 0
+    assert "these coordinates are singular here" in capsys.readouterr().out
+
+
+def test_the_tangent_check_reports_a_disagreement():
+    from lamech.symbolic._modes import Mode, _tangent_check
+    sol = lamech.solve(lamech.load("pendulum"))
+    down = _by_position(lamech.modes(sol), theta=0.0)
+    wrong = [Mode(complex(0, 2.0), 2.0, None, {})]      # omega^2 = 4, not g/l = 9.81
+    verdict = _tangent_check(sol, down.values, down.multipliers, wrong)
+    assert verdict.startswith("DISAGREES") and "omega^2 = 9.81" in verdict

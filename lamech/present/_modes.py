@@ -47,6 +47,8 @@ def modes_text(md) -> str:
     lines.append(
         "independent coordinates: " + (", ".join(md.independent) or "(none)") + "  (at rest)"
     )
+    if md.free:
+        lines.append(f"free: {md.free}")
     if md.reason:
         lines += ["", f"no equilibria given: {md.reason}"]
     for i, e in enumerate(md.equilibria, 1):
@@ -68,13 +70,19 @@ def modes_text(md) -> str:
         if not e.holds:
             lines.append("  not an equilibrium of the system as written (a contact lets go)")
         if e.stability is None:
-            lines.append("  stability: not determined (the linearisation has no numbers here)")
+            lines.append(
+                "  stability: not determined: these coordinates are singular here (the "
+                "mass matrix loses rank, as at the pole of spherical coordinates); to "
+                "linearise, write the problem in coordinates regular at this point"
+            )
             continue
         lines.append(f"  {e.stability}: {len(e.modes)} mode(s)")
         for label, m in _merged(e.modes):
             first, *rest = _mode_line(m)
             lines.append(f"    {label}: {first}")
             lines += [f"      {r}" for r in rest]
+        if e.check:
+            lines.append(f"  check: {e.check}")
         if e.linear is not None:
             lines += _linear_lines(e)
     return "\n".join(lines) + "\n"

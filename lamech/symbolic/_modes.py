@@ -94,7 +94,9 @@ class Equilibrium:
     whether it does at the parameter values (``exists``), the ``multipliers`` at rest,
     whether every unilateral constraint can hold it (``holds``, with ``note`` saying which
     cannot), its ``stability`` ("stable", "unstable", "marginal"), ``modes``, and the
-    ``linear`` system (:class:`Linear`) about it."""
+    ``linear`` system (:class:`Linear`) about it, and ``check``: how the frequencies agree
+    with det(K - omega^2 M) = 0 from the unreduced equations (None where that check does
+    not apply; a disagreement is reported in ``note``)."""
 
     at: dict[str, sp.Expr]
     values: dict[str, float]
@@ -106,6 +108,7 @@ class Equilibrium:
     stability: str | None = None
     modes: tuple[Mode, ...] = ()
     linear: Linear | None = None
+    check: str | None = None
 
     def displaced(self, mode: int, amplitude: float) -> dict[str, float]:
         """Initial values that release the system at rest along ``mode`` (0-based index
@@ -138,17 +141,20 @@ class Equilibrium:
             "stability": self.stability,
             "modes": [m.to_json() for m in self.modes],
             "linear": None if self.linear is None else self.linear.to_json(),
+            "check": self.check,
         }
 
 
 @dataclass(frozen=True)
 class Modes:
-    """Every equilibrium found (``equilibria``), or why none could be (``reason``)."""
+    """Every equilibrium found (``equilibria``), or why none could be (``reason``);
+    ``free`` says which coordinates rest at every value (shown at one)."""
 
     system: System
     independent: tuple[str, ...]
     equilibria: tuple[Equilibrium, ...]
     reason: str | None = None
+    free: str | None = None
 
     def to_json(self) -> dict:
         return {
@@ -156,6 +162,7 @@ class Modes:
             "independent": list(self.independent),
             "equilibria": [e.to_json() for e in self.equilibria],
             "reason": self.reason,
+            "free": self.free,
         }
 
 
@@ -191,6 +198,7 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         return Modes(system, names, (), "a kept constraint depends on t explicitly")
     rest = {v: 0 for v in ud}
     pv = system.parameter_values
+    free_note = None
     if at is not None:
         unknown = sorted(set(at) - set(names))
         if unknown:
@@ -208,12 +216,29 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         eqs = [sp.numer(sp.together(f)) for f in _forces_at_rest(sol, u, F, rest)] + [
             _polynomial_form(f, system) for f in kept
         ]
-        points, reason = _solve(eqs, u, system)
+        eqs = [e for e in eqs if e != 0]
+        # a coordinate no equation holds (the spherical pendulum's azimuth) is free:
+        # every value rests; the rest are solved for with it at its initial value
+        free = [x for x in u if eqs and not any(e.has(x) for e in eqs)]
+        fixed = {
+            x: sp.nsimplify(next(c.initial for c in system.coordinates if c.symbol == x))
+            for x in free
+        }
+        points, reason = _solve(
+            [e.xreplace(fixed) for e in eqs], [x for x in u if x not in fixed], system
+        )
+        points = [({**p, **fixed}, cond) for p, cond in points]
+        if free:
+            shown = ", ".join(f"{x} = {to_text(v)}" for x, v in fixed.items())
+            free_note = (
+                f"every value of {', '.join(map(str, free))} rests as well "
+                f"(no force acts along it at rest); shown at {shown}"
+            )
     out = []
     for point, condition in points:
         out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, given=at is not None))
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
-    return Modes(system, names, tuple(out), reason if not out else None)
+    return Modes(system, names, tuple(out), reason if not out else None, free_note)
 
 
 def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
@@ -407,7 +432,8 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
         values[c.name] = _real(expr, env)
     notes = []
     residual = [_real(f, env) for f in F]
-    if given and max(map(abs, residual), default=0.0) > 1e-9:
+    resting = max(map(abs, residual), default=0.0) <= 1e-9
+    if given and not resting:
         notes.append(
             "not an equilibrium: at rest there the accelerations are "
             + ", ".join(f"{x}'' = {r:.6g}" for x, r in zip(u, residual))
@@ -431,6 +457,12 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
     big = max(map(abs, lam.values()), default=0.0)
     lam = {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}  # rounding
     stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
+    check = None
+    if resting:  # at an equilibrium: the same frequencies from the unreduced equations
+        check = _tangent_check(sol, values, lam, found)
+        if check is not None and check.startswith("DISAGREES"):
+            notes.append(check)
+            check = None
     return Equilibrium(
         {str(x): v for x, v in point.items()},
         values,
@@ -442,6 +474,7 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
         stability,
         found,
         linear,
+        check,
     )
 
 
@@ -492,6 +525,8 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
         return None, (), None
     N = _null_basis(G, k)  # tangent directions of the kept constraints, in u
     d = N.shape[1]
+    if _singular_coordinates(sol, env, Xq @ N):
+        return None, (), None
     Jz = np.block([[np.zeros((d, d)), np.eye(d)], [N.T @ A21 @ N, N.T @ A22 @ N]])
     P = _null_basis(np.hstack([Gq @ N, Gv @ N]), 2 * d)  # the velocity constraints
     w, V = np.linalg.eig(P.T @ Jz @ P)
@@ -533,6 +568,82 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
         stability = "marginal"
     linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
     return stability, tuple(out), linear
+
+
+def _tangent_check(sol, values, lam, found) -> str | None:
+    """The physical check: omega^2 from det(K - omega^2 M) = 0 on the tangent space of
+    all the constraints, in all the coordinates (the Euler-Lagrange equations before any
+    elimination: K = d/dq (h - Q - A^T lambda_0) at rest, M the mass matrix), against the
+    modes found from the reduced equations. Only where it applies: scleronomic holonomic
+    constraints and no velocity terms at rest (no gyroscopic coupling or damping)."""
+    from scipy.linalg import eig
+
+    system, dyn = sol.system, sol.dynamics
+    t = system.t
+    if not found or any(not c.holonomic or c.expr.has(t) for c in system.constraints):
+        return None
+    if any(c.name not in lam for c in system.constraints):
+        return None
+    q, qd = list(system.q), list(system.qd)
+    env = {
+        **system.parameter_values,
+        **{c.symbol: values[c.name] for c in system.coordinates},
+        **{v: 0.0 for v in qd},
+        **{c.multiplier: lam[c.name] for c in system.constraints},
+    }
+    lam_vec = sp.Matrix([c.multiplier for c in system.constraints])
+    R = dyn.h - dyn.Q - (dyn.A.T * lam_vec if system.constraints else sp.zeros(len(q), 1))
+    if R.has(t):
+        return None
+
+    def num(M: sp.Matrix) -> np.ndarray:
+        return np.array(M.xreplace(env).evalf(), dtype=float).reshape(M.shape)
+
+    try:
+        if np.abs(num(R.jacobian(qd))).max(initial=0.0) > 1e-12:
+            return None
+        K, M = num(R.jacobian(q)), num(dyn.M)
+        N = _null_basis(num(dyn.A) if system.constraints else np.zeros((0, len(q))), len(q))
+    except (TypeError, ValueError):
+        return None
+    w2 = eig(N.T @ K @ N, N.T @ M @ N, right=False)
+    w2 = w2[np.isfinite(w2)]
+    mine = np.array([-(m.eigenvalue**2) for m in found])
+    scale = max(1.0, float(np.abs(w2).max(initial=0.0)), float(np.abs(mine).max(initial=0.0)))
+    worst = max(
+        [float(np.abs(mine - x).min(initial=np.inf)) for x in w2]
+        + [float(np.abs(w2 - x).min(initial=np.inf)) for x in mine],
+        default=0.0,
+    )
+    if worst > 1e-6 * scale:
+        return (
+            "DISAGREES: det(K - omega^2 M) = 0 on the tangent space gives omega^2 = "
+            + ", ".join(f"{complex(x).real:.6g}" for x in sorted(w2, key=lambda z: z.real))
+            + " (please report this)"
+        )
+    return (
+        f"omega^2 from det(K - omega^2 M) = 0 on the tangent space agrees (to {worst / scale:.0e})"
+    )
+
+
+def _singular_coordinates(sol, env, X) -> bool:
+    """Whether the coordinates are singular at the point (the pole of spherical
+    coordinates): the mass matrix seen through d q / d z loses rank there while the mass
+    matrix of all the coordinates does not (a massless pulley's is singular everywhere)."""
+    try:
+        M = np.array(
+            sol.dynamics.M.applyfunc(sol.reduction.apply).xreplace(env).evalf(), dtype=float
+        )
+    except (TypeError, ValueError):
+        return False
+    if not np.isfinite(M).all() or X.shape[1] == 0:
+        return False
+
+    def rank(A: np.ndarray) -> int:
+        sv = np.linalg.svd(A, compute_uv=False)
+        return int((sv > 1e-9 * max(1.0, sv.max(initial=0.0))).sum())
+
+    return rank(X.T @ M @ X) < min(X.shape[1], rank(M))
 
 
 def _pick(X: np.ndarray) -> list[int]:
