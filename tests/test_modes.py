@@ -374,9 +374,10 @@ def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(
 
 
 def test_the_tangent_check_reports_a_disagreement():
-    from lamech.symbolic._modes import Mode, _tangent_check
+    from lamech.symbolic import Mode, check_modes
     sol = lamech.solve(lamech.load("pendulum"))
     down = _by_position(lamech.modes(sol), theta=0.0)
+    assert check_modes(sol, down) == down.check
     wrong = [Mode(complex(0, 2.0), 2.0, None, {})]      # omega^2 = 4, not g/l = 9.81
-    verdict = _tangent_check(sol, down.values, down.multipliers, wrong)
+    verdict = check_modes(sol, down, wrong)
     assert verdict.startswith("DISAGREES") and "omega^2 = 9.81" in verdict

@@ -18,7 +18,7 @@ from ._conditions import (
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._modes import Equilibrium, Linear, Mode, Modes, modes
+from ._modes import Equilibrium, Linear, Mode, Modes, check_modes, modes
 from ._reduce import (
     CLOSED_FORM_LIMIT,
     KKT_OPS,
@@ -65,4 +65,5 @@ __all__ = [
     "Equilibrium",
     "Mode",
     "Linear",
+    "check_modes",
 ]

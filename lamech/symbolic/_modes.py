@@ -35,7 +35,7 @@ from ._integrals import _coordinate_jacobian
 from ._reduce import tidy
 from ._solution import Solution
 
-__all__ = ["Equilibrium", "Linear", "Mode", "Modes", "modes"]
+__all__ = ["Equilibrium", "Linear", "Mode", "Modes", "check_modes", "modes"]
 
 SOLVE_OPS = 400
 """Equilibrium equations larger than this (operations) are not solved symbolically."""
@@ -568,6 +568,14 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
         stability = "marginal"
     linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
     return stability, tuple(out), linear
+
+
+def check_modes(solution: Solution, equilibrium: Equilibrium, modes=None) -> str | None:
+    """Check ``modes`` (default: the equilibrium's own) against det(K - omega^2 M) = 0 on
+    the tangent space, from the unreduced Euler-Lagrange equations; a sentence, starting
+    "DISAGREES" when they do not match, or None where the check does not apply."""
+    found = equilibrium.modes if modes is None else tuple(modes)
+    return _tangent_check(solution, equilibrium.values, equilibrium.multipliers, found)
 
 
 def _tangent_check(sol, values, lam, found) -> str | None:
