@@ -381,3 +381,41 @@ def test_the_tangent_check_reports_a_disagreement():
     wrong = [Mode(complex(0, 2.0), 2.0, None, {})]      # omega^2 = 4, not g/l = 9.81
     verdict = check_modes(sol, down, wrong)
     assert verdict.startswith("DISAGREES") and "omega^2 = 9.81" in verdict
+
+
+CARTESIAN_DOUBLE = """
+title = "Double pendulum in Cartesian coordinates"
+[parameters]
+m = 1.0
+g = 9.81
+l = 1.0
+[coordinates]
+x1 = { initial = 0.6, velocity = 0 }
+y1 = { initial = -0.8, velocity = 0 }
+x2 = { initial = 1.2, velocity = 0 }
+y2 = { initial = -1.6, velocity = 0 }
+[lagrangian]
+T = "m/2*(x1'^2 + y1'^2 + x2'^2 + y2'^2)"
+V = "m*g*(y1 + y2)"
+[[constraints]]
+name = "rod1"
+f = "l - sqrt(x1^2 + y1^2)"
+[[constraints]]
+name = "rod2"
+f = "l - sqrt((x2 - x1)^2 + (y2 - y1)^2)"
+"""
+
+
+def test_the_cartesian_double_pendulum_is_solved_numerically_in_four_unknowns():
+    """Four coordinates and two kept rods: too many unknowns for SymPy's solve, so the
+    equilibria are found numerically (and read as the simple numbers they are); hanging,
+    it swings in x1, x2 at (2 +- sqrt 2) g/l like the angle form."""
+    md = lamech.modes(lamech.loads(CARTESIAN_DOUBLE, "cdp.toml"))
+    assert sorted((e.at["y1"], e.at["y2"]) for e in md.equilibria) == [
+        (-1, -2), (-1, 0), (1, 0), (1, 2)]
+    down = _by_position(md, x1=0.0, y1=-1.0, x2=0.0, y2=-2.0)
+    assert down.stability == "stable" and down.linear.state == ("x1", "x2", "x1'", "x2'")
+    squares = sorted(m.frequency ** 2 for m in down.modes)
+    assert squares == pytest.approx([(2 - math.sqrt(2)) * 9.81, (2 + math.sqrt(2)) * 9.81])
+    assert down.multipliers == pytest.approx({"rod1": 2 * 9.81, "rod2": 9.81})
+    assert "agrees" in down.check

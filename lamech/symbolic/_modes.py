@@ -266,10 +266,7 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
             "give a point with --at to linearise about it"
         )
     if len(u) > SOLVE_UNKNOWNS or sum(sp.count_ops(e) for e in eqs) > SOLVE_OPS:
-        return [], (
-            f"the equilibrium equations are too large to solve symbolically "
-            f"({len(u)} coordinates); give a point with --at"
-        )
+        return _numeric_equilibria(eqs, u, system)  # too large for SymPy: numbers
     found = _separable(eqs, u)
     if found is None:
         if not all(e.is_polynomial(*u) for e in eqs):
@@ -334,7 +331,9 @@ def _separable(eqs, u) -> list[dict] | None:
 
 def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     """Roots of the equations at the parameter values from a grid of starts (angles at
-    multiples of pi/2, lengths at their initial values): numbers, no conditions."""
+    multiples of pi/2, other coordinates at their initial values and their negatives):
+    numbers, no conditions. For equations too large or in too many unknowns for SymPy,
+    and for those it cannot solve."""
     import itertools
 
     from scipy.optimize import least_squares
@@ -343,7 +342,9 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     f = sp.lambdify([u], [e.xreplace(pv) for e in eqs], modules="numpy")
     init = {c.symbol: float(sp.N(c.initial.xreplace(pv))) for c in system.coordinates}
     axes = [
-        [-np.pi / 2, 0.0, np.pi / 2, np.pi] if is_angle(system, x) else [init.get(x, 0.0)]
+        [-np.pi / 2, 0.0, np.pi / 2, np.pi]
+        if is_angle(system, x)
+        else sorted({init.get(x, 0.0), -init.get(x, 0.0)})  # both sides of the origin
         for x in u
     ]
     starts = list(itertools.product(*axes))[:256] + [tuple(init.get(x, 0.0) for x in u)]
@@ -365,9 +366,32 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
                     x[i] = np.pi
         if not any(np.allclose(x, y, atol=1e-7) for y in found):
             found.append(x)
-    points = [({sym: sp.Float(v, 12) for sym, v in zip(u, x)}, None) for x in found]
-    reason = None if points else "no equilibrium found numerically"
+    points = [({sym: _snapped(v) for sym, v in zip(u, x)}, None) for x in found]
+    reason = (
+        None
+        if points
+        else "no equilibrium found numerically (from a grid of starting points); "
+        "give a point with --at"
+    )
     return points, reason
+
+
+def _snapped(v: float) -> sp.Expr:
+    """A root found numerically, as the simple number it is to 1e-10 (0, -1, pi/2,
+    2/3), else as a 12-digit float: the output reads y1 = -1, not -0.99999999999998."""
+    if abs(v) < 1e-12:
+        return sp.Integer(0)
+    try:
+        simple = sp.nsimplify(v, [sp.pi], tolerance=1e-10, rational=False)
+    except (ValueError, TypeError):  # pragma: no cover - nsimplify's own failures
+        simple = None
+    if (
+        simple is not None
+        and sp.count_ops(simple) <= 4
+        and abs(float(simple) - v) <= 1e-10 * (1 + abs(v))
+    ):
+        return simple
+    return sp.Float(v, 12)
 
 
 def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
