@@ -419,3 +419,22 @@ def test_the_cartesian_double_pendulum_is_solved_numerically_in_four_unknowns():
     assert squares == pytest.approx([(2 - math.sqrt(2)) * 9.81, (2 + math.sqrt(2)) * 9.81])
     assert down.multipliers == pytest.approx({"rod1": 2 * 9.81, "rod2": 9.81})
     assert "agrees" in down.check
+
+
+def test_the_conical_pendulum_is_linearised_about_its_steady_motion(capsys):
+    """--at with a velocity: the spherical pendulum going round at theta0 with
+    phi'^2 = g/(l cos(theta0)) is a fixed point of the reduced motion; it nods at
+    omega^2 = phi'^2 (1 + 3 cos^2(theta0)) (by hand: theta'' = sin cos phi'^2 - (g/l) sin
+    with sin^2(theta) phi' conserved), theta and phi a quarter period apart."""
+    th0 = 0.5
+    spin = math.sqrt(9.81 / math.cos(th0))
+    system = lamech.load("spherical_pendulum")
+    (e,) = lamech.modes(system, at={"theta": th0, "phi": 0.0, "phi'": spin}).equilibria
+    assert e.note is None and e.values["phi'"] == pytest.approx(spin)
+    nod = next(m for m in e.modes if m.frequency)
+    assert nod.frequency ** 2 == pytest.approx(spin**2 * (1 + 3 * math.cos(th0) ** 2), rel=1e-10)
+    assert abs(abs(nod.phases["theta"] - nod.phases["phi"]) - 90) < 1e-6
+    assert e.check is None                  # not at rest: the K, M check does not apply
+    assert main(["modes", "spherical_pendulum", "--at", "theta=0.5", "--at", "phi=0",
+                 "--at", "phi'=1"]) == 0
+    assert "not a steady state: there the accelerations are theta'' = " in capsys.readouterr().out

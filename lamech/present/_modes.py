@@ -36,7 +36,11 @@ def _mode_line(m) -> list[str]:
         return [head] + [f"  direction: {s}" for s in m.shapes]
     else:
         head = "neutral: eigenvalue 0 (a free direction: no restoring force)"
-    shape = ", ".join(f"{k} {v + 0.0:.6g}" for k, v in m.shape.items())  # no "-0"
+    shape = ", ".join(
+        f"{k} {v + 0.0:.6g}"  # + 0.0: no "-0"
+        + (f" (phase {m.phases[k]:.4g} deg)" if m.phases and k in m.phases else "")
+        for k, v in m.shape.items()
+    )
     return [head, f"  shape: {shape}"]
 
 
@@ -62,7 +66,11 @@ def modes_text(md) -> str:
         lines.append("  at the values: " + ", ".join(f"{k} = {v:.6g}" for k, v in e.values.items()))
         if e.multipliers:
             lines.append(
-                "  multipliers at rest: "
+                (
+                    "  multipliers there: "
+                    if any(k.endswith("'") for k in e.at)
+                    else "  multipliers at rest: "
+                )
                 + ", ".join(f"lambda_{k} = {v:.6g}" for k, v in e.multipliers.items())
             )
         if e.note:

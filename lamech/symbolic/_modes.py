@@ -50,13 +50,16 @@ class Mode:
     ``eigenvalue`` is complex; ``frequency`` omega (rad/s) when it oscillates, ``growth``
     its real part when that is positive (unstable), ``squared`` omega^2 in closed form
     (negative: the square of a growth rate) when available, ``shape`` the displacement
-    in every coordinate (largest component 1)."""
+    in every coordinate (largest component 1); where the coordinates move out of phase
+    (gyroscopic coupling) ``shape`` holds the amplitudes and ``phases`` the phase of each
+    in degrees."""
 
     eigenvalue: complex
     frequency: float | None
     growth: float | None
     shape: dict[str, float]
     squared: sp.Expr | None = None
+    phases: dict[str, float] | None = None
 
     def to_json(self) -> dict:
         return {
@@ -65,6 +68,7 @@ class Mode:
             "growth": self.growth,
             "shape": self.shape,
             "squared": None if self.squared is None else to_text(self.squared),
+            "phases": self.phases,
         }
 
 
@@ -124,7 +128,7 @@ class Equilibrium:
         out = {}
         for name in self.linear.state:
             if name.endswith("'"):
-                out[name] = 0.0
+                out[name] = self.values.get(name, 0.0)  # a steady motion keeps its speed
             else:
                 out[name] = self.values[name] + amplitude * shape[name]
         return out
@@ -199,18 +203,22 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
     rest = {v: 0 for v in ud}
     pv = system.parameter_values
     free_note = None
+    speeds: dict = {}
     if at is not None:
-        unknown = sorted(set(at) - set(names))
+        allowed = set(names) | {n + "'" for n in names}
+        unknown = sorted(set(at) - allowed)
         if unknown:
             raise ValueError(
-                f"--at {unknown[0]}: not an independent coordinate; these are: " + ", ".join(names)
+                f"--at {unknown[0]}: not an independent coordinate or its velocity; "
+                "these are: " + ", ".join(names)
             )
         missing = [n for n in names if n not in at]
         if missing:
             raise ValueError(
                 "--at must give every independent coordinate; missing: " + ", ".join(missing)
             )
-        points = [({s: sp.nsimplify(at[n]) for s, n in zip(u, names)}, None)]
+        speeds = {v: _snapped(float(at[n + "'"])) for v, n in zip(ud, names) if n + "'" in at}
+        points = [({s: _snapped(float(at[n])) for s, n in zip(u, names)}, None)]
         reason = None
     else:
         eqs = [sp.numer(sp.together(f)) for f in _forces_at_rest(sol, u, F, rest)] + [
@@ -236,7 +244,7 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
             )
     out = []
     for point, condition in points:
-        out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, given=at is not None))
+        out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds))
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None, free_note)
 
@@ -435,9 +443,12 @@ def _condition(point: dict) -> str | None:
     return " and ".join(dict.fromkeys(parts)) or None
 
 
-def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibrium:
+def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) -> Equilibrium:
+    """The equilibrium at ``point`` (or, with ``speeds``, the steady motion: the state
+    with those velocities, a fixed point when the accelerations vanish there)."""
     system, red, forms = sol.system, sol.reduction, sol.closed
-    at_point = {**point, **{v: 0 for v in ud}}
+    speeds = speeds or {}
+    at_point = {**point, **{v: speeds.get(v, 0) for v in ud}}
     num = {**pv, system.t: 0.0}
     uval = _numeric_point(point, system)
     if uval is None or np.abs(uval.imag).max(initial=0) > 1e-9 * (1 + np.abs(uval).max()):
@@ -449,17 +460,21 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
             note="not real at the parameter values",
         )
     uval = uval.real
-    env = {**num, **dict(zip(u, uval)), **{v: 0.0 for v in ud}}
+    env = {**num, **dict(zip(u, uval)), **{v: _real(speeds.get(v, 0), num) for v in ud}}
     values = {}
     for c in system.coordinates:
         expr = red.position_substitution.get(c.symbol, c.symbol)
         values[c.name] = _real(expr, env)
+    for v, x in zip(ud, u):
+        if v in speeds:
+            values[f"{x}'"] = env[v]
     notes = []
     residual = [_real(f, env) for f in F]
     resting = max(map(abs, residual), default=0.0) <= 1e-9
     if given and not resting:
         notes.append(
-            "not an equilibrium: at rest there the accelerations are "
+            ("not a steady state: there" if speeds else "not an equilibrium: at rest there")
+            + " the accelerations are "
             + ", ".join(f"{x}'' = {r:.6g}" for x, r in zip(u, residual))
         )
     lam = {}
@@ -482,13 +497,15 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given) -> Equilibriu
     lam = {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}  # rounding
     stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
     check = None
-    if resting:  # at an equilibrium: the same frequencies from the unreduced equations
+    if (
+        resting and not speeds
+    ):  # at an equilibrium: the same frequencies from the unreduced equations
         check = _tangent_check(sol, values, lam, found)
         if check is not None and check.startswith("DISAGREES"):
             notes.append(check)
             check = None
     return Equilibrium(
-        {str(x): v for x, v in point.items()},
+        {**{str(x): v for x, v in point.items()}, **{str(v): w for v, w in speeds.items()}},
         values,
         condition,
         True,
@@ -569,7 +586,16 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
             continue  # the decaying partner of a growing mode (a damped one is kept)
         shape = Xq @ Y[:d, i]
         big = shape[np.argmax(np.abs(shape))] if shape.size else 1.0
-        shape = (shape / big).real if abs(big) > 1e-12 else shape.real
+        shape = shape / big if abs(big) > 1e-12 else shape
+        phases = None
+        if np.abs(shape.imag).max(initial=0.0) > 1e-9:  # gyroscopic: out of phase
+            phases = {
+                c.name: float(round(np.degrees(np.angle(x)), 9)) + 0.0
+                for c, x in zip(system.coordinates, shape)
+                if abs(x) > 1e-12
+            }
+            shape = np.abs(shape)
+        shape = shape.real
         freq = lam.imag if lam.imag > tol else None
         growth = lam.real if lam.real > tol else None
         sq = _match_square(squared, lam, env)
@@ -580,6 +606,7 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
                 growth,
                 {c.name: float(round(x, 12)) + 0.0 for c, x in zip(system.coordinates, shape)},
                 sq,
+                phases,
             )
         )
     if any(m.growth for m in out):
