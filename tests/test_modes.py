@@ -165,7 +165,7 @@ def test_cli_modes_text_json_and_bad_at(capsys):
     assert "not an equilibrium: at rest there the accelerations are theta'' = -9.81" in out
     assert main(["modes", "pendulum", "--at", "phi=1"]) == 2
     err = capsys.readouterr().err
-    assert "--at phi: not an independent coordinate; these are: theta" in err
+    assert "--at phi: not an independent coordinate or its velocity; these are: theta" in err
 
 
 # SymPy's documented example (doc/src/modules/physics/mechanics/linearize.rst, "Nonminimal
