@@ -61,7 +61,9 @@ def _parser() -> argparse.ArgumentParser:
         md,
         "--at",
         "linearise about this configuration at rest (every independent coordinate; "
-        "values may be expressions such as pi/2) instead of searching for equilibria",
+        "values may be expressions such as pi/2) instead of searching for equilibria; "
+        'a velocity (--at "phi\'=3.3") makes it a steady motion, such as the conical '
+        "pendulum's",
     )
     _formats(md)
     sub.add_parser("examples", help="list the bundled example problems")
