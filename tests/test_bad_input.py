@@ -155,3 +155,62 @@ def test_missing_file(tmp_path, monkeypatch, capfd):
     error = load_error(lamech.load, tmp_path / "nowhere.toml", tmp_path=tmp_path,
                        monkeypatch=monkeypatch, capfd=capfd)
     assert "nowhere.toml" in str(error)
+
+
+# ------------------------------------------------- files that are not files, outputs
+
+def test_a_device_or_a_pipe_is_refused_without_reading_it(tmp_path):
+    """/dev/zero would be read forever and a FIFO would block: both refused at once."""
+    import os
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    for path in ("/dev/zero", fifo):
+        with pytest.raises(lamech.ProblemFileError, match="is not a regular file"):
+            with time_limit(TIME_LIMIT):
+                lamech.load(path)
+
+
+def test_a_file_over_the_limit_is_refused_after_reading_only_the_limit(tmp_path):
+    big = tmp_path / "big.toml"
+    big.write_bytes(b"# " + b"x" * 2_000_000 + b"\n")
+    with pytest.raises(lamech.ProblemFileError, match="file too large"):
+        lamech.load(big)
+
+
+def test_a_byte_order_mark_is_not_part_of_the_toml(tmp_path):
+    text = (Path(lamech.__file__).parent / "examples" / "pendulum.toml").read_text("utf-8")
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode("utf-8"))
+    assert lamech.load(path).title == lamech.load("pendulum").title
+
+
+@pytest.mark.parametrize("command", [
+    ["simulate", "{p}", "--t-end", "0.1", "--out", "{o}"],
+    ["simulate", "{p}", "--t-end", "0.1", "--plot", "{o}"],
+    ["sweep", "{p}", "--param", "m=1:2:2", "--t-end", "0.1", "--out", "{o}"],
+])
+def test_an_output_never_replaces_the_problem_file(command, tmp_path, monkeypatch, capsys):
+    """By its own name, through a symlink, or as ./name: refused, the file untouched."""
+    from lamech.cli import main
+    problem = tmp_path / "q.toml"
+    problem.write_text((Path(lamech.__file__).parent / "examples" / "pendulum.toml")
+                       .read_text("utf-8"), encoding="utf-8")
+    (tmp_path / "link.toml").symlink_to(problem)
+    before = problem.read_bytes()
+    monkeypatch.chdir(tmp_path)
+    for target in ("q.toml", "link.toml", "./q.toml"):
+        argv = [a.format(p="q.toml", o=target) for a in command]
+        assert main(argv) == 2
+        assert "is the problem file itself" in capsys.readouterr().err
+    assert problem.read_bytes() == before
+
+
+def test_the_trajectory_csv_is_written_whole_or_not_at_all(tmp_path):
+    """Written beside the target and renamed over it: no temporary file is left."""
+    out = tmp_path / "run.csv"
+    out.write_text("old", encoding="utf-8")
+    traj = lamech.simulate(lamech.load("pendulum"), 0.1, samples=11)
+    from lamech.present import trajectory_csv
+    trajectory_csv(traj, out)
+    assert out.read_text("utf-8").startswith("t,")
+    assert [p.name for p in tmp_path.iterdir()] == ["run.csv"]

@@ -12,6 +12,7 @@ __all__ = [
     "samples",
     "assignment",
     "evaluate_assignments",
+    "refuse_overwriting_input",
 ]
 
 
@@ -92,3 +93,33 @@ def add_tolerance_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="largest integrator step (default: unlimited)",
     )
+
+
+def refuse_overwriting_input(problem: str, outputs: dict[str, str | None]) -> None:
+    """ValueError when an output (``{"--out": path}``) is the problem file itself, by
+    any name (a symlink, a hard link, ./ or ../): writing there would replace the
+    user's problem with a CSV or a picture. A bundled example's name counts as its
+    file."""
+    import os
+    from pathlib import Path
+
+    from ..problem import example_names, example_path
+
+    source = Path(problem)
+    if not source.exists() and not source.suffix and problem in example_names():
+        source = example_path(problem)
+    if not source.exists():
+        return  # the loader says what is wrong with it
+    for flag, target in outputs.items():
+        if not target:
+            continue
+        out = Path(target)
+        try:
+            same = out.exists() and os.path.samefile(out, source)
+        except OSError:
+            same = False
+        if same or out.resolve() == source.resolve():
+            raise ValueError(
+                f"{flag} {target} is the problem file itself: writing there would replace "
+                "it; choose another name"
+            )

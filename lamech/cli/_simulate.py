@@ -8,7 +8,14 @@ import json
 import sys
 from pathlib import Path
 
-from ._args import add_tolerance_options, assignment, evaluate_assignments, positive_float, samples
+from ._args import (
+    add_tolerance_options,
+    assignment,
+    evaluate_assignments,
+    positive_float,
+    refuse_overwriting_input,
+    samples,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -207,6 +214,9 @@ def run(args) -> int:
         env = dict(system.parameter_values)
         env.update({p.symbol: params[p.name] for p in system.parameters if p.name in params})
         initial = evaluate_assignments(args.initial, system, "--initial", env)
+        refuse_overwriting_input(
+            args.problem, {"--out": args.out, "--plot": args.plot, "--animate": args.animate}
+        )
         released = None
         if args.mode is not None:
             start, t_mode, released = _mode_start(system, params, args)

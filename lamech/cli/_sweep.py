@@ -102,6 +102,7 @@ def run(args) -> int:
     from ..problem import ProblemFileError
     from ..sweeps import SweepError, parse_assignment, run_sweep
     from ..symbolic import DegenerateConstraintsError
+    from ._args import refuse_overwriting_input
 
     try:
         params = dict(parse_assignment(p, "--param") for p in args.param)
@@ -110,6 +111,10 @@ def run(args) -> int:
         initial = dict(parse_assignment(p, "--initial") for p in args.initial)
         if args.resume and not args.out:
             raise SweepError("--resume needs --out (the table to resume)")
+        try:
+            refuse_overwriting_input(args.problem, {"--out": args.out, "--plot": args.plot})
+        except ValueError as exc:
+            raise SweepError(str(exc)) from None
         if args.out and args.out.lower().endswith(".parquet"):
             try:
                 import pyarrow  # noqa: F401

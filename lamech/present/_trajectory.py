@@ -32,8 +32,24 @@ def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
     text = buf.getvalue()
     if path is None:
         return text
-    Path(path).write_text(text, encoding="utf-8")
+    _write_atomically(Path(path), text)
     return None
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """Write to a temporary file beside ``path``, then rename it over ``path``: a full
+    disk or a kill leaves the old file or none, never a table cut mid-number."""
+    import os
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".part")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def trajectory_text(traj) -> str:

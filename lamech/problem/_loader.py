@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import random
 import re
+import stat
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -151,6 +152,10 @@ class _Lines:
         return header_line
 
 
+MAX_BYTES = 1_000_000
+"""The largest problem file read (bytes); a larger one, or an endless one, is refused."""
+
+
 def load(path: str | Path) -> System:
     """Load a problem file, or a bundled example by name (``"cylinder"``).
 
@@ -177,16 +182,27 @@ def load(path: str | Path) -> System:
     if p.is_dir():
         raise ProblemFileError(str(path), [Issue("", "is a directory, not a problem file")])
     try:
-        text = p.read_text(encoding="utf-8")
+        if not stat.S_ISREG(p.stat().st_mode):
+            # /dev/zero would be read forever, a FIFO would block: neither is a file
+            raise ProblemFileError(
+                str(path),
+                [Issue("", "is not a regular file (a device, pipe or socket); give a .toml file")],
+            )
+        with p.open("rb") as fh:
+            raw = fh.read(MAX_BYTES + 1)  # never more than the limit, whatever the file
+        if len(raw) > MAX_BYTES:
+            raise ProblemFileError(str(path), [Issue("", "file too large (over 1 MB)")])
+        text = raw.decode("utf-8-sig")  # a byte-order mark is not part of the TOML
     except (OSError, UnicodeDecodeError) as exc:
         raise ProblemFileError(str(path), [Issue("", f"cannot read the file: {exc}")]) from None
-    return loads(text, name=str(path))
+    return loads(text.replace("\r\n", "\n"), name=str(path))
 
 
 def loads(text: str, name: str = "<string>") -> System:
     """Load a problem from TOML text; ``name`` is used in error messages."""
-    if len(text) > 1_000_000:
+    if len(text) > MAX_BYTES:
         raise ProblemFileError(name, [Issue("", "file too large (over 1 MB)")])
+    text = text.removeprefix("\ufeff")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
