@@ -214,3 +214,18 @@ def test_the_trajectory_csv_is_written_whole_or_not_at_all(tmp_path):
     trajectory_csv(traj, out)
     assert out.read_text("utf-8").startswith("t,")
     assert [p.name for p in tmp_path.iterdir()] == ["run.csv"]
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--dt", "1e-12"], "1e+12 output times (about 6.4e+04 GB) is more than lamech keeps"),
+    (["--samples", "1000000000"], "1e+09 output times"),
+    (["--plot", "out.txt"], "--plot out.txt: give a picture file ending in .png"),
+])
+def test_outputs_that_cannot_be_made_are_refused_before_the_run(options, message, capsys,
+                                                                tmp_path, monkeypatch):
+    from lamech.cli import main
+    monkeypatch.chdir(tmp_path)
+    with time_limit(TIME_LIMIT):
+        assert main(["simulate", "pendulum", "--t-end", "1", *options]) == 2
+    assert message in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

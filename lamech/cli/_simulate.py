@@ -138,6 +138,28 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
+MAX_SAMPLES = 10_000_000
+"""The most output times one run keeps (about 80 MB per column)."""
+
+PLOT_FORMATS = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
+
+
+def _check_output_size(args, coordinates: int) -> None:
+    """ValueError for outputs that cannot be made: more samples than memory holds
+    (--dt 1e-12 over a second is 10^12 rows), a plot in a format matplotlib lacks."""
+    n = args.samples if args.samples else (int(args.t_end / args.dt) + 1 if args.dt else 1001)
+    if n > MAX_SAMPLES:
+        gb = n * 8 * (2 * coordinates + 4) / 1e9
+        raise ValueError(
+            f"{n:.3g} output times (about {gb:.3g} GB) is more than lamech keeps "
+            f"({MAX_SAMPLES:.0e}); give fewer with --samples N or a larger --dt"
+        )
+    if args.plot and not args.plot.lower().endswith(PLOT_FORMATS):
+        raise ValueError(
+            f"--plot {args.plot}: give a picture file ending in " + ", ".join(PLOT_FORMATS)
+        )
+
+
 def _counting(text: str) -> int:
     try:
         value = int(text)
@@ -227,6 +249,7 @@ def run(args) -> int:
             raise ValueError("--equilibrium chooses where --mode starts: give --mode K too")
         if args.t_end is None:
             raise ValueError("give the end time: --t-end T (or --mode K, which has a default)")
+        _check_output_size(args, len(system.coordinates))
     except ValueError as exc:
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
