@@ -144,6 +144,20 @@ MAX_SAMPLES = 10_000_000
 PLOT_FORMATS = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
 
 
+def _check_values(system, params: dict) -> None:
+    """The file's checks (masses positive, restitution in [0, 1], ...) at the --param
+    values too: m = -1 would otherwise run, chattering contacts."""
+    from ..model import ModelError, with_values
+
+    own = {k: v for k, v in params.items() if k in {p.name for p in system.parameters}}
+    if not own:
+        return
+    try:
+        with_values(system, parameters=own)
+    except ModelError as exc:
+        raise ValueError(f"with these --param values: {exc}") from None
+
+
 def _check_output_size(args, coordinates: int) -> None:
     """ValueError for outputs that cannot be made: more samples than memory holds
     (--dt 1e-12 over a second is 10^12 rows), a plot in a format matplotlib lacks."""
@@ -236,6 +250,7 @@ def run(args) -> int:
         env = dict(system.parameter_values)
         env.update({p.symbol: params[p.name] for p in system.parameters if p.name in params})
         initial = evaluate_assignments(args.initial, system, "--initial", env)
+        _check_values(system, params)
         refuse_overwriting_input(
             args.problem, {"--out": args.out, "--plot": args.plot, "--animate": args.animate}
         )

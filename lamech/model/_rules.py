@@ -675,7 +675,8 @@ def _structure_issues(s: System, scope: _Scope) -> Issues:
 
 
 def _value_issues(s: System, scope: _Scope) -> Issues:
-    """Masses and inertias positive, friction coefficients >= 0, at the parameter values."""
+    """Masses and inertias positive, friction coefficients >= 0, restitution in [0, 1],
+    at the parameter values."""
     from ._checks import value
 
     out: Issues = []
@@ -699,6 +700,16 @@ def _value_issues(s: System, scope: _Scope) -> Issues:
             if v is not None and not (math.isfinite(v) and v > 0):
                 out.append((f"{where} {label}", f"must be positive, got {v:g}"))
     for i, c in enumerate(s.constraints):
+        if c.unilateral:
+            e = at_parameters(c.restitution)
+            if e is not None and not (math.isfinite(e) and 0 <= e <= 1):
+                out.append(
+                    (
+                        f"constraints[{i + 1}] `{c.name}` restitution",
+                        f"must be between 0 (plastic) and 1 (elastic), got {e:g}: an impact "
+                        "cannot return more energy than it had",
+                    )
+                )
         if c.friction is None:
             continue
         v = at_parameters(c.friction.mu)
