@@ -13,6 +13,7 @@ from ._args import (
     assignment,
     evaluate_assignments,
     positive_float,
+    positive_int,
     refuse_overwriting_input,
     samples,
 )
@@ -40,14 +41,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument(
         "--mode",
-        type=_counting,
+        type=positive_int,
         metavar="K",
         help="start at rest along normal mode K of an equilibrium, numbered as "
         "`lamech modes` lists them (the small oscillation itself, e.g. to animate it)",
     )
     s.add_argument(
         "--equilibrium",
-        type=_counting,
+        type=positive_int,
         metavar="N",
         help="with --mode: equilibrium N as `lamech modes` numbers them (default: "
         "the first stable one the constraints can hold, else the first they can hold)",
@@ -172,16 +173,6 @@ def _check_output_size(args, coordinates: int) -> None:
         raise ValueError(
             f"--plot {args.plot}: give a picture file ending in " + ", ".join(PLOT_FORMATS)
         )
-
-
-def _counting(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"counts from 1, got {value}")
-    return value
 
 
 def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
