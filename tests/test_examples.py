@@ -30,7 +30,8 @@ EXAMPLES = Path(lamech.__file__).resolve().parent / "examples"
 
 NAMES = ["pendulum", "cylinder", "atwood", "hoop_bead", "sphere_slide", "ladder",
          "incline_disk", "moving_support", "knife_edge", "vertical_disk", "wedge",
-         "spherical_pendulum", "vertical_circle", "double_atwood", "rotating_table"]
+         "spherical_pendulum", "vertical_circle", "double_atwood", "rotating_table",
+         "atwood_pulley"]
 
 
 # --------------------------------------------------------------------------- helpers
@@ -455,6 +456,23 @@ def test_atwood_force_at_one_end_leaves_a_residual():
     tension = 2 * m1 * m2 * g / (m1 + m2)
     assert_same(force(s, "string", "up"), tension)
     assert_same(s.forces["string"]["residual"], tension)
+
+
+def test_atwood_pulley_tensions_differ_by_the_pulley_torque():
+    """The massive pulley (a massless body with inertia I on a fixed axle): each rope's
+    multiplier is its tension, T1 = m1 (g - a), T2 = m2 (g + a), with
+    a = (m1 - m2) g / (m1 + m2 + I/r^2), and r (T1 - T2) = I phi''. More in
+    tests/test_massless.py."""
+    s = solved("atwood_pulley")
+    S = s.symbols
+    m1, m2, g, r, I = (S[k] for k in ("m1", "m2", "g", "r", "I"))
+    a = (m1 - m2) * g / (m1 + m2 + I / r**2)
+    T1, T2 = s.multipliers["rope1"], s.multipliers["rope2"]
+    assert sp.simplify(T1 - m1 * (g - a)) == 0
+    assert sp.simplify(T2 - m2 * (g + a)) == 0
+    assert sp.simplify(r * (T1 - T2) - I * a / r) == 0
+    assert_same(s.equations[2], I * S["phi''"] - r * S["lambda_rope1"] + r * S["lambda_rope2"])
+    assert s.lets_go["stop2"].when == "open at the start"
 
 
 def test_double_atwood_singular_mass_matrix():

@@ -116,7 +116,8 @@ def test_unknown_symbol_in_a_constraint():
 
 def test_negative_mass():
     error = model_error(pendulum, bodies=(Body("bob", -m, POSITION),))
-    assert error.issues == [("bodies[1] `bob` mass", "must be positive, got -1")]
+    assert error.issues == [("bodies[1] `bob` mass",
+                             "must be >= 0 (0 for a massless body), got -1")]
     same_as_file(error, PENDULUM.replace('mass = "m"', 'mass = "-m"'))
 
 
@@ -176,7 +177,7 @@ def test_replace_checks_again():
     with pytest.raises(ModelError, match="velocities are not allowed in V"):
         dataclasses.replace(system, V=system.V + rd)
     heavy = dataclasses.replace(system.bodies[0], mass=-m)    # fine alone: m's value is known
-    with pytest.raises(ModelError, match="must be positive"):
+    with pytest.raises(ModelError, match="must be >= 0"):
         dataclasses.replace(system, bodies=(heavy,))
     with pytest.raises(ModelError, match="only holonomic constraints"):
         dataclasses.replace(system.constraints[0], kind=ConstraintKind.VELOCITY)

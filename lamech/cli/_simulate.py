@@ -146,7 +146,7 @@ PLOT_FORMATS = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", 
 
 
 def _check_values(system, params: dict) -> None:
-    """The file's checks (masses positive, restitution in [0, 1], ...) at the --param
+    """The file's checks (masses >= 0, restitution in [0, 1], ...) at the --param
     values too: m = -1 would otherwise run, chattering contacts."""
     from ..model import ModelError, with_values
 
@@ -282,6 +282,11 @@ def run(args) -> int:
         return 2
     if progress:
         progress.close()
+    if traj.status == "failed" and traj.steps == 0:
+        # Nothing was integrated (a massless body nothing ties, a singular KKT matrix at
+        # the initial state): an error in the problem, said in one line; no outputs.
+        print(f"lamech: {args.problem}: cannot start: {traj.message}", file=sys.stderr)
+        return 2
     from ..present import to_text, trajectory_csv
 
     for target in (args.out, args.plot, args.animate):

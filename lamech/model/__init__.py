@@ -11,14 +11,17 @@ lambda_j >= 0 pushes the system back.
 
 from ._checks import (
     INITIAL_TOLERANCE,
+    Inertialess,
     dependent_constraints,
     dependent_group,
     holding_at_start,
     initial_values,
+    massless,
     numeric_matrix,
     open_at_start,
     probe_states,
     value,
+    without_inertia,
 )
 from ._kinematics import (
     body_energy,
@@ -75,5 +78,8 @@ __all__ = [
     "open_at_start",
     "dependent_constraints",
     "dependent_group",
+    "Inertialess",
+    "massless",
+    "without_inertia",
     "with_values",
 ]

@@ -1,5 +1,5 @@
 """What is true of a :class:`~lamech.model.System` at numbers: its initial state, the
-contacts open at the start, dependent constraints.
+contacts open at the start, dependent constraints, a motion without inertia.
 
 Numbers here come from substituting Floats (``xreplace``, 30 digits), never from
 evaluating user text.
@@ -8,6 +8,7 @@ evaluating user text.
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -24,6 +25,9 @@ __all__ = [
     "holding_at_start",
     "dependent_constraints",
     "dependent_group",
+    "Inertialess",
+    "massless",
+    "without_inertia",
     "probe_states",
 ]
 
@@ -171,3 +175,76 @@ def dependent_group(a: np.ndarray, names: list[str]) -> tuple[str, ...] | None:
     null = vt[rank:] if vt.shape[0] > rank else vt[-1:]
     combo = null[0]
     return tuple(n for n, c in zip(names, combo) if abs(c) > 1e-6)
+
+
+class Inertialess(NamedTuple):
+    """A motion the constraints allow that the mass matrix gives no inertia: the
+    coordinates it moves, the massless bodies among the bodies it moves, and whether
+    those are all of them (``only``)."""
+
+    coordinates: tuple[str, ...]
+    massless: tuple[int, ...]
+    only: bool
+
+    def describe(self, system: System) -> str:
+        """'coordinate `phi` has no inertia: it moves only the massless body `bead`'."""
+        names = self.coordinates
+        if len(names) == 1:
+            what = f"coordinate `{names[0]}` has no inertia"
+        else:
+            what = (
+                "the motion of coordinates "
+                + ", ".join(f"`{x}`" for x in names)
+                + " together has no inertia"
+            )
+        if not self.massless:
+            return what
+        kind = "body" if len(self.massless) == 1 else "bodies"
+        light = ", ".join(f"`{system.bodies[i].name}`" for i in self.massless)
+        return f"{what}: it moves {'only ' if self.only else ''}the massless {kind} {light}"
+
+
+def massless(system: System, env: dict) -> list[int]:
+    """The indices of the bodies whose mass is 0 at the numbers ``env``."""
+    out = []
+    for i, b in enumerate(system.bodies):
+        try:
+            if value(b.mass, env) == 0:
+                out.append(i)
+        except (TypeError, ValueError):
+            continue
+    return out
+
+
+def without_inertia(system: System, M: np.ndarray, A: np.ndarray, env: dict) -> Inertialess | None:
+    """The motion that makes the KKT matrix [[M, -A^T], [A, 0]] singular (numbers; ``A``
+    the rows that hold) because M gives it no inertia: v with A v = 0 and v^T M v = 0 (to
+    1e-12 of M), as the coordinates it moves and the massless bodies (mass 0 at the
+    numbers ``env``) among the bodies those move. None when every motion the constraints
+    allow has inertia (a singular KKT matrix then has dependent constraints)."""
+    n = M.shape[0]
+    basis = np.eye(n)
+    if A.shape[0]:
+        _, s, vt = np.linalg.svd(A)
+        rank = int((s > 1e-9 * max(1.0, float(s[0])) * max(A.shape)).sum())
+        basis = vt[rank:].T
+    if basis.shape[1] == 0:
+        return None
+    w, vecs = np.linalg.eigh(basis.T @ ((M + M.T) / 2) @ basis)
+    k = int(np.argmin(np.abs(w)))
+    if abs(w[k]) > 1e-12 * float(np.abs(M).max(initial=0.0)):
+        return None  # (relative to M: a milligram is not massless)
+    v = basis @ vecs[:, k]
+    moved = [i for i in range(n) if abs(v[i]) > 1e-6 * float(np.abs(v).max())]
+    symbols = {system.coordinates[i].symbol for i in moved}
+    bodies = [
+        i
+        for i, b in enumerate(system.bodies)
+        if any(e is not None and e.free_symbols & symbols for e in (*b.position, b.angle))
+    ]
+    light = [i for i in massless(system, env) if i in bodies]
+    return Inertialess(
+        tuple(system.coordinates[i].name for i in moved),
+        tuple(light),
+        bool(light) and len(light) == len(bodies),
+    )

@@ -589,13 +589,26 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
     return out
 
 
+def _no_velocity_issue(s: System) -> tuple[str, str]:
+    """T without velocities: every body massless (T from the bodies is 0), or a typo."""
+    from ._checks import massless
+
+    if s.T == 0 and s.bodies and len(massless(s, s.parameter_values)) == len(s.bodies):
+        return (
+            "bodies[1] `" + s.bodies[0].name + "` mass",
+            "every body is massless, so T = 0 and nothing has inertia; give at least "
+            "one body a mass",
+        )
+    return ("lagrangian.T", "T has no velocity in it; write velocities as x'")
+
+
 def _structure_issues(s: System, scope: _Scope) -> Issues:
     from ._system import ConstraintKind
 
     out: Issues = []
     qd = s.qd
     if _is_expr(s.T) and (s.T == 0 or not s.T.has(*qd)):
-        out.append(("lagrangian.T", "T has no velocity in it; write velocities as x'"))
+        out.append(_no_velocity_issue(s))
     names = [c.name for c in s.constraints]
     bodies = {b.name: b for b in s.bodies}
     for i, c in enumerate(s.constraints):
@@ -674,9 +687,14 @@ def _structure_issues(s: System, scope: _Scope) -> Issues:
     return out
 
 
+_ZERO = {"mass": "0 for a massless body", "inertia": "0 for no rotational inertia"}
+
+
 def _value_issues(s: System, scope: _Scope) -> Issues:
-    """Masses and inertias positive, friction coefficients >= 0, restitution in [0, 1],
-    at the parameter values."""
+    """Masses and inertias >= 0 (a massless pulley, rod or attachment point is an
+    idealisation the KKT system allows when the constraints give its motion to something
+    with inertia; when they do not, :func:`_massless_issues` names the coordinate),
+    friction coefficients >= 0, restitution in [0, 1], at the parameter values."""
     from ._checks import value
 
     out: Issues = []
@@ -697,8 +715,13 @@ def _value_issues(s: System, scope: _Scope) -> Issues:
             if expr is None:
                 continue
             v = at_parameters(expr)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                out.append((f"{where} {label}", f"must be positive, got {v:g}"))
+            if v is not None and not (math.isfinite(v) and v >= 0):
+                out.append(
+                    (
+                        f"{where} {label}",
+                        f"must be >= 0 ({_ZERO[label]}), got {v:g}",
+                    )
+                )
     for i, c in enumerate(s.constraints):
         if c.unilateral:
             e = at_parameters(c.restitution)
@@ -804,6 +827,8 @@ def _initial_issues(s: System) -> Issues:
 
 
 def _dependent_issues(s: System) -> Issues:
+    """The KKT matrix at the start: constraints that are dependent there, else a
+    massless body whose motion nothing gives inertia (:func:`_massless_issues`)."""
     from ._checks import dependent_constraints
 
     out: Issues = []
@@ -832,4 +857,42 @@ def _dependent_issues(s: System) -> Issues:
                     "uniquely determined; remove the redundant one",
                 )
             )
-    return out
+    return out or _massless_issues(s)
+
+
+def _massless_issues(s: System) -> Issues:
+    """A massless body (mass 0 at the parameter values) that leaves a motion the
+    constraints allow without inertia at the initial state: the KKT matrix is singular
+    and the accelerations cannot be found. Only systems with a massless body pay for
+    this check (M at numbers)."""
+    from ._checks import (
+        holding_at_start,
+        initial_values,
+        massless,
+        numeric_matrix,
+        without_inertia,
+    )
+    from ._kinematics import constraint_jacobian
+
+    pv = s.parameter_values
+    if not massless(s, pv):
+        return []
+    try:
+        env = {**pv, **initial_values(s), s.t: 0.0}
+        qd = sp.Matrix(s.qd)
+        M = numeric_matrix(sp.hessian(s.L, qd), env)
+        A = numeric_matrix(constraint_jacobian(holding_at_start(s))[0], env)
+    except (TypeError, ValueError):
+        return []  # not numbers at the start: reported elsewhere, or left to solve
+    weak = without_inertia(s, M, A.reshape(-1, len(s.coordinates)), env)
+    if weak is None or not weak.massless:
+        return []  # no massless body in it: solve names the coordinate
+    i = weak.massless[0]
+    return [
+        (
+            f"bodies[{i + 1}] `{s.bodies[i].name}` mass",
+            f"{weak.describe(s)}, so the accelerations cannot be found (the KKT "
+            "matrix is singular at the initial state); give the body a mass, or a "
+            "constraint that ties its motion to a body with one",
+        )
+    ]

@@ -12,6 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..linalg import kkt_matrix, kkt_rhs
+from ..model import without_inertia
 from ._codegen import NumericSystem
 from ._events import Event, EventKind
 from ._kkt import slip_directions
@@ -91,12 +92,7 @@ class Run:
         try:
             sol = np.linalg.solve(K, kkt_rhs(rhs, gam[rows]))
         except np.linalg.LinAlgError:
-            raise Stop(
-                f"singular KKT matrix at t = {t:.12g}: the constraints are "
-                "dependent here (a singular configuration) or a motion they allow "
-                "has no inertia; start elsewhere or remove a redundant "
-                "constraint"
-            ) from None
+            raise Stop(self._singular(t, M, A[rows])) from None
         if not np.all(np.isfinite(sol)):
             raise Stop(
                 f"non-finite accelerations or multipliers at t = {t:.12g} "
@@ -109,6 +105,24 @@ class Run:
         for j, k in mode.slips:
             lam[j] = -mu[j] * mode.sN[j] * mode.sigma[j] * lam[k]
         return Accel(sol[:n], lam, A, gam, mu, K)
+
+    def _singular(self, t: float, M: np.ndarray, A: np.ndarray) -> str:
+        """Why the KKT matrix is singular at t, naming the coordinate without inertia
+        (and the massless bodies it moves) when that is the cause."""
+        system = self.setup.ns.system
+        env = {p.symbol: float(v) for p, v in zip(system.parameters, self.setup.p)}
+        weak = without_inertia(system, M, A, env)
+        if weak:
+            return (
+                f"singular KKT matrix at t = {t:.12g}: {weak.describe(system)}; give it a mass or "
+                "a constraint that ties it to something with inertia"
+            )
+        return (
+            f"singular KKT matrix at t = {t:.12g}: the constraints are "
+            "dependent here (a singular configuration) or a motion they allow "
+            "has no inertia; start elsewhere or remove a redundant "
+            "constraint"
+        )
 
     def _dynamics(self, t, q, v):
         try:

@@ -30,7 +30,13 @@ import numpy as np
 import sympy as sp
 
 from ..linalg import kkt_matrix, kkt_rhs
-from ..model import System, constraint_jacobian, dependent_group, numeric_matrix
+from ..model import (
+    System,
+    constraint_jacobian,
+    dependent_group,
+    numeric_matrix,
+    without_inertia,
+)
 
 __all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError"]
 
@@ -109,12 +115,14 @@ def kkt_numeric(
     K = kkt_matrix(M, A)
     cond = np.linalg.cond(K)
     if not np.isfinite(cond) or cond > 1e13:
-        raise DegenerateConstraintsError(_singular_message(dyn, M, A, rows))
+        raise DegenerateConstraintsError(_singular_message(dyn, M, A, rows, state))
     sol = np.linalg.solve(K, kkt_rhs(rhs_top, g))
     return sol[:n], sol[n:]
 
 
-def _singular_message(dyn: Dynamics, M: np.ndarray, A: np.ndarray, rows: list[int]) -> str:
+def _singular_message(
+    dyn: Dynamics, M: np.ndarray, A: np.ndarray, rows: list[int], state: dict
+) -> str:
     names = [dyn.system.constraints[i].name for i in rows]
     group = dependent_group(A, names) if rows else None
     if group:
@@ -123,11 +131,10 @@ def _singular_message(dyn: Dynamics, M: np.ndarray, A: np.ndarray, rows: list[in
             + " and ".join(f"`{n}`" for n in group)
             + " are dependent: forces cannot be uniquely determined"
         )
-    coords = [c.name for c in dyn.system.coordinates]
-    # M singular on the motions the constraints allow: name a coordinate without inertia.
-    _, s, vt = np.linalg.svd(M)
-    weak = [coords[int(np.argmax(np.abs(vt[-1])))]] if s[-1] < 1e-12 * max(1, s[0]) else []
-    hint = f" (coordinate `{weak[0]}` has no inertia)" if weak else ""
+    # M singular on the motions the constraints allow: name the coordinate without
+    # inertia (and the massless bodies it moves).
+    weak = without_inertia(dyn.system, M, A, state)
+    hint = f" ({weak.describe(dyn.system)})" if weak else ""
     return (
         "the KKT matrix is singular: the mass matrix gives no inertia to a motion the "
         f"constraints allow{hint}; add a mass or a constraint"
