@@ -91,7 +91,17 @@ def add_tolerance_options(parser: argparse.ArgumentParser) -> None:
         "--max-step",
         type=positive_float,
         default=None,
-        help="largest integrator step (default: unlimited)",
+        help="largest integrator step (default: unlimited); refused when it would force "
+        "more than 1e8 steps to reach --t-end (a day or more)",
+    )
+    parser.add_argument(
+        "--method",
+        choices=("DOP853", "RK45", "Radau", "BDF"),
+        default="DOP853",
+        help="the integrator: DOP853 (default; explicit, order 8), RK45, or the implicit "
+        "Radau and BDF for stiff systems, such as a stiff damper or spring whose fastest "
+        "time scale is far below the motion's (lamech says so when a long run's step is "
+        "held down by stability)",
     )
 
 

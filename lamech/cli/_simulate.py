@@ -4,8 +4,12 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import signal
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from ._args import (
@@ -17,6 +21,7 @@ from ._args import (
     refuse_overwriting_input,
     samples,
 )
+from ._signals import CAUGHT, Stopped, exit_status, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
 
@@ -26,10 +31,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "simulate",
         help="integrate the motion; multipliers, forces, contact events",
-        description="Integrate the constrained motion (KKT index-1 form, DOP853, projection "
-        "onto the constraints after every step), locating lift-off, impacts, "
+        description="Integrate the constrained motion (KKT index-1 form, DOP853 or --method, "
+        "projection onto the constraints after every step), locating lift-off, impacts, "
         "slip and stick on the dense output. Prints a summary; writes a CSV "
-        "and a plot on request.",
+        "and a plot on request. A run estimated to take over 30 s says so on stderr, "
+        "with its progress (and whether the system is stiff). Ctrl-C, SIGTERM and SIGHUP "
+        "stop it keeping the trajectory so far (written as asked; exit status 128 + the "
+        "signal's number). Chattering contacts stop the run as failed.",
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
     s.add_argument(
@@ -221,7 +229,18 @@ def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
 
 def run(args) -> int:
     """Run ``lamech simulate``; returns the exit status (0 ok, 1 run failed, 2 bad input,
-    130 interrupted)."""
+    128 + the signal's number when Ctrl-C (130), SIGTERM (143) or SIGHUP (129) stopped
+    it: the trajectory up to there is kept and written as asked)."""
+    phase = ["before the run: nothing was written"]
+    with stop_signals():
+        try:
+            return _run(args, phase)
+        except KeyboardInterrupt as exc:  # a signal outside the run itself
+            print(f"lamech: stopped by {signal_name(exc)} {phase[0]}", file=sys.stderr)
+            return exit_status(exc)
+
+
+def _run(args, phase: list[str]) -> int:
     from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, simulate
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError
@@ -259,29 +278,41 @@ def run(args) -> int:
     except ValueError as exc:
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
-    progress = _Progress(args.t_end) if sys.stderr.isatty() and not args.json else None
+    progress = _Progress(args.t_end, bar=sys.stderr.isatty() and not args.json)
+    stopped_by: list[BaseException] = []
     try:
-        traj = simulate(
-            system,
-            args.t_end,
-            samples=args.samples,
-            dt=args.dt,
-            params=params or None,
-            initial=initial or None,
-            rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
-            atol=args.atol if args.atol is not None else DEFAULT_ATOL,
-            max_step=args.max_step,
-            project_initial=args.project_initial,
-            progress=progress,
-            jit=args.jit,
-        )
+        with _noting(stopped_by):
+            traj = simulate(
+                system,
+                args.t_end,
+                samples=args.samples,
+                dt=args.dt,
+                params=params or None,
+                initial=initial or None,
+                rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
+                atol=args.atol if args.atol is not None else DEFAULT_ATOL,
+                max_step=args.max_step,
+                method=args.method,
+                project_initial=args.project_initial,
+                progress=progress,
+                pace=progress.pace,
+                jit=args.jit,
+            )
     except SimulationError as exc:
-        if progress:
-            progress.close()
+        progress.close()
         print(f"lamech: {args.problem}: {exc}", file=sys.stderr)
         return 2
-    if progress:
-        progress.close()
+    progress.close()
+    if traj.status == "interrupted" and stopped_by:
+        traj = dataclasses.replace(
+            traj,
+            message=f"stopped by {signal_name(stopped_by[0])} at t = {traj.final_time:.12g}; "
+            "the trajectory up to there is kept",
+        )
+    phase[0] = (
+        "while writing the outputs: those not yet written are missing (a trajectory CSV "
+        "is never left half-written)"
+    )
     if traj.status == "failed" and traj.steps == 0:
         # Nothing was integrated (a massless body nothing ties, a singular KKT matrix at
         # the initial state): an error in the problem, said in one line; no outputs.
@@ -348,8 +379,38 @@ def run(args) -> int:
         if args.animate:
             print(f"  wrote {args.animate}")
     if traj.status == "interrupted":
-        return 130
+        stop = stopped_by[0] if stopped_by else KeyboardInterrupt()
+        kept = f"; the trajectory up to there is in {args.out}" if args.out else ""
+        print(
+            f"lamech: stopped by {signal_name(stop)} at t = {traj.final_time:.12g}{kept}",
+            file=sys.stderr,
+        )
+        return exit_status(stop)
     return 0 if traj.status == "ok" else 1
+
+
+@contextmanager
+def _noting(seen: list[BaseException]) -> Iterator[None]:
+    """Within: Ctrl-C, SIGTERM and SIGHUP raise :class:`Stopped` (a KeyboardInterrupt)
+    and are noted in ``seen``: the simulator catches it and keeps its trajectory, the
+    command says which signal it was."""
+
+    def handler(signum, frame):
+        exc = Stopped(signum)
+        seen.append(exc)
+        raise exc
+
+    saved = {}
+    for s in (signal.SIGINT, *CAUGHT):
+        try:
+            saved[s] = signal.signal(s, handler)
+        except ValueError:  # not the main thread
+            break
+    try:
+        yield
+    finally:
+        for s, old in saved.items():
+            signal.signal(s, old)
 
 
 def _json_default(x):
@@ -359,29 +420,76 @@ def _json_default(x):
         return str(x)
 
 
-class _Progress:
-    """A one-line progress bar on stderr (only on a terminal)."""
+LONG_RUN = 30.0
+"""Wall seconds from which a run is long: its estimate is said, and progress shown on
+stderr even when it is not a terminal."""
 
-    def __init__(self, t_end: float):
+
+class _Progress:
+    """Progress on stderr. On a terminal (``bar``), a one-line bar after the first second.
+    When the run's pace (after the simulator's pilot) says it will take more than
+    :data:`LONG_RUN` seconds: one line saying so and how to stop it (and, when its step
+    is held down by stability, that the system is stiff and an implicit method is the
+    cure); then, when stderr is not a terminal, a line every 10 % or every 5 minutes."""
+
+    def __init__(self, t_end: float, bar: bool):
         import time
 
-        self.t_end, self.last, self.clock = t_end, -1, time.monotonic
+        self.t_end, self.bar, self.last, self.clock = t_end, bar, -1, time.monotonic
         self.start = self.clock()
         self.shown = False
+        self.lines = False  # a progress line now and then (not a terminal, a long run)
+        self.line_at, self.line_pct = self.start, 0
+
+    def pace(self, p) -> None:
+        if p.remaining < LONG_RUN:
+            return
+        sys.stderr.write(
+            f"lamech: a long run: about {_duration(p.estimate)} at the pace of the first "
+            f"{p.seconds:.2g} s (t = {p.t:.4g} of {p.t_end:.4g}, {p.steps} steps); "
+            "Ctrl-C, SIGTERM or SIGHUP stop it and keep the trajectory so far\n"
+        )
+        if p.stiff:
+            sys.stderr.write(
+                f"lamech: the step ({p.step:.2g} s) is held down by stability, not accuracy: "
+                f"the system is stiff (its fastest time scale is {p.fastest:.3g} s); "
+                "--method Radau (or BDF) takes the steps the motion allows\n"
+            )
+        sys.stderr.flush()
+        self.lines = not self.bar
 
     def __call__(self, t: float) -> None:
         now = self.clock()
         if now - self.start < 1.0:
             return
         pct = int(100 * t / self.t_end)
-        if pct != self.last:
+        if self.bar and pct != self.last:
             self.last = pct
             bar = "#" * (pct // 4)
             sys.stderr.write(f"\r  simulating [{bar:<25}] {pct:3d}%  t = {t:.4g}")
             sys.stderr.flush()
             self.shown = True
+        elif self.lines and (pct >= self.line_pct + 10 or now - self.line_at >= 300):
+            self.line_at, self.line_pct = now, pct
+            left = (now - self.start) * (self.t_end - t) / t if t > 0 else float("inf")
+            sys.stderr.write(
+                f"lamech: t = {t:.6g} of {self.t_end:.6g} ({pct}%) after "
+                f"{_duration(now - self.start)}; about {_duration(left)} to go\n"
+            )
+            sys.stderr.flush()
 
     def close(self) -> None:
         if self.shown:
             sys.stderr.write("\r" + " " * 60 + "\r")
             sys.stderr.flush()
+            self.shown = False
+
+
+def _duration(seconds: float) -> str:
+    """3.5 s, 12 min, 4.1 h, 54 days, 30000 years."""
+    value, unit = seconds, "s"
+    for name, size in (("years", 3.15576e7), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= 2 * size:
+            value, unit = seconds / size, name
+            break
+    return f"{value:.2g} {unit}" if value < 10 else f"{value:.0f} {unit}"

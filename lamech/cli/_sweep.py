@@ -137,6 +137,7 @@ def run(args) -> int:
             rtol=args.rtol,
             atol=args.atol,
             max_step=args.max_step,
+            method=args.method,
         )
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)

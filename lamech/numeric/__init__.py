@@ -11,7 +11,16 @@ from ._codegen import NumericSystem, compile_system, numba_available
 from ._events import Event, EventKind, FrictionState, Status
 from ._initial import consistent_initial
 from ._kkt import kkt_solve_numpy
-from ._options import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, check_options
+from ._options import (
+    DEFAULT_ATOL,
+    DEFAULT_RTOL,
+    IMPLICIT,
+    MAX_STEPS,
+    METHODS,
+    SimulationError,
+    check_options,
+)
+from ._pace import PILOT_SECONDS, Pace
 from ._params import friction_names, with_friction_parameters
 from ._simulate import simulate
 from ._trajectory import Trajectory
@@ -26,6 +35,11 @@ __all__ = [
     "DEFAULT_RTOL",
     "DEFAULT_ATOL",
     "check_options",
+    "METHODS",
+    "IMPLICIT",
+    "MAX_STEPS",
+    "Pace",
+    "PILOT_SECONDS",
     "consistent_initial",
     "friction_names",
     "with_friction_parameters",

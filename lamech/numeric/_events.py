@@ -43,8 +43,8 @@ class Status(_Text):
 _MEANINGS = {
     Status.OK: "the run reached t_end",
     Status.FAILED: "the run stopped early: see the message for the time, cause and what to try",
-    Status.INTERRUPTED: "the run was interrupted (Ctrl-C): the trajectory up to there is "
-    "kept; run again to go further",
+    Status.INTERRUPTED: "the run was interrupted (Ctrl-C; SIGTERM or SIGHUP in the "
+    "command): the trajectory up to there is kept; run again to go further",
 }
 
 

@@ -16,6 +16,8 @@ __all__ = [
     "BLOW_UP",
     "PENETRATION",
     "METHODS",
+    "IMPLICIT",
+    "MAX_STEPS",
     "SimulationError",
     "Stop",
     "Options",
@@ -32,8 +34,14 @@ BLOW_UP = 1e12
 PENETRATION = 1e-6
 """A run stops as failed when a released unilateral constraint's f is below
 -PENETRATION (1 + max |q|) at a step end: a body through a surface, not to be hidden."""
-METHODS = ("DOP853", "RK45", "Radau")
+METHODS = ("DOP853", "RK45", "Radau", "BDF")
 """SciPy's integrators by name (SciPy is imported when a simulation runs, not before)."""
+IMPLICIT = ("Radau", "BDF")
+"""The implicit ones: for stiff systems (a stiff damper or spring), whose explicit steps
+are held down by stability rather than accuracy."""
+MAX_STEPS = 10**8
+"""The most steps a ``max_step`` may force on one run: (t_end - t0) / max_step above it
+(a day or more at a typical millisecond a step) is refused before the run."""
 
 
 class SimulationError(ValueError):
@@ -98,6 +106,8 @@ def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "D
         not isinstance(max_step, (int, float)) or math.isnan(max_step) or max_step <= 0
     ):
         raise SimulationError(f"max_step must be positive (got {max_step})")
+    if max_step is not None and max_step < math.inf:
+        _check_max_step(float(max_step), float(t0), float(t_end))
     if samples is not None and dt is not None:
         raise SimulationError("give samples or dt, not both")
     if samples is not None and (not isinstance(samples, (int, np.integer)) or samples < 2):
@@ -108,3 +118,24 @@ def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "D
         raise SimulationError(f"dt must be a positive number (got {dt})")
     if method not in METHODS:
         raise SimulationError(f"unknown method {method!r}; one of {', '.join(METHODS)}")
+
+
+def _check_max_step(max_step: float, t0: float, t_end: float) -> None:
+    """A max_step that forces more than MAX_STEPS steps, or that t cannot resolve (t +
+    max_step == t), would run for days or never end: refused with the smallest
+    acceptable value."""
+    span = t_end - t0
+    floor = max(span / MAX_STEPS, 16 * math.ulp(max(abs(t0), abs(t_end))))
+    if max_step >= floor:
+        return
+    if span / max_step > MAX_STEPS:
+        why = (
+            f"it forces at least {span / max_step:.3g} steps to reach t_end {t_end:g}, "
+            f"more than the {MAX_STEPS:.0e} lamech takes in one run (a day or more at a "
+            "typical millisecond a step)"
+        )
+    else:
+        why = f"it is below the resolution of t near {max(abs(t0), abs(t_end)):g}"
+    raise SimulationError(
+        f"max_step {max_step:g} is too small: {why}; give max_step >= {floor:.3g}"
+    )

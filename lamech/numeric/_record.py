@@ -86,8 +86,9 @@ def assemble(
     t_end: float,
     at: Progress,
 ) -> Trajectory:
-    """The :class:`Trajectory` of the samples so far (the final state is ``at``'s when
-    there is none)."""
+    """The :class:`Trajectory` of the samples so far; its final time and state are the
+    last ones reached (``at``), which may lie after the last sample when the run stopped
+    between samples."""
     ns, n, m = run.setup.ns, run.setup.n, run.setup.m
     out = rec.samples
     N = len(out)
@@ -110,9 +111,9 @@ def assemble(
         status=status,
         message=message,
         t_end=float(t_end),
-        final_time=float(tt[-1]) if N else float(at.t),
-        final_q=q[-1] if N else at.y[:n],
-        final_qd=v[-1] if N else at.y[n:],
+        final_time=float(at.t),
+        final_q=np.array(at.y[:n], dtype=float),
+        final_qd=np.array(at.y[n:], dtype=float),
         energy_conserved=conserved,
         max_projection=at.max_projection,
         steps=at.steps,

@@ -38,7 +38,9 @@ the numbers (parameters, initial state), the initial mode, then step / locate th
 
 from __future__ import annotations
 
+import collections
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -51,12 +53,14 @@ from ._options import (
     BLOW_UP,
     DEFAULT_ATOL,
     DEFAULT_RTOL,
+    IMPLICIT,
     PENETRATION,
     Options,
     Stop,
     check_options,
     sample_times,
 )
+from ._pace import Pace, Watch, stiffness
 from ._params import numeric_system
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
@@ -82,7 +86,8 @@ def simulate(
     initial: dict | None = None,
     project_initial: bool = False,
     method: str = "DOP853",
-    progress=None,
+    progress: Callable[[float], None] | None = None,
+    pace: Callable[[Pace], None] | None = None,
     jit: bool = False,
 ) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
@@ -100,10 +105,18 @@ def simulate(
     consistent state (mass-matrix metric) and says what changed in ``notes``. A
     unilateral constraint with f > 0 at the start begins released.
 
-    A singular KKT matrix, NaN, a step-size collapse or Ctrl-C stop the run: the
-    trajectory computed so far is returned with ``status`` :attr:`Status.FAILED` or
-    :attr:`Status.INTERRUPTED` (equal to "failed", "interrupted") and a ``message``
-    naming the time and cause.
+    ``method``: SciPy's ``"DOP853"`` (default), ``"RK45"``, or the implicit ``"Radau"``
+    and ``"BDF"`` for stiff systems (a stiff damper or spring). ``max_step`` may not force
+    more than :data:`MAX_STEPS` steps. ``progress(t)`` is called after every accepted
+    step; ``pace(Pace)`` once, after :data:`PILOT_SECONDS` of wall time, with the
+    projected wall time of the whole run and whether its step is held down by stability
+    (:class:`Pace`; a callback may raise KeyboardInterrupt to stop the run there).
+
+    A singular KKT matrix, NaN, a step-size collapse, chattering events (many events in
+    a vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far
+    is returned with ``status`` :attr:`Status.FAILED` or :attr:`Status.INTERRUPTED`
+    (equal to "failed", "interrupted") and a ``message`` naming the time and cause; its
+    ``final_time`` and final state are the last ones reached, between samples too.
     """
     check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
     ns, p = numeric_system(system, params, jit)
@@ -112,11 +125,12 @@ def simulate(
     run = Run(Setup.of(ns, p, Options(rtol, atol, max_step or math.inf, method)))
     notes: list[str] = []
     y = initial_mode(run, t0, y0, project_initial, notes)
-    return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, progress, notes)
+    watch = Watch(t0, t_end, method, progress, pace)
+    return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes)
 
 
 def _integrate(
-    run: Run, rec: Recorder, at: Progress, t_end: float, progress, notes: list[str]
+    run: Run, rec: Recorder, at: Progress, t_end: float, watch: Watch, notes: list[str]
 ) -> Trajectory:
     """Settle the initial mode, then integrate segment by segment (a new integrator after
     each event) until t_end or the last sample; a failure or Ctrl-C ends the run early
@@ -132,9 +146,9 @@ def _integrate(
         # A state 1e12 times its start (in size) is a blow-up, not physics to follow with
         # ever smaller steps (a 1/(1 - t)^3 force took 175 000 steps to fail otherwise).
         blow_up = BLOW_UP * (1.0 + float(np.max(np.abs(at.y), initial=0.0)))
-        zeno = _Zeno()
+        zeno = _Zeno(at.t, t_end)
         while at.t < t_end and rec.pending:
-            _segment(run, rec, at, t_end, blow_up, zeno, progress)
+            _segment(run, rec, at, t_end, blow_up, zeno, watch)
     except Stop as stop:
         status, message = Status.FAILED, stop.cause
     except KeyboardInterrupt:
@@ -148,7 +162,7 @@ def _integrate(
 
 
 def _segment(
-    run: Run, rec: Recorder, at: Progress, t_end: float, blow_up: float, zeno: _Zeno, progress
+    run: Run, rec: Recorder, at: Progress, t_end: float, blow_up: float, zeno: _Zeno, watch: Watch
 ) -> None:
     """Integrate from ``at`` until an event (applied) or t_end: step, project, look for
     an event, sample; ``at`` follows every accepted step."""
@@ -161,7 +175,7 @@ def _segment(
         msg = solver.step()
         at.steps += 1
         if solver.status == "failed":
-            raise Stop(diagnose_failure(run, solver.t, solver.y, msg))
+            raise Stop(diagnose_failure(run, solver.t, solver.y, msg, opts.method))
         t_a, t_b = solver.t_old, solver.t
         _check_growth(solver.y, t_b, blow_up)
         yb, moved = run.project(t_b, solver.y)
@@ -178,6 +192,7 @@ def _segment(
         hit = np.nonzero(crossed)[0]
         if len(hit):
             _event(run, rec, at, dense(), hit, t_a, t_b, zeno, brackets)
+            watch.step(run, at.t, at.y, t_b - t_a, at.steps)
             return
         _check_penetration(run, t_b, yb)
         rec.up_to(t_b, dense, yb)
@@ -185,12 +200,22 @@ def _segment(
         if not run.mode.all_armed():
             update_arming(run, t_b, yb)
         g_old = event_values(run, t_b, yb, acc)
-        solver.y = yb
-        solver.f = np.concatenate((yb[n:], acc.qdd))
+        _restart_from(solver, yb, np.concatenate((yb[n:], acc.qdd)))
         at.t, at.y = t_b, yb
-        if progress is not None:
-            progress(at.t)
+        watch.step(run, t_b, yb, t_b - t_a, at.steps)
     at.t = t_end  # finished
+
+
+def _restart_from(solver, y: np.ndarray, f: np.ndarray) -> None:
+    """Continue the integrator from the projected state y (f the right-hand side there).
+    BDF keeps its state in a table of backward differences whose first row is y: the
+    projection's correction goes there too (its later rows, differences, are kept)."""
+    from scipy.integrate import BDF
+
+    if isinstance(solver, BDF):
+        solver.D[0] += y - solver.y
+    solver.y = y
+    solver.f = f
 
 
 def _event(
@@ -209,9 +234,10 @@ def _event(
     rec.up_to(te, lambda: dense)
     ye, _ = run.project(te, dense(te))
     kind, j = run.mode.watch[ie]
-    zeno.check(te)
+    at.t, at.y = te, ye  # reached, whether or not the event can be applied
+    logged = len(run.events)
     at.y = apply(run, te, ye, kind, j)
-    at.t = te
+    zeno.check(te, [(str(e.kind), e.constraint) for e in run.events[logged:]])
 
 
 class _Lazy:
@@ -227,24 +253,58 @@ class _Lazy:
 
 
 class _Zeno:
-    """Stops a run with more than 50 events at one time (Zeno behaviour, chattering)."""
+    """Stops a run whose events accumulate: more than :data:`SAME_TIME` at one t (Zeno
+    behaviour), or the last :data:`WINDOW` events in so short a window of time that at
+    their rate more than :data:`MAX_PROJECTED` would come before t_end, without the
+    intervals shrinking as a Zeno sequence's do (a bouncing ball's; the impact law ends
+    those by engaging the contact once a bounce is too small to resolve): a contact
+    that chatters, released and re-engaged at once, over and over.
+    """
 
-    def __init__(self):
+    SAME_TIME = 50
+    WINDOW = 100
+    MAX_PROJECTED = 1e5
+    SHRINKING = 0.9
+    """The intervals shrink when the later half of the window spans less than this
+    fraction of the earlier half (a ball with e < 0.998)."""
+
+    def __init__(self, t0: float, t_end: float):
+        self.t0, self.t_end = t0, t_end
         self.last: float | None = None
         self.burst = 0
+        self.recent: collections.deque = collections.deque(maxlen=self.WINDOW)
 
-    def check(self, te: float) -> None:
+    def check(self, te: float, logged: list[tuple[str, str]]) -> None:
+        """After the events ``logged`` (kind, constraint) at ``te``."""
         if self.last is not None and te - self.last <= 1e-12 * max(1, abs(te)):
             self.burst += 1
-            if self.burst > 50:
+            if self.burst > self.SAME_TIME:
                 raise Stop(
-                    f"more than 50 events at t = {te:.12g} (Zeno behaviour or "
+                    f"more than {self.SAME_TIME} events at t = {te:.12g} (Zeno behaviour or "
                     "chattering contact); try a smaller restitution or check the "
                     "friction data"
                 )
         else:
             self.burst = 0
         self.last = te
+        self.recent.extend((te, kind, constraint) for kind, constraint in logged)
+        if len(self.recent) < self.WINDOW:
+            return
+        first, middle = self.recent[0][0], self.recent[self.WINDOW // 2][0]
+        window = te - first
+        if window <= 0 or te - middle < self.SHRINKING * (middle - first):
+            return
+        projected = (self.t_end - te) * self.WINDOW / window
+        if projected <= self.MAX_PROJECTED:
+            return
+        cycle = ", ".join(sorted({f"{k} of `{c}`" for _, k, c in self.recent}))
+        raise Stop(
+            f"chattering: the last {self.WINDOW} events ({cycle}) came within "
+            f"{window:.3g} s before t = {te:.12g}; at that rate about {projected:.2g} more "
+            "before t_end. A contact that can neither hold nor open (lambda < 0 when it is "
+            "held, the gap closing at once when it is released): check the masses and the "
+            "sign of T, the restitution and the friction data"
+        )
 
 
 def _check_penetration(run: Run, t: float, y: np.ndarray) -> None:
@@ -293,9 +353,10 @@ def _check_conditioning(acc: Accel, t: float, steps: int) -> None:
         )
 
 
-def diagnose_failure(run: Run, t: float, y: np.ndarray, msg) -> str:
+def diagnose_failure(run: Run, t: float, y: np.ndarray, msg, method: str = "DOP853") -> str:
     """The message of a step-size collapse at (t, y): the KKT matrix's condition there,
-    or NaN in the dynamics just after it."""
+    NaN in the dynamics just after it, or a stiff system (the step held down by
+    stability: an implicit method is the cure)."""
     n = run.setup.n
     extra = ""
     try:
@@ -310,6 +371,13 @@ def diagnose_failure(run: Run, t: float, y: np.ndarray, msg) -> str:
             extra = (
                 "; the dynamics are NaN or undefined just after it (an expression "
                 "left its domain, e.g. sqrt or log of a negative number)"
+            )
+    if not extra and method not in IMPLICIT:
+        ratio, fastest = stiffness(run, t, y, max(abs(t), 1.0) * 1e-12)
+        if fastest < 1e-6 * max(abs(t), 1.0):
+            extra = (
+                f"; the system is stiff here (its fastest time scale is {fastest:.3g} s): "
+                "try method Radau or BDF (--method Radau)"
             )
     return (
         f"step size collapsed at t = {t:.12g} ({msg}){extra}; try a looser rtol/atol, "

@@ -86,6 +86,7 @@ class _Plan:
     atol: float
     max_step: float | None
     columns: tuple[str, ...]
+    method: str = "DOP853"
 
 
 _COMPILED: dict[str, object] = {}  # token -> NumericSystem, one per worker process
@@ -135,6 +136,7 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
             rtol=plan.rtol,
             atol=plan.atol,
             max_step=plan.max_step,
+            method=plan.method,
         )
     except Exception as exc:  # a bad case is a row with its reason, not a dead sweep
         for m in plan.measures:
@@ -296,6 +298,7 @@ def run_sweep(
     rtol: float | None = None,
     atol: float | None = None,
     max_step: float | None = None,
+    method: str = "DOP853",
     progress: bool | Callable[[int, int], None] | None = None,
 ) -> SweepRun:
     """Run every combination of ``params`` and measure each case; see the module docstring.
@@ -314,6 +317,7 @@ def run_sweep(
     workers : local processes (default: the CPU count; 1 runs in this process).
     scheduler : a ``dask.distributed`` scheduler address or ``Client``; overrides
         ``workers``.
+    method : the integrator (``"DOP853"``; ``"Radau"`` or ``"BDF"`` for stiff systems).
     progress : True/False, or a callable(done, total); default: a bar on a terminal.
     """
     from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, check_options
@@ -329,6 +333,7 @@ def run_sweep(
             max_step,
             samples,
             None,
+            method,
         )
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
@@ -365,6 +370,7 @@ def run_sweep(
         DEFAULT_ATOL if atol is None else float(atol),
         max_step,
         tuple(columns),
+        method,
     )
 
     if scheduler is not None and isinstance(scheduler, str):

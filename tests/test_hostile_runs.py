@@ -1,0 +1,274 @@
+"""Runs that would never end, or end badly, answered cleanly (issue 17, items 6-9):
+bounded options, a pace estimate and the implicit methods for stiff systems, signals that
+keep what was computed and take a sweep's workers along, a resume that checks what it
+resumes, chattering contacts stopped, and the last state reached reported."""
+
+from __future__ import annotations
+
+import csv
+import math
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import lamech
+from lamech.cli import main
+from lamech.numeric import Pace, SimulationError, check_options, simulate
+
+G = 9.81
+
+# A bead on the rail y = x/2 held by a spring k and a damper c along x:
+# (5/4) m x'' + c x' + k x = 0, stiff when c^2 >> k m (time scales 5m/4c and c/k).
+DAMPER = """
+title = "Bead on a rail, spring and damper"
+[parameters]
+m = 1.0
+k = 100.0
+c = 10000.0
+[coordinates]
+x = { initial = 1, velocity = 0 }
+y = { initial = "1/2", velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "k/2*x^2"
+[[constraints]]
+name = "rail"
+f = "y - x/2"
+[forces]
+x = "-c*x'"
+"""
+
+
+def _damper_x(t, m=1.0, k=100.0, c=1e4):
+    """x(t) from x = 1, x' = 0: the two decay rates r1 r2 = k/M, r1 + r2 = -c/M."""
+    M = 1.25 * m
+    r1 = (-c - math.sqrt(c * c - 4 * M * k)) / (2 * M)
+    r2 = k / M / r1  # the slow root, without cancellation
+    return (r1 * np.exp(r2 * t) - r2 * np.exp(r1 * t)) / (r1 - r2)
+
+
+BLOW_UP = """
+title = "Pushed along a rail by a force that blows up at t = 1"
+[parameters]
+m = 1.0
+[coordinates]
+x = { initial = 0, velocity = 0 }
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+[[constraints]]
+name = "rail"
+f = "y - x/2"
+[forces]
+x = "1/(1 - t)^3"
+"""
+
+BALL = """
+title = "Ball bouncing on a floor"
+[parameters]
+m = 1.0
+g = 9.81
+e = 0.95
+[coordinates]
+y = { initial = 1, velocity = 0 }
+[lagrangian]
+T = "m/2*y'^2"
+V = "m*g*y"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+restitution = "e"
+"""
+
+
+# ----- item 9: chatter and the last state reached ------------------------------------
+def test_blow_up_between_samples_reports_the_last_time_reached():
+    # two samples (t = 0 and 2): the run fails near t = 1, between them
+    tr = simulate(lamech.loads(BLOW_UP), 2.0, samples=2)
+    assert tr.status == "failed" and "grows without bound" in tr.message
+    assert list(tr.t) == [0.0]
+    assert 0.999 < tr.final_time < 1.0
+    # x' = (1/(1 - t)^2 - 1)/2.5 (mass 5/4 along x): the final state is the state there
+    t = tr.final_time
+    xd = tr.summary()["final"]["x'"]
+    assert xd == pytest.approx((1 / (1 - t) ** 2 - 1) / 2.5, rel=1e-6)
+    assert tr.summary()["final_time"] == t
+
+
+def test_chattering_contact_stops_with_a_clear_status():
+    # a negative mass: released, the cylinder falls back at once; lift-off, contact and
+    # slip every 4.5 microseconds, for ever (22,109 events in 20 s before)
+    started = time.monotonic()
+    tr = simulate(lamech.load("cylinder"), 20.0, params={"m": -1}, initial={"theta1": 0.01})
+    assert time.monotonic() - started < 10
+    assert tr.status == "failed"
+    assert tr.message.startswith("chattering: the last 100 events")
+    assert "lift-off of `contact`" in tr.message and "check the masses" in tr.message
+    assert len(tr.events) <= 200
+    assert tr.final_time == pytest.approx(tr.events[-1].t, abs=1e-5) and tr.final_time < 1e-3
+
+
+def test_a_bouncing_ball_comes_to_rest_without_being_called_chatter():
+    # e = 0.95: 200 bounces accumulating at t1 (1 + e)/(1 - e), then resting contact
+    tr = simulate(lamech.loads(BALL), 20.0, samples=11)
+    assert tr.status == "ok", tr.message
+    t1 = math.sqrt(2 / G)
+    assert tr.events[-1].kind == "contact" and len(tr.events) > 150
+    assert tr.events[-1].t == pytest.approx(t1 * 1.95 / 0.05, rel=1e-4)
+
+
+# ----- item 6: runs that would never end ---------------------------------------------
+def test_a_max_step_that_forces_endless_steps_is_refused():
+    ns = lamech.load("pendulum")
+    for bad in (1e-300, 1e-9):
+        with pytest.raises(SimulationError, match=r"max_step .* too small: it forces at least"):
+            simulate(ns, 10.0, max_step=bad)
+    check_options(10.0, 0.0, 1e-11, 1e-12, 1e-7, None, None)  # 1e8 steps: the limit
+
+
+def test_cli_refuses_a_max_step_with_the_reason(capsys):
+    rc = main(["simulate", "pendulum", "--t-end", "10", "--max-step", "1e-300"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "at least 1e+301 steps" in err and "give max_step >= 1e-07" in err
+
+
+@pytest.mark.parametrize("method", ["Radau", "BDF"])
+def test_implicit_methods_follow_a_stiff_damper(method):
+    # time scales 1.25e-4 s and 100 s: DOP853 would need ~1e4 steps a second of motion
+    tr = simulate(lamech.loads(DAMPER), 2.0, method=method, rtol=1e-9, atol=1e-12, samples=41)
+    assert tr.status == "ok", tr.message
+    assert tr.steps < 2000
+    assert np.max(np.abs(tr.coordinate("x") - _damper_x(tr.t))) < 1e-7
+    assert np.max(tr.residual_position) < 1e-10  # projected onto the rail as always
+
+
+def test_the_pace_says_a_run_is_long_and_whether_it_is_stiff():
+    seen: list[Pace] = []
+
+    def stop(p: Pace) -> None:
+        seen.append(p)
+        raise KeyboardInterrupt
+
+    stiff = lamech.loads(DAMPER)
+    tr = simulate(stiff, 1e3, params={"c": 1e8, "k": 1e4}, pace=stop)
+    assert tr.status == "interrupted" and len(seen) == 1
+    p = seen[0]
+    assert p.stiff and p.stiffness > 1 and p.fastest == pytest.approx(1.25e-8, rel=1e-3)
+    assert p.estimate > 3600 and p.remaining > 0 and p.t == pytest.approx(tr.final_time)
+    # Radau takes the steps the motion allows: 1000 s in about a second (DOP853: hours)
+    tr = simulate(stiff, 1e3, params={"c": 1e8, "k": 1e4}, method="Radau", samples=11)
+    assert tr.status == "ok" and tr.steps < 1000
+    assert np.max(np.abs(tr.coordinate("x") - _damper_x(tr.t, k=1e4, c=1e8))) < 1e-9
+    seen.clear()
+    tr = simulate(lamech.load("pendulum"), 1e9, pace=stop)
+    p = seen[0]
+    assert not p.stiff and p.stiffness < 1 and p.estimate > 1e6  # days: long, not stiff
+
+
+# ----- items 6 and 7 through the command: the estimate, then a signal -------------------
+def _lamech(*args: str, cwd) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "lamech", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=cwd,
+    )
+
+
+def _lines(stream) -> queue.Queue:
+    """The stream's lines, read on a thread (a test waits for one with a timeout)."""
+    lines: queue.Queue = queue.Queue()
+
+    def read():
+        for line in stream:
+            lines.put(line)
+        lines.put(None)
+
+    threading.Thread(target=read, daemon=True).start()
+    return lines
+
+
+def _wait_for(lines: queue.Queue, text: str, seconds: float) -> list[str]:
+    seen: list[str] = []
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        try:
+            line = lines.get(timeout=max(end - time.monotonic(), 0.01))
+        except queue.Empty:
+            break
+        if line is None:
+            break
+        seen.append(line)
+        if text in line:
+            return seen
+    raise AssertionError(f"no line with {text!r} within {seconds} s: {seen}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["SIGTERM", "SIGHUP"])
+def test_a_long_simulation_says_so_and_a_signal_keeps_its_trajectory(tmp_path, name):
+    signum = getattr(signal, name, None)
+    if signum is None:
+        pytest.skip(f"no {name} on this platform")
+    out = tmp_path / "traj.csv"
+    # 1e6 s of pendulum: hours at about 100 s of motion per second
+    proc = _lamech(
+        "simulate",
+        "pendulum",
+        "--t-end",
+        "1e6",
+        "--samples",
+        "1000001",
+        "--out",
+        str(out),
+        cwd=tmp_path,
+    )
+    try:
+        err = _lines(proc.stderr)
+        said = _wait_for(err, "a long run: about", 30)[-1]
+        assert "Ctrl-C, SIGTERM or SIGHUP stop it and keep the trajectory so far" in said
+        assert "stiff" not in said
+        time.sleep(0.5)
+        proc.send_signal(signum)
+        rc = proc.wait(timeout=20)
+        stdout = proc.stdout.read()
+    finally:
+        proc.kill()
+    assert rc == 128 + signum
+    last = _wait_for(err, f"lamech: stopped by {name} at t = ", 5)[-1]
+    assert f"the trajectory up to there is in {out}" in last
+    assert f"status: interrupted (stopped by {name} at t = " in stdout
+    with open(out, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) >= 10 and float(rows[-1]["t"]) == len(rows) - 1  # every second kept
+    th = np.array([float(r["theta"]) for r in rows])
+    assert np.all(np.abs(th) <= 0.5 + 1e-9)  # the pendulum still swings within theta0
+
+
+@pytest.mark.slow
+def test_a_stiff_run_is_told_to_use_an_implicit_method(tmp_path):
+    problem = tmp_path / "damper.toml"
+    problem.write_text(DAMPER.replace("c = 10000.0", "c = 1e8"), encoding="utf-8")
+    proc = _lamech("simulate", str(problem), "--t-end", "100", cwd=tmp_path)
+    try:
+        err = _lines(proc.stderr)
+        said = _wait_for(err, "--method Radau", 30)
+        assert "a long run: about" in said[-2]
+        assert (
+            "held down by stability" in said[-1] and "fastest time scale is 1.25e-08 s" in said[-1]
+        )
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 130
+    finally:
+        proc.kill()
+    rc = main(["simulate", str(problem), "--t-end", "100", "--method", "Radau", "--json"])
+    assert rc == 0
