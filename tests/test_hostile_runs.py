@@ -13,6 +13,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ import pytest
 import lamech
 from lamech.cli import main
 from lamech.numeric import Pace, SimulationError, check_options, simulate
+from lamech.sweeps import run_sweep
 
 G = 9.81
 
@@ -272,3 +274,115 @@ def test_a_stiff_run_is_told_to_use_an_implicit_method(tmp_path):
         proc.kill()
     rc = main(["simulate", str(problem), "--t-end", "100", "--method", "Radau", "--json"])
     assert rc == 0
+
+
+# ----- item 7: a sweep's workers end with it; item 6: bounded submission ---------------
+def _children(pid: int) -> list[int]:
+    """The processes whose parent is ``pid`` (Linux: /proc)."""
+    kids = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                kids.append(int(d.name))
+    return kids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] not in ("Z", "X")  # a zombie has ended
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+@pytest.mark.parametrize("name", ["SIGTERM", "SIGKILL"])
+def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name):
+    out = tmp_path / "t.csv"
+    proc = _lamech(
+        "sweep",
+        "cylinder",
+        "--param",
+        "mu=0.1:0.6:400",
+        "--initial",
+        "theta1=0.01",
+        "--measure",
+        "slip",
+        "--t-end",
+        "2.7",
+        "--samples",
+        "11",
+        "--workers",
+        "2",
+        "--out",
+        str(out),
+        cwd=tmp_path,
+    )
+    try:
+        err, stdout = _lines(proc.stderr), _lines(proc.stdout)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and (
+            not out.exists() or len(out.read_text().splitlines()) < 3
+        ):
+            time.sleep(0.05)
+        workers = _children(proc.pid)
+        assert len(workers) >= 2  # running cases: two rows are in
+        proc.send_signal(getattr(signal, name))
+        rc = proc.wait(timeout=20)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and any(_alive(w) for w in workers):
+            time.sleep(0.05)
+        assert [w for w in workers if _alive(w)] == []
+        # no process holds the output pipe any more: `lamech sweep ... | tail` ends
+        end = time.monotonic() + 5
+        while time.monotonic() < end:
+            try:
+                if stdout.get(timeout=0.1) is None:
+                    break
+            except queue.Empty:
+                pass
+        else:
+            raise AssertionError("the sweep's standard output is still open")
+    finally:
+        proc.kill()
+    if name == "SIGTERM":
+        assert rc == 143
+        said = _wait_for(err, "lamech: stopped by SIGTERM: ", 5)[-1]
+        done = int(said.split("SIGTERM: ")[1].split(" of ")[0])
+        assert f"of 400 cases done and kept in {out}; rerun with --resume to finish" in said
+        with open(out, newline="") as fh:
+            assert len(list(csv.DictReader(fh))) == done
+    else:
+        assert rc == -signal.SIGKILL
+
+
+def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch):
+    from concurrent.futures import ProcessPoolExecutor
+
+    lock, pending, most = threading.Lock(), [0], [0]
+    submit = ProcessPoolExecutor.submit
+
+    def finished(_):
+        with lock:
+            pending[0] -= 1
+
+    def counting(self, *args, **kwargs):
+        fut = submit(self, *args, **kwargs)
+        with lock:
+            pending[0] += 1
+            most[0] = max(most[0], pending[0])
+        fut.add_done_callback(finished)
+        return fut
+
+    monkeypatch.setattr(ProcessPoolExecutor, "submit", counting)
+    run = run_sweep(
+        "pendulum", {"theta0": "0.1:0.5:300"}, ["max:theta"], t_end=0.01, samples=2, workers=2
+    )
+    assert run.counts == {"ok": 300} and run.backend == "2 local processes"
+    assert most[0] <= 8  # four per worker, not 300
+    assert [r["max:theta"] for r in run.rows] == pytest.approx(list(np.linspace(0.1, 0.5, 300)))

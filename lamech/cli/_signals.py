@@ -9,7 +9,7 @@ import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["Stopped", "stop_signals", "signal_name", "exit_status"]
+__all__ = ["Stopped", "stop_signals", "noting", "signal_name", "exit_status"]
 
 CAUGHT = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
 
@@ -47,6 +47,30 @@ def stop_signals() -> Iterator[None]:
             saved[s] = signal.signal(s, handler)
     except ValueError:  # not the main thread: leave the signals alone
         pass
+    try:
+        yield
+    finally:
+        for s, old in saved.items():
+            signal.signal(s, old)
+
+
+@contextmanager
+def noting(seen: list[BaseException]) -> Iterator[None]:
+    """Within: Ctrl-C, SIGTERM and SIGHUP raise :class:`Stopped` (a KeyboardInterrupt)
+    and are noted in ``seen``, for the code inside catches them (the simulator keeps its
+    trajectory, a sweep its rows) and the command must still say which signal it was."""
+
+    def handler(signum, frame):
+        exc = Stopped(signum)
+        seen.append(exc)
+        raise exc
+
+    saved = {}
+    for s in (signal.SIGINT, *CAUGHT):
+        try:
+            saved[s] = signal.signal(s, handler)
+        except ValueError:  # not the main thread
+            break
     try:
         yield
     finally:

@@ -6,10 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import signal
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 from ._args import (
@@ -21,7 +18,7 @@ from ._args import (
     refuse_overwriting_input,
     samples,
 )
-from ._signals import CAUGHT, Stopped, exit_status, signal_name, stop_signals
+from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
 
@@ -281,7 +278,7 @@ def _run(args, phase: list[str]) -> int:
     progress = _Progress(args.t_end, bar=sys.stderr.isatty() and not args.json)
     stopped_by: list[BaseException] = []
     try:
-        with _noting(stopped_by):
+        with noting(stopped_by):
             traj = simulate(
                 system,
                 args.t_end,
@@ -387,30 +384,6 @@ def _run(args, phase: list[str]) -> int:
         )
         return exit_status(stop)
     return 0 if traj.status == "ok" else 1
-
-
-@contextmanager
-def _noting(seen: list[BaseException]) -> Iterator[None]:
-    """Within: Ctrl-C, SIGTERM and SIGHUP raise :class:`Stopped` (a KeyboardInterrupt)
-    and are noted in ``seen``: the simulator catches it and keeps its trajectory, the
-    command says which signal it was."""
-
-    def handler(signum, frame):
-        exc = Stopped(signum)
-        seen.append(exc)
-        raise exc
-
-    saved = {}
-    for s in (signal.SIGINT, *CAUGHT):
-        try:
-            saved[s] = signal.signal(s, handler)
-        except ValueError:  # not the main thread
-            break
-    try:
-        yield
-    finally:
-        for s, old in saved.items():
-            signal.signal(s, old)
 
 
 def _json_default(x):

@@ -9,6 +9,7 @@ import math
 import sys
 
 from ._args import add_tolerance_options, positive_float, positive_int
+from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
 
@@ -97,13 +98,25 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``lamech sweep``; exit status 0 every case ok, 1 some case failed (the table
-    says which and why), 2 bad input, 130 interrupted (rerun with --resume)."""
+    says which and why), 2 bad input, 128 + the signal's number when Ctrl-C (130),
+    SIGTERM (143) or SIGHUP (129) stopped it (the workers end with it; rerun with
+    --resume)."""
+    with stop_signals():
+        try:
+            return _run(args)
+        except KeyboardInterrupt as exc:  # before the cases ran
+            print(f"lamech: stopped by {signal_name(exc)} before any case ran", file=sys.stderr)
+            return exit_status(exc)
+
+
+def _run(args) -> int:
     from ..present import plot_sweep
     from ..problem import ProblemFileError
     from ..sweeps import SweepError, parse_assignment, run_sweep
     from ..symbolic import DegenerateConstraintsError
     from ._args import refuse_overwriting_input
 
+    stopped_by: list[BaseException] = []
     try:
         params = dict(parse_assignment(p, "--param") for p in args.param)
         if len(params) != len(args.param):
@@ -123,22 +136,23 @@ def run(args) -> int:
                     "a .parquet table needs pyarrow (and pandas): pip install "
                     "pyarrow pandas; or write a .csv"
                 ) from None
-        result = run_sweep(
-            args.problem,
-            params,
-            args.measure or ["liftoff"],
-            t_end=args.t_end,
-            initial=initial,
-            out=args.out,
-            resume=args.resume,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            samples=args.samples,
-            rtol=args.rtol,
-            atol=args.atol,
-            max_step=args.max_step,
-            method=args.method,
-        )
+        with noting(stopped_by):
+            result = run_sweep(
+                args.problem,
+                params,
+                args.measure or ["liftoff"],
+                t_end=args.t_end,
+                initial=initial,
+                out=args.out,
+                resume=args.resume,
+                workers=args.workers,
+                scheduler=args.scheduler,
+                samples=args.samples,
+                rtol=args.rtol,
+                atol=args.atol,
+                max_step=args.max_step,
+                method=args.method,
+            )
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
@@ -149,13 +163,14 @@ def run(args) -> int:
         print(f"lamech: {exc}", file=sys.stderr)
         return 2
     if result.interrupted:
+        stop = stopped_by[0] if stopped_by else KeyboardInterrupt()
         print(
-            f"lamech: interrupted: {len(result.rows)} of "
+            f"lamech: stopped by {signal_name(stop)}: {len(result.rows)} of "
             f"{_total(result)} cases done"
             + (f" and kept in {args.out}; rerun with --resume to finish" if args.out else ""),
             file=sys.stderr,
         )
-        return 130
+        return exit_status(stop)
     if result.stopped:
         print(
             f"lamech: the sweep stopped ({result.stopped}): {len(result.rows)} of "

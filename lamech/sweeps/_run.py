@@ -153,9 +153,39 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
 
 def _worker_init(token: str, blob: bytes) -> None:
     global _WORKER_PLAN
+    _die_with_parent()
     plan = pickle.loads(blob)
     _WORKER_PLAN = (token, plan)
     _numeric(token, plan)
+
+
+def _die_with_parent() -> None:
+    """A worker ends when the sweep that started it does: SIGTERM and SIGHUP take their
+    default action here (a forked worker inherits the command's handlers, which would
+    turn them into a row marked interrupted), and a thread ends the process once its
+    parent is gone (killed with SIGKILL, say) instead of running on as an orphan that
+    holds the sweep's output pipe open."""
+    import signal
+    import threading
+
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="lamech-parent-watch", daemon=True).start()
+
+
+PARENT_POLL = 0.2
+"""Seconds between a worker's checks that its parent is alive."""
+IN_FLIGHT = 4
+"""Cases submitted ahead per worker: a sweep of a million cases holds a few futures at a
+time, not a million (2.5 GB in the parent before)."""
 
 
 _WORKER_PLAN: tuple[str, _Plan] | None = None
@@ -177,7 +207,8 @@ class SweepRun:
     """The result of :func:`run_sweep`: rows sorted by case, and how they were obtained.
 
     ``ran`` cases (``ran_cases``) were simulated now, ``kept`` read back from the table (resume);
-    ``interrupted`` is True after Ctrl-C; ``stopped`` says why a run ended before every
+    ``interrupted`` is True after Ctrl-C (or a KeyboardInterrupt raised by a signal
+    handler: the command's SIGTERM and SIGHUP), the workers ended; ``stopped`` says why a run ended before every
     case was done otherwise (a worker process died, the cluster failed); in both cases
     the table on disk holds the finished rows and ``resume=True`` completes it.
     """
@@ -460,22 +491,47 @@ def _cpus() -> int:
 
 
 def _run_pool(workers: int, token: str, plan: _Plan, cases, todo, record) -> str:
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    """The cases on local processes, :data:`IN_FLIGHT` per worker submitted at a time;
+    on any exception (Ctrl-C, SIGTERM, a dead worker) the workers are ended at once."""
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     workers = min(workers, len(todo))
     blob = pickle.dumps(plan)
     pool = ProcessPoolExecutor(
         max_workers=workers, initializer=_worker_init, initargs=(token, blob)
     )
+    waiting = iter(todo)
+    pending: set = set()
     try:
-        futures = [pool.submit(_pool_case, i, cases[i]) for i in todo]
-        for fut in as_completed(futures):
-            record(fut.result())
+        while True:
+            for i in itertools.islice(waiting, IN_FLIGHT * workers - len(pending)):
+                pending.add(pool.submit(_pool_case, i, cases[i]))
+            if not pending:
+                break
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                record(fut.result())
     except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
+        _end_pool(pool)
         raise
     pool.shutdown()
     return f"{workers} local processes"
+
+
+def _end_pool(pool) -> None:
+    """Cancel the cases not started and end the workers now: a case may run for minutes,
+    and a worker left running would outlive the sweep."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python 3.14
+    if terminate is not None:
+        terminate()
+        return
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in processes:
+        proc.join(timeout=5)
 
 
 def _run_dask(scheduler, token: str, plan: _Plan, cases, todo, record) -> str:
@@ -489,8 +545,9 @@ def _run_dask(scheduler, token: str, plan: _Plan, cases, todo, record) -> str:
     client = Client(scheduler) if own else scheduler
     try:
         blob = client.scatter(pickle.dumps(plan), broadcast=True)
-        futures = [
-            client.submit(
+
+        def submit(i: int):
+            return client.submit(
                 _dask_case,
                 token,
                 blob,
@@ -500,14 +557,19 @@ def _run_dask(scheduler, token: str, plan: _Plan, cases, todo, record) -> str:
                 retries=2,
                 key=f"lamech-case-{token}-{i}",
             )
-            for i in todo
-        ]
+
+        # a bounded number ahead of the cluster: one more submitted as each finishes
+        ahead = IN_FLIGHT * max(len(client.scheduler_info().get("workers", {})), 2) * 4
+        waiting = iter(todo)
+        running = as_completed([submit(i) for i in itertools.islice(waiting, ahead)])
         try:
-            for fut in as_completed(futures):
+            for fut in running:
                 record(fut.result())
                 fut.release()
+                for i in itertools.islice(waiting, 1):
+                    running.add(submit(i))
         except BaseException:
-            client.cancel(futures)
+            client.cancel(list(running.futures))
             raise
         n = len(client.scheduler_info().get("workers", {}))
         return f"Dask at {client.scheduler.address} ({n} workers)"
