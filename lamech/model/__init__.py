@@ -9,6 +9,7 @@ velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
 """
 
+from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart
 from ._checks import (
     INITIAL_TOLERANCE,
     Inertialess,
@@ -50,6 +51,10 @@ from ._values import with_values
 
 __all__ = [
     "Parameter",
+    "Chart",
+    "ChartProposal",
+    "circle_chart",
+    "satisfied_by_chart",
     "Coordinate",
     "Friction",
     "ForceSpec",

@@ -22,7 +22,7 @@ def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
     out = sp.sympify(expr)
     for _ in range(order):
         total = sp.diff(out, system.t)
-        for c in system.coordinates:
+        for c in system.coordinates + system.chart_coordinates:
             if out.has(c.symbol):
                 total += sp.diff(out, c.symbol) * c.velocity
             if out.has(c.velocity):

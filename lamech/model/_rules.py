@@ -479,7 +479,12 @@ def system_issues(s: System) -> Issues:
     out += _value_issues(s, scope)
     if out:
         return out
-    return _initial_issues(s) + _dependent_issues(s)
+    out = _initial_issues(s) + _dependent_issues(s)
+    if out or s.chart is None:
+        return out
+    from ._chart import chart_issues
+
+    return chart_issues(s)
 
 
 def _name_issues(s: System) -> Issues:

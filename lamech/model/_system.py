@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Any
 
 import sympy as sp
 
@@ -275,6 +276,7 @@ class System:
     source: str | None = None
     notes: tuple[str, ...] = ()
     scenery: tuple[Scenery, ...] = ()
+    chart: Any = None  # a lamech.model.Chart: the coordinates results are given in
 
     def __post_init__(self) -> None:
         # Every check, once per construction (``dataclasses.replace`` included): the
@@ -283,6 +285,31 @@ class System:
             self, "parameters", "coordinates", "constraints", "bodies", "forces", "notes", "scenery"
         )
         ModelError.check(_rules.system_issues(self))
+        if self.chart is not None:
+            self._place_chart()
+
+    def _place_chart(self) -> None:
+        """Give the chart's coordinates the initial values that reproduce this system's
+        initial state (so ``dataclasses.replace`` with new values moves them too)."""
+        from ._chart import Chart, chart_initial
+        from ._checks import initial_values
+
+        state = {k: v for k, v in initial_values(_without_chart(self)).items()}
+        found = chart_initial(self, state)
+        if isinstance(found, str):
+            raise ModelError([("parametrisation", found)])
+        coords = tuple(
+            Coordinate(
+                c.name,
+                c.symbol,
+                c.velocity,
+                c.acceleration,
+                sp.Float(found[c.symbol], 17),
+                sp.Float(found[c.velocity], 17),
+            )
+            for c in self.chart.coordinates
+        )
+        object.__setattr__(self, "chart", Chart(coords, self.chart.map))
 
     # ----- views -----------------------------------------------------------------
     @property
@@ -339,7 +366,7 @@ class System:
         out: dict[str, sp.Symbol] = {"t": self.t}
         for p in self.parameters:
             out[p.name] = p.symbol
-        for c in self.coordinates:
+        for c in self.coordinates + self.chart_coordinates:
             out[c.name] = c.symbol
             out[c.name + "'"] = c.velocity
             out[c.name + "''"] = c.acceleration
@@ -349,14 +376,28 @@ class System:
 
     @property
     def initial_state(self) -> dict[sp.Symbol, sp.Expr]:
-        """Initial coordinates and velocities, as expressions of the parameters."""
+        """Initial coordinates and velocities, as expressions of the parameters (the
+        chart's coordinates, when there is one, as numbers)."""
         out: dict[sp.Symbol, sp.Expr] = {}
-        for c in self.coordinates:
+        for c in self.coordinates + self.chart_coordinates:
             out[c.symbol] = c.initial
             out[c.velocity] = c.initial_velocity
         return out
+
+    @property
+    def chart_coordinates(self) -> tuple[Coordinate, ...]:
+        """The coordinates of the chart (:class:`lamech.model.Chart`), or ()."""
+        return tuple(self.chart.coordinates) if self.chart is not None else ()
 
     # ----- numbers --------------------------------------------------------------
     def numeric(self, expr: sp.Expr) -> sp.Expr:
         """``expr`` with every parameter replaced by its value."""
         return sp.sympify(expr).subs(self.parameter_values)
+
+
+def _without_chart(system: System) -> System:
+    """A shallow stand-in of ``system`` whose initial state is the coordinates' alone."""
+    clone = object.__new__(System)
+    clone.__dict__.update(system.__dict__)
+    clone.__dict__["chart"] = None
+    return clone

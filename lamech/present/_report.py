@@ -12,6 +12,7 @@ import sympy as sp
 
 from ..expr import ExpressionError, parse
 from ..expr import to_text as _expr_text
+from ..symbolic import READABLE_OPS
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
@@ -27,6 +28,36 @@ def _t(expr) -> str:
         return _expr_text(expr)
     except ValueError:
         return str(expr)
+
+
+def _ops(expr) -> int:
+    return 0 if expr is None else int(sp.count_ops(expr))
+
+
+def _shown(expr, value: float | None = None) -> str:
+    """``expr`` as text, or, when longer than :data:`READABLE_OPS` operations, a short
+    summary (its size, its value at the initial state where known): the text report is
+    read, and the full form is in ``--json`` and the Python API."""
+    ops = _ops(expr)
+    if ops <= READABLE_OPS:
+        return _t(expr)
+    at = f"; {value:.12g} at the initial state" if value is not None else ""
+    return f"<closed form of {ops} operations{at}; in full: --json>"
+
+
+def _long_note(sol) -> str | None:
+    """The note that says which closed forms are summarised, and where they are whole."""
+    long = {k: n for k, n in sol.closed.sizes.items() if isinstance(k, str)}
+    long_acc = [k for k in sol.closed.sizes if not isinstance(k, str)]
+    if not long and not long_acc:
+        return None
+    parts = [f"lambda_{k} ({n} operations)" for k, n in long.items()]
+    parts += [f"{_t(k)} ({sol.closed.sizes[k]} operations)" for k in long_acc]
+    return (
+        "closed forms too long to print in full: " + ", ".join(parts) + f" (over "
+        f"{READABLE_OPS} operations); `lamech solve --json` and the Python API "
+        "(solution.multipliers, solution.reduced_equations) give them whole"
+    )
 
 
 def _json_expr(expr):
@@ -141,10 +172,19 @@ def to_text(sol) -> str:
             lines.append(f"  {c.name}: {lhs} = {_t(c.expr)} = 0{tag}")
     if sol.reduced_equations:
         lines += ["", "Reduced equations of motion"]
-        lines += [f"  {_t(e)} = 0" for e in sol.reduced_equations]
+        for c, e in zip(sol.reduction.independent, sol.reduced_equations):
+            if c.acceleration in sol.closed.sizes:
+                lines.append(
+                    f"  {_t(c.acceleration)} = {_shown(sol.closed.accelerations[c.acceleration])}"
+                )
+            else:
+                lines.append(f"  {_t(e)} = 0")
     if sol.multipliers:
         lines += ["", "Multipliers (on the constraint manifold)"]
-        lines += [f"  lambda_{k} = {_t(v)}" for k, v in sol.multipliers.items()]
+        lines += [
+            f"  lambda_{k} = {_shown(v, sol.initial_multipliers.get(k))}"
+            for k, v in sol.multipliers.items()
+        ]
     elif sol.initial_multipliers:
         lines += ["", "Multipliers at the initial state (numeric)"]
         lines += [f"  lambda_{k} = {v:.12g}" for k, v in sol.initial_multipliers.items()]
@@ -174,8 +214,11 @@ def to_text(sol) -> str:
         lines += _condition_lines(sol, sol.slips, sol.slipping)
     if sol.generalized_forces:
         lines += ["", "Generalized constraint forces Q^(j) = lambda_j df_j/dq"]
-        for k, comps in sol.generalized_forces.items():
-            body = ", ".join(f"{q}: {_t(e)}" for q, e in comps.items())
+        for j, (k, comps) in enumerate(sol.generalized_forces.items()):
+            if k in sol.closed.sizes:  # lambda_k too long: Q = lambda_k dF/dq' as it stands
+                lam = s.constraints[j].multiplier
+                comps = {q: sol.reduction.apply(sol.A[j, i]) * lam for i, q in enumerate(comps)}
+            body = ", ".join(f"{q}: {_shown(e)}" for q, e in comps.items())
             lines.append(f"  {k}: {body}")
     if sol.forces:
         lines += ["", "Cartesian constraint forces (virtual work on the material point)"]
@@ -187,10 +230,12 @@ def to_text(sol) -> str:
                 value = (
                     "undetermined (the point's motion cannot do work along it)"
                     if e is None
-                    else _t(e)
+                    else _shown(e)
                 )
                 lines.append(f"    {d} = {value}")
     rest = [n for n in sol.notes if n not in s.notes]
+    long = _long_note(sol)
+    rest += [long] if long else []
     if rest:
         lines += ["", "Notes"] + [f"  - {n}" for n in rest]
     return "\n".join(lines) + "\n"
@@ -227,10 +272,20 @@ def to_latex(sol, standalone_math: bool = False) -> str:
 
     for name, e in zip(sol.coordinates, sol.equations):
         add(f"EL, {name}", _tex(e, names), "0")
+
+    def tex_or_size(e) -> str:
+        ops = _ops(e)
+        return (
+            _tex(e, names)
+            if ops <= READABLE_OPS
+            else rf"\text{{({ops} operations; in full: --json)}}"
+        )
+
     for e in sol.reduced_equations:
-        add("reduced", _tex(e, names), "0")
+        if _ops(e) <= READABLE_OPS:
+            add("reduced", _tex(e, names), "0")
     for k, v in sol.multipliers.items():
-        add("multiplier", names[sol.system.constraint(k).multiplier], _tex(v, names))
+        add("multiplier", names[sol.system.constraint(k).multiplier], tex_or_size(v))
     if sol.energy is not None:
         label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
         add(label, "E", _tex(sol.energy, names))
@@ -267,7 +322,7 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for k, comps in sol.forces.items():
         for d, e in comps.items():
             if e is not None:
-                add(f"{k} force", rf"F_{{\mathrm{{{d}}}}}", _tex(e, names))
+                add(f"{k} force", rf"F_{{\mathrm{{{d}}}}}", tex_or_size(e))
     body = " \\\\\n".join(rows)
     if standalone_math:
         return "$$\\begin{aligned}\n" + body.replace("&&", "&\\quad") + "\n\\end{aligned}$$"

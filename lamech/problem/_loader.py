@@ -23,6 +23,7 @@ from ..expr import ExpressionError, TimeDerivative, parse, to_text
 from ..model import (
     FIELDS,
     Body,
+    Chart,
     Constraint,
     ConstraintKind,
     Coordinate,
@@ -60,6 +61,7 @@ _KNOWN_SECTIONS = {
     "forces",
     "description",
     "scenery",
+    "parametrisation",
 }
 
 
@@ -289,6 +291,9 @@ class _Loader:
             return ("gravity", None, "acceleration")
         if head == "bodies":
             return ("bodies", 0, "position")
+        if head.startswith("parametrisation"):
+            key = rest if rest and " " not in rest else None
+            return ("parametrisation", None, key)
         return (None, None, None)
 
     def make(self, cls: type, *args: Any, part: str | None = None, **kwargs: Any) -> Any:
@@ -403,6 +408,8 @@ class _Loader:
         scenery = self._scenery()
         self.fail_if_any()
         notes = self._compare_energy(skeleton, bodies, gravity, T, V)
+        chart = self._chart(coords)
+        self.fail_if_any()
         system = self.make(
             System,
             title=title,
@@ -418,9 +425,74 @@ class _Loader:
             source=self.source,
             notes=tuple(notes),
             scenery=tuple(scenery),
+            chart=chart,
         )
         self.fail_if_any()
         return system
+
+    def _chart(self, coords: list[Coordinate]) -> Chart | None:
+        """``[parametrisation]``: ``coordinates = ["theta1", ...]`` (the new ones) and
+        ``x1 = "l1*sin(theta1)"`` for each coordinate parametrised."""
+        table = self.table("parametrisation")
+        if table is None:
+            return None
+        loc = ("parametrisation", None, "coordinates")
+        names = table.get("coordinates")
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            self.problem(
+                "parametrisation.coordinates",
+                'list the new coordinates: `coordinates = ["theta1", "theta2"]`',
+                loc if "coordinates" in table else ("parametrisation", None, None),
+            )
+            return None
+        new = []
+        for n in names:
+            problem = name_problem(n)
+            if problem is not None:
+                self.problem("parametrisation.coordinates", problem, loc)
+                continue
+            new.append(
+                Coordinate(
+                    n,
+                    sp.Symbol(n, real=True),
+                    TimeDerivative(n + "'", real=True),
+                    TimeDerivative(n + "''", real=True),
+                    sp.Integer(0),
+                    sp.Integer(0),
+                )
+            )
+        by_name = {c.name: c for c in coords}
+        scope = dict(self.scopes["positions"])
+        scope.update({c.name: c.symbol for c in new})
+        pairs = []
+        for key, value in table.items():
+            if key == "coordinates":
+                continue
+            where = f"parametrisation.{key}"
+            kloc = ("parametrisation", None, key)
+            if key not in by_name:
+                self.problem(
+                    where,
+                    f"`{key}` is not a coordinate; the parametrisation gives coordinates "
+                    "(known: " + ", ".join(by_name) + ") as expressions of the new ones",
+                    kloc,
+                )
+                continue
+            if not isinstance(value, (str, int, float)) or isinstance(value, bool):
+                self.problem(where, 'an expression string, e.g. "l1*sin(theta1)"', kloc)
+                continue
+            e = self.expr(value, scope, where, kloc, "a parametrised coordinate")
+            if e is not None:
+                pairs.append((by_name[key].symbol, e))
+        if not pairs:
+            self.problem(
+                "parametrisation",
+                "give at least one coordinate as an expression of the new ones "
+                '(x1 = "l1*sin(theta1)")',
+                ("parametrisation", None, None),
+            )
+            return None
+        return Chart(tuple(new), tuple(pairs))
 
     def _parameters(self) -> list[Parameter]:
         table = self.table("parameters") or {}

@@ -17,7 +17,7 @@ import sympy as sp
 
 from ..model import System, contact_partial_velocities
 from ._derive import Dynamics
-from ._reduce import Reduction, tidy
+from ._reduce import Reduction, angles_of, tidy
 
 __all__ = ["generalized_forces", "cartesian_forces"]
 
@@ -27,17 +27,24 @@ TIDY_PRODUCT_OPS = 150
 costs tens of seconds on a few hundred operations and rarely shortens a product)."""
 
 
+LONG_OPS = 1500
+"""A multiplier longer than this enters the Cartesian forces last (see there)."""
+
+
 def generalized_forces(dyn: Dynamics, red: Reduction, multipliers: dict, on_manifold=None) -> dict:
     """{constraint: {coordinate: Q^(j)_r}} on the manifold, every coordinate listed.
     ``on_manifold`` (:func:`._manifold.manifold_simplifier`) writes them with the kept
     constraints' values (sqrt(x1^2 + y1^2) -> l1)."""
     out = {}
+    # In two or more angles, simplify costs seconds per product and a tidy multiplier
+    # times its tidy dF/dq' is already in its shortest form (the double pendulum's).
+    chain = len(angles_of(dyn.system, red)) >= 2
     for j, c in enumerate(dyn.system.constraints):
         lam = multipliers.get(c.name, c.multiplier)
-        long = sp.count_ops(lam) > TIDY_PRODUCT_OPS
+        long = chain or sp.count_ops(lam) > TIDY_PRODUCT_OPS
         row = {}
         for i, coord in enumerate(dyn.system.coordinates):
-            Q = red.apply(lam * dyn.A[j, i])
+            Q = lam * tidy(red.apply(dyn.A[j, i])) if chain else red.apply(lam * dyn.A[j, i])
             if on_manifold is not None:
                 Q = on_manifold.radicals_replaced(Q) if long else on_manifold(tidy(Q))
             row[coord.name] = Q if long else tidy(Q)
@@ -75,6 +82,15 @@ def cartesian_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
             continue
         J = contact_partial_velocities(system, spec).applyfunc(red.apply)
         lam = multipliers.get(c.name, c.multiplier)
+        if sp.count_ops(lam) > LONG_OPS:
+            # F is linear in lambda: found for the symbol, the long closed form put in
+            # last, so the residual's zero and the components' simplification are not
+            # lost in its size.
+            unit = cartesian_forces(dyn, red, {}).get(c.name, {})
+            out[c.name] = {
+                k: (v if v is None else v.xreplace({c.multiplier: lam})) for k, v in unit.items()
+            }
+            continue
         Q = (dyn.A[j, :].T * lam).applyfunc(red.apply)
         dim = J.rows
         basis = _range_basis(J, system, red)

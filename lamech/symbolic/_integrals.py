@@ -187,7 +187,10 @@ def energy_shell(
     c0 = poly.coeff_monomial(1)
     v2 = tidy((E0 - c0) / a)
     multipliers, omitted = {}, {}
-    for name, lam in forms.multipliers.items():
+    for name, ops in forms.sizes.items():
+        if isinstance(name, str):
+            omitted[name] = f"its closed form is long ({ops} operations)"
+    for name, lam in forms.readable_multipliers.items():
         expr = sp.expand(lam.subs(vel_sub))
         if expr.has(system.t):
             omitted[name] = "it depends on time"

@@ -16,9 +16,12 @@ constraints not eliminated. Simplification is bounded by expression size
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import random
+import time
+from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import sympy as sp
 
 try:  # SymPy >= 1.13 keeps it here, and no longer at the top level
@@ -26,7 +29,7 @@ try:  # SymPy >= 1.13 keeps it here, and no longer at the top level
 except ImportError:  # pragma: no cover - SymPy 1.12
     from sympy.matrices.common import NonInvertibleMatrixError
 
-from ..model import Coordinate, System, open_at_start, time_derivative
+from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_derivative
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier
 from ._student import outer_signs, student
@@ -39,6 +42,8 @@ __all__ = [
     "tidy",
     "CLOSED_FORM_LIMIT",
     "SIMPLIFY_OPS",
+    "READABLE_OPS",
+    "SYMBOLIC_SECONDS",
 ]
 
 CLOSED_FORM_LIMIT = 8
@@ -46,11 +51,15 @@ CLOSED_FORM_LIMIT = 8
 SIMPLIFY_OPS = 300
 """Expressions with more operations than this get only cheap simplification."""
 KKT_OPS = 1500
-"""Substituted KKT systems larger than this (operations) are not solved symbolically."""
+"""Substituted KKT systems larger than this (operations) are solved without
+simplification on the way (:func:`_solve_bounded`)."""
 READABLE_OPS = 1500
-"""Closed forms larger than this (after simplification) are not reported."""
+"""Closed forms larger than this (after simplification) are delivered, not printed."""
 MAX_OPS = 6000
 """Expressions larger than this are left as they are."""
+SYMBOLIC_SECONDS = 20.0
+"""Time bound of one closed-form solve (the elimination, then simplification while
+time is left): past it, only M, h, A, gamma and numeric multipliers are given."""
 
 
 def tidy(expr: sp.Expr) -> sp.Expr:
@@ -145,7 +154,7 @@ def eliminate(system: System) -> Reduction:
     """
     n, m = len(system.coordinates), len(system.constraints)
     m_hol = sum(1 for c in system.constraints if c.holonomic)
-    if n - m_hol + m > CLOSED_FORM_LIMIT:
+    if system.chart is None and n - m_hol + m > CLOSED_FORM_LIMIT:
         note = (
             f"{n} coordinates and {m} constraints: too large for closed forms (at least "
             f"{n - m_hol + m} unknowns; the limit is {CLOSED_FORM_LIMIT}), so no "
@@ -158,8 +167,12 @@ def eliminate(system: System) -> Reduction:
     order: list[Coordinate] = []
     used: list[str] = []
     notes: list[str] = []
+    if system.chart is not None:  # the file's parametrisation comes first
+        positions = dict(system.chart.substitution)
+        order = [c for c in system.coordinates if c.symbol in positions]
+        used = satisfied_by_chart(system)
     for con in system.constraints:
-        if not con.holonomic:
+        if not con.holonomic or con.name in used:
             continue
         f = con.expr.xreplace(positions) if positions else con.expr
         done = False
@@ -227,7 +240,9 @@ def eliminate(system: System) -> Reduction:
         substitution[coord.velocity] = vel
         substitution[coord.acceleration] = acc
         eliminated.append((coord, student(expr)))  # shown; the same function
-    independent = tuple(c for c in system.coordinates if c.symbol not in positions)
+    independent = system.chart_coordinates + tuple(
+        c for c in system.coordinates if c.symbol not in positions
+    )
     return Reduction(independent, tuple(eliminated), substitution, tuple(used), tuple(notes))
 
 
@@ -242,65 +257,259 @@ def _same(roots: list[sp.Expr], env: dict) -> bool:
 @dataclass(frozen=True)
 class ClosedForms:
     """q'' of the independent coordinates and every multiplier, as functions of the
-    independent coordinates, velocities, t and parameters (or ``None`` where skipped)."""
+    independent coordinates, velocities, t and parameters.
+
+    Every one is delivered whatever its size; ``sizes`` gives the operation count of
+    each multiplier (by name) and acceleration (by symbol) longer than
+    :data:`READABLE_OPS`: reports summarise those instead of printing them. ``skipped``
+    says why there are none at all (the time bound, :data:`SYMBOLIC_SECONDS`).
+    """
 
     accelerations: dict  # Symbol (independent acceleration) -> Expr
     multipliers: dict  # constraint name -> Expr
     skipped: str | None = None  # why closed forms were not attempted
     singular: bool = False  # the KKT matrix is singular identically
     manifold: Any = None  # the kept constraints' simplifier (symbolic._manifold)
+    sizes: dict = field(default_factory=dict)  # name or Symbol -> operations, when long
+
+    def is_long(self, key: Any) -> bool:
+        """Whether the closed form of ``key`` (a multiplier's name or an acceleration
+        symbol) is longer than :data:`READABLE_OPS`: delivered, not printed."""
+        return key in self.sizes
+
+    @property
+    def readable_multipliers(self) -> dict:
+        """The multipliers short enough to print and to analyse further (energy shell,
+        where they vanish)."""
+        return {k: v for k, v in self.multipliers.items() if k not in self.sizes}
 
 
-def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
-    """Solve the substituted KKT system symbolically (bounded; see module docstring)."""
+class _OutOfTime(Exception):
+    """The symbolic solve passed its time bound."""
+
+
+def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) -> ClosedForms:
+    """Solve the substituted KKT system symbolically (bounded; see module docstring).
+
+    Small systems (at most :data:`CLOSED_FORM_LIMIT` unknowns and :data:`KKT_OPS`
+    operations) are solved with simplification on the way; larger ones by elimination
+    pivoted at a generic numeric point, simplified only where short, so every multiplier
+    is delivered. The whole is bounded by ``seconds`` (:data:`SYMBOLIC_SECONDS`).
+    """
+    started = time.perf_counter()
+    deadline = started + (SYMBOLIC_SECONDS if seconds is None else seconds)
     system = dyn.system
     rest = [j for j, c in enumerate(system.constraints) if c.name not in red.eliminated_constraints]
     unknowns = [c.acceleration for c in red.independent] + system.multipliers
-    if len(unknowns) > CLOSED_FORM_LIMIT:
-        return ClosedForms(
-            {},
-            {},
-            f"system too large for closed forms ({len(unknowns)} "
-            f"unknowns; the limit is {CLOSED_FORM_LIMIT})",
-        )
     qdd = sp.Matrix(system.qdd)
     eqs = [red.apply(e) for e in dyn.equations]
     eqs += [red.apply((dyn.A[j, :] * qdd)[0] + dyn.gamma[j]) for j in rest]
     E = sp.Matrix(eqs)
     K = E.jacobian(unknowns)
     rhs = -E.xreplace({u: 0 for u in unknowns})
-    size = sum(sp.count_ops(e) for e in list(K) + list(rhs))
-    if size > KKT_OPS:
-        return ClosedForms(
-            {},
-            {},
-            f"substituted KKT system too large for closed forms "
-            f"({size} operations; the limit is {KKT_OPS})",
-        )
     kept = [system.constraints[j].expr for j in rest if system.constraints[j].holonomic]
     on_manifold = manifold_simplifier(system, kept)
-    K = K.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
-    rhs = rhs.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
+    small = len(unknowns) <= CLOSED_FORM_LIMIT and (
+        sum(sp.count_ops(e) for e in list(K) + list(rhs)) <= KKT_OPS
+    )
     try:
-        sol = _solve_linear(K, rhs)
+        projected = None
+        if (
+            not rest
+            and red.eliminated
+            and len(unknowns) <= CLOSED_FORM_LIMIT
+            and not any(_has_radical(e) for _, e in red.eliminated)
+        ):
+            projected = _solve_projected(dyn, red)
+        if small:
+            K = K.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
+            rhs = rhs.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
+            sol = _solve_linear(K, rhs)
+        else:
+            probe = _probe(system, red, K.free_symbols | rhs.free_symbols)
+            sol = _solve_bounded(K, rhs, probe, deadline)
     except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):
         return ClosedForms(
             {}, {}, "the substituted KKT matrix is singular symbolically", singular=True
         )
-    sol = [on_manifold(tidy(s)) for s in sol]
-    biggest = max((sp.count_ops(s) for s in sol), default=0)
-    if biggest > READABLE_OPS:
-        return ClosedForms(
-            {},
-            {},
-            f"closed forms too large to be useful ({biggest} "
-            f"operations; the limit is {READABLE_OPS})",
-        )
+    except _OutOfTime as late:
+        return ClosedForms({}, {}, str(late))
     nacc = len(red.independent)
-    acc = {c.acceleration: sol[i] for i, c in enumerate(red.independent)}
+    angles = angles_of(system, red)
+    out = []
+    for i, s in enumerate(sol):
+        if projected is not None and i < nacc:
+            out.append(projected[i])
+            continue
+        if time.perf_counter() < deadline:
+            s = on_manifold(_tidy_angles(s, angles))
+        out.append(s)
     velocities = [c.velocity for c in red.independent]
-    lam = {c.name: present(sol[nacc + j], velocities) for j, c in enumerate(system.constraints)}
-    return ClosedForms(acc, lam, manifold=on_manifold)
+    acc = {c.acceleration: out[i] for i, c in enumerate(red.independent)}
+    lam = {}
+    sizes: dict = {}
+    for j, c in enumerate(system.constraints):
+        expr = out[nacc + j]
+        ops = sp.count_ops(expr)
+        if ops > READABLE_OPS:
+            sizes[c.name] = ops
+            lam[c.name] = expr
+        else:
+            lam[c.name] = present(expr, velocities)
+    for key, expr in acc.items():
+        ops = sp.count_ops(expr)
+        if ops > READABLE_OPS:
+            sizes[key] = ops
+    return ClosedForms(acc, lam, manifold=on_manifold, sizes=sizes)
+
+
+ANGLE_OPS = 800
+"""Expressions up to this size get the angle-difference rewriting of :func:`angle_tidy`."""
+
+
+def angles_of(system: System, red: Reduction) -> list[sp.Symbol]:
+    """The independent coordinates that enter the reduced Lagrangian only through sin and
+    cos (angles), in order."""
+    Lr = red.apply(system.L)
+    trig = (sp.sin, sp.cos, sp.tan)
+    out = []
+    for c in red.independent:
+        x = c.symbol
+        if not Lr.has(x):
+            continue
+        stripped = Lr.replace(lambda e, x=x: isinstance(e, trig) and e.has(x), lambda e: sp.Dummy())
+        if not stripped.has(x):
+            out.append(x)
+    return out
+
+
+def angle_tidy(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
+    """Simplify a result in two or more angles as one does a chain's by hand: in the first
+    angle and the differences of consecutive ones (theta2 = theta1 - Delta), expanded,
+    cancelled and trig-simplified, then written back; kept only when shorter. The double
+    pendulum's tension denominator m1 + m2 sin^2 theta1 - 2 m2 sin theta1 sin theta2
+    cos(theta1 - theta2) + m2 sin^2 theta2 becomes m1 + m2 sin^2(theta1 - theta2).
+    Bounded by :data:`ANGLE_OPS` and at most four angles."""
+    expr = sp.sympify(expr)
+    inside = set().union(*(f.free_symbols for f in expr.atoms(sp.sin, sp.cos, sp.tan)))
+    used = [a for a in angles if a in inside]
+    if len(used) < 2 or len(used) > 4:
+        return expr
+    ops = sp.count_ops(expr)
+    if ops > ANGLE_OPS:
+        return expr
+    deltas = [sp.Dummy(f"delta{k}") for k in range(len(used) - 1)]
+    to_delta = {used[k]: used[0] - sum(deltas[:k], sp.Integer(0)) for k in range(1, len(used))}
+    back = {deltas[k]: used[k] - used[k + 1] for k in range(len(deltas))}
+    try:
+        e = sp.expand_trig(expr.xreplace(to_delta))
+        e = sp.factor(sp.trigsimp(sp.cancel(e)))
+    except (TypeError, ValueError, RecursionError, NotImplementedError, sp.PolynomialError):
+        return expr
+    e = e.xreplace(back)
+    return e if sp.count_ops(e) < ops else expr
+
+
+def _solve_projected(dyn: Dynamics, red: Reduction) -> list[sp.Expr]:
+    """The KKT solution when every constraint is eliminated (by the rule or a chart), by
+    projection: with q = q(u), q'' = J u'' + b, and A J = 0 identically, J^T times the
+    Euler-Lagrange equations has no multiplier: (J^T M J) u'' = -J^T (M b + h - Q), the
+    reduced mass matrix being the textbook one once its few short entries are
+    simplified. Each step is small and simplified on its own, so the accelerations come
+    out in textbook form (the double pendulum's m1 + m2 sin^2(theta1 - theta2) below)
+    where solving the whole KKT system leaves sin^2 + cos^2 unsimplified. Returns the
+    accelerations only: the multipliers come from the whole system, shorter there."""
+    system = dyn.system
+    u = [c.symbol for c in red.independent]
+    udd = [c.acceleration for c in red.independent]
+    zero = {a: 0 for a in udd}
+    J = sp.Matrix(
+        [[sp.diff(red.position_substitution.get(q, q), x) for x in u] for q in system.q]
+    ).applyfunc(tidy)
+    qdd = sp.Matrix([red.apply(a) for a in system.qdd])
+    b = qdd.xreplace(zero)
+    M = dyn.M.applyfunc(red.apply)
+    rest = (dyn.h - dyn.Q).applyfunc(red.apply)
+    Mr = (J.T * M * J).applyfunc(tidy)
+    fr = (J.T * (M * b + rest)).applyfunc(tidy)
+    angles = angles_of(system, red)
+    return [_tidy_angles(e, angles) for e in _solve_linear(Mr, -fr)]
+
+
+def _has_radical(expr: sp.Expr) -> bool:
+    """A fractional power in ``expr`` (an eliminated y = -sqrt(l^2 - x^2)): cancelling
+    with those costs minutes, so such reductions are solved as one KKT system."""
+    return any(not p.exp.is_Integer for p in sp.sympify(expr).atoms(sp.Pow))
+
+
+def _tidy_angles(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
+    """:func:`angle_tidy` where it shortens ``expr`` (then no ``simplify``, which costs
+    seconds on a chain's trigonometric rational functions), else :func:`tidy`."""
+    shorter = angle_tidy(expr, angles)
+    return student(shorter) if shorter is not expr else tidy(expr)
+
+
+def _probe(system: System, red: Reduction, symbols: set) -> dict:
+    """A generic numeric point near the initial state (parameters at their values,
+    coordinates and velocities shifted by seeded random amounts), complex so that a
+    square root off the manifold stays defined: pivots are chosen there."""
+    rng = random.Random(7)
+    env: dict = {}
+    pv = system.parameter_values
+    start = _initial_numeric(system)
+    for s in symbols:
+        if s in pv:
+            env[s] = complex(pv[s])
+        elif s in start and s != system.t:
+            env[s] = complex(start[s]) + 0.05 * (1 + rng.random())
+        else:
+            env[s] = complex(0.3 + 0.4 * rng.random())
+    return env
+
+
+def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -> list[sp.Expr]:
+    """Gauss-Jordan elimination of K x = rhs with the pivots chosen by partial pivoting
+    on K evaluated at ``probe`` (a generic point): a symbolic pivot that is zero
+    identically (sin^2 + cos^2 - 1 in disguise) is never chosen, and no zero test on
+    large expressions is needed. Entries are cancelled while short. Checks the time
+    bound after each column (:class:`_OutOfTime`); SymPy's ``LUsolve``, which
+    ``LagrangesMethod.solve_multipliers`` uses, does the same elimination unbounded."""
+    n = K.rows
+    rows = [list(K.row(i)) + [rhs[i]] for i in range(n)]
+    symbols = sorted(probe, key=str)
+    values = [probe[s] for s in symbols]
+    f = sp.lambdify(symbols, [list(r) for r in rows], modules=["numpy", "sympy"])
+    with np.errstate(all="ignore"):
+        N = np.array(f(*values), dtype=complex)
+    if not np.all(np.isfinite(N)):
+        raise ValueError("the KKT system is not finite at the probe point")
+    scale = max(1.0, float(np.abs(N[:, :n]).max()))
+    for col in range(n):
+        if time.perf_counter() > deadline:
+            raise _OutOfTime(
+                f"closed forms not found within the time bound (eliminated {col} of "
+                f"{n} unknowns; the bound is {SYMBOLIC_SECONDS:g} s)"
+            )
+        piv = col + int(np.argmax(np.abs(N[col:, col])))
+        if abs(N[piv, col]) <= 1e-10 * scale:
+            raise NonInvertibleMatrixError("singular at a generic point")
+        if piv != col:
+            rows[col], rows[piv] = rows[piv], rows[col]
+            N[[col, piv]] = N[[piv, col]]
+        p = rows[col][col]
+        for r in range(n):
+            if r == col or rows[r][col] == 0:
+                continue
+            factor = rows[r][col] / p
+            rows[r] = [
+                rows[r][j]
+                if rows[col][j] == 0 or j == col
+                else _pre(rows[r][j] - factor * rows[col][j])
+                for j in range(n + 1)
+            ]
+            rows[r][col] = sp.Integer(0)
+            N[r] -= N[r, col] / N[col, col] * N[col]
+    return [_pre(rows[i][n] / rows[i][i]) for i in range(n)]
 
 
 def _pre(e: sp.Expr) -> sp.Expr:

@@ -159,12 +159,17 @@ def solve(system: System) -> Solution:
             forms.skipped + "; M, h, A, gamma are given and the multipliers are "
             "evaluated numerically at the initial state"
         )
+    if system.constraints:
+        # numbers beside the closed forms (a check, and the value of one too long to
+        # read), or in place of the missing ones
         state = {**system.parameter_values, system.t: 0.0, **initial_values(system)}
         try:
             _, lam = kkt_numeric(dyn_h, state)
             initial = {c.name: float(v) for c, v in zip(holding.constraints, lam)}
         except DegenerateConstraintsError as exc:
-            notes.append(str(exc))
+            if forms.skipped:
+                notes.append(str(exc))
+    if forms.skipped:
         shell, why = None, "closed forms were skipped"
     else:
         shell, why = energy_shell(dyn_h, red, ints, forms)
