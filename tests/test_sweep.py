@@ -95,6 +95,8 @@ def test_resume_runs_only_missing_cases_and_gives_the_fresh_table(tmp_path, monk
     # a run killed mid-write: 3 complete rows (not in case order) and half a line
     part = tmp_path / "part.csv"
     part.write_text(lines[0] + lines[2] + lines[5] + lines[3] + lines[6][:17], "utf-8")
+    # with the record of the sweep that made it, written when it started
+    (tmp_path / "part.csv.sweep.json").write_text(_read(tmp_path / "fresh.csv.sweep.json"))
     run = _cylinder(params, ["slip", "max:lambda:contact"], out=part, resume=True)
     assert sorted(run.ran_cases) == [0, 3, 5] and run.ran == 3 and run.kept == 3
     assert _read(part) == text
@@ -122,9 +124,9 @@ def test_interrupted_sweep_keeps_finished_rows(tmp_path):
 def test_resume_refuses_a_table_of_another_sweep(tmp_path):
     out = tmp_path / "t.csv"
     _cylinder({"mu": [0.2, 0.3]}, ["slip"], out=out)
-    with pytest.raises(SweepError, match="not a point of this sweep's grid"):
+    with pytest.raises(SweepError, match="--param mu differs: the table was made with 0.2,0.3"):
         _cylinder({"mu": [0.2, 0.35]}, ["slip"], out=out, resume=True)
-    with pytest.raises(SweepError, match="columns"):
+    with pytest.raises(SweepError, match="--measure differs: the table was made with slip"):
         _cylinder({"mu": [0.2, 0.3]}, ["liftoff"], out=out, resume=True)
 
 

@@ -22,7 +22,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "system, a different parameter vector per case) and measure each case: "
         "the first lift-off/slip (time and coordinates), the max/min of a "
         "multiplier or force, the final value of a coordinate. Rows are appended "
-        "to the table as cases finish; --resume skips the cases already there.",
+        "to the table as cases finish; --resume skips the cases already there. "
+        "Ctrl-C, SIGTERM and SIGHUP stop it keeping the finished rows, and end its "
+        "worker processes.",
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
     s.add_argument(
@@ -83,7 +85,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument(
         "--resume",
         action="store_true",
-        help="keep the cases already in --out and run only the missing ones",
+        help="keep the cases already in --out and run the missing ones and those that "
+        "failed; refused when the table was made with other options or another problem "
+        "file (recorded beside it in <out>.sweep.json), or when it is damaged (the line "
+        "is named)",
     )
     s.add_argument(
         "--samples",
@@ -187,6 +192,7 @@ def _run(args) -> int:
     print(
         f"{len(result.rows)} cases ({sizes}): {counts}; ran {result.ran}"
         + (f", kept {result.kept} from the table" if result.kept else "")
+        + (f", retried {result.retried} that had failed" if result.retried else "")
         + f" in {result.seconds:.3g} s on {result.backend}",
         file=out,
     )

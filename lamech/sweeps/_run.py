@@ -31,6 +31,7 @@ case, so a resumed sweep gives the same file as a fresh one.
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
 import os
@@ -206,11 +207,13 @@ def _dask_case(token: str, blob: bytes, case: int, values: dict) -> dict:
 class SweepRun:
     """The result of :func:`run_sweep`: rows sorted by case, and how they were obtained.
 
-    ``ran`` cases (``ran_cases``) were simulated now, ``kept`` read back from the table (resume);
+    ``ran`` cases (``ran_cases``) were simulated now, ``kept`` read back from the table
+    (resume), ``retried`` of them run again because their row there was not ``ok``;
     ``interrupted`` is True after Ctrl-C (or a KeyboardInterrupt raised by a signal
-    handler: the command's SIGTERM and SIGHUP), the workers ended; ``stopped`` says why a run ended before every
-    case was done otherwise (a worker process died, the cluster failed); in both cases
-    the table on disk holds the finished rows and ``resume=True`` completes it.
+    handler: the command's SIGTERM and SIGHUP), the workers ended; ``stopped`` says why a
+    run ended before every case was done otherwise (a worker process died, the cluster
+    failed); in both cases the table on disk holds the finished rows and ``resume=True``
+    completes it.
     """
 
     parameters: dict[str, np.ndarray]
@@ -227,6 +230,7 @@ class SweepRun:
     path: Path | None = None
     notes: list[str] = field(default_factory=list)
     ran_cases: list[int] = field(default_factory=list)  # the cases simulated now, in order
+    retried: int = 0  # rows of the table whose status was not ok, run again
 
     @property
     def measure_columns(self) -> list[str]:
@@ -286,6 +290,40 @@ def _grid(params: Mapping[str, object]) -> tuple[dict[str, np.ndarray], list[dic
         dict(zip(names, (float(x) for x in combo))) for combo in itertools.product(*values.values())
     ]
     return values, cases
+
+
+def _spec(problem, plan: _Plan, values: dict[str, np.ndarray]) -> dict:
+    """What made the table: recorded beside it, checked on resume (:mod:`._table`)."""
+    from .._version import __version__
+
+    return {
+        "lamech": __version__,
+        "problem": problem.title if isinstance(problem, System) else str(problem),
+        "problem_sha256": _digest(problem),
+        "parameters": {k: [float(x) for x in v] for k, v in values.items()},
+        "measures": [m.text for m in plan.measures],
+        "t_end": plan.t_end,
+        "initial": dict(plan.initial),
+        "samples": plan.samples,
+        "rtol": plan.rtol,
+        "atol": plan.atol,
+        "max_step": plan.max_step,
+        "method": plan.method,
+    }
+
+
+def _digest(problem) -> str:
+    """SHA-256 of the problem file's bytes (a bundled example's file for its name), or of
+    a System's text when the problem was given as one."""
+    if isinstance(problem, System):
+        return hashlib.sha256(repr(problem).encode()).hexdigest()
+    from ..problem import example_names, example_path
+
+    path = Path(problem)
+    if not path.exists() and not path.suffix and str(problem) in example_names():
+        path = example_path(str(problem))
+    with open(path, "rb") as fh:  # the loader has read it: a regular file of at most 1 MB
+        return hashlib.sha256(fh.read(2_000_000)).hexdigest()
 
 
 class _Bar:
@@ -412,8 +450,29 @@ def run_sweep(
                 "a Dask scheduler needs dask.distributed: pip install 'lamech[dask]'"
             ) from None
     path = Path(out) if out is not None else None
-    table = Table(path, columns)
-    done = table.read(cases, list(values)) if resume else {}
+    table = Table(path, columns, _spec(problem, plan, values))
+    table.lock()  # one sweep per table
+    try:
+        return _run_cases(table, resume, system, plan, values, cases, workers, scheduler, progress)
+    finally:
+        table.unlock()
+
+
+def _run_cases(
+    table: Table,
+    resume: bool,
+    system: System,
+    plan: _Plan,
+    values: dict[str, np.ndarray],
+    cases: list[dict],
+    workers: int | None,
+    scheduler,
+    progress,
+) -> SweepRun:
+    """The cases not in the table (all but its ``ok`` rows, on resume), run and recorded."""
+    ms, columns, path = list(plan.measures), list(plan.columns), table.path
+    found = table.read(cases, list(values)) if resume else {}
+    done = {i: row for i, row in found.items() if row["status"] == "ok"}
     todo = [i for i in range(len(cases)) if i not in done]
 
     t0 = time.perf_counter()
@@ -424,7 +483,14 @@ def run_sweep(
     compile_seconds = time.perf_counter() - t0
     ns.parameter_vector(cases[0])  # overrides checked once, before any worker starts
     run = SweepRun(
-        values, ms, columns, [], kept=len(done), path=path, compile_seconds=compile_seconds
+        values,
+        ms,
+        columns,
+        [],
+        kept=len(done),
+        retried=len(found) - len(done),
+        path=path,
+        compile_seconds=compile_seconds,
     )
     if progress is None:
         progress = sys.stderr.isatty()
