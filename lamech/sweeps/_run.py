@@ -268,7 +268,7 @@ class SweepRun:
         return df.set_index(list(self.parameters)).to_xarray()
 
 
-def _grid(params: Mapping[str, object]) -> tuple[dict[str, np.ndarray], list[dict]]:
+def _grid(params: Mapping[str, object]) -> tuple[dict[str, np.ndarray], _Cases]:
     if not params:
         raise SweepError("no parameters to sweep; give at least one (NAME=A:B:N)")
     values: dict[str, np.ndarray] = {}
@@ -285,11 +285,26 @@ def _grid(params: Mapping[str, object]) -> tuple[dict[str, np.ndarray], list[dic
     total = math.prod(len(a) for a in values.values())
     if total > MAX_CASES:
         raise SweepError(f"{total} cases exceed the limit of {MAX_CASES}")
-    names = list(values)
-    cases = [
-        dict(zip(names, (float(x) for x in combo))) for combo in itertools.product(*values.values())
-    ]
-    return values, cases
+    return values, _Cases(values)
+
+
+class _Cases(Sequence):
+    """The grid's cases in order (the last name varying fastest), each {name: value},
+    made when asked for: a million cases need no million dicts in the parent."""
+
+    def __init__(self, values: dict[str, np.ndarray]):
+        self.names, self.arrays = list(values), list(values.values())
+        self.shape = tuple(len(a) for a in self.arrays)
+        self.size = math.prod(self.shape)
+
+    def __len__(self) -> int:
+        return self.size
+
+    def __getitem__(self, i):
+        if not isinstance(i, (int, np.integer)) or not 0 <= i < self.size:
+            raise IndexError(i)
+        at = np.unravel_index(int(i), self.shape)
+        return {n: float(a[k]) for n, a, k in zip(self.names, self.arrays, at)}
 
 
 def _spec(problem, plan: _Plan, values: dict[str, np.ndarray]) -> dict:
@@ -464,7 +479,7 @@ def _run_cases(
     system: System,
     plan: _Plan,
     values: dict[str, np.ndarray],
-    cases: list[dict],
+    cases: Sequence[dict],
     workers: int | None,
     scheduler,
     progress,

@@ -108,7 +108,7 @@ class Table:
             self._lock = None
 
     # ----- resume ---------------------------------------------------------------------
-    def read(self, cases: list[dict], names: list[str]) -> dict[int, dict]:
+    def read(self, cases: Sequence[dict], names: list[str]) -> dict[int, dict]:
         """Rows already in the table (resume), every status, checked: made by a sweep
         with these options (the record beside it), undamaged, on this sweep's grid."""
         if self.path is None:
