@@ -45,6 +45,7 @@ def _parser() -> argparse.ArgumentParser:
         "start with coordinate (or velocity x') NAME at VALUE; the other "
         "coordinates move to meet the constraints. Repeatable",
     )
+    _angles(s)
     _formats(s)
     md = sub.add_parser(
         "modes",
@@ -65,6 +66,7 @@ def _parser() -> argparse.ArgumentParser:
         'a velocity (--at "phi\'=3.3") makes it a steady motion, such as the conical '
         "pendulum's",
     )
+    _angles(md)
     _formats(md)
     sub.add_parser("examples", help="list the bundled example problems")
     add_simulate(sub)
@@ -76,6 +78,16 @@ def _assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> None:
     """A repeatable NAME=VALUE option."""
     parser.add_argument(
         flag, action="append", default=[], type=assignment, metavar="NAME=VALUE", help=text
+    )
+
+
+def _angles(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--angles",
+        action="store_true",
+        help="give the results in angles where a constraint is a circle or sphere in "
+        "Cartesian coordinates (x1 = l1 sin(theta1), y1 = -l1 cos(theta1)), as a "
+        "[parametrisation] in the file would",
     )
 
 
@@ -126,6 +138,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         system = load(problem)
         if getattr(args, "param", None) or getattr(args, "initial", None):
             system = _overridden(system, args.param, getattr(args, "initial", []))
+        if getattr(args, "angles", False):
+            system = _in_angles(system)
         solution = solve(system)
         if command == "modes":
             from ..present import modes_latex, modes_text
@@ -158,6 +172,25 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
+
+
+def _in_angles(system):
+    """``--angles``: the system with the circle/sphere chart of
+    :func:`lamech.model.circle_chart` applied, or an error saying why there is none."""
+    from ..model import ModelError, circle_chart, with_chart
+
+    if system.chart is not None:
+        raise ValueError("--angles: the file already gives a [parametrisation]")
+    proposal = circle_chart(system)
+    if proposal is None:
+        raise ValueError(
+            "--angles: no constraint is a circle or sphere in two or three coordinates "
+            "not kept (|r - c|^2 = R^2); give a [parametrisation] in the file instead"
+        )
+    try:
+        return with_chart(system, proposal)
+    except ModelError as exc:
+        raise ValueError(f"--angles: {exc}") from None
 
 
 def _overridden(system, param_pairs, initial_pairs):

@@ -9,7 +9,7 @@ velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
 """
 
-from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart
+from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart, with_chart
 from ._checks import (
     INITIAL_TOLERANCE,
     Inertialess,
@@ -55,6 +55,7 @@ __all__ = [
     "ChartProposal",
     "circle_chart",
     "satisfied_by_chart",
+    "with_chart",
     "Coordinate",
     "Friction",
     "ForceSpec",

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from ..expr import TimeDerivative
+
 __all__ = [
     "Chart",
     "chart_issues",
@@ -36,6 +38,7 @@ __all__ = [
     "circle_chart",
     "ChartProposal",
     "satisfied_by_chart",
+    "with_chart",
 ]
 
 
@@ -426,3 +429,33 @@ def satisfied_by_chart(system) -> list[str]:
         if _vanishes(con.expr.xreplace(chart.substitution), points)[0]:
             out.append(con.name)
     return out
+
+
+def with_chart(system, proposal: ChartProposal):
+    """``system`` with the proposed chart applied (results then in its angles)."""
+    import dataclasses
+
+    from ._system import Coordinate
+
+    new = tuple(
+        Coordinate(
+            n,
+            sp.Symbol(n, real=True),
+            _derivative(n + "'"),
+            _derivative(n + "''"),
+            sp.Integer(0),
+            sp.Integer(0),
+        )
+        for n in proposal.coordinates
+    )
+    by_name = {c.name: c.symbol for c in system.coordinates}
+    symbols = {c.name: c.symbol for c in new}
+    pairs = tuple(
+        (by_name[name], e.xreplace({sp.Symbol(k, real=True): v for k, v in symbols.items()}))
+        for name, e in proposal.map
+    )
+    return dataclasses.replace(system, chart=Chart(new, pairs))
+
+
+def _derivative(name: str) -> sp.Symbol:
+    return TimeDerivative(name, real=True)

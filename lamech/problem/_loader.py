@@ -19,7 +19,7 @@ from typing import Any
 
 import sympy as sp
 
-from ..expr import ExpressionError, TimeDerivative, parse, to_text
+from ..expr import MAX_NUMBER_DIGITS, ExpressionError, TimeDerivative, parse, printable, to_text
 from ..model import (
     FIELDS,
     Body,
@@ -76,10 +76,13 @@ class Issue:
     text: str | None = None
 
     def format(self, source: str) -> str:
+        """``file:line: where: message`` and the offending line; control characters
+        (from a file name, a key, a title) escaped, never sent to the terminal raw."""
+        source, where, message = printable(source), printable(self.where), printable(self.message)
         head = f"{source}:{self.line}:" if self.line else f"{source}:"
-        out = f"{head} {self.where}: {self.message}" if self.where else f"{head} {self.message}"
+        out = f"{head} {where}: {message}" if where else f"{head} {message}"
         if self.text:
-            out += f"\n    {self.text}"
+            out += f"\n    {printable(self.text)}"
         return out
 
 
@@ -133,7 +136,12 @@ class _Lines:
             return None
         current: tuple[str, int | None] | None = None
         count, header_line = -1, None
-        key_re = re.compile(r"^\s*[\"']?" + re.escape(key) + r"[\"']?\s*=") if key else None
+        key_re = None
+        if key:
+            # a key with control characters is written with TOML escapes (\u001b)
+            spelled = {key, *(_toml_escaped(key, form) for form in ("\\u{:04x}", "\\u{:04X}"))}
+            either = "|".join(re.escape(k) for k in sorted(spelled))
+            key_re = re.compile(r"^\s*[\"']?(?:" + either + r")[\"']?\s*=")
         for i, line in enumerate(self.lines, start=1):
             m = self._HEADER.match(line)
             if m:
@@ -152,6 +160,10 @@ class _Lines:
             if in_table and key_re and key_re.match(line):
                 return i
         return header_line
+
+
+def _toml_escaped(key: str, form: str) -> str:
+    return "".join(c if c.isprintable() else form.format(ord(c)) for c in key)
 
 
 MAX_BYTES = 1_000_000
@@ -223,7 +235,31 @@ def loads(text: str, name: str = "<string>") -> System:
         raise ProblemFileError(
             name, [Issue("", f"TOML syntax error: {bare}; {hint}", line, offending)]
         ) from None
+    except ValueError:
+        # tomllib's int() of an integer longer than Python converts (4300 digits)
+        lines = text.splitlines()
+        line = next((i for i, ln in enumerate(lines, 1) if _LONG_NUMBER.search(ln)), None)
+        raise ProblemFileError(
+            name,
+            [
+                Issue(
+                    "",
+                    f"a number with more than {_INT_DIGITS} digits; numbers "
+                    f"in a problem file have at most {MAX_NUMBER_DIGITS} digits",
+                    line,
+                    lines[line - 1][:60] + "..." if line else None,
+                )
+            ],
+        ) from None
+    except RecursionError:
+        raise ProblemFileError(
+            name, [Issue("", "TOML nested too deeply (arrays or tables inside each other)")]
+        ) from None
     return from_dict(data, name=name, text=text)
+
+
+_LONG_NUMBER = re.compile(r"[0-9_]{1000,}")
+_INT_DIGITS = getattr(sys, "get_int_max_str_digits", lambda: 4300)()
 
 
 def from_dict(data: dict[str, Any], name: str = "<dict>", text: str | None = None) -> System:
@@ -357,7 +393,8 @@ class _Loader:
 
     def fail_if_any(self) -> None:
         if self.problems:
-            raise ProblemFileError(self.source, self.problems)
+            # the model may see again what the loader reported: each issue once
+            raise ProblemFileError(self.source, list(dict.fromkeys(self.problems)))
 
     # ----- build -------------------------------------------------------------------
     def build(self) -> System:
@@ -374,10 +411,22 @@ class _Loader:
         if not isinstance(title, str):
             self.problem("title", "title must be a string", (None, None, "title"))
             title = str(title)
+        elif printable(title) != title:
+            bad = next(c for c in title if printable(c) != c)
+            self.problem(
+                "title",
+                f"the title contains the control character {printable(bad)}; a title is "
+                "one line of plain text",
+                (None, None, "title"),
+            )
         params = self._parameters()
         self.scopes["parameters"] = {p.name: p.symbol for p in params}
         coords = self._coordinates()
-        self.fail_if_any()
+        declared = self.data.get("coordinates")
+        if not coords or not isinstance(declared, dict) or len(coords) != len(declared):
+            # A coordinate missing would make each use of it an 'unknown name'. With all
+            # of them made (a bad value replaced), go on: the next error is reported too.
+            self.fail_if_any()
 
         positions = {"t": self.t, **self.scopes["parameters"]}
         for c in coords:
@@ -398,7 +447,8 @@ class _Loader:
             constraints=(),
             t=self.t,
         )
-        self.fail_if_any()
+        if skeleton is None:
+            self.fail_if_any()
 
         gravity = self._gravity()
         bodies = self._bodies()
@@ -446,8 +496,13 @@ class _Loader:
             )
             return None
         new = []
+        taken = set(self.scopes["positions"])
         for n in names:
             problem = name_problem(n)
+            if problem is None and n in taken:
+                problem = (
+                    f"`{n}` is already a parameter or a coordinate; new coordinates need new names"
+                )
             if problem is not None:
                 self.problem("parametrisation.coordinates", problem, loc)
                 continue
@@ -607,8 +662,13 @@ class _Loader:
                 continue
             q0 = self.field(spec["initial"], "initial", where + ".initial", loc)
             v0 = self.field(spec.get("velocity", 0), "initial velocity", where + ".velocity", loc)
-            if q0 is None or v0 is None:
-                continue
+            keep = spec.get("keep", False)
+            if not isinstance(keep, bool):
+                self.problem(where + ".keep", "`keep` must be true or false", loc)
+            # a bad value is reported; 0 and False stand in for it, so that the rest of
+            # the file is still read and its errors are reported with this one
+            q0 = sp.Integer(0) if q0 is None else q0
+            v0 = sp.Integer(0) if v0 is None else v0
             coordinate = self.make(
                 Coordinate,
                 name,
@@ -617,7 +677,7 @@ class _Loader:
                 TimeDerivative(name + "''", real=True),
                 q0,
                 v0,
-                spec.get("keep", False),
+                keep if isinstance(keep, bool) else False,
             )
             if coordinate is not None:
                 out.append(coordinate)

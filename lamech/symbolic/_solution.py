@@ -8,7 +8,7 @@ from functools import cached_property
 
 import sympy as sp
 
-from ..model import System, holding_at_start, initial_values, open_at_start
+from ..model import System, circle_chart, holding_at_start, initial_values, open_at_start
 from ._conditions import (
     Root,
     Verdict,
@@ -149,6 +149,15 @@ def solve(system: System) -> Solution:
     forms = closed_forms(dyn_h, red)
     ints = integrals(dyn_h, red)
     notes = list(system.notes) + list(red.notes)
+    proposal = circle_chart(system)
+    if proposal is not None:
+        circles = ", ".join(f"`{n}`" for n in proposal.constraints)
+        angles = ", ".join(proposal.coordinates)
+        notes.append(
+            f"{circles} {'is a circle' if len(proposal.constraints) == 1 else 'are circles'}"
+            f" (or spheres): `--angles` gives every result in {angles}, as this "
+            "[parametrisation] in the file would: " + proposal.toml().replace("\n", "; ")
+        )
     initial = {}
     shell: Shell | None
     why: str | None  # the reason there is no shell

@@ -1,0 +1,219 @@
+"""Results in the coordinates a physicist picks ([parametrisation], --angles), and closed
+forms delivered at any size: checked against Newton's law on each bob, the textbook
+tensions, and the numeric KKT solution."""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+
+import pytest
+import sympy as sp
+
+import lamech
+from lamech.cli import main
+from lamech.problem import chain_toml
+from lamech.symbolic import closed_forms, dynamics, eliminate
+
+CARTESIAN = """
+title = "Double pendulum, Cartesian"
+[parameters]
+m1 = 1.0
+m2 = 0.7
+l1 = 1.0
+l2 = 0.8
+g = 9.81
+[coordinates]
+x1 = { initial = 0.6, velocity = 0 }
+y1 = { initial = -0.8, velocity = 0 }
+x2 = { initial = 1.24, velocity = 0 }
+y2 = { initial = -1.28, velocity = 0 }
+[[constraints]]
+name = "rod1"
+f = "x1^2 + y1^2 - l1^2"
+[[constraints]]
+name = "rod2"
+f = "(x2 - x1)^2 + (y2 - y1)^2 - l2^2"
+[[bodies]]
+name = "bob1"
+mass = "m1"
+position = ["x1", "y1"]
+shape = { point = true }
+[[bodies]]
+name = "bob2"
+mass = "m2"
+position = ["x2", "y2"]
+shape = { point = true }
+[gravity]
+acceleration = "g"
+"""
+
+CHART = """
+[parametrisation]
+coordinates = ["theta1", "theta2"]
+x1 = "l1*sin(theta1)"
+y1 = "-l1*cos(theta1)"
+x2 = "l1*sin(theta1) + l2*sin(theta2)"
+y2 = "-l1*cos(theta1) - l2*cos(theta2)"
+"""
+
+
+@pytest.fixture(scope="module")
+def in_angles():
+    return lamech.solve(lamech.loads(CARTESIAN + CHART, "dp.toml"))
+
+
+def test_the_parametrisation_gives_the_double_pendulum_in_its_angles(in_angles):
+    sol = in_angles
+    assert sol.independent == ["theta1", "theta2"]
+    th = sol.system.chart_coordinates
+    assert [float(c.initial) for c in th] == pytest.approx(
+        [math.atan2(0.6, 0.8), math.atan2(0.64, 0.48)])
+    assert set(sol.multipliers) == {"rod1", "rod2"}
+    assert not sol.closed.sizes  # short enough to print
+
+
+def test_the_tensions_are_the_textbook_ones(in_angles):
+    """T2 = m1 m2 (g cos th1 cos D + l1 th1'^2 cos D + l2 th2'^2) / (m1 + m2 sin^2 D),
+    D = th1 - th2; with f = |r2 - r1|^2 - l2^2 the force on bob 2 is 2 lambda (r2 - r1),
+    so lambda_rod2 = -T2 / (2 l2)."""
+    S = in_angles.symbols
+    m1, m2, l1, l2, g = (S[k] for k in ("m1", "m2", "l1", "l2", "g"))
+    t1, t2, w1, w2 = S["theta1"], S["theta2"], S["theta1'"], S["theta2'"]
+    D = t1 - t2
+    T2 = m1 * m2 * (g * sp.cos(t1) * sp.cos(D) + l1 * w1**2 * sp.cos(D) + l2 * w2**2)
+    T2 /= m1 + m2 * sp.sin(D) ** 2
+    assert sp.simplify(in_angles.multipliers["rod2"] + T2 / (2 * l2)) == 0
+
+
+def test_newtons_law_holds_on_each_bob(in_angles):
+    """m a = rod forces + weight on both bobs, at random states, with the accelerations
+    from the reduced equations and the forces from the multipliers (independent of the
+    Lagrangian machinery: only F = m a and the rods' directions)."""
+    sol = in_angles
+    S = sol.symbols
+    t1, t2, w1, w2 = S["theta1"], S["theta2"], S["theta1'"], S["theta2'"]
+    a1, a2 = S["theta1''"], S["theta2''"]
+    pv = sol.system.parameter_values
+    m1, m2, l1, l2, g = (pv[S[k]] for k in ("m1", "m2", "l1", "l2", "g"))
+    acc = {k: v for k, v in sol.closed.accelerations.items()}
+    rng = random.Random(4)
+    for _ in range(5):
+        st = {t1: rng.uniform(-3, 3), t2: rng.uniform(-3, 3), w1: rng.uniform(-2, 2),
+              w2: rng.uniform(-2, 2)}
+        env = {**pv, **st}
+        dd1, dd2 = (float(acc[a].xreplace(env)) for a in (a1, a2))
+        lam1, lam2 = (float(sol.multipliers[k].xreplace(env)) for k in ("rod1", "rod2"))
+        th1, th2, v1, v2 = st[t1], st[t2], st[w1], st[w2]
+        r1 = (l1 * math.sin(th1), -l1 * math.cos(th1))
+        r2 = (r1[0] + l2 * math.sin(th2), r1[1] - l2 * math.cos(th2))
+        acc1 = (l1 * (math.cos(th1) * dd1 - math.sin(th1) * v1**2),
+                l1 * (math.sin(th1) * dd1 + math.cos(th1) * v1**2))
+        acc2 = (acc1[0] + l2 * (math.cos(th2) * dd2 - math.sin(th2) * v2**2),
+                acc1[1] + l2 * (math.sin(th2) * dd2 + math.cos(th2) * v2**2))
+        d = (r2[0] - r1[0], r2[1] - r1[1])
+        f2 = (2 * lam2 * d[0], 2 * lam2 * d[1] - m2 * g)
+        f1 = (2 * lam1 * r1[0] - 2 * lam2 * d[0], 2 * lam1 * r1[1] - 2 * lam2 * d[1] - m1 * g)
+        assert m2 * acc2[0] == pytest.approx(f2[0], abs=1e-9)
+        assert m2 * acc2[1] == pytest.approx(f2[1], abs=1e-9)
+        assert m1 * acc1[0] == pytest.approx(f1[0], abs=1e-9)
+        assert m1 * acc1[1] == pytest.approx(f1[1], abs=1e-9)
+
+
+def test_angles_switch_equals_the_files_parametrisation(in_angles, capsys):
+    """--angles applies the circle chart lamech proposes; it is the file's one."""
+    plain = lamech.solve(lamech.loads(CARTESIAN, "dp.toml"))
+    assert any("--angles" in n and 'x2 = "l1*sin(theta1) + l2*sin(theta2)"' in n
+               for n in plain.notes)
+    from lamech.model import circle_chart, with_chart
+
+    switched = lamech.solve(with_chart(plain.system, circle_chart(plain.system)))
+    for k in ("rod1", "rod2"):
+        assert sp.simplify(switched.multipliers[k] - in_angles.multipliers[k]) == 0
+
+
+def test_kept_cartesian_coordinates_give_rational_tensions(in_angles):
+    """keep = true on every coordinate: no square roots, and the same tension as the
+    angle form at the same state."""
+    text = CARTESIAN.replace("velocity = 0 }", "velocity = 0, keep = true }")
+    sol = lamech.solve(lamech.loads(text, "dpk.toml"))
+    S = sol.symbols
+    lam = sol.multipliers["rod2"]
+    assert not any(not p.exp.is_Integer for p in lam.atoms(sp.Pow))
+    pv = sol.system.parameter_values
+    l1, l2 = pv[S["l1"]], pv[S["l2"]]
+    th1, th2, v1, v2 = 0.4, -0.9, 0.7, -1.1
+    x1, y1 = l1 * math.sin(th1), -l1 * math.cos(th1)
+    x2, y2 = x1 + l2 * math.sin(th2), y1 - l2 * math.cos(th2)
+    vx1, vy1 = l1 * math.cos(th1) * v1, l1 * math.sin(th1) * v1
+    vx2, vy2 = vx1 + l2 * math.cos(th2) * v2, vy1 + l2 * math.sin(th2) * v2
+    cart = {S["x1"]: x1, S["y1"]: y1, S["x2"]: x2, S["y2"]: y2, S["x1'"]: vx1,
+            S["y1'"]: vy1, S["x2'"]: vx2, S["y2'"]: vy2, **pv}
+    A = in_angles.symbols
+    ang = {A["theta1"]: th1, A["theta2"]: th2, A["theta1'"]: v1, A["theta2'"]: v2, **pv}
+    for k in ("rod1", "rod2"):
+        assert float(sol.multipliers[k].xreplace(cart)) == pytest.approx(
+            float(in_angles.multipliers[k].xreplace(ang)), rel=1e-10)
+
+
+@pytest.mark.parametrize(
+    "chart, message",
+    [
+        (CHART.replace('y2 = "-l1*cos(theta1) - l2*cos(theta2)"', 'y2 = "-l1*cos(theta1)"'),
+         "does not satisfy constraint `rod2` identically"),
+        (CHART.replace('x1 = "l1*sin(theta1)"', 'z1 = "l1*sin(theta1)"'), "`z1` is not a coordinate"),
+        (CHART.replace('"theta1", "theta2"', '"theta1", "g"'), "`g` is already a parameter or a coordinate"),
+        (CHART.replace("theta2)", "phi)"), "unknown name `phi`"),
+        (CHART.replace('coordinates = ["theta1", "theta2"]', ""), "list the new coordinates"),
+        ('[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*tanh(theta1)"\n'
+         'y1 = "l1*sqrt(1 - tanh(theta1)^2)"\n', "not reached by the parametrisation"),
+    ],
+)
+def test_a_wrong_parametrisation_is_refused_with_the_reason(chart, message):
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.loads(CARTESIAN + chart, "dp.toml")
+    assert message in str(err.value)
+    assert "dp.toml:" in str(err.value)
+
+
+def test_long_closed_forms_are_delivered_and_summarised(capsys):
+    """The four-bar linkage's multipliers are long: the API and --json give them whole
+    (equal to the numeric KKT solution at the initial state), the text summarises."""
+    system = lamech.load("four_bar")
+    sol = lamech.solve(system)
+    assert set(sol.multipliers) == {c.name for c in system.constraints}
+    env = {**system.parameter_values, system.t: 0}
+    env.update({s: float(sp.sympify(v).xreplace(system.parameter_values))
+                for s, v in system.initial_state.items()})
+    for k, lam in sol.multipliers.items():
+        assert float(lam.xreplace(env)) == pytest.approx(sol.initial_multipliers[k], rel=1e-9)
+    assert main(["solve", "four_bar", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data["multipliers"]) == set(sol.multipliers)
+    assert main(["solve", "four_bar"]) == 0
+    text = capsys.readouterr().out
+    if sol.closed.sizes:
+        assert "operations" in text and "--json" in text
+
+
+def test_the_symbolic_solve_is_bounded_in_time():
+    """With no time left the elimination of a large system (a chain of eight links in
+    Cartesian coordinates: 24 unknowns) stops at once and says so."""
+    system = lamech.loads(chain_toml(8))
+    forms = closed_forms(dynamics(system), eliminate(system), seconds=0.0)
+    assert forms.skipped and "time bound" in forms.skipped
+
+
+def test_a_partial_parametrisation_keeps_the_other_constraint():
+    """Only the first rod in an angle: x2, y2 stay, the second rod stays a constraint,
+    and the multipliers agree with the full chart's at the same state."""
+    chart = '[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*sin(theta1)"\ny1 = "-l1*cos(theta1)"\n'
+    sol = lamech.solve(lamech.loads(CARTESIAN + chart, "dp.toml"))
+    assert sol.independent[0] == "theta1" and "theta1" in sol.independent
+    assert sol.reduction.eliminated_constraints[:1] == ("rod1",)
+    env = {**sol.system.parameter_values, sol.system.t: 0}
+    env.update({k: float(sp.sympify(v).xreplace(sol.system.parameter_values))
+                for k, v in sol.system.initial_state.items()})
+    for k, lam in sol.multipliers.items():
+        assert float(lam.xreplace(env)) == pytest.approx(sol.initial_multipliers[k], rel=1e-9)
