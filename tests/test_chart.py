@@ -162,8 +162,10 @@ def test_kept_cartesian_coordinates_give_rational_tensions(in_angles):
     [
         (CHART.replace('y2 = "-l1*cos(theta1) - l2*cos(theta2)"', 'y2 = "-l1*cos(theta1)"'),
          "does not satisfy constraint `rod2` identically"),
-        (CHART.replace('x1 = "l1*sin(theta1)"', 'z1 = "l1*sin(theta1)"'), "`z1` is not a coordinate"),
-        (CHART.replace('"theta1", "theta2"', '"theta1", "g"'), "`g` is already a parameter or a coordinate"),
+        (CHART.replace('x1 = "l1*sin(theta1)"', 'z1 = "l1*sin(theta1)"'),
+         "`z1` is not a coordinate"),
+        (CHART.replace('"theta1", "theta2"', '"theta1", "g"'),
+         "`g` is already a parameter or a coordinate"),
         (CHART.replace("theta2)", "phi)"), "unknown name `phi`"),
         (CHART.replace('coordinates = ["theta1", "theta2"]', ""), "list the new coordinates"),
         ('[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*tanh(theta1)"\n'
@@ -208,7 +210,10 @@ def test_the_symbolic_solve_is_bounded_in_time():
 def test_a_partial_parametrisation_keeps_the_other_constraint():
     """Only the first rod in an angle: x2, y2 stay, the second rod stays a constraint,
     and the multipliers agree with the full chart's at the same state."""
-    chart = '[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*sin(theta1)"\ny1 = "-l1*cos(theta1)"\n'
+    chart = (
+        '[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*sin(theta1)"\n'
+        'y1 = "-l1*cos(theta1)"\n'
+    )
     sol = lamech.solve(lamech.loads(CARTESIAN + chart, "dp.toml"))
     assert sol.independent[0] == "theta1" and "theta1" in sol.independent
     assert sol.reduction.eliminated_constraints[:1] == ("rod1",)
