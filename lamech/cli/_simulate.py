@@ -418,8 +418,8 @@ class _Progress:
         if p.remaining < LONG_RUN:
             return
         sys.stderr.write(
-            f"lamech: a long run: about {_duration(p.estimate)} at the pace of the first "
-            f"{p.seconds:.2g} s (t = {p.t:.4g} of {p.t_end:.4g}, {p.steps} steps); "
+            f"lamech: a long run: about {_duration(p.estimate)} at its pace so far (t = "
+            f"{p.t:.4g} of {p.t_end:.4g} after {p.seconds:.2g} s, {p.steps} steps); "
             "Ctrl-C, SIGTERM or SIGHUP stop it and keep the trajectory so far\n"
         )
         if p.stiff:
