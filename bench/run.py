@@ -14,6 +14,11 @@ B2  one dynamics evaluation (q'' and lambda), microseconds per call.
 B3  work-precision: wall time against the error of the rod tensions and the positions
     at t = 10 s, against a tight lamech reference run (rtol 1e-13).
 B4  ensembles: trajectories per second over many initial conditions.
+B5  symbolic: derivation to the multipliers (problem text -> lambda in closed form),
+    lamech's load + solve against SymPy's LagrangesMethod + form_lagranges_equations()
+    + solve_multipliers() on the same Lagrangian and constraints, for the four-bar
+    linkage, the rolling disc and the double pendulum (polar and Cartesian); runs alone
+    with ``--only B5`` (or ``--only symbolic``).
 
 Results go to stdout (with lamech/peer ratios) and to bench/RESULTS.md (date, CPU,
 versions); B3 also draws bench/work_precision.png.
@@ -565,6 +570,190 @@ def bench_b4(count_lamech, count_mujoco, t_end, lines: list[str]):
     lines.append("")
 
 
+# ----- B5 -----------------------------------------------------------------------------
+DOUBLE_PENDULUM_POLAR = """
+title = "Double pendulum, polar"
+[parameters]
+m1 = 1.0
+m2 = 1.0
+l1 = 1.0
+l2 = 1.0
+g = 9.81
+[coordinates]
+r1 = { initial = "l1", velocity = 0 }
+th1 = { initial = 0.6, velocity = 0 }
+r2 = { initial = "l2", velocity = 0 }
+th2 = { initial = 0.3, velocity = 0 }
+[[constraints]]
+name = "rod1"
+f = "l1 - r1"
+[[constraints]]
+name = "rod2"
+f = "l2 - r2"
+[[bodies]]
+name = "bob1"
+mass = "m1"
+position = ["r1*sin(th1)", "-r1*cos(th1)"]
+[[bodies]]
+name = "bob2"
+mass = "m2"
+position = ["r1*sin(th1) + r2*sin(th2)", "-r1*cos(th1) - r2*cos(th2)"]
+[gravity]
+acceleration = "g"
+"""
+
+DOUBLE_PENDULUM_CARTESIAN = """
+title = "Double pendulum, Cartesian"
+[parameters]
+m1 = 1.0
+m2 = 1.0
+l1 = 1.0
+l2 = 1.0
+g = 9.81
+[coordinates]
+x1 = { initial = 0.6, velocity = 0 }
+y1 = { initial = -0.8, velocity = 0 }
+x2 = { initial = 1.2, velocity = 0 }
+y2 = { initial = -1.6, velocity = 0 }
+[[constraints]]
+name = "rod1"
+f = "x1^2 + y1^2 - l1^2"
+[[constraints]]
+name = "rod2"
+f = "(x2 - x1)^2 + (y2 - y1)^2 - l2^2"
+[[bodies]]
+name = "bob1"
+mass = "m1"
+position = ["x1", "y1"]
+[[bodies]]
+name = "bob2"
+mass = "m2"
+position = ["x2", "y2"]
+[gravity]
+acceleration = "g"
+"""
+
+# (label, bundled example name or problem text)
+B5_PROBLEMS = [("four-bar linkage", "four_bar"),
+               ("rolling disc (3-1-2 angles)", "rolling_disc"),
+               ("double pendulum, polar (r, theta)", DOUBLE_PENDULUM_POLAR),
+               ("double pendulum, Cartesian", DOUBLE_PENDULUM_CARTESIAN)]
+
+
+def _lamech_problem(source: str):
+    import lamech
+    return lamech.loads(source) if "\n" in source else lamech.load(source)
+
+
+def sympy_lagranges(system):
+    """SymPy's inputs for lamech's ``system``: (L, q, holonomic f, velocity g, names in
+    SymPy's multiplier order). The same L = T - V and the same constraints as written
+    (never normalised), in ``dynamicsymbols``; parameters stay lamech's symbols."""
+    import sympy as sp
+    from sympy.physics.mechanics import dynamicsymbols
+    if any(sp.sympify(f) != 0 for f in system.forces):
+        raise ValueError("B5 compares conservative systems only (no [forces])")
+    t = dynamicsymbols._t
+    q = [dynamicsymbols(c.name) for c in system.coordinates]
+    rep = {system.t: t}
+    for c, f in zip(system.coordinates, q):
+        rep[c.velocity] = f.diff(t)
+        rep[c.symbol] = f
+    hol = [c for c in system.constraints if c.holonomic]
+    vel = [c for c in system.constraints if not c.holonomic]
+    return (sp.sympify(system.L).xreplace(rep), q, [c.expr.xreplace(rep) for c in hol],
+            [c.expr.xreplace(rep) for c in vel], [c.name for c in hol + vel])
+
+
+def sympy_b5(system, lagranges=None) -> tuple[dict, float, float]:
+    """SymPy's path to the multipliers in closed form: LagrangesMethod,
+    form_lagranges_equations(), solve_multipliers() (symbolic, no operating point).
+    Returns (lamech's multipliers evaluated at the initial state, SymPy's sign turned:
+    lambda_lamech = -lambda_SymPy; seconds to form the equations; seconds to solve)."""
+    from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols, msubs
+    L, q, hol, vel, names = lagranges or sympy_lagranges(system)
+    t0 = time.perf_counter()
+    lm = LagrangesMethod(L, q, hol_coneqs=hol or None, nonhol_coneqs=vel or None)
+    lm.form_lagranges_equations()
+    t1 = time.perf_counter()
+    lam = lm.solve_multipliers(sol_type="Matrix")
+    t2 = time.perf_counter()
+    t = dynamicsymbols._t
+    op = dict(system.parameter_values)
+    for c, f in zip(system.coordinates, q):
+        op[f.diff(t)] = float(system.numeric(c.initial_velocity))
+        op[f] = float(system.numeric(c.initial))
+    values = {n: -float(msubs(v, op).evalf()) for n, v in zip(names, lam)}
+    return values, t1 - t0, t2 - t1
+
+
+def lamech_b5(source: str) -> tuple[dict, float]:
+    """lamech's path: problem text -> Solution (load + solve). Returns (multipliers at
+    the initial state, seconds)."""
+    import lamech
+    t0 = time.perf_counter()
+    sol = lamech.solve(_lamech_problem(source))
+    sec = time.perf_counter() - t0
+    system = sol.system
+    vals = {**system.parameter_values, system.t: 0.0}
+    for c in system.coordinates:
+        vals[c.symbol] = float(system.numeric(c.initial))
+        vals[c.velocity] = float(system.numeric(c.initial_velocity))
+    out = {n: float(e.xreplace(vals).evalf()) for n, e in sol.multipliers.items()}
+    return out, sec
+
+
+def _cold(fn, *args):
+    """fn(*args) on an empty SymPy cache (each side pays for its own expressions)."""
+    from sympy.core.cache import clear_cache
+    clear_cache()
+    return fn(*args)
+
+
+def bench_b5(cap: float, lines: list[str]):
+    print("\nB5  symbolic: derivation to the multipliers")
+    lines += ["## B5 derivation to the multipliers", "",
+              "From the problem to every multiplier in closed form, each side on an empty "
+              "SymPy cache in its own forked process, capped at "
+              f"{cap:.0f} s. lamech: `lamech.load` (or `loads`) + `lamech.solve` (the "
+              "Solution: equations, reduction, closed forms, integrals, forces). SymPy: "
+              "`LagrangesMethod(L, q, hol_coneqs, nonhol_coneqs)` on the same L and "
+              "constraints, `form_lagranges_equations()`, `solve_multipliers()` "
+              "(symbolic). Both sides' multipliers agree at the initial state before a "
+              "time counts.", "",
+              "| problem | lamech load + solve | SymPy form | SymPy solve_multipliers "
+              "| SymPy total | ratio SymPy/lamech |", "|---|---|---|---|---|---|"]
+    for label, source in B5_PROBLEMS:
+        system = _lamech_problem(source)
+        mine, _ = _capped(_cold, (lamech_b5, source), cap)
+        theirs, _ = _capped(_cold, (sympy_b5, system, sympy_lagranges(system)), cap)
+        t_l = mine[1] if mine else None
+        t_form, t_solve = (theirs[1], theirs[2]) if theirs else (None, None)
+        if mine and theirs:
+            lam, got = theirs[0], mine[0]
+            missing = sorted(set(lam) - set(got))
+            if missing:
+                print(f"  {label}: lamech gave no closed form for {', '.join(missing)}")
+            for n in set(lam) & set(got):
+                if not math.isclose(lam[n], got[n], rel_tol=1e-8, abs_tol=1e-9):
+                    raise AssertionError(f"B5 {label}: lambda_{n} lamech {got[n]} != "
+                                         f"SymPy {lam[n]}")
+        total = t_form + t_solve if theirs else None
+        over = f"> {cap:.0f} s"
+        if t_l and total:
+            ratio = f"{total / t_l:.2g}×"
+        elif t_l:
+            ratio = f"> {cap / t_l:.2g}×"
+        else:
+            ratio = "—"
+        row = (f"| {label} | {_fmt_s(t_l) if t_l else over} | {_fmt_s(t_form)} "
+               f"| {_fmt_s(t_solve) if theirs else over + ' (with form)'} "
+               f"| {_fmt_s(total) if theirs else over} | {ratio} |")
+        print("  " + row)
+        lines.append(row)
+    lines.append("")
+
+
 # ----- main ---------------------------------------------------------------------------
 def _machine() -> list[str]:
     cpu = platform.processor() or "unknown CPU"
@@ -627,8 +816,9 @@ def bench_startup(repeats: int, lines: list[str]) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~2 minutes)")
-    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4"], action="append",
-                    help="run only these benchmarks (repeatable)")
+    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "symbolic"],
+                    action="append",
+                    help="run only these benchmarks (repeatable; symbolic is B5)")
     ap.add_argument("--out", default=None,
                     help="where to write the table (default bench/RESULTS.md; with --quick "
                          "bench/quick/RESULTS.md, untracked, so a quick run never overwrites "
@@ -639,7 +829,8 @@ def main(argv=None) -> int:
     args.out = args.out or str(folder / "RESULTS.md")
     global PICTURE
     PICTURE = folder / "work_precision.png"
-    want = set(args.only or ["startup", "B1", "B2", "B3", "B4"])
+    want = {"B5" if w == "symbolic" else w
+            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5"])}
     lines = ["# lamech benchmark results", "",
              f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
              "shared machine are noisy (±20%); ratios are from the same process.", ""]
@@ -656,6 +847,8 @@ def main(argv=None) -> int:
         bench_b3([5] if args.quick else [5, 20], 10.0, args.quick, lines)
     if "B4" in want:
         bench_b4(10 if args.quick else 100, 100 if args.quick else 1000, 10.0, lines)
+    if "B5" in want:
+        bench_b5(60.0 if args.quick else 300.0, lines)
     Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"\nwrote {args.out}")
     return 0

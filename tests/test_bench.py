@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.run import (kernel_inputs, lamech_b1, lamech_qdd_lambda, sympy_b1,
-                       chain_state, lamech_chain, mujoco_angles, mujoco_chain, mujoco_masses,
-                       mujoco_tensions)
+from bench.run import (B5_PROBLEMS, kernel_inputs, lamech_b1, lamech_b5, lamech_qdd_lambda,
+                       sympy_b1, sympy_b5, sympy_lagranges, chain_state, lamech_chain,
+                       mujoco_angles, mujoco_chain, mujoco_masses, mujoco_tensions)
 from lamech.numeric import compile_system
 
 
@@ -42,3 +42,25 @@ def test_reference_helper_matches_the_kernel():
     _, qdd_b1 = lamech_b1(2, jit=False)
     assert np.allclose(qdd, qdd_b1, rtol=1e-12)
     assert np.all(lam < 0)     # links in tension: lambda < 0 for f = |d|^2 - l^2
+
+
+@pytest.mark.parametrize("name", ["pendulum", "knife_edge"])
+def test_symbolic_peer_solves_lamechs_problem(name):
+    """B5: SymPy's LagrangesMethod gets lamech's L and constraints as written (holonomic
+    and velocity ones), and its solve_multipliers, sign turned, is lamech's lambda."""
+    import lamech
+    system = lamech.load(name)
+    theirs, _, _ = sympy_b5(system)
+    mine, _ = lamech_b5(name)
+    assert set(theirs) == set(mine) == {c.name for c in system.constraints}
+    for n, lam in mine.items():
+        assert abs(lam) > 0.1
+        assert np.isclose(theirs[n], lam, rtol=1e-10)
+
+
+def test_symbolic_benchmark_problems_load():
+    import lamech
+    for _, source in B5_PROBLEMS:
+        system = lamech.loads(source) if "\n" in source else lamech.load(source)
+        _, q, _, _, names = sympy_lagranges(system)
+        assert len(q) == len(system.coordinates) and len(names) == len(system.constraints)
