@@ -222,3 +222,27 @@ def test_a_partial_parametrisation_keeps_the_other_constraint():
                 for k, v in sol.system.initial_state.items()})
     for k, lam in sol.multipliers.items():
         assert float(lam.xreplace(env)) == pytest.approx(sol.initial_multipliers[k], rel=1e-9)
+
+
+def test_the_bundled_double_pendulum_has_the_textbook_equation_of_motion():
+    """theta1'' as on Wikipedia's "Double pendulum" page (the file's comment), at random
+    states, and T1 = -2 l1 lambda_rod1 as the comment says."""
+    sol = lamech.solve(lamech.load("double_pendulum"))
+    S = sol.symbols
+    m1, m2, l1, l2, g = (S[k] for k in ("m1", "m2", "l1", "l2", "g"))
+    t1, t2, w1, w2 = S["theta1"], S["theta2"], S["theta1'"], S["theta2'"]
+    D = t1 - t2
+    textbook = -(g * (2 * m1 + m2) * sp.sin(t1) + m2 * g * sp.sin(t1 - 2 * t2)
+                 + 2 * m2 * sp.sin(D) * (l2 * w2**2 + l1 * w1**2 * sp.cos(D)))
+    textbook /= l1 * (2 * m1 + m2 - m2 * sp.cos(2 * D))
+    T1 = m1 * ((m1 + m2) * (g * sp.cos(t1) + l1 * w1**2) + m2 * l2 * w2**2 * sp.cos(D))
+    T1 /= m1 + m2 * sp.sin(D) ** 2
+    rng = random.Random(8)
+    for _ in range(5):
+        env = {m1: rng.uniform(0.5, 2), m2: rng.uniform(0.5, 2), l1: rng.uniform(0.5, 2),
+               l2: rng.uniform(0.5, 2), g: 9.81, t1: rng.uniform(-3, 3),
+               t2: rng.uniform(-3, 3), w1: rng.uniform(-2, 2), w2: rng.uniform(-2, 2)}
+        ours = sol.closed.accelerations[S["theta1''"]]
+        assert float(ours.xreplace(env)) == pytest.approx(float(textbook.xreplace(env)))
+        assert float((-2 * l1 * sol.multipliers["rod1"]).xreplace(env)) == pytest.approx(
+            float(T1.xreplace(env)))

@@ -393,18 +393,17 @@ def _sphere(f: sp.Expr, free: list[sp.Symbol]) -> tuple[dict, sp.Expr] | None:
         return None
     centre = {}
     for i, s in enumerate(free):
-        if sp.simplify(p.coeff_monomial(s**2) - lead) != 0:
+        if sp.cancel(p.coeff_monomial(s**2) - lead) != 0:
             return None
         for t in free[i + 1 :]:
             if p.coeff_monomial(s * t) != 0:
                 return None
-        centre[s] = sp.simplify(-p.coeff_monomial(s) / (2 * lead))
+        centre[s] = sp.cancel(-p.coeff_monomial(s) / (2 * lead))
     const = p.coeff_monomial(1) / lead
-    r2 = sp.simplify(sum(centre[s] ** 2 for s in free) - const)
+    r2 = sp.factor(sp.cancel(sum(centre[s] ** 2 for s in free) - const))
     if r2.has(*free):
         return None
     radius = sp.sqrt(r2)
-    radius = sp.simplify(radius)
     if not radius.is_positive:
         return None
     return centre, radius

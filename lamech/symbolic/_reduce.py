@@ -57,7 +57,7 @@ READABLE_OPS = 1500
 """Closed forms larger than this (after simplification) are delivered, not printed."""
 MAX_OPS = 6000
 """Expressions larger than this are left as they are."""
-SYMBOLIC_SECONDS = 20.0
+SYMBOLIC_SECONDS = 5.0
 """Time bound of one closed-form solve (the elimination, then simplification while
 time is left): past it, only M, h, A, gamma and numeric multipliers are given."""
 
@@ -319,6 +319,7 @@ def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) ->
             and red.eliminated
             and len(unknowns) <= CLOSED_FORM_LIMIT
             and not any(_has_radical(e) for _, e in red.eliminated)
+            and len(angles_of(system, red)) >= 2
         ):
             projected = _solve_projected(dyn, red)
         if small:
@@ -411,7 +412,8 @@ def angle_tidy(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
 
 
 def _solve_projected(dyn: Dynamics, red: Reduction) -> list[sp.Expr]:
-    """The KKT solution when every constraint is eliminated (by the rule or a chart), by
+    """The accelerations when every constraint is eliminated (by the rule or a chart) and
+    two or more angles remain (a chain: elsewhere the whole KKT solve reads as well), by
     projection: with q = q(u), q'' = J u'' + b, and A J = 0 identically, J^T times the
     Euler-Lagrange equations has no multiplier: (J^T M J) u'' = -J^T (M b + h - Q), the
     reduced mass matrix being the textbook one once its few short entries are
@@ -500,6 +502,11 @@ def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -
         for r in range(n):
             if r == col or rows[r][col] == 0:
                 continue
+            if time.perf_counter() > deadline:
+                raise _OutOfTime(
+                    f"closed forms not found within the time bound (eliminated {col} of "
+                    f"{n} unknowns; the bound is {SYMBOLIC_SECONDS:g} s)"
+                )
             factor = rows[r][col] / p
             rows[r] = [
                 rows[r][j]
@@ -513,8 +520,17 @@ def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -
 
 
 def _pre(e: sp.Expr) -> sp.Expr:
+    """``cancel`` while short and free of nested radicals (cancelling over nested
+    square roots, a chain eliminated in Cartesian coordinates, costs minutes)."""
     e = sp.sympify(e)
-    return sp.cancel(e) if sp.count_ops(e) < SIMPLIFY_OPS else e
+    if sp.count_ops(e) >= SIMPLIFY_OPS or _nested_radical(e):
+        return e
+    return sp.cancel(e)
+
+
+def _nested_radical(e: sp.Expr) -> bool:
+    roots = [p for p in e.atoms(sp.Pow) if not p.exp.is_Integer]
+    return len({p.base for p in roots}) > 1
 
 
 def _solve_linear(K: sp.Matrix, rhs: sp.Matrix) -> list[sp.Expr]:
