@@ -9,7 +9,13 @@ User text is never handed to ``eval``, ``sympify`` or ``parse_expr``: Python's o
 tokenizer-free ``ast`` parses it (after two purely lexical rewrites, ``'`` suffixes and
 ``^``), and a whitelist walk builds the SymPy expression node by node. Size, nesting
 and exponents are bounded *before* anything is built, so hostile text (``9^9^9^9``,
-ten thousand parentheses) fails fast with :class:`ExpressionError`.
+ten thousand parentheses) fails fast with :class:`ExpressionError`. What each node
+*builds* is bounded too, since SymPy evaluates as it goes: exact numbers by their
+digits (not their magnitude: ``1.0000001^1000000000`` is small but has 7e9 digits),
+powers of non-numbers by their exponent after SymPy has combined them (``x^64*x`` is
+``x^65``, so what :func:`to_text` prints always parses back), constants by their
+magnitude and realness (``exp(exp(20))``, ``asin(2)``), and expressions by the number of
+terms they would expand to (``(a + b + c + d + e)^64``).
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ import ast
 import math
 import re
 import warnings
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 
 import sympy as sp
 from sympy.printing.str import StrPrinter
@@ -32,7 +38,12 @@ __all__ = [
     "acceleration_name",
     "MAX_LENGTH",
     "MAX_DEPTH",
+    "MAX_INT_EXPONENT",
+    "MAX_NUMBER_DIGITS",
+    "MAX_TERMS",
     "TimeDerivative",
+    "printable",
+    "not_differentiable",
 ]
 
 MAX_LENGTH = 4000
@@ -40,9 +51,14 @@ MAX_LENGTH = 4000
 MAX_DEPTH = 60
 """Deepest nesting (parentheses, operators, calls) accepted."""
 MAX_INT_EXPONENT = 64
-"""Largest integer exponent |n| in ``x^n`` for a symbolic base."""
+"""Largest numeric exponent |n| in ``x^n`` for a base that is not a number, after SymPy
+has combined powers (``x^64*x`` is ``x^65``); integer or not (``x^100000.5``)."""
 MAX_NUMBER_DIGITS = 400
-"""Largest number of decimal digits an exact number may reach while parsing."""
+"""Largest number of decimal digits an exact number may reach while parsing, and the
+largest magnitude of a constant, 10^400 (``exp(1000)`` is over it)."""
+MAX_TERMS = 10_000
+"""Most terms an expression may expand to: ``(a + b + c)^64`` (2145) is fine,
+``(a + b + c + d + e)^64`` (814,385) is refused before anything expands it."""
 
 
 class ExpressionError(ValueError):
@@ -85,9 +101,15 @@ _GROUP = {ast.Add: "+", ast.Sub: "+", ast.Mult: "*", ast.Div: "*"}
 
 _DECIMAL = re.compile(r"((?:[0-9]+\.?[0-9]*|\.[0-9]+))(?:[eE]([+-]?[0-9]+))?")
 _UNDEFINED = (sp.nan, sp.zoo, sp.oo, -sp.oo)
+# what SymPy raises when a value defeats it (asin(sin(1e300)) raises AttributeError from
+# its cache): the parser answers with an ExpressionError instead
+_MAX_EXP = MAX_NUMBER_DIGITS * math.log(10)  # exp(921.03) is 10^400
+_SYMPY_FAILURES = (ArithmeticError, TypeError, ValueError, AttributeError, NotImplementedError)
 
-_VEL_SUFFIX = "__vel"
-_ACC_SUFFIX = "__acc"
+# The parser's own spelling of x' and x'' as Python identifiers: a letter outside ASCII,
+# which expression text may not contain, so that no user name can mean a velocity.
+_VEL_SUFFIX = "\u02b9"  # MODIFIER LETTER PRIME
+_ACC_SUFFIX = "\u02b9\u02b9"
 _PRIME = re.compile(r"([A-Za-z_][A-Za-z_0-9]*)\s*(''?)")
 
 
@@ -136,9 +158,10 @@ def _lex(text: str) -> tuple[str, list[int]]:
             out.append(text[k])
             origin.append(k)
         name, primes = match.group(1), match.group(2)
-        piece = name + (_ACC_SUFFIX if len(primes) == 2 else _VEL_SUFFIX)
-        out.extend(piece)
-        origin.extend(match.start() + min(i, len(name) - 1) for i in range(len(piece)))
+        suffix = _ACC_SUFFIX if len(primes) == 2 else _VEL_SUFFIX  # one letter a quote
+        out.extend(name + suffix)
+        origin.extend(match.start(1) + i for i in range(len(name)))
+        origin.extend(match.start(2) + i for i in range(len(suffix)))
         pos = match.end()
     for k in range(pos, len(text)):
         out.append(text[k])
@@ -220,11 +243,18 @@ class _Builder:
         self.names = names
         self.what = what
         self.src = src
+        self.src_bytes = src.encode("utf-8")
         self.column_of = column_of
+        self.terms_cache: dict[sp.Expr, int] = {}
 
     def fail(self, message: str, node: ast.AST | None = None) -> ExpressionError:
         col = getattr(node, "col_offset", None)
         return ExpressionError(message, self.text, None if col is None else self.column_of(col))
+
+    def cannot(self, node: ast.AST, exc: BaseException) -> ExpressionError:
+        """SymPy failed on a value it was given (its own errors, not the user's)."""
+        shown = _short(self.segment(node) or self.text)
+        return self.fail(f"`{shown}` cannot be evaluated ({type(exc).__name__} in SymPy)", node)
 
     def build(self, node: ast.AST) -> sp.Expr:
         method = getattr(self, "_" + type(node).__name__, None)
@@ -243,7 +273,10 @@ class _Builder:
         value = node.value
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.fail(f"{_describe(node)} is not a number", node)
-        segment = (ast.get_source_segment(self.src, node) or repr(value)).replace("_", "")
+        # the source is one line: the node's bytes, without ast.get_source_segment's
+        # splitting of the whole text for each number
+        written = self.src_bytes[node.col_offset : node.end_col_offset or 0].decode("utf-8")
+        segment = (written or repr(value)).replace("_", "")
         match = _DECIMAL.fullmatch(segment)
         if match is None:
             raise self.fail(
@@ -280,7 +313,18 @@ class _Builder:
         key = base + kind
         if key in self.names:
             return self.names[key]
+        if kind and base == "t":
+            raise self.fail(
+                f"`{key}`: t is time, not a coordinate; only coordinates have velocities (x')",
+                node,
+            )
         if kind and base in self.names:
+            velocities_here = any(n.endswith("'") for n in self.names)
+            if velocities_here and kind == "'":
+                raise self.fail(
+                    f"`{key}`: {base} is not a coordinate; only coordinates have velocities (x')",
+                    node,
+                )
             allowed = "velocities" if kind == "'" else "accelerations"
             raise self.fail(f"`{key}`: {allowed} are not allowed in {self.what}", node)
         known = sorted(n for n in self.names if not n.endswith("'"))
@@ -289,7 +333,9 @@ class _Builder:
     def _UnaryOp(self, node: ast.UnaryOp) -> sp.Expr:
         operand = self.build(node.operand)
         if isinstance(node.op, ast.USub):
-            return -operand
+            out = -operand
+            self._check_built(out, node, (operand,))
+            return out
         if isinstance(node.op, ast.UAdd):
             return operand
         raise self.fail(f"operator {type(node.op).__name__} is not allowed", node)
@@ -308,8 +354,9 @@ class _Builder:
             }.get(type(op), "?")
             raise self.fail(f"operator `{symbol}` is not allowed; use + - * / ^", node)
         if isinstance(op, ast.Pow):
-            out = self._power(self.build(node.left), self.build(node.right), node)
-            self._check_size(out, node)
+            base, exponent = self.build(node.left), self.build(node.right)
+            out = self._power(base, exponent, node)
+            self._check_built(out, node, (base, exponent))
             return out
         # A long sum (a + b - c + ...) is one chain, not deep nesting: walk it iteratively.
         group = _GROUP[type(op)]
@@ -322,46 +369,34 @@ class _Builder:
         out = self.build(current)  # the leftmost operand
         for owner, operand in items:
             value = self.build(operand)
+            left = out
             kind = type(owner.op)
             if kind is ast.Add:
                 out = out + value
             elif kind is ast.Sub:
                 out = out - value
             elif kind is ast.Mult:
+                self._combined_powers(out, value, 1, owner)
                 out = out * value
             else:
                 if value == 0:
                     raise self.fail("division by zero", owner)
+                self._combined_powers(out, value, -1, owner)
                 out = out / value
-            self._check_size(out, owner)
+            self._check_built(out, owner, (left, value))
         return out
 
     def _power(self, base: sp.Expr, exponent: sp.Expr, node: ast.AST) -> sp.Expr:
         if exponent.is_Number:
-            if (
-                exponent.is_Integer
-                and abs(int(exponent)) > MAX_INT_EXPONENT
-                and not (base.is_Number and abs(base) in (0, 1))
-            ):
-                raise self.fail(
-                    f"exponent {exponent} is too large (at most "
-                    f"{MAX_INT_EXPONENT} in absolute value)",
-                    node,
-                )
-            if base.is_Number and base != 0:
-                digits = (
-                    abs(float(exponent)) * abs(math.log10(abs(float(base))))
-                    if abs(float(base)) not in (0.0, float("inf"))
-                    else 0.0
-                )
-                if digits > MAX_NUMBER_DIGITS:
-                    raise self.fail(
-                        f"number too large: the power has more than {MAX_NUMBER_DIGITS} digits",
-                        node,
-                    )
+            self._numbers_to_power(base, exponent, node)
             if base == 0 and exponent.is_negative:
                 raise self.fail("division by zero (0 to a negative power)", node)
-        out = sp.Pow(base, exponent)
+        if base == sp.E:
+            self._exponential(exponent, node)
+        try:
+            out = sp.Pow(base, exponent)
+        except _SYMPY_FAILURES as exc:
+            raise self.cannot(node, exc) from None
         if out.has(*_UNDEFINED):
             raise self.fail(
                 f"undefined: {_plain(base)}^({_plain(exponent)}) is not a finite "
@@ -370,15 +405,232 @@ class _Builder:
             )
         return out
 
-    def _check_size(self, out: sp.Expr, node: ast.AST) -> None:
-        if out.is_Rational and not out.is_Integer:
-            p, q = out.p, out.q
-        elif out.is_Integer:
-            p, q = int(out), 1
-        else:
+    def _exact_power_size(self, base: sp.Rational, exponent: sp.Expr, node: ast.AST) -> None:
+        """Refuse ``p/q`` to the power ``e`` when SymPy would work with exact numbers of
+        more than MAX_NUMBER_DIGITS digits to build it: |e| log10(max(|p|, q)) for the
+        result, whatever its magnitude (``1.0000001^1000000000`` is about 1e43 but has
+        7e9 digits), and, for e = a/b not whole, b log10(...) more for the root it takes
+        (``251352^3.14159`` would factor a 460,000-digit integer)."""
+        whole, root = _power_digits(base, exponent)
+        if max(whole, root) <= MAX_NUMBER_DIGITS:
             return
-        if max(abs(p), q).bit_length() > MAX_NUMBER_DIGITS * 3.33:
-            raise self.fail(f"number too large (more than {MAX_NUMBER_DIGITS} digits)", node)
+        shown = _short(self.segment(node) or f"({_plain(base)})^({_plain(exponent)})")
+        if whole > MAX_NUMBER_DIGITS:
+            raise self.fail(
+                f"number too large: `{shown}` has more than {MAX_NUMBER_DIGITS} digits as "
+                f"the exact number lamech keeps ({_short(_plain(base), 30)} to the power "
+                f"{_short(_plain(exponent), 30)}); write a smaller power",
+                node,
+            )
+        raise self.fail(
+            f"number too large: `{shown}` is an exact number to the power "
+            f"{_short(_plain(exponent), 30)}, whose root SymPy takes on integers of more than "
+            f"{MAX_NUMBER_DIGITS} digits; write the exponent as a fraction with a small "
+            "denominator (like 3/2)",
+            node,
+        )
+
+    def _numbers_to_power(self, base: sp.Expr, exponent: sp.Expr, node: ast.AST) -> None:
+        """Before base^exponent (exponent a number): SymPy takes the power of each
+        factor of a product when it may, and (b^e1)^e2 is b^(e1 e2) for it: bound each
+        exact number it would make."""
+        for factor in sp.Mul.make_args(base):
+            if factor.is_Rational:
+                self._exact_power_size(factor, exponent, node)
+            elif factor.is_Pow and factor.args[0].is_Rational and factor.args[1].is_Rational:
+                self._exact_power_size(factor.args[0], factor.args[1] * exponent, node)
+
+    def _exponential(self, arg: sp.Expr, node: ast.AST) -> None:
+        """Before exp(arg): SymPy splits a sum and makes exp(c log(b)) the exact b^c
+        (exp(-10^300 log(10)) would be 10^(-10^300) written out), so each constant term
+        of arg must keep exp within 10^-400 .. 10^400."""
+        # exp() also combines c log(b) into log(b^c) anywhere inside its argument
+        for sub in sp.preorder_traversal(arg):
+            if sub.is_Mul:
+                coeff, rest = sub.as_coeff_Mul()
+                for f in sp.Mul.make_args(rest):
+                    if isinstance(f, sp.log) and f.args[0].is_number and coeff.is_Rational:
+                        self._numbers_to_power(f.args[0], coeff, node)
+        for term in sp.Add.make_args(arg):
+            if not term.is_number or term.is_zero:
+                continue
+            try:
+                power = float(sp.re(term).evalf(15))
+            except _SYMPY_FAILURES:
+                power = math.inf
+            shown = _short(self.segment(node) or f"exp({_plain(arg)})")
+            if power > _MAX_EXP:
+                raise self.fail(
+                    f"`{shown}` is too large (about 10^{_count(power / math.log(10))}; a "
+                    f"constant may be at most 10^{MAX_NUMBER_DIGITS})",
+                    node,
+                )
+            if power < -_MAX_EXP and term.has(sp.log):
+                raise self.fail(
+                    f"`{shown}` is too small to keep exact (SymPy writes exp(c log(b)) as "
+                    f"b^c, here more than {MAX_NUMBER_DIGITS} digits)",
+                    node,
+                )
+
+    def _combined_powers(self, left: sp.Expr, right: sp.Expr, sign: int, node: ast.AST) -> None:
+        """Before ``left * right**sign``: SymPy merges powers of numbers (2^(1/7)*2^(1/11)
+        is 2^(18/77), 2^(1/3)*3^(1/3) is 6^(1/3)), and the merged one's exact root must
+        stay within bounds too (12^(1/7)*12^(1/11)*12^(1/13)*... would not)."""
+        ours, theirs = _numeric_powers(left), _numeric_powers(right)
+        if not ours or not theirs:
+            return
+        merged = dict(ours)
+        for b, e in theirs.items():
+            merged[b] = merged.get(b, sp.Integer(0)) + sign * e
+        by_exponent: dict[sp.Rational, float] = {}
+        for b, e in merged.items():
+            if e.is_Integer:
+                continue
+            self._exact_power_size(b, e, node)
+            by_exponent[e] = by_exponent.get(e, 0.0) + math.log10(max(abs(b.p), b.q))
+        for e, digits in by_exponent.items():
+            if digits * (abs(e) + e.q) > MAX_NUMBER_DIGITS:
+                raise self.fail(
+                    f"number too large: the powers of numbers in `{_short(self.segment(node))}` "
+                    f"combine into one whose exact root SymPy takes on integers of more than "
+                    f"{MAX_NUMBER_DIGITS} digits; write exponents with small denominators",
+                    node,
+                )
+
+    # ----- bounds on what was built ---------------------------------------------------
+    def segment(self, node: ast.AST) -> str:
+        """The user's own text of ``node`` (before the ``'`` and ``^`` rewrites)."""
+        start, end = getattr(node, "col_offset", None), getattr(node, "end_col_offset", None)
+        if start is None or end is None or end <= start:
+            return ""
+        return self.text[self.column_of(start) - 1 : self.column_of(end - 1)].strip()
+
+    def _check_built(self, out: sp.Expr, node: ast.AST, operands: tuple = ()) -> None:
+        """Bound what SymPy made of an operation on ``operands``: exact numbers by their
+        digits, exponents after combining, new constants by magnitude and realness, and
+        the number of terms the result would expand to."""
+        self._check_size(out, node)
+        self._check_exponents(out, node, operands)
+        parts = set(_factors(out))
+        old: set[sp.Expr] = set()
+        for operand in operands:
+            old.update(_factors(operand))
+        for part in parts - old:
+            # a sum of checked constants is no larger than its terms and real like them
+            if part.is_number and not (part.is_Rational or part.is_NumberSymbol or part.is_Add):
+                self._check_constant(part, node)
+        terms = self._terms(out)
+        if terms > MAX_TERMS:
+            shown = self.segment(node) or _plain(out)
+            raise self.fail(
+                f"`{_short(shown)}` would expand to more than {MAX_TERMS} terms (lamech "
+                "expands while it derives the equations); write a smaller power or fewer "
+                "terms",
+                node,
+            )
+
+    def _check_size(self, out: sp.Expr, node: ast.AST) -> None:
+        """Every exact number at the top of ``out`` (a coefficient of a product, of each
+        term of a sum) has at most MAX_NUMBER_DIGITS digits."""
+        terms = sp.Add.make_args(out) if out.is_Add else (out,)
+        for term in terms:
+            coeff = term.as_coeff_Mul()[0] if term.is_Mul else term
+            if not coeff.is_Rational:
+                continue
+            if max(abs(coeff.p), coeff.q).bit_length() > MAX_NUMBER_DIGITS * 3.33:
+                raise self.fail(f"number too large (more than {MAX_NUMBER_DIGITS} digits)", node)
+
+    def _check_exponents(self, out: sp.Expr, node: ast.AST, operands: tuple) -> None:
+        """The cap on exponents, applied to the powers SymPy has just made: the one
+        printed is the one checked, so what lamech prints parses back."""
+        for factor in _factors(out):
+            if not factor.is_Pow:
+                continue
+            base, exponent = factor.args
+            if not exponent.is_Number or base.is_Number or abs(exponent) <= MAX_INT_EXPONENT:
+                continue
+            written = self.segment(node)
+            printed = _plain(factor)
+            same = not written or tuple(factor.args) == tuple(operands)
+            raise self.fail(
+                f"exponent {_plain(exponent)} is too large (at most {MAX_INT_EXPONENT} in "
+                "absolute value"
+                + (
+                    ")"
+                    if same
+                    else f", after combining powers: {_short(written)} is {_short(printed)})"
+                ),
+                node,
+            )
+
+    def _check_constant(self, value: sp.Expr, node: ast.AST, what: str = "") -> None:
+        """A constant (no names in it) is a real number of magnitude at most
+        10^MAX_NUMBER_DIGITS: ``exp(exp(20))`` would make later steps (``sin`` of it,
+        floats) hang or overflow, ``asin(2)`` is complex."""
+        shown = _short(what or self.segment(node) or _plain(value))
+        try:
+            number = value.evalf(15)
+            re_part, im_part = number.as_real_imag()
+        except (ArithmeticError, ValueError, TypeError, RecursionError, MemoryError):
+            raise self.fail(f"`{shown}` cannot be evaluated as a number", node) from None
+        if not (re_part.is_Float or re_part.is_zero) or not (im_part.is_Float or im_part.is_zero):
+            return  # SymPy could not put a number on it; nothing was built either
+        size = max(_magnitude(re_part), _magnitude(im_part))
+        if size > MAX_NUMBER_DIGITS:
+            raise self.fail(
+                f"`{shown}` is too large (about 10^{_count(size)}; a constant may be at "
+                f"most 10^{MAX_NUMBER_DIGITS})",
+                node,
+            )
+        if value.is_extended_real is False or (
+            value.is_extended_real is None
+            and not im_part.is_zero
+            and abs(float(im_part)) > 1e-10 * max(1.0, abs(float(re_part)))
+        ):
+            raise self.fail(
+                f"`{shown}` is not a real number (it is {_plain_complex(number)}); "
+                "expressions must be real",
+                node,
+            )
+
+    def _terms(self, e: sp.Expr) -> int:
+        """An upper bound on the number of terms of ``sympy.expand(e)`` (capped just
+        above MAX_TERMS, so that the numbers stay small); functions count one each."""
+        known = self.terms_cache.get(e)
+        if known is not None:
+            return known
+        if e.is_Add:
+            n = sum(self._terms(a) for a in e.args)
+        elif e.is_Mul:
+            n = 1
+            for a in e.args:
+                n = min(n * self._terms(a), MAX_TERMS + 1)
+        elif e.is_Pow:
+            n = self._power_terms(e.args[0], e.args[1])
+        else:
+            n = 1
+        n = min(n, MAX_TERMS + 1)
+        self.terms_cache[e] = n
+        return n
+
+    def _power_terms(self, base: sp.Expr, exponent: sp.Expr) -> int:
+        if not exponent.is_Rational or base.is_Number:
+            return 1
+        k = abs(exponent.p) // exponent.q  # expand keeps the fractional part whole
+        if k <= 1:
+            return self._terms(base) if k == 1 else 1
+        if base.is_Mul:
+            n = 1
+            for f in base.args:
+                n = min(n * self._power_terms(f, exponent), MAX_TERMS + 1)
+            return n
+        if base.is_Pow and base.args[1].is_Rational:
+            return self._power_terms(base.args[0], base.args[1] * k)
+        t = self._terms(base)
+        if t <= 1:
+            return 1
+        # monomials of degree k in t terms (a multinomial): C(k + t - 1, t - 1)
+        return min(math.comb(k + t - 1, t - 1), MAX_TERMS + 1) if k <= 10**4 else MAX_TERMS + 1
 
     def _Call(self, node: ast.Call) -> sp.Expr:
         if not isinstance(node.func, ast.Name):
@@ -401,14 +653,77 @@ class _Builder:
         args = [self.build(a) for a in node.args]
         if name == "log" and args[0] == 0:
             raise self.fail("log(0) is undefined", node)
-        out = FUNCTIONS[name](*args)  # type: ignore[operator]
+        for arg, arg_node in zip(args, node.args):
+            if arg.is_number and not arg.is_Rational and not arg.is_NumberSymbol:
+                self._check_constant(arg, arg_node)
+        if name == "exp":
+            self._exponential(args[0], node)
+        try:
+            out = FUNCTIONS[name](*args)  # type: ignore[operator]
+        except _SYMPY_FAILURES as exc:
+            raise self.cannot(node, exc) from None
         if out.has(*_UNDEFINED):
             raise self.fail(
                 f"undefined: {name}({', '.join(_plain(a) for a in args)}) is not a "
                 "finite number (a pole, or atan2(0, 0))",
                 node,
             )
+        self._check_built(out, node, tuple(args))
         return out
+
+
+def _power_digits(base: sp.Rational, exponent: sp.Expr) -> tuple[float, float]:
+    """(digits of the exact base^exponent, digits of the integer whose root SymPy takes
+    for it): |e| log10(s) and, for e = a/b not whole, (|e| + b) log10(s), where s is the
+    larger of the base's numerator and denominator."""
+    size = max(abs(base.p), base.q)
+    if size <= 1:
+        return 0.0, 0.0  # 0, 1, -1: any power is 0, 1 or -1 (or undefined, reported later)
+    if not exponent.is_Rational:
+        return math.inf, math.inf
+    whole = abs(exponent.p) // exponent.q
+    work = whole + (exponent.q if exponent.q > 1 else 0)
+    log = math.log10(size)
+    return (whole * log if whole < 10**6 else math.inf, work * log if work < 10**6 else math.inf)
+
+
+def _numeric_powers(e: sp.Expr) -> dict:
+    """{b: x} for the factors b^x of ``e`` with b and x rational numbers."""
+    return {
+        f.args[0]: f.args[1]
+        for f in sp.Mul.make_args(e)
+        if f.is_Pow and f.args[0].is_Rational and f.args[1].is_Rational
+    }
+
+
+def _factors(e: sp.Expr) -> tuple:
+    """The factors of ``e`` at its top (``e`` itself unless it is a product)."""
+    return sp.Mul.make_args(e)
+
+
+def _magnitude(x: sp.Expr) -> float:
+    """log10 |x| of a SymPy Float (any exponent: inf past floats), or -inf for 0."""
+    if x.is_zero:
+        return -math.inf
+    _sign, _man, exp, bits = x._mpf_
+    return (exp + bits) * math.log10(2) if abs(exp + bits) < 10**300 else math.inf
+
+
+def _count(x: float) -> str:
+    """A decimal exponent for a message: 9566, or (2.1e+08)."""
+    if not math.isfinite(x):
+        return "(more than 1e+300)"
+    return f"{x:.0f}" if x < 1e6 else f"({x:.2g})"
+
+
+def _short(text: str, width: int = 60) -> str:
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def _plain_complex(number: sp.Expr) -> str:
+    re_part, im_part = number.as_real_imag()
+    sign = "-" if im_part < 0 else "+"
+    return f"{float(re_part):.6g} {sign} {abs(float(im_part)):.6g} i"
 
 
 def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expression") -> sp.Expr:
@@ -469,6 +784,13 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
             return max(len(text), 1)
         return origin[max(index, 0)] + 1
 
+    encoded = src.encode("utf-8")
+
+    def node_column(offset: int) -> int:
+        """The column of a node's ``col_offset``, which ``ast`` counts in UTF-8 bytes
+        (the letters standing for quotes take two)."""
+        return column_of(len(encoded[:offset].decode("utf-8", errors="ignore")))
+
     if _depth(src) > MAX_DEPTH:
         raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)", text)
     try:
@@ -483,11 +805,17 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
         raise ExpressionError("expression too complex to parse", text) from None
     if _tree_depth(tree) > MAX_DEPTH:
         raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)", text)
-    builder = _Builder(text, names, what, src, column_of)
+    builder = _Builder(text, names, what, src, node_column)
     try:
         return builder.build(tree)
     except RecursionError:
         raise ExpressionError("expression too complex", text) from None
+    except ExpressionError:
+        raise
+    except _SYMPY_FAILURES as exc:  # SymPy's own failure on some value: still an answer
+        raise ExpressionError(
+            f"cannot be evaluated ({type(exc).__name__} in SymPy); write it differently", text
+        ) from None
 
 
 def _tree_depth(node: ast.AST) -> int:
@@ -572,3 +900,76 @@ def to_text(expr: sp.Expr) -> str:
     """Problem-file text for ``expr``: parses back with :func:`parse` to the same value."""
     expr = grammar_form(sp.sympify(expr))
     return TextPrinter().doprint(expr).replace("**", "^")
+
+
+_BIDI = frozenset("\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
+
+
+def printable(text: str) -> str:
+    r"""``text`` safe to show on a terminal: control characters (tab excepted) and the
+    bidirectional overrides written as Python escapes (``\x1b``, ``\u202e``), so a
+    title, key or file name cannot move the cursor, clear the screen or reorder a line."""
+    if text.isprintable() and not _BIDI.intersection(text):
+        return text
+    return "".join(
+        ch if ch == "\t" or (ch.isprintable() and ch not in _BIDI) else ascii(ch)[1:-1]
+        for ch in text
+    )
+
+
+def not_differentiable(
+    expr: sp.Expr,
+    once: Collection[sp.Symbol],
+    twice: Collection[tuple[Collection[sp.Symbol], Collection[sp.Symbol]]] = (),
+) -> str | None:
+    """Why ``expr`` has no derivative in the grammar by a symbol of ``once``, or by a
+    pair (a, b) with a, b from one of the pairs of sets ``twice``; None when it has.
+
+    ``abs`` and ``sign`` are the grammar's functions with a kink and a jump: the
+    derivative of sign(u) is a delta function at u = 0 (an impulse), the second
+    derivative of abs(u) too, and either of a u that may be complex has no real
+    derivative. Only these functions' own derivatives are taken (a product's others
+    are no worse), so the check is cheap.
+    """
+    once = set(once)
+    for f in sorted(expr.atoms(sp.Abs, sp.sign), key=sp.default_sort_key):
+        free = f.args[0].free_symbols
+        orders = {(x,) for x in free & once}
+        for first, second in twice:
+            orders |= {
+                tuple(sorted((a, b), key=str))
+                for a in free & set(first)
+                for b in free & set(second)
+            }
+        for wrt in sorted(orders, key=lambda w: (len(w), [str(x) for x in w])):
+            if _has_real_derivative(f, wrt):
+                continue
+            u, text = _plain(f.args[0]), _plain(f)
+            if not f.args[0].is_extended_real:
+                return (
+                    f"`{text}`: {u} may be complex, and then {text} has no real "
+                    "derivative; take abs or sign of a real expression"
+                )
+            smooth = f"sqrt({u}^2 + eps^2)" if isinstance(f, sp.Abs) else f"tanh({u}/eps)"
+            kind = "has a kink" if isinstance(f, sp.Abs) else "jumps"
+            nth = "second derivative" if isinstance(f, sp.Abs) else "derivative"
+            return (
+                f"`{text}` {kind} at {u} = 0, where its {nth} is a delta function (an "
+                f"impulse) that the equations of motion cannot carry; write a smooth "
+                f"form such as {smooth} with a small parameter eps"
+            )
+    return None
+
+
+def _has_real_derivative(f: sp.Expr, wrt: tuple) -> bool:
+    try:
+        d = sp.diff(f, *wrt)
+    except (ValueError, TypeError, NotImplementedError):
+        return False
+    if d.has(sp.DiracDelta, sp.Derivative, sp.re, sp.im, sp.Subs):
+        return False
+    try:
+        to_text(d)
+    except ValueError:
+        return False
+    return True

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import math
 import random
+import signal
 import time
 import warnings
+from contextlib import contextmanager
 from datetime import timedelta
 
 import pytest
@@ -329,10 +331,28 @@ token_text = st.lists(st.sampled_from(TOKENS), max_size=40).map("".join)
 spaced_token_text = st.lists(st.sampled_from(TOKENS), max_size=40).map(" ".join)
 bombs = st.builds(
     lambda base, exps, op: op.join([base] + exps),
-    st.sampled_from(["9", "2", "10", "x", "(x+1)", "0.5", "1", "-1", "0", "99999"]),
-    st.lists(st.sampled_from(["9", "10", "64", "65", "99", "(9^9)", "-9", "0.5", "x"]),
+    st.sampled_from(["9", "2", "10", "x", "(x+1)", "0.5", "1", "-1", "0", "99999",
+                     "1.0000001", "1.01", "(x+y+m+g)", "pi", "exp(1)"]),
+    st.lists(st.sampled_from(["9", "10", "64", "65", "99", "(9^9)", "-9", "0.5", "x",
+                              "100000.5", "1000000000.5", "(1/3)"]),
              min_size=1, max_size=6),
     st.sampled_from(["^", "**"]),
+)
+# constants that grow past floats (exp(exp(20))) or that trigonometry cannot reduce
+towers = st.builds(
+    lambda fns, inner: "".join(fns) + inner + ")" * len(fns),
+    st.lists(st.sampled_from(["exp(", "cosh(", "sinh(", "sin(", "tan(", "asin(", "log(",
+                              "sqrt(", "atan(", "exp(-", "(10^300)*("]), max_size=6),
+    st.sampled_from(["10", "20", "1e300", "2", "-1", "0.5", "x", "1000", "pi"]),
+)
+# powers of sums and products of them: their expansion, not their text, is large
+expansions = st.builds(
+    lambda terms, n, times, joiner: joiner.join([f"({' + '.join(terms)})^{n}"] * times),
+    st.lists(st.sampled_from(["x", "y", "theta1", "m", "x'", "theta1'", "1"]), min_size=1,
+             max_size=6),
+    st.integers(1, 70),
+    st.integers(1, 4),
+    st.sampled_from(["*", "^", "/"]),
 )
 nested = st.builds(lambda n, inner, fn: fn * n + inner + ")" * n,
                    st.integers(0, 300), st.sampled_from(["x", "", "x,y", "1"]),
@@ -341,7 +361,7 @@ long_text = st.builds(lambda n, piece: piece * n, st.integers(1, 1200),
                       st.sampled_from(["x+", "(", "9^", "1", "x'*", "sin("]))
 
 ANY_TEXT = st.one_of(st.text(max_size=200), token_text, spaced_token_text, bombs, nested,
-                     long_text)
+                     long_text, towers, expansions)
 
 SLOW = timedelta(seconds=2)
 
@@ -377,6 +397,10 @@ def test_any_printable_ascii_parses_or_raises_expression_error(text):
     "0.5^-99999", "x^99999", "((((((((x))))))))^65", "1e308*1e308", "-" * 3999 + "x",
     "(" * 2000 + ")" * 1999, "sin(" * 1999, "9" * 3999, "0." + "1" * 3990,
     "9" * 1999 + "*" + "9" * 1999, "1" + "^9" * 1999,
+    # issue 17: what the text builds, not only the text
+    "1.0000001^1000000000.5", "1.01^20000.5", "theta1^100000.5", "((((1 + theta1)^64)^64)^64)",
+    "(x + y + theta1 + m + g + x')^64", "sin(exp(exp(20)))", "exp(exp(exp(exp(10))))",
+    "cosh(cosh(cosh(1e300)))", "tan(10^399*exp(900))", "x^64*x", "x" + "*x^64" * 200,
 ])
 def test_bombs_fail_fast(text):
     _parse_or_error(text)
@@ -447,7 +471,8 @@ def test_round_trip(text):
     except ExpressionError as e:
         # Well-formed text may still be refused for its value: 1/0, log(0), x^65, ...
         assert any(w in e.message for w in ("division by zero", "log(0)", "too large",
-                                            "nested too deeply", "undefined", "out of range")), (text, e.message)
+                                            "nested too deeply", "undefined", "out of range",
+                                            "not a real number")), (text, e.message)
         assume(False)
     assert not first.has(sp.nan, sp.zoo, sp.oo, -sp.oo), (text, first)
     try:
@@ -479,3 +504,104 @@ def test_columns_and_numbers():
     assert "not a decimal number" in err("0x1F").message
     assert "out of range" in err("1e-999999999").message
     assert parse("2.5e-3", NAMES) == sp.Rational(1, 400)
+
+
+# --------------------------------------------------------------------------------------
+# Bounds on what is built, not only on what is written (issue 17, item 1)
+# --------------------------------------------------------------------------------------
+
+@contextmanager
+def _within(seconds: float):
+    """Fail (instead of hanging the suite) when the block takes longer than ``seconds``."""
+    def on_alarm(signum, frame):
+        raise AssertionError(f"no answer within {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.mark.parametrize("text, words", [
+    # the exact rational 1.0000001^1000000000 has 7e9 digits, though its magnitude is small
+    ("1.0000001^1000000000.5", ["has more than 400 digits"]),
+    ("1.01^20000.5", ["has more than 400 digits"]),
+    ("(1/3)^1000", ["has more than 400 digits"]),
+    # a non-integer exponent is capped like an integer one
+    ("theta1^100000.5", ["exponent 200001/2 is too large"]),
+    ("x^(-129/2)", ["exponent -129/2 is too large"]),
+    # the cap applies after SymPy combines powers, so what lamech prints parses back
+    ("x^64*x", ["exponent 65 is too large", "x^64*x is x^65"]),
+    ("x^40/x^-40", ["exponent 80 is too large"]),
+    ("(x^2)^40", ["exponent 80 is too large"]),
+    ("((((1 + x)^64)^64)^64)", ["exponent 4096 is too large"]),
+    ("sqrt(x)^129", ["exponent 129/2 is too large"]),
+    # expansion: a power of a sum of k terms has C(n + k - 1, k - 1) terms
+    ("(x + y + theta1 + m + g)^64", ["would expand to more than 10000 terms"]),
+    ("(x + y + theta1)^40*(x' + theta1' + m)^40", ["would expand to", "terms"]),
+    # constants that grow past any float, or that trigonometry cannot reduce
+    ("sin(exp(exp(20)))", ["exp(exp(20))", "too large"]),
+    ("exp(exp(exp(exp(10))))", ["too large"]),
+    ("cosh(cosh(cosh(1e300)))", ["too large"]),
+    ("exp(1000)", ["too large"]),
+    ("1/exp(-10^400)", ["too large"]),
+    ("pi^(pi^(pi^pi))", ["too large"]),
+    ("2^(pi*10^300)", ["too large"]),
+    ("pi*10^399*10^399", ["too large"]),
+    ("x*10^300*10^300", ["too large"]),
+    # constants that are not real numbers
+    ("asin(2)", ["asin(2)", "not a real number"]),
+    ("sqrt(-1)", ["not a real number"]),
+    ("log(-1)*x", ["not a real number"]),
+    ("(-8)^(1/3)", ["not a real number"]),
+    ("acos(3/2) + x", ["not a real number"]),
+])
+def test_what_would_be_built_is_bounded(text, words):
+    with _within(2.0):
+        e = err(text)
+    for word in words:
+        assert word in e.message, (text, e.message)
+
+
+@pytest.mark.parametrize("text", [
+    "x^64", "x^63*x", "x^-64", "x^(127/2)", "(1 + x)^64", "(x + y + theta1)^20",
+    "exp(900)", "exp(-1000)", "sin(10^399)", "cosh(700)", "2^1000", "(1/2)^1000",
+    "sqrt(2)^100", "1^1000000000.5", "(-1)^1000000001", "0^1000000", "acos(1/2)",
+    "sqrt(2)/2", "log(2)", "atan2(-1, 0)", "exp(x)^100",
+])
+def test_within_the_bounds_is_accepted(text):
+    with _within(2.0):
+        parse(text, NAMES)
+
+
+@pytest.mark.parametrize("text", ["x^63*x", "x^32*x^32", "(x + 1)^60*(x + 1)^4",
+                                  "x^(127/2)", "(1/3)^600/(1/3)^590", "theta1'^64"])
+def test_what_lamech_prints_parses_back(text):
+    value = parse(text, NAMES)
+    assert parse(to_text(value), NAMES) == value
+
+
+def test_a_name_with_double_underscore_is_not_a_velocity():
+    """The parser's internal spelling of x' is not something a user can type."""
+    e = err("x__vel + 1")
+    assert "unknown name `x__vel`" in e.message
+    assert "velocit" not in e.message
+    assert "unknown name `theta1__acc`" in err("theta1__acc").message
+
+
+def test_the_derivative_of_t_is_not_a_velocity():
+    e = err("m*t'^2", what="T")
+    assert "`t'`: t is time, not a coordinate" in e.message
+    assert "velocities are not allowed" not in e.message
+    e = err("m'", what="T")
+    assert "`m'`: m is not a coordinate" in e.message
+
+
+def test_printable_escapes_control_characters():
+    from lamech.expr import printable
+    assert printable("a\x1b[2Jb\x00c\x7f\u202e") == "a\\x1b[2Jb\\x00c\\x7f\\u202e"
+    assert printable("tab\there, θ ok") == "tab\there, θ ok"
+    assert printable("plain") == "plain"

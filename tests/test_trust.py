@@ -574,3 +574,97 @@ def test_a_kept_constraint_is_used_on_its_manifold():
                  xd: L * w * np.cos(th), yd: L * w * np.sin(th)}
         polar = 1.3 * L * w**2 + 1.3 * 9.81 * np.cos(th)
         assert float(lam.subs(state)) == pytest.approx(polar, rel=1e-12)
+
+
+# ------------------------------------------ issue 17: hostile input answered, not crashed
+
+def test_ctrl_c_where_no_command_handles_it_is_one_line_and_130(monkeypatch, capsys):
+    """Ctrl-C while SymPy loads or the problem is read: no traceback, the shell's 130."""
+    from lamech.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(lamech.problem, "load", interrupted)
+    assert main(["solve", "pendulum"]) == 130
+    out, err = capsys.readouterr()
+    assert (out, err) == ("", "lamech: interrupted\n")
+
+
+def test_ctrl_c_during_start_up_of_the_real_command():
+    import signal
+    import time
+    proc = subprocess.Popen([sys.executable, "-m", "lamech", "solve", "cylinder"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(0.5)  # importing SymPy
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err
+    # 130 from lamech; -SIGINT if the signal came before Python's handler was set
+    assert proc.returncode in (130, -signal.SIGINT), (proc.returncode, err)
+    if proc.returncode == 130:
+        assert err.endswith("lamech: interrupted\n")
+
+
+def test_control_characters_in_a_file_name_are_escaped(tmp_path, monkeypatch, capsys):
+    """A file name (or title, or key) cannot clear the screen or recolour the terminal."""
+    from lamech.cli import main
+    monkeypatch.chdir(tmp_path)
+    assert main(["solve", "no\x1b[2Jwhere.toml"]) == 2
+    err = capsys.readouterr().err
+    assert "no\\x1b[2Jwhere.toml: no such file" in err and "\x1b" not in err
+    # a message from solving, not loading: the same
+    singular = (PENDULUM.replace('T = "m/2*(r\'^2 + r^2*theta\'^2)"', 'T = "m/2*(r\' + theta\')^2"')
+                .replace('f = "l - r"', 'f = "l - r - theta + theta0"'))
+    assert singular != PENDULUM
+    (tmp_path / "bad\x1b[31m.toml").write_text(singular, encoding="utf-8")
+    assert main(["solve", "bad\x1b[31m.toml"]) == 2
+    err = capsys.readouterr().err
+    assert "lamech: bad\\x1b[31m.toml: " in err and "\x1b" not in err
+
+
+def test_the_title_never_reaches_generated_code():
+    """A backslash-N (a Python escape) or a NUL in the title once broke the generated
+    source; the title is the user's text and is not part of it."""
+    import dataclasses
+    text = PENDULUM.replace(
+        "title = \"Simple pendulum: the string's tension as a Lagrange multiplier\"",
+        "title = 'Pendulum \\N{oops} \"\"\" \\x00 \\'",
+    )
+    assert text != PENDULUM
+    system = lamech.loads(text, "p.toml")
+    assert "\\N{oops}" in system.title
+    for title in (system.title, "nul \x00 inside"):
+        ns = lamech.compile_system(dataclasses.replace(system, title=title))
+        assert title not in ns.source
+    traj = lamech.simulate(system, 0.05, samples=3)
+    assert traj.status == "ok", traj.message
+
+
+def test_twenty_thousand_coordinates_are_refused_at_once():
+    """369 kB of coordinates once built a 20000 x 20000 symbolic mass matrix for minutes."""
+    import time
+    lines = [f"q{i} = {{ initial = 0, velocity = 0 }}" for i in range(20000)]
+    text = "[coordinates]\n" + "\n".join(lines) + "\n[lagrangian]\nT = \"q0'^2\"\n"
+    start = time.perf_counter()
+    with pytest.raises(lamech.ProblemFileError,
+                       match=r"big.toml:1: coordinates: 20000 coordinates: a problem file may "
+                             r"have at most 200"):
+        lamech.loads(text, "big.toml")
+    assert time.perf_counter() - start < 10
+
+
+@pytest.mark.parametrize("text, message", [
+    # one fault does not hide the next: both are reported, each at its line
+    ('theta = { initial = "theta0", velocity = 0, keep = "yes" }',
+     ["coordinates.theta.keep: `keep` must be true or false", "unknown name `R3`"]),
+])
+def test_a_bad_value_does_not_hide_the_next_error(text, message):
+    bad = PENDULUM.replace('theta = { initial = "theta0", velocity = 0 }', text)
+    bad = bad.replace('V = "-m*g*r*cos(theta)"', 'V = "-m*g*r*cos(theta) + R3"')
+    assert bad.count("R3") == 1 and "yes" in bad
+    with pytest.raises(lamech.ProblemFileError) as info:
+        lamech.loads(bad, "p.toml")
+    for m in message:
+        assert m in str(info.value)

@@ -101,10 +101,15 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``lamech`` with ``argv`` (default: the command line); return the exit status.
 
     A reader that closes the pipe early (``lamech examples | head -1``) ends the command
-    quietly, as ``cat`` would: no traceback, exit status 141 (128 + SIGPIPE).
+    quietly, as ``cat`` would: no traceback, exit status 141 (128 + SIGPIPE). Ctrl-C
+    where no command handles it (while SymPy loads, say) ends it with one line and the
+    shell's status for it, 130 (128 + SIGINT).
     """
     try:
         return _dispatch(_parser().parse_args(sys.argv[1:] if argv is None else argv))
+    except KeyboardInterrupt:
+        print("lamech: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:
         # Python's recipe: point stdout at /dev/null so that the interpreter's final
         # flush does not raise a second BrokenPipeError on the way out.
@@ -129,6 +134,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         for name in example_names():
             print(f"{name:<18} {example_title(name)}")
         return 0
+    from ..expr import printable
     from ..present import to_json, to_latex, to_text
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError, solve
@@ -159,7 +165,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
     except (DegenerateConstraintsError, ValueError) as exc:
-        print(f"lamech: {problem}: {exc}", file=sys.stderr)
+        text = "\n".join(printable(line) for line in str(exc).split("\n"))
+        print(f"lamech: {printable(str(problem))}: {text}", file=sys.stderr)
         return 2
     if getattr(args, "json", False):
         print(json.dumps(to_json(solution), indent=2, ensure_ascii=False))

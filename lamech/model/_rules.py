@@ -12,6 +12,7 @@ before it is in a system, does not know its index: ``constraint `rolling` unilat
 
 from __future__ import annotations
 
+import keyword
 import math
 import re
 from typing import TYPE_CHECKING, Any
@@ -92,6 +93,12 @@ def name_problem(name: Any) -> str | None:
     if name in RESERVED:
         kind = "a function" if name in FUNCTIONS else "reserved"
         return f"`{name}` is {kind} and cannot be a parameter or coordinate name; rename it"
+    if keyword.iskeyword(name):
+        return (
+            f"`{name}` is reserved (a keyword of the expression syntax, so no expression "
+            f"could use it) and cannot be a parameter or coordinate name; rename it "
+            f"(e.g. {name}1)"
+        )
     if name.startswith("lambda_") or "__" in name:
         return (
             f"`{name}`: names starting with `lambda_` or containing `__` are reserved "
@@ -541,7 +548,7 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
         if not _is_expr(expr):
             problem: str | None = _not_expr(expr, FIELDS[field][1])
         else:
-            problem = scope.problem(expr, field)
+            problem = scope.problem(expr, field) or _kink_problem(expr, field, s)
         if problem is not None:
             wrong.add(where)
             out.append((where, problem))
@@ -592,6 +599,35 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
         if g.radius is not None:
             check(g.radius, "scenery", where)
     return out
+
+
+def _kink_problem(expr: sp.Expr, field: str, s: System) -> str | None:
+    """An ``abs`` or ``sign`` where the derivation differentiates ``field`` into a delta
+    function: V once in q (the force), T and L in q' and then in q, q', t (M and
+    d/dt dT/dq'), f and the bodies' positions twice in q, t (gamma, and T from the
+    bodies), velocity constraints once, a force's point once in q (partial velocities)."""
+    if not expr.has(sp.Abs, sp.sign):
+        return None
+    q = {c.symbol for c in s.coordinates}
+    v = {c.velocity for c in s.coordinates}
+    qt = q | {s.t}
+    taken: dict[str, tuple[set, list, str]] = {
+        "T": (q | v | {s.t}, [(v, q | v | {s.t})], "T twice (M = d2T/dq'2)"),
+        "L": (q | v | {s.t}, [(v, q | v | {s.t})], "L twice (M = d2L/dq'2)"),
+        "V": (q, [], "V once (the force -dV/dq)"),
+        "f": (qt, [(qt, qt)], "a constraint f twice (its gamma)"),
+        "position": (qt, [(qt, qt)], "positions twice (T from the bodies)"),
+        "angle": (qt, [(qt, qt)], "angles twice (T from the bodies)"),
+        "velocity": (q | v | {s.t}, [], "a velocity constraint once"),
+        "at": (q, [], "a force's point once (its partial velocities)"),
+    }
+    if field not in taken:
+        return None
+    from ..expr import not_differentiable
+
+    once, twice, how = taken[field]
+    problem = not_differentiable(expr, once, twice)
+    return None if problem is None else f"{problem}; lamech differentiates {how}"
 
 
 def _no_velocity_issue(s: System) -> tuple[str, str]:
@@ -782,6 +818,7 @@ def _initial_issues(s: System) -> Issues:
     tol = INITIAL_TOLERANCE * scale
     # Floats once, not in each value() call (the 30-link chain: 120 entries, 60 calls).
     env = {sym: sp.Float(v, 30) for sym, v in {**pv, **state, s.t: 0.0}.items()}
+    out += _energy_at_start_issues(s, env, state)
     for i, con in enumerate(s.constraints):
         where = f"constraints[{i + 1}] `{con.name}`"
         try:
@@ -828,6 +865,37 @@ def _initial_issues(s: System) -> Issues:
                     "velocities",
                 )
             )
+    return out
+
+
+def _energy_at_start_issues(s: System, env: dict, state: dict) -> Issues:
+    """T, V and the generalized forces are finite real numbers at the initial state (a
+    pole there, V = 1/(theta - 1/2) at theta = 1/2, would make every multiplier zoo)."""
+    from ._checks import value
+
+    out: Issues = []
+    parts = [("lagrangian.T", "T", s.T), ("lagrangian.V", "V", s.V)]
+    parts += [
+        (f"forces.{c.name}", f"the force on {c.name}", Q)
+        for c, Q in zip(s.coordinates, s.forces)
+        if Q != 0
+    ]
+    for where, label, expr in parts:
+        try:
+            x = value(expr, env)
+        except (TypeError, ValueError, ArithmeticError):
+            x = float("nan")
+        if math.isfinite(x):
+            continue
+        at = ", ".join(f"{sym} = {state[sym]:.6g}" for sym in state if expr.has(sym))
+        out.append(
+            (
+                where,
+                f"{label} is not a finite real number at the initial state"
+                f"{f' ({at})' if at else ''}: a pole or a complex value there; start "
+                f"elsewhere or correct {label}",
+            )
+        )
     return out
 
 

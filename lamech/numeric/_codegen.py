@@ -317,7 +317,9 @@ def _source(system: System, dyn: Dynamics):
         _function_source(
             "dynamics",
             "t, q, v, p",
-            "(M, rhs = Q - h, A, gamma, mu) of '" + system.title.replace('"', "'") + "'. " + order,
+            # never the title: it is the user's text (a backslash or a NUL in it would
+            # break the source); the names in `order` are identifiers, checked
+            "(M, rhs = Q - h, A, gamma, mu) of the system. " + order,
             [
                 ("M", dyn.M),
                 ("rhs", rhs),
@@ -391,7 +393,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
     dyn = derive_dynamics(system)
     source, A, force_specs = _source(system, dyn)
     namespace: dict = {"math": math, "numpy": np}
-    exec(compile(source, f"<lamech generated: {system.title}>", "exec"), namespace)
+    exec(compile(source, "<lamech generated>", "exec"), namespace)
 
     fns = {
         k: namespace[k]

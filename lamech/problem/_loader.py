@@ -168,6 +168,15 @@ def _toml_escaped(key: str, form: str) -> str:
 
 MAX_BYTES = 1_000_000
 """The largest problem file read (bytes); a larger one, or an endless one, is refused."""
+LIMITS = {
+    "parameters": 500,
+    "coordinates": 200,
+    "constraints": 200,
+    "bodies": 200,
+    "scenery": 1000,
+}
+"""The most entries of each section a problem file may have: 20,000 coordinates fit in
+a 369 kB file, but their 20000 x 20000 symbolic mass matrix takes minutes to build."""
 
 
 def load(path: str | Path) -> System:
@@ -407,6 +416,17 @@ class _Loader:
                     f"unknown section or key `{key}`; known: " + ", ".join(sorted(_KNOWN_SECTIONS)),
                     (None, None, key),
                 )
+        for section, limit in LIMITS.items():
+            items = self.data.get(section)
+            if isinstance(items, (dict, list)) and len(items) > limit:
+                self.problem(
+                    section,
+                    f"{len(items)} {section}: a problem file may have at most {limit} "
+                    "(the symbolic derivation grows faster than the system: n coordinates "
+                    "make an n x n mass matrix); describe a smaller system",
+                    (section, 0, None) if isinstance(items, list) else (section, None, None),
+                )
+        self.fail_if_any()
         title = self.data.get("title", Path(self.source).stem)
         if not isinstance(title, str):
             self.problem("title", "title must be a string", (None, None, "title"))
