@@ -712,7 +712,7 @@ def _magnitude(x: sp.Expr) -> float:
 def _count(x: float) -> str:
     """A decimal exponent for a message: 9566, or (2.1e+08)."""
     if not math.isfinite(x):
-        return "(more than 1e+300)"
+        return "(10^300) at least"
     return f"{x:.0f}" if x < 1e6 else f"({x:.2g})"
 
 
