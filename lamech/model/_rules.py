@@ -896,7 +896,40 @@ def _energy_at_start_issues(s: System, env: dict, state: dict) -> Issues:
                 f"elsewhere or correct {label}",
             )
         )
+    if not out:
+        out += _negative_kinetic_issues(s, env)
     return out
+
+
+def _negative_kinetic_issues(s: System, env: dict) -> Issues:
+    """T is never negative: its mass matrix d^2T/dq'^2 at the initial state has no
+    negative eigenvalue (zero ones are a massless coordinate, allowed where the
+    constraints give it inertia)."""
+    import numpy as np
+
+    from ._checks import value
+
+    qd = [c.velocity for c in s.coordinates if s.T.has(c.velocity)]
+    if not qd:
+        return []
+    try:
+        M = np.array([[value(sp.diff(s.T, a, b), env) for b in qd] for a in qd], dtype=float)
+    except (TypeError, ValueError, ArithmeticError):
+        return []
+    if not np.all(np.isfinite(M)):
+        return []
+    w, v = np.linalg.eigh((M + M.T) / 2)
+    if w[0] >= -1e-12 * max(1.0, float(np.abs(w).max())):
+        return []
+    along = qd[int(np.argmax(np.abs(v[:, 0])))]
+    return [
+        (
+            "lagrangian.T",
+            f"T is negative for some velocities at the initial state (its mass matrix "
+            f"d^2T/dq'^2 has the eigenvalue {w[0]:.6g}, mostly along {along}): a kinetic "
+            "energy is never negative; check the signs and the masses in T",
+        )
+    ]
 
 
 def _dependent_issues(s: System) -> Issues:
