@@ -9,6 +9,7 @@ __all__ = [
     "add_tolerance_options",
     "positive_float",
     "positive_int",
+    "shown_name",
     "samples",
     "assignment",
     "evaluate_assignments",
@@ -133,3 +134,12 @@ def refuse_overwriting_input(problem: str, outputs: dict[str, str | None]) -> No
                 f"{flag} {target} is the problem file itself: writing there would replace "
                 "it; choose another name"
             )
+
+
+def shown_name(name) -> str:
+    """A file name as a message shows it: control characters escaped
+    (:func:`lamech.expr.printable`, imported here so the command line starts without
+    SymPy)."""
+    from ..expr import printable
+
+    return printable(str(name))

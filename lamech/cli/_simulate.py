@@ -9,7 +9,6 @@ import json
 import sys
 from pathlib import Path
 
-from ..expr import printable
 from ._args import (
     add_tolerance_options,
     assignment,
@@ -18,6 +17,7 @@ from ._args import (
     positive_int,
     refuse_overwriting_input,
     samples,
+    shown_name,
 )
 from ._signals import exit_status, noting, signal_name, stop_signals
 
@@ -249,7 +249,7 @@ def _run(args, phase: list[str]) -> int:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
     except DegenerateConstraintsError as exc:
-        print(f"lamech: {printable(str(args.problem))}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
         return 2
     for note in system.notes:  # a T that disagrees with the bodies: say it first
         print(f"lamech: warning: {note}", file=sys.stderr)
@@ -274,7 +274,7 @@ def _run(args, phase: list[str]) -> int:
             raise ValueError("give the end time: --t-end T (or --mode K, which has a default)")
         _check_output_size(args, len(system.coordinates))
     except ValueError as exc:
-        print(f"lamech: {printable(str(args.problem))}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
         return 2
     progress = _Progress(args.t_end, bar=sys.stderr.isatty() and not args.json)
     stopped_by: list[BaseException] = []
@@ -298,7 +298,7 @@ def _run(args, phase: list[str]) -> int:
             )
     except SimulationError as exc:
         progress.close()
-        print(f"lamech: {printable(str(args.problem))}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
         return 2
     progress.close()
     if traj.status == "interrupted" and stopped_by:
@@ -314,9 +314,7 @@ def _run(args, phase: list[str]) -> int:
     if traj.status == "failed" and traj.steps == 0:
         # Nothing was integrated (a massless body nothing ties, a singular KKT matrix at
         # the initial state): an error in the problem, said in one line; no outputs.
-        print(
-            f"lamech: {printable(str(args.problem))}: cannot start: {traj.message}", file=sys.stderr
-        )
+        print(f"lamech: {shown_name(args.problem)}: cannot start: {traj.message}", file=sys.stderr)
         return 2
     from ..present import to_text, trajectory_csv
 
@@ -373,11 +371,11 @@ def _run(args, phase: list[str]) -> int:
             print(released)
         print(to_text(traj), end="")
         if args.out:
-            print(f"  wrote {printable(str(args.out))}")
+            print(f"  wrote {shown_name(args.out)}")
         if args.plot:
-            print(f"  wrote {printable(str(args.plot))}")
+            print(f"  wrote {shown_name(args.plot)}")
         if args.animate:
-            print(f"  wrote {printable(str(args.animate))}")
+            print(f"  wrote {shown_name(args.animate)}")
     if traj.status == "interrupted":
         stop = stopped_by[0] if stopped_by else KeyboardInterrupt()
         kept = f"; the trajectory up to there is in {args.out}" if args.out else ""

@@ -8,8 +8,7 @@ import argparse
 import math
 import sys
 
-from ..expr import printable
-from ._args import add_tolerance_options, positive_float, positive_int
+from ._args import add_tolerance_options, positive_float, positive_int, shown_name
 from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
@@ -163,7 +162,7 @@ def _run(args) -> int:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
     except (SweepError, DegenerateConstraintsError) as exc:
-        print(f"lamech: {printable(str(args.problem))}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
         print(f"lamech: {exc}", file=sys.stderr)
@@ -207,7 +206,7 @@ def _run(args) -> int:
             file=sys.stderr,
         )
     if args.out:
-        print(f"  wrote {printable(str(args.out))}", file=out)
+        print(f"  wrote {shown_name(args.out)}", file=out)
     if args.plot:
         try:
             plot_sweep(result, args.plot)
@@ -217,7 +216,7 @@ def _run(args) -> int:
         except OSError as exc:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
-        print(f"  wrote {printable(str(args.plot))}", file=out)
+        print(f"  wrote {shown_name(args.plot)}", file=out)
     return 0 if set(result.counts) <= {"ok"} else 1
 
 
