@@ -45,6 +45,8 @@ from sympy.physics.mechanics import (
 )
 
 import lamech
+from bench.run import DOUBLE_PENDULUM_CARTESIAN as CARTESIAN_DOUBLE_PENDULUM
+from bench.run import DOUBLE_PENDULUM_POLAR as POLAR_DOUBLE_PENDULUM
 
 TIME = dynamicsymbols._t
 STATES = 6  # random states per problem, besides the initial one
@@ -100,71 +102,9 @@ angle = "q3 + q5"
 inertia = "J"
 """
 
-# The planar double pendulum with both bobs in Cartesian coordinates and the rods as
-# constraints; with f = |d|^2 - l^2 a rod's multiplier is -T/(2 l) (T its tension).
-CARTESIAN_DOUBLE_PENDULUM = """
-title = "Double pendulum, Cartesian"
-[parameters]
-m1 = 1.0
-m2 = 1.0
-l1 = 1.0
-l2 = 1.0
-g = 9.81
-[coordinates]
-x1 = { initial = 0.6, velocity = 0 }
-y1 = { initial = -0.8, velocity = 0 }
-x2 = { initial = 1.2, velocity = 0 }
-y2 = { initial = -1.6, velocity = 0 }
-[[constraints]]
-name = "rod1"
-f = "x1^2 + y1^2 - l1^2"
-[[constraints]]
-name = "rod2"
-f = "(x2 - x1)^2 + (y2 - y1)^2 - l2^2"
-[[bodies]]
-name = "bob1"
-mass = "m1"
-position = ["x1", "y1"]
-[[bodies]]
-name = "bob2"
-mass = "m2"
-position = ["x2", "y2"]
-[gravity]
-acceleration = "g"
-"""
-
-# The same pendulum in polar coordinates (each rod's length r and absolute angle from
-# the downward vertical), the rods as strings f = l - r: each multiplier is a tension.
-POLAR_DOUBLE_PENDULUM = """
-title = "Double pendulum, polar"
-[parameters]
-m1 = 1.0
-m2 = 1.0
-l1 = 1.0
-l2 = 1.0
-g = 9.81
-[coordinates]
-r1 = { initial = "l1", velocity = 0 }
-th1 = { initial = 0.6, velocity = 0 }
-r2 = { initial = "l2", velocity = 0 }
-th2 = { initial = 0.3, velocity = 0 }
-[[constraints]]
-name = "rod1"
-f = "l1 - r1"
-[[constraints]]
-name = "rod2"
-f = "l2 - r2"
-[[bodies]]
-name = "bob1"
-mass = "m1"
-position = ["r1*sin(th1)", "-r1*cos(th1)"]
-[[bodies]]
-name = "bob2"
-mass = "m2"
-position = ["r1*sin(th1) + r2*sin(th2)", "-r1*cos(th1) - r2*cos(th2)"]
-[gravity]
-acceleration = "g"
-"""
+# The double pendulums are benchmark B5's (bench/run.py), one text for both: Cartesian
+# bobs with rods f = |d|^2 - l^2 (a rod's multiplier is -T/(2 l), T its tension), and
+# polar coordinates with strings f = l - r (each multiplier a tension).
 
 SOURCES = {
     "four_bar": lambda: lamech.load("four_bar"),
