@@ -176,9 +176,19 @@ def test_the_pace_says_a_run_is_long_and_whether_it_is_stiff():
 
 
 # ----- items 6 and 7 through the command: the estimate, then a signal -------------------
-def _lamech(*args: str, cwd) -> subprocess.Popen:
+# the command with one more thread running (as in a notebook): its sweeps' workers come
+# from a fork server, not from forking it
+THREADED = (
+    "import sys, threading, time; "
+    "threading.Thread(target=time.sleep, args=(1e6,), daemon=True).start(); "
+    "from lamech.cli import main; sys.exit(main(sys.argv[1:]))"
+)
+
+
+def _lamech(*args: str, cwd, threaded: bool = False) -> subprocess.Popen:
+    start = ["-c", THREADED] if threaded else ["-m", "lamech"]
     return subprocess.Popen(
-        [sys.executable, "-m", "lamech", *args],
+        [sys.executable, *start, *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -277,18 +287,37 @@ def test_a_stiff_run_is_told_to_use_an_implicit_method(tmp_path):
 
 
 # ----- item 7: a sweep's workers end with it; item 6: bounded submission ---------------
-def _children(pid: int) -> list[int]:
-    """The processes whose parent is ``pid`` (Linux: /proc)."""
-    kids = []
+def _descendants(pid: int) -> list[int]:
+    """The processes started by ``pid``, their children, and so on (Linux: /proc)."""
+    parents: dict[int, int] = {}
     for d in Path("/proc").iterdir():
         if d.name.isdigit():
             try:
                 stat = (d / "stat").read_text()
             except OSError:
                 continue
-            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
-                kids.append(int(d.name))
-    return kids
+            parents[int(d.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    out, todo = [], [pid]
+    while todo:
+        here = todo.pop()
+        kids = [c for c, p in parents.items() if p == here]
+        out += kids
+        todo += kids
+    return out
+
+
+def _parent(pid: int) -> int | None:
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    except OSError:
+        return None
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
 
 
 def _alive(pid: int) -> bool:
@@ -301,8 +330,10 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
-@pytest.mark.parametrize("name", ["SIGTERM", "SIGKILL"])
-def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name):
+@pytest.mark.parametrize(
+    "name, threaded", [("SIGTERM", False), ("SIGKILL", False), ("SIGKILL", True)]
+)
+def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name, threaded):
     out = tmp_path / "t.csv"
     proc = _lamech(
         "sweep",
@@ -322,6 +353,7 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name):
         "--out",
         str(out),
         cwd=tmp_path,
+        threaded=threaded,
     )
     try:
         err, stdout = _lines(proc.stderr), _lines(proc.stdout)
@@ -330,8 +362,17 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name):
             not out.exists() or len(out.read_text().splitlines()) < 3
         ):
             time.sleep(0.05)
-        workers = _children(proc.pid)
-        assert len(workers) >= 2  # running cases: two rows are in
+        workers = _descendants(proc.pid)
+        # multiprocessing's own: the resource tracker, the fork server (not the workers it
+        # starts, which share its command line)
+        helpers = [
+            w
+            for w in workers
+            if _parent(w) == proc.pid and "from multiprocessing." in _cmdline(w)
+        ]
+        server = [w for w in helpers if "forkserver" in _cmdline(w)]
+        assert bool(server) == threaded  # a fork server only when other threads run
+        assert len(set(workers) - set(helpers)) >= 2  # running cases: two rows are in
         proc.send_signal(getattr(signal, name))
         rc = proc.wait(timeout=20)
         deadline = time.monotonic() + 10
@@ -361,8 +402,15 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name):
         assert rc == -signal.SIGKILL
 
 
-def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch):
+@pytest.mark.parametrize("threaded", [False, True])
+def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch, threaded):
+    """Also: with another thread running (a notebook's), the workers come from a fork
+    server; forking this process could copy a lock that thread holds, and hang."""
     from concurrent.futures import ProcessPoolExecutor
+
+    release = threading.Event()
+    if threaded:
+        threading.Thread(target=release.wait, daemon=True).start()
 
     lock, pending, most = threading.Lock(), [0], [0]
     submit = ProcessPoolExecutor.submit
@@ -380,9 +428,12 @@ def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch):
         return fut
 
     monkeypatch.setattr(ProcessPoolExecutor, "submit", counting)
-    run = run_sweep(
-        "pendulum", {"theta0": "0.1:0.5:300"}, ["max:theta"], t_end=0.01, samples=2, workers=2
-    )
+    try:
+        run = run_sweep(
+            "pendulum", {"theta0": "0.1:0.5:300"}, ["max:theta"], t_end=0.01, samples=2, workers=2
+        )
+    finally:
+        release.set()
     assert run.counts == {"ok": 300} and run.backend == "2 local processes"
     assert most[0] <= 8  # four per worker, not 300
     assert [r["max:theta"] for r in run.rows] == pytest.approx(list(np.linspace(0.1, 0.5, 300)))

@@ -152,20 +152,22 @@ def _run_case(ns, plan: _Plan, case: int, values: Mapping[str, float]) -> dict:
     return row
 
 
-def _worker_init(token: str, blob: bytes) -> None:
+def _worker_init(token: str, blob: bytes, sweep: int) -> None:
     global _WORKER_PLAN
-    _die_with_parent()
+    _die_with_sweep(sweep)
     plan = pickle.loads(blob)
     _WORKER_PLAN = (token, plan)
     _numeric(token, plan)
 
 
-def _die_with_parent() -> None:
-    """A worker ends when the sweep that started it does: SIGTERM and SIGHUP take their
-    default action here (a forked worker inherits the command's handlers, which would
-    turn them into a row marked interrupted), and a thread ends the process once its
-    parent is gone (killed with SIGKILL, say) instead of running on as an orphan that
-    holds the sweep's output pipe open."""
+def _die_with_sweep(sweep: int) -> None:
+    """A worker ends when the sweep that started it (process ``sweep``) does: SIGTERM and
+    SIGHUP take their default action here (a forked worker inherits the command's
+    handlers, which would turn them into a row marked interrupted), and a thread ends
+    the process once the sweep is gone (killed with SIGKILL, say) instead of running on
+    as an orphan that holds the sweep's output pipe open. The sweep is the parent of a
+    forked worker, the grandparent of one started by the fork server (whose workers
+    keep it alive: it cannot be the one watched)."""
     import signal
     import threading
 
@@ -174,12 +176,23 @@ def _die_with_parent() -> None:
             signal.signal(getattr(signal, name), signal.SIG_DFL)
     parent = os.getppid()
 
+    def alive() -> bool:
+        if parent == sweep and os.getppid() != parent:
+            return False  # forked, and the sweep has gone: this process was re-parented
+        try:
+            os.kill(sweep, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:  # pragma: no cover - the pid is another user's now
+            return False
+        return True
+
     def watch() -> None:
-        while os.getppid() == parent:
+        while alive():
             time.sleep(PARENT_POLL)
         os._exit(1)
 
-    threading.Thread(target=watch, name="lamech-parent-watch", daemon=True).start()
+    threading.Thread(target=watch, name="lamech-sweep-watch", daemon=True).start()
 
 
 PARENT_POLL = 0.2
@@ -494,7 +507,7 @@ def _run_cases(
     token = uuid.uuid4().hex
     from ..numeric import compile_system
 
-    ns = _COMPILED[token] = compile_system(system)  # checks the model; forked workers reuse it
+    ns = _COMPILED[token] = compile_system(system)  # checks the model before any worker starts
     compile_seconds = time.perf_counter() - t0
     ns.parameter_vector(cases[0])  # overrides checked once, before any worker starts
     run = SweepRun(
@@ -579,7 +592,10 @@ def _run_pool(workers: int, token: str, plan: _Plan, cases, todo, record) -> str
     workers = min(workers, len(todo))
     blob = pickle.dumps(plan)
     pool = ProcessPoolExecutor(
-        max_workers=workers, initializer=_worker_init, initargs=(token, blob)
+        max_workers=workers,
+        mp_context=_pool_context(),
+        initializer=_worker_init,
+        initargs=(token, blob, os.getpid()),
     )
     waiting = iter(todo)
     pending: set = set()
@@ -597,6 +613,27 @@ def _run_pool(workers: int, token: str, plan: _Plan, cases, todo, record) -> str
         raise
     pool.shutdown()
     return f"{workers} local processes"
+
+
+def _pool_context():
+    """How local workers start. By forking this process when it runs a single thread
+    (the command line, a plain script): at once, nothing imported again. Otherwise
+    from a fork server (started once, single-threaded, lamech imported in it): forking a
+    process that runs other threads (a notebook's, a test runner's, Dask's) copies locks
+    those threads may hold, and a worker can wait on one forever, so that the sweep
+    never ends. Each worker compiles the system from the plan (milliseconds). Spawn
+    where neither exists (Windows)."""
+    import multiprocessing as mp
+    import threading
+
+    methods = mp.get_all_start_methods()
+    if threading.active_count() == 1 and "fork" in methods:
+        return mp.get_context("fork")
+    if "forkserver" in methods:
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload([__name__, "lamech.numeric"])
+        return ctx
+    return mp.get_context("spawn")  # pragma: no cover - Windows
 
 
 def _end_pool(pool) -> None:

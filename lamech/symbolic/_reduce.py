@@ -459,7 +459,7 @@ def _probe(system: System, red: Reduction, symbols: set) -> dict:
     env: dict = {}
     pv = system.parameter_values
     start = _initial_numeric(system)
-    for s in symbols:
+    for s in sorted(symbols, key=str):  # the same point in every process (hash seed)
         if s in pv:
             env[s] = complex(pv[s])
         elif s in start and s != system.t:
