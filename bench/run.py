@@ -821,10 +821,12 @@ def main(argv=None) -> int:
                     help="run only these benchmarks (repeatable; symbolic is B5)")
     ap.add_argument("--out", default=None,
                     help="where to write the table (default bench/RESULTS.md; with --quick "
-                         "bench/quick/RESULTS.md, untracked, so a quick run never overwrites "
-                         "the published results)")
+                         "bench/quick/RESULTS.md, with --only bench/partial/RESULTS.md, both "
+                         "untracked, so a quick or partial run never overwrites the published "
+                         "results)")
     args = ap.parse_args(argv)
-    folder = HERE / "quick" if args.quick else HERE
+    # a quick or partial run never overwrites the published table (untracked folders)
+    folder = HERE / "quick" if args.quick else HERE / "partial" if args.only else HERE
     folder.mkdir(exist_ok=True)
     args.out = args.out or str(folder / "RESULTS.md")
     global PICTURE
