@@ -31,6 +31,7 @@ from __future__ import annotations
 import functools
 import math
 import random
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,6 +124,7 @@ def solved(name: str):
 
 # ------------------------------------------------------------ the peers, in SymPy alone
 
+
 @dataclass(frozen=True)
 class Peer:
     """A model in ``sympy.physics.mechanics`` terms: coordinates (dynamicsymbols, by
@@ -144,19 +146,28 @@ def _planar(angle):
 def four_bar_peer() -> Peer:
     th1, th2, th3 = dynamicsymbols("th1:4")
     m1, m2, m3, a, b, c, d, g = sp.symbols("m1 m2 m3 a b c d g", positive=True)
-    centres = [a / 2 * _planar(th1),
-               a * _planar(th1) + b / 2 * _planar(th2),
-               sp.Matrix([d, 0]) + c / 2 * _planar(th3)]
+    centres = [
+        a / 2 * _planar(th1),
+        a * _planar(th1) + b / 2 * _planar(th2),
+        sp.Matrix([d, 0]) + c / 2 * _planar(th3),
+    ]
     masses, lengths, angles = (m1, m2, m3), (a, b, c), (th1, th2, th3)
-    T = sum(m / 2 * p.diff(TIME).dot(p.diff(TIME)) + m * L**2 / 12 / 2 * th.diff(TIME) ** 2
-            for m, L, th, p in zip(masses, lengths, angles, centres))
+    T = sum(
+        m / 2 * p.diff(TIME).dot(p.diff(TIME)) + m * L**2 / 12 / 2 * th.diff(TIME) ** 2
+        for m, L, th, p in zip(masses, lengths, angles, centres)
+    )
     V = g * sum(m * p[1] for m, p in zip(masses, centres))
     B_crank_side = a * _planar(th1) + b * _planar(th2)
     B_rocker_side = sp.Matrix([d, 0]) + c * _planar(th3)
     loop = B_crank_side - B_rocker_side
-    return Peer(dict(th1=th1, th2=th2, th3=th3),
-                dict(m1=m1, m2=m2, m3=m3, a=a, b=b, c=c, d=d, g=g),
-                T, V, dict(loopx=loop[0], loopy=loop[1]), {})
+    return Peer(
+        dict(th1=th1, th2=th2, th3=th3),
+        dict(m1=m1, m2=m2, m3=m3, a=a, b=b, c=c, d=d, g=g),
+        T,
+        V,
+        dict(loopx=loop[0], loopy=loop[1]),
+        {},
+    )
 
 
 def rolling_disc_peer() -> Peer:
@@ -178,8 +189,14 @@ def rolling_disc_peer() -> Peer:
     T = m / 2 * v.dot(v) + w.dot(inertia(L, m * r**2 / 4, m * r**2 / 2, m * r**2 / 4).dot(w)) / 2
     V = m * g * centre.pos_from(origin).dot(N.z)
     slip = v + w.cross(-r * L.z)  # velocity of the disc's material point at the contact
-    return Peer(dict(x=x, y=y, psi=psi, theta=theta, phi=phi), dict(m=m, g=g, r=r),
-                T, V, {}, dict(roll_x=slip.dot(N.x), roll_y=slip.dot(N.y)))
+    return Peer(
+        dict(x=x, y=y, psi=psi, theta=theta, phi=phi),
+        dict(m=m, g=g, r=r),
+        T,
+        V,
+        {},
+        dict(roll_x=slip.dot(N.x), roll_y=slip.dot(N.y)),
+    )
 
 
 def snakeboard_peer() -> Peer:
@@ -199,22 +216,34 @@ def snakeboard_peer() -> Peer:
     Bo.v2pt_theory(Ao, N, A)
     Co.v2pt_theory(Ao, N, A)
     T = sum(m / 2 * P.vel(N).dot(P.vel(N)) for P in (Ao, Bo, Co)) + sum(
-        J / 2 * F.ang_vel_in(N).dot(N.z) ** 2 for F in (A, B, C))
-    return Peer(dict(q1=q1, q2=q2, q3=q3, q4=q4, q5=q5), dict(m=m, J=J, l=length), T,
-                sp.Integer(0), {},
-                dict(front=Bo.vel(N).dot(B.y), back=Co.vel(N).dot(C.y)))
+        J / 2 * F.ang_vel_in(N).dot(N.z) ** 2 for F in (A, B, C)
+    )
+    return Peer(
+        dict(q1=q1, q2=q2, q3=q3, q4=q4, q5=q5),
+        dict(m=m, J=J, l=length),
+        T,
+        sp.Integer(0),
+        {},
+        dict(front=Bo.vel(N).dot(B.y), back=Co.vel(N).dot(C.y)),
+    )
 
 
 def cartesian_double_pendulum_peer() -> Peer:
     x1, y1, x2, y2 = dynamicsymbols("x1 y1 x2 y2")
     m1, m2, l1, l2, g = sp.symbols("m1 m2 l1 l2 g", positive=True)
-    T = (m1 * (x1.diff(TIME) ** 2 + y1.diff(TIME) ** 2)
-         + m2 * (x2.diff(TIME) ** 2 + y2.diff(TIME) ** 2)) / 2
+    T = (
+        m1 * (x1.diff(TIME) ** 2 + y1.diff(TIME) ** 2)
+        + m2 * (x2.diff(TIME) ** 2 + y2.diff(TIME) ** 2)
+    ) / 2
     V = g * (m1 * y1 + m2 * y2)
-    return Peer(dict(x1=x1, y1=y1, x2=x2, y2=y2), dict(m1=m1, m2=m2, l1=l1, l2=l2, g=g),
-                T, V,
-                dict(rod1=x1**2 + y1**2 - l1**2, rod2=(x2 - x1) ** 2 + (y2 - y1) ** 2 - l2**2),
-                {})
+    return Peer(
+        dict(x1=x1, y1=y1, x2=x2, y2=y2),
+        dict(m1=m1, m2=m2, l1=l1, l2=l2, g=g),
+        T,
+        V,
+        dict(rod1=x1**2 + y1**2 - l1**2, rod2=(x2 - x1) ** 2 + (y2 - y1) ** 2 - l2**2),
+        {},
+    )
 
 
 def polar_double_pendulum_peer() -> Peer:
@@ -225,8 +254,14 @@ def polar_double_pendulum_peer() -> Peer:
     p2 = p1 + r2 * down(th2)
     T = (m1 * p1.diff(TIME).dot(p1.diff(TIME)) + m2 * p2.diff(TIME).dot(p2.diff(TIME))) / 2
     V = g * (m1 * p1[1] + m2 * p2[1])
-    return Peer(dict(r1=r1, th1=th1, r2=r2, th2=th2), dict(m1=m1, m2=m2, l1=l1, l2=l2, g=g),
-                T, V, dict(rod1=l1 - r1, rod2=l2 - r2), {})
+    return Peer(
+        dict(r1=r1, th1=th1, r2=r2, th2=th2),
+        dict(m1=m1, m2=m2, l1=l1, l2=l2, g=g),
+        T,
+        V,
+        dict(rod1=l1 - r1, rod2=l2 - r2),
+        {},
+    )
 
 
 PEERS = {
@@ -242,9 +277,12 @@ PEERS = {
 def peer_method(name: str):
     """(Peer, LagrangesMethod with its equations formed)."""
     peer = PEERS[name]()
-    lm = LagrangesMethod(peer.T - peer.V, list(peer.q.values()),
-                         hol_coneqs=list(peer.holonomic.values()) or None,
-                         nonhol_coneqs=list(peer.velocity.values()) or None)
+    lm = LagrangesMethod(
+        peer.T - peer.V,
+        list(peer.q.values()),
+        hol_coneqs=list(peer.holonomic.values()) or None,
+        nonhol_coneqs=list(peer.velocity.values()) or None,
+    )
     lm.form_lagranges_equations()
     return peer, lm
 
@@ -274,6 +312,7 @@ def in_lamech_symbols(expr: sp.Expr, name: str, system) -> sp.Expr:
 
 
 # ------------------------------------------------------------------------ states
+
 
 def value(expr, vals: dict) -> float:
     """``expr`` at ``vals`` (lamech symbols -> floats), with 30 digits so that long,
@@ -321,15 +360,29 @@ def four_bar_state(rng: random.Random, p: dict) -> dict:
 def four_bar_params(rng: random.Random) -> dict:
     # a + d < b + c and d - a > |b - c| for every draw: the linkage assembles at every
     # crank angle and B is never in line with A and D
-    return {"m1": rng.uniform(0.5, 2), "m2": rng.uniform(0.5, 2), "m3": rng.uniform(0.5, 2),
-            "a": rng.uniform(0.8, 1.2), "b": rng.uniform(1.8, 2.2), "c": rng.uniform(1.8, 2.2),
-            "d": rng.uniform(1.8, 2.2), "g": 9.81}
+    return {
+        "m1": rng.uniform(0.5, 2),
+        "m2": rng.uniform(0.5, 2),
+        "m3": rng.uniform(0.5, 2),
+        "a": rng.uniform(0.8, 1.2),
+        "b": rng.uniform(1.8, 2.2),
+        "c": rng.uniform(1.8, 2.2),
+        "d": rng.uniform(1.8, 2.2),
+        "g": 9.81,
+    }
 
 
 def rolling_disc_state(rng: random.Random, p: dict) -> dict:
-    s = {"x": rng.uniform(-1, 1), "y": rng.uniform(-1, 1), "psi": rng.uniform(-3, 3),
-         "theta": rng.uniform(-1.2, 1.2), "phi": rng.uniform(-3, 3),
-         "psi'": rng.uniform(-3, 3), "theta'": rng.uniform(-3, 3), "phi'": rng.uniform(-5, 5)}
+    s = {
+        "x": rng.uniform(-1, 1),
+        "y": rng.uniform(-1, 1),
+        "psi": rng.uniform(-3, 3),
+        "theta": rng.uniform(-1.2, 1.2),
+        "phi": rng.uniform(-3, 3),
+        "psi'": rng.uniform(-3, 3),
+        "theta'": rng.uniform(-3, 3),
+        "phi'": rng.uniform(-5, 5),
+    }
     s["x'"] = p["r"] * math.cos(s["psi"]) * s["phi'"]
     s["y'"] = p["r"] * math.sin(s["psi"]) * s["phi'"]
     return s
@@ -341,9 +394,16 @@ def rolling_disc_params(rng: random.Random) -> dict:
 
 def snakeboard_state(rng: random.Random, p: dict) -> dict:
     """q3, q4, q5 and their rates at random; q1', q2' from the two wheel constraints."""
-    s = {"q1": rng.uniform(-1, 1), "q2": rng.uniform(-1, 1), "q3": rng.uniform(-3, 3),
-         "q4": rng.uniform(-0.8, 0.8), "q5": rng.uniform(-0.8, 0.8),
-         "q3'": rng.uniform(-2, 2), "q4'": rng.uniform(-2, 2), "q5'": rng.uniform(-2, 2)}
+    s = {
+        "q1": rng.uniform(-1, 1),
+        "q2": rng.uniform(-1, 1),
+        "q3": rng.uniform(-3, 3),
+        "q4": rng.uniform(-0.8, 0.8),
+        "q5": rng.uniform(-0.8, 0.8),
+        "q3'": rng.uniform(-2, 2),
+        "q4'": rng.uniform(-2, 2),
+        "q5'": rng.uniform(-2, 2),
+    }
     h = p["l"] / 2
     f, b = s["q3"] + s["q4"], s["q3"] + s["q5"]
     A = np.array([[-math.sin(f), math.cos(f)], [-math.sin(b), math.cos(b)]])
@@ -358,22 +418,36 @@ def snakeboard_params(rng: random.Random) -> dict:
 
 def _angles(rng: random.Random) -> tuple[float, float, float, float]:
     """Both rods below their pivots (the branch of the file's initial state)."""
-    return (rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2), rng.uniform(-3, 3),
-            rng.uniform(-3, 3))
+    return (rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2), rng.uniform(-3, 3), rng.uniform(-3, 3))
 
 
 def cartesian_double_pendulum_at(t1, t2, w1, w2, p: dict) -> dict:
     l1, l2 = p["l1"], p["l2"]
     x1, y1 = l1 * math.sin(t1), -l1 * math.cos(t1)
     v1x, v1y = l1 * math.cos(t1) * w1, l1 * math.sin(t1) * w1
-    return {"x1": x1, "y1": y1, "x2": x1 + l2 * math.sin(t2), "y2": y1 - l2 * math.cos(t2),
-            "x1'": v1x, "y1'": v1y, "x2'": v1x + l2 * math.cos(t2) * w2,
-            "y2'": v1y + l2 * math.sin(t2) * w2}
+    return {
+        "x1": x1,
+        "y1": y1,
+        "x2": x1 + l2 * math.sin(t2),
+        "y2": y1 - l2 * math.cos(t2),
+        "x1'": v1x,
+        "y1'": v1y,
+        "x2'": v1x + l2 * math.cos(t2) * w2,
+        "y2'": v1y + l2 * math.sin(t2) * w2,
+    }
 
 
 def polar_double_pendulum_at(t1, t2, w1, w2, p: dict) -> dict:
-    return {"r1": p["l1"], "th1": t1, "r2": p["l2"], "th2": t2,
-            "r1'": 0.0, "th1'": w1, "r2'": 0.0, "th2'": w2}
+    return {
+        "r1": p["l1"],
+        "th1": t1,
+        "r2": p["l2"],
+        "th2": t2,
+        "r1'": 0.0,
+        "th1'": w1,
+        "r2'": 0.0,
+        "th2'": w2,
+    }
 
 
 def cartesian_double_pendulum_state(rng: random.Random, p: dict) -> dict:
@@ -385,8 +459,13 @@ def polar_double_pendulum_state(rng: random.Random, p: dict) -> dict:
 
 
 def double_pendulum_params(rng: random.Random) -> dict:
-    return {"m1": rng.uniform(0.5, 2), "m2": rng.uniform(0.5, 2), "l1": rng.uniform(0.5, 2),
-            "l2": rng.uniform(0.5, 2), "g": rng.uniform(5, 15)}
+    return {
+        "m1": rng.uniform(0.5, 2),
+        "m2": rng.uniform(0.5, 2),
+        "l1": rng.uniform(0.5, 2),
+        "l2": rng.uniform(0.5, 2),
+        "g": rng.uniform(5, 15),
+    }
 
 
 STATE = {
@@ -434,11 +513,13 @@ def lamech_multiplier(solution, name: str, vals: dict) -> float:
     delivered = solution.multipliers
     assert name in delivered, (
         f"no closed form for lambda_{name}: multipliers delivered {sorted(delivered)}; "
-        f"notes: {solution.notes}")
+        f"notes: {solution.notes}"
+    )
     return value(delivered[name], vals)
 
 
 # ------------------------------------------------------------------------ the tests
+
 
 def test_the_bundled_files_start_on_their_constraints():
     """The four-bar's start is exact (law of cosines: |f| ~ 1e-16); the disc starts in
@@ -455,8 +536,10 @@ def test_the_sympy_model_is_lamechs(name):
     symbols drawn at random: as functions, not only on the manifold)."""
     system = SOURCES[name]()
     peer, _ = peer_method(name)
-    pairs = [(in_lamech_symbols(peer.T, name, system), system.T, "T"),
-             (in_lamech_symbols(peer.V, name, system), system.V, "V")]
+    pairs = [
+        (in_lamech_symbols(peer.T, name, system), system.T, "T"),
+        (in_lamech_symbols(peer.V, name, system), system.V, "V"),
+    ]
     for c in system.constraints:
         mine = {**peer.holonomic, **peer.velocity}[c.name]
         pairs.append((in_lamech_symbols(mine, name, system), c.expr, c.name))
@@ -475,7 +558,8 @@ def test_every_multiplier_is_delivered(name):
     names = {c.name for c in solution.system.constraints}
     assert set(solution.multipliers) == names, (
         f"{name}: multipliers delivered {sorted(solution.multipliers)} of {sorted(names)}; "
-        f"notes: {solution.notes}")
+        f"notes: {solution.notes}"
+    )
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -490,11 +574,12 @@ def test_multipliers_agree_with_sympy(name):
         for c in system.constraints:
             mine = lamech_multiplier(solution, c.name, vals)
             assert mine == pytest.approx(theirs[c.name], rel=RTOL, abs=RTOL), (
-                f"{name}: lambda_{c.name} = {mine}, SymPy {theirs[c.name]} at {state}, "
-                f"{params}")
+                f"{name}: lambda_{c.name} = {mine}, SymPy {theirs[c.name]} at {state}, {params}"
+            )
 
 
 # ----------------------------------------------------------- Newton: double pendulum
+
 
 def double_pendulum_tensions(t1, t2, w1, w2, p):
     """Rod tensions by Newton's second law on each bob, with the angular accelerations
@@ -503,15 +588,28 @@ def double_pendulum_tensions(t1, t2, w1, w2, p):
     force residuals across the rods (zero when the accelerations are right)."""
     m1, m2, l1, l2, g = (p[k] for k in ("m1", "m2", "l1", "l2", "g"))
     den = 2 * m1 + m2 - m2 * math.cos(2 * t1 - 2 * t2)
-    a1 = (-g * (2 * m1 + m2) * math.sin(t1) - m2 * g * math.sin(t1 - 2 * t2)
-          - 2 * math.sin(t1 - t2) * m2 * (w2**2 * l2 + w1**2 * l1 * math.cos(t1 - t2))) / (
-        l1 * den)
-    a2 = (2 * math.sin(t1 - t2) * (w1**2 * l1 * (m1 + m2) + g * (m1 + m2) * math.cos(t1)
-                                    + w2**2 * l2 * m2 * math.cos(t1 - t2))) / (l2 * den)
+    a1 = (
+        -g * (2 * m1 + m2) * math.sin(t1)
+        - m2 * g * math.sin(t1 - 2 * t2)
+        - 2 * math.sin(t1 - t2) * m2 * (w2**2 * l2 + w1**2 * l1 * math.cos(t1 - t2))
+    ) / (l1 * den)
+    a2 = (
+        2
+        * math.sin(t1 - t2)
+        * (
+            w1**2 * l1 * (m1 + m2)
+            + g * (m1 + m2) * math.cos(t1)
+            + w2**2 * l2 * m2 * math.cos(t1 - t2)
+        )
+    ) / (l2 * den)
 
     def acc(r, t, w, alpha):  # of a point at r (sin t, -cos t) about a fixed pivot
-        return np.array([r * (alpha * math.cos(t) - w**2 * math.sin(t)),
-                         r * (alpha * math.sin(t) + w**2 * math.cos(t))])
+        return np.array(
+            [
+                r * (alpha * math.cos(t) - w**2 * math.sin(t)),
+                r * (alpha * math.sin(t) + w**2 * math.cos(t)),
+            ]
+        )
 
     acc1 = acc(l1, t1, w1, a1)
     acc2 = acc1 + acc(l2, t2, w2, a2)
@@ -551,6 +649,7 @@ def test_double_pendulum_tensions_by_newton(name):
 
 # ------------------------------------------------------------- Newton-Euler: four-bar
 
+
 def four_bar_pin_forces(state: dict, p: dict) -> np.ndarray:
     """Newton-Euler on each link (Norton ch. 11), numerically: unknowns the angular
     accelerations al1, al2, al3 and the pin forces O (ground on crank), A (crank on
@@ -566,12 +665,12 @@ def four_bar_pin_forces(state: dict, p: dict) -> np.ndarray:
     n = [np.array([-math.sin(t), math.cos(t)]) for t in th]  # d e/d th
     # accelerations are affine in al = (al1, al2, al3): acc = J al + k
     crank_end_J, crank_end_k = np.outer(a * n[0], [1, 0, 0]), -a * w[0] ** 2 * e[0]
-    G = [(np.outer(a / 2 * n[0], [1, 0, 0]), -a / 2 * w[0] ** 2 * e[0]),
-         (crank_end_J + np.outer(b / 2 * n[1], [0, 1, 0]),
-          crank_end_k - b / 2 * w[1] ** 2 * e[1]),
-         (np.outer(c / 2 * n[2], [0, 0, 1]), -c / 2 * w[2] ** 2 * e[2])]
-    pos = {"O": np.zeros(2), "A": a * e[0], "B": a * e[0] + b * e[1],
-           "D": np.array([d, 0.0])}
+    G = [
+        (np.outer(a / 2 * n[0], [1, 0, 0]), -a / 2 * w[0] ** 2 * e[0]),
+        (crank_end_J + np.outer(b / 2 * n[1], [0, 1, 0]), crank_end_k - b / 2 * w[1] ** 2 * e[1]),
+        (np.outer(c / 2 * n[2], [0, 0, 1]), -c / 2 * w[2] ** 2 * e[2]),
+    ]
+    pos = {"O": np.zeros(2), "A": a * e[0], "B": a * e[0] + b * e[1], "D": np.array([d, 0.0])}
     centre = [a / 2 * e[0], a * e[0] + b / 2 * e[1], pos["D"] + c / 2 * e[2]]
     # which pin forces act on which link, with which sign
     acting = [[("O", 1), ("A", -1)], [("A", 1), ("B", 1)], [("D", 1), ("B", -1)]]
@@ -628,17 +727,23 @@ def test_four_bar_newton_euler_keeps_the_energy():
         n = [np.array([-math.sin(t), math.cos(t)]) for t in th]
         vel = [a / 2 * w[0] * n[0], a * w[0] * n[0] + b / 2 * w[1] * n[1], c / 2 * w[2] * n[2]]
         tip = a * (al[0] * n[0] - w[0] ** 2 * e[0])
-        acc = [tip / 2, tip + b / 2 * (al[1] * n[1] - w[1] ** 2 * e[1]),
-               c / 2 * (al[2] * n[2] - w[2] ** 2 * e[2])]
+        acc = [
+            tip / 2,
+            tip + b / 2 * (al[1] * n[1] - w[1] ** 2 * e[1]),
+            c / 2 * (al[2] * n[2] - w[2] ** 2 * e[2]),
+        ]
         mass = [p["m1"], p["m2"], p["m3"]]
         moment = [mass[0] * a**2 / 12, mass[1] * b**2 / 12, mass[2] * c**2 / 12]
-        power = sum(m * (v @ ac) + i * wi * ali + m * p["g"] * v[1]
-                    for m, v, ac, i, wi, ali in zip(mass, vel, acc, moment, w, al))
+        power = sum(
+            m * (v @ ac) + i * wi * ali + m * p["g"] * v[1]
+            for m, v, ac, i, wi, ali in zip(mass, vel, acc, moment, w, al)
+        )
         kinetic = sum(m * (v @ v) + i * wi**2 for m, v, i, wi in zip(mass, vel, moment, w))
         assert abs(power) < 1e-10 * (1 + kinetic) * (1 + max(abs(x) for x in w))
 
 
 # -------------------------------------------------------- the disc's steady turn
+
 
 def test_rolling_disc_steady_turn_friction_is_centripetal():
     """In a steady turn (lean theta0, yaw rate Omega, spin phi' = -5 Omega sin(theta0)/6
@@ -650,25 +755,94 @@ def test_rolling_disc_steady_turn_friction_is_centripetal():
     system = solution.system
     S = system.symbols
     rng = random.Random(3)
-    reduced = {c: eq for c in solution.independent for eq in solution.reduced_equations
-               if S[c + "''"] in eq.free_symbols}
+    reduced = {
+        c: eq
+        for c in solution.independent
+        for eq in solution.reduced_equations
+        if S[c + "''"] in eq.free_symbols
+    }
     for _ in range(4):
         p = {**file_params(system), **rolling_disc_params(rng)}
         th0 = rng.choice((-1, 1)) * rng.uniform(0.1, 1.0)
         Om = rng.choice((-1, 1)) * rng.uniform(1.0, 3.0)
         spin = -5 * Om * math.sin(th0) / 6 - 2 * p["g"] * math.tan(th0) / (3 * Om * p["r"])
         psi = rng.uniform(-3, 3)
-        state = {"x": rng.uniform(-1, 1), "y": rng.uniform(-1, 1), "psi": psi, "theta": th0,
-                 "phi": rng.uniform(-3, 3), "psi'": Om, "theta'": 0.0, "phi'": spin,
-                 "x'": p["r"] * math.cos(psi) * spin, "y'": p["r"] * math.sin(psi) * spin}
+        state = {
+            "x": rng.uniform(-1, 1),
+            "y": rng.uniform(-1, 1),
+            "psi": psi,
+            "theta": th0,
+            "phi": rng.uniform(-3, 3),
+            "psi'": Om,
+            "theta'": 0.0,
+            "phi'": spin,
+            "x'": p["r"] * math.cos(psi) * spin,
+            "y'": p["r"] * math.sin(psi) * spin,
+        }
         vals = symbol_values(system, state, p)
         for coordinate in ("theta", "psi", "phi"):
             assert coordinate in reduced, (
-                f"no closed form for {coordinate}''; notes: {solution.notes}")
+                f"no closed form for {coordinate}''; notes: {solution.notes}"
+            )
             at_rest = {**vals, S[coordinate + "''"]: 0.0}
             assert abs(value(reduced[coordinate], at_rest)) < 1e-9 * p["g"] / p["r"]
         force = p["m"] * p["r"] * Om * (Om * math.sin(th0) + spin)
         assert lamech_multiplier(solution, "roll_x", vals) == pytest.approx(
-            -force * math.sin(psi), abs=1e-9 * (1 + abs(force)))
+            -force * math.sin(psi), abs=1e-9 * (1 + abs(force))
+        )
         assert lamech_multiplier(solution, "roll_y", vals) == pytest.approx(
-            force * math.cos(psi), abs=1e-9 * (1 + abs(force)))
+            force * math.cos(psi), abs=1e-9 * (1 + abs(force))
+        )
+
+
+# ----- every simplification bounded in time (a SymPy call can take minutes) ----------
+def test_a_simplification_past_its_bound_gives_the_expression_back():
+    """An endless SymPy computation is stopped at the bound: the solve goes on with the
+    expression as it was, so no problem can hang the symbolic path."""
+    from lamech.symbolic import simplification_bound, tidy
+
+    calls = []
+    real = sp.simplify
+
+    def endless(e, *args, **kwargs):
+        calls.append(e)
+        while True:  # pure Python, as SymPy is: the timer interrupts it
+            real(sp.sin(e) ** 2 + sp.cos(e) ** 2 + sp.Symbol(f"z{len(calls)}"))
+
+    x = sp.Symbol("x")
+    e = sp.sin(x) ** 2 + sp.cos(x) ** 2 + x
+    t0 = time.perf_counter()
+    with pytest.MonkeyPatch.context() as mp, simplification_bound(0.2):
+        mp.setattr(sp, "simplify", endless)
+        assert tidy(e) == e
+    assert calls and time.perf_counter() - t0 < 5
+    assert tidy(e) == x + 1  # the bound is back to its default
+
+
+def test_a_tight_bound_gives_the_same_multipliers_less_tidy():
+    """The double pendulum with every simplification cut at 1 ms: the same functions
+    (equal at random states), whatever their written form."""
+    from lamech.symbolic import simplification_bound
+
+    text = lamech.load("double_pendulum")
+    full = lamech.solve(text)
+    with simplification_bound(0.001):
+        cut = lamech.solve(text)
+    rng = np.random.default_rng(5)
+    S = full.symbols
+    names = ["theta1", "theta2", "theta1'", "theta2'"]
+    for values in rng.uniform(-2, 2, size=(3, 4)):
+        env = {**full.system.parameter_values, full.system.t: 0}
+        env.update({S[n]: v for n, v in zip(names, values)})
+        for k in full.multipliers:
+            a = float(full.multipliers[k].xreplace(env))
+            b = float(cut.multipliers[k].xreplace(env))
+            assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
+
+
+def test_the_bound_must_be_positive():
+    from lamech.symbolic import simplification_bound
+
+    with pytest.raises(ValueError, match="must be positive"):
+        with simplification_bound(0):
+            pass

@@ -6,6 +6,7 @@ generalized and Cartesian constraint forces; all gathered by :func:`solve` into 
 :class:`~lamech.model.System`; the sign convention is stated in :mod:`lamech.model`.
 """
 
+from ._budget import SIMPLIFY_SECONDS, simplification_bound
 from ._conditions import (
     Root,
     Verdict,
@@ -46,6 +47,8 @@ __all__ = [
     "KKT_OPS",
     "READABLE_OPS",
     "SYMBOLIC_SECONDS",
+    "SIMPLIFY_SECONDS",
+    "simplification_bound",
     "Integrals",
     "integrals",
     "Shell",

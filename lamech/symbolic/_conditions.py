@@ -21,6 +21,7 @@ import sympy as sp
 
 from ..expr import to_text
 from ..model import System
+from ._budget import within
 from ._integrals import Shell
 from ._student import has_big_integer, student
 
@@ -332,7 +333,7 @@ def tidy_light(expr: sp.Expr) -> sp.Expr:
     if sp.count_ops(expr) > 200:
         return expr
     try:
-        return sp.simplify(expr)
+        return within(sp.simplify, expr, fallback=expr)
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return expr
 

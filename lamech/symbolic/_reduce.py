@@ -30,6 +30,7 @@ except ImportError:  # pragma: no cover - SymPy 1.12
     from sympy.matrices.common import NonInvertibleMatrixError
 
 from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_derivative
+from ._budget import within
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier
 from ._student import outer_signs, student
@@ -64,10 +65,15 @@ time is left): past it, only M, h, A, gamma and numeric multipliers are given.""
 
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify within a size budget: full ``simplify`` for small expressions, a cheap
-    ``cancel``/``trigsimp`` pass for medium ones, nothing for large ones."""
+    ``cancel``/``trigsimp`` pass for medium ones, nothing for large ones; and within
+    :data:`SIMPLIFY_SECONDS` (:func:`within`): past it, ``expr`` as it is."""
     expr = sp.sympify(expr)
     if expr.is_Number or expr.is_Symbol:
         return expr
+    return within(_tidy, expr, fallback=expr)
+
+
+def _tidy(expr: sp.Expr) -> sp.Expr:
     ops = sp.count_ops(expr)
     if ops > MAX_OPS:
         return expr
@@ -322,6 +328,10 @@ def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) ->
             and len(angles_of(system, red)) >= 2
         ):
             projected = _solve_projected(dyn, red)
+        if projected is not None:
+            lams = _multipliers_projected(system, eqs, red, projected)
+            if lams is not None:
+                return _closed(system, red, projected + lams, on_manifold)
         if small:
             K = K.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
             rhs = rhs.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
@@ -345,6 +355,13 @@ def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) ->
         if time.perf_counter() < deadline:
             s = on_manifold(_tidy_angles(s, angles))
         out.append(s)
+    return _closed(system, red, out, on_manifold)
+
+
+def _closed(system: System, red: Reduction, out: list, on_manifold: Any) -> ClosedForms:
+    """The :class:`ClosedForms` of the solution ``out`` (independent accelerations, then
+    the multipliers in constraint order), long ones measured."""
+    nacc = len(red.independent)
     velocities = [c.velocity for c in red.independent]
     acc = {c.acceleration: out[i] for i, c in enumerate(red.independent)}
     lam = {}
@@ -402,10 +419,16 @@ def angle_tidy(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
     deltas = [sp.Dummy(f"delta{k}") for k in range(len(used) - 1)]
     to_delta = {used[k]: used[0] - sum(deltas[:k], sp.Integer(0)) for k in range(1, len(used))}
     back = {deltas[k]: used[k] - used[k + 1] for k in range(len(deltas))}
-    try:
-        e = sp.expand_trig(expr.xreplace(to_delta))
-        e = sp.factor(sp.trigsimp(sp.cancel(e)))
-    except (TypeError, ValueError, RecursionError, NotImplementedError, sp.PolynomialError):
+
+    def rewrite() -> sp.Expr:
+        try:
+            e = sp.expand_trig(expr.xreplace(to_delta))
+            return sp.factor(sp.trigsimp(sp.cancel(e)))
+        except (TypeError, ValueError, RecursionError, NotImplementedError, sp.PolynomialError):
+            return expr
+
+    e = within(rewrite, fallback=expr)
+    if e is expr:
         return expr
     e = e.xreplace(back)
     return e if sp.count_ops(e) < ops else expr
@@ -436,6 +459,43 @@ def _solve_projected(dyn: Dynamics, red: Reduction) -> list[sp.Expr]:
     fr = (J.T * (M * b + rest)).applyfunc(tidy)
     angles = angles_of(system, red)
     return [_tidy_angles(e, angles) for e in _solve_linear(Mr, -fr)]
+
+
+def _multipliers_projected(
+    system: System, eqs: list, red: Reduction, acc: list[sp.Expr]
+) -> list[sp.Expr] | None:
+    """The multipliers from the Euler-Lagrange equations with the projected (already
+    tidy) accelerations substituted: linear in the multipliers alone, so as many
+    equations as multipliers suffice, the shortest whose coefficients are regular at a
+    generic point (the polar double pendulum's r-equations, where each multiplier stands
+    alone). Each comes out short, where the multipliers of the whole KKT solve, the same
+    functions, are long expressions whose cancelling costs seconds. None when no such
+    equations are found."""
+    lam = list(system.multipliers)
+    if not lam:
+        return []
+    sub = {c.acceleration: a for c, a in zip(red.independent, acc)}
+    rows = []
+    for e in eqs[: len(system.q)]:
+        coeffs = [sp.diff(e, x) for x in lam]
+        rest = e.xreplace({x: 0 for x in lam}).xreplace(sub)
+        rows.append((sum(sp.count_ops(c) for c in coeffs) + sp.count_ops(rest), coeffs, rest))
+    rows.sort(key=lambda r: r[0])
+    probe = _probe(system, red, set().union(*(sp.Matrix(r[1]).free_symbols for r in rows)))
+    chosen: list = []
+    for row in rows:
+        trial = chosen + [row]
+        values = [[complex(c.xreplace(probe).evalf()) for c in r[1]] for r in trial]
+        if np.linalg.matrix_rank(np.array(values), tol=1e-9) == len(trial):
+            chosen = trial
+        if len(chosen) == len(lam):
+            break
+    else:
+        return None
+    K = sp.Matrix([r[1] for r in chosen])
+    rhs = sp.Matrix([-r[2] for r in chosen])
+    angles = angles_of(system, red)
+    return [_tidy_angles(_pre(x), angles) for x in _solve_linear(K, rhs)]
 
 
 def _has_radical(expr: sp.Expr) -> bool:
@@ -525,7 +585,7 @@ def _pre(e: sp.Expr) -> sp.Expr:
     e = sp.sympify(e)
     if sp.count_ops(e) >= SIMPLIFY_OPS or _nested_radical(e):
         return e
-    return sp.cancel(e)
+    return within(sp.cancel, e, fallback=e)
 
 
 def _nested_radical(e: sp.Expr) -> bool:

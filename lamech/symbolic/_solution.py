@@ -9,6 +9,7 @@ from functools import cached_property
 import sympy as sp
 
 from ..model import System, circle_chart, holding_at_start, initial_values, open_at_start
+from ._budget import within
 from ._conditions import (
     Root,
     Verdict,
@@ -245,10 +246,13 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
     if ops > 4 * SIMPLIFY_OPS:
         return equation
     try:
-        new = sp.collect(
-            sp.expand(equation),
-            system.qdd + system.multipliers,
-            func=lambda c: sp.factor_terms(sp.trigsimp(c)),
+        new = within(
+            lambda: sp.collect(
+                sp.expand(equation),
+                system.qdd + system.multipliers,
+                func=lambda c: sp.factor_terms(sp.trigsimp(c)),
+            ),
+            fallback=equation,
         )
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return equation

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ._budget import within
+
 __all__ = ["student", "outer_signs", "has_big_integer"]
 
 BUDGET = 150
@@ -25,10 +27,15 @@ BUDGET = 150
 
 
 def student(expr: sp.Expr) -> sp.Expr:
-    """The most readable of a few identities of ``expr`` (see the module docstring)."""
+    """The most readable of a few identities of ``expr`` (see the module docstring),
+    within :data:`SIMPLIFY_SECONDS`."""
     expr = sp.sympify(expr)
     if expr.is_Atom or sp.count_ops(expr) > BUDGET:
         return outer_signs(expr)
+    return within(_student, expr, fallback=expr)
+
+
+def _student(expr: sp.Expr) -> sp.Expr:
     best, best_score = expr, _score(expr)
     for cand in _candidates(expr):
         try:
