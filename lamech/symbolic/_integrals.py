@@ -22,6 +22,7 @@ import mpmath
 import sympy as sp
 
 from ..model import Coordinate
+from ._budget import within
 from ._derive import Dynamics
 from ._reduce import ClosedForms, Reduction, tidy
 
@@ -139,9 +140,10 @@ def _quadratic_energy(system, red: Reduction, qd: list) -> sp.Expr | None:
     if not _is_zero(sum((v * sp.diff(T, v) for v in qd), sp.Integer(0)) - 2 * T):
         return None
     try:
-        return sp.factor_terms(sp.trigsimp(sp.expand(T))) + system.V
+        short = within(lambda: sp.factor_terms(sp.trigsimp(sp.expand(T))), fallback=None)
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return None
+    return None if short is None else short + system.V
 
 
 def _coordinate_jacobian(system, red: Reduction) -> sp.Matrix:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..model import System, time_derivative
+from ._budget import within
 from ._student import student
 
 __all__ = ["manifold_simplifier"]
@@ -108,6 +109,9 @@ class _Manifold:
         expr = sp.sympify(expr)
         if expr.is_Atom or not (self.radicals or self.orders) or sp.count_ops(expr) > MAX_OPS:
             return expr
+        return within(self._on_manifold, expr, fallback=expr)
+
+    def _on_manifold(self, expr: sp.Expr) -> sp.Expr:
         try:
             first = self.radicals_replaced(expr)
             best, score = expr, sp.count_ops(expr)
