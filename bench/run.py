@@ -12,7 +12,8 @@ as a hinge chain for MuJoCo.
 B1  derivation + code generation: model -> first numeric (q'', lambda).
 B2  one dynamics evaluation (q'' and lambda), microseconds per call.
 B3  work-precision: wall time against the error of the rod tensions and the positions
-    at t = 10 s, against a tight lamech reference run (rtol 1e-13).
+    at t = 10 s, against a tight lamech reference run (rtol 1e-13); then the long
+    chains, N = 60 and 100 (``--quick``: 60), with wall and CPU time.
 B4  ensembles: trajectories per second over many initial conditions.
 B5  symbolic: derivation to the multipliers (problem text -> lambda in closed form),
     lamech's load + solve against SymPy's LagrangesMethod + form_lagranges_equations()
@@ -462,6 +463,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
                 # LagrangesMethod's multipliers have lamech's sign and scaling
                 add("SymPy+solve_ivp", f"rtol {rtol:g}", sec, pos, -2 * L * lam)
     lines.append("")
+    bench_long_chains([60] if quick else [60, 100], t_end, quick, lines)
     try:
         import matplotlib
         matplotlib.use("Agg")
@@ -485,6 +487,58 @@ def bench_b3(sizes, t_end, quick, lines: list[str]):
     except ImportError:
         pass
     return curves
+
+
+def _cpu_timed(fn, *args):
+    """(wall seconds, CPU seconds of the process, fn's results after its seconds)."""
+    c0 = time.process_time()
+    out = fn(*args)
+    return (out[0], time.process_time() - c0) + tuple(out[1:])
+
+
+def bench_long_chains(sizes, t_end, quick, lines: list[str]):
+    """B3's long chains (issue 16): lamech's ``simulate`` on NumPy's kernels (no numba:
+    the path where NumPy's dense solves run, and seconds of code generation instead of
+    minutes of numba compilation) against MuJoCo at dt = 1e-3, with wall and CPU time.
+    With OpenBLAS's helper threads the 60-link run took 4-70 times as long on 2 cores:
+    a wall time far above the CPU time, or a CPU time far above this table's, is that."""
+    from lamech.numeric import compile_system
+    print(f"\nB3  long chains: {t_end:g} simulated seconds, lamech without numba")
+    lines += ["## B3 long chains", "",
+              f"As B3, {t_end:g} simulated seconds, with N = {', '.join(map(str, sizes))}; "
+              "errors against a lamech reference run at rtol = 1e-12. lamech: `simulate` "
+              "on the NumPy kernels (no numba); MuJoCo at dt = 1e-3. Wall and CPU time "
+              "(the process's): the fastest of 3 runs (CPU time of that run), without "
+              "code generation.", "",
+              "| N | method | setting | wall time | CPU time | tension error | "
+              "position error |", "|---|---|---|---|---|---|---|"]
+    for n in sizes:
+        system = lamech_chain(n)
+        ns = compile_system(system)
+        _, ref_pos, ref_T = _lamech_run(system, t_end, 1e-12, False, ns)
+        Tscale = np.max(np.abs(ref_T))
+
+        def add(method, setting, runs):
+            sec, cpu, pos, T = min(runs, key=lambda r: r[0])
+            eT = float(np.max(np.abs(T - ref_T)) / Tscale)
+            eP = float(np.max(np.abs(pos - ref_pos)))
+            row = (f"| {n} | {method} | {setting} | {_fmt_s(sec)} | {_fmt_s(cpu)} | "
+                   f"{eT:.2e} | {eP:.2e} |")
+            print("  " + row)
+            lines.append(row)
+
+        for rtol in ((1e-9,) if quick else (1e-6, 1e-9)):
+            add("lamech", f"rtol {rtol:g}",
+                [_cpu_timed(_lamech_run, system, t_end, rtol, False, ns) for _ in range(3)])
+        angles = np.full(n, ANGLE)
+        for integrator in ("Euler", "RK4"):
+            try:
+                runs = [_cpu_timed(_mujoco_run, n, angles, integrator, 1e-3, t_end)
+                        for _ in range(1 if quick else 3)]
+            except ImportError:
+                break
+            add(f"MuJoCo {integrator}", "dt 0.001", runs)
+    lines.append("")
 
 
 # ----- B4 -----------------------------------------------------------------------------

@@ -27,6 +27,7 @@ import numpy as np
 from ..linalg import gauss_inplace as _gauss
 from ._codegen import NumericSystem, numba_available
 from ._project import PROJECTION_ITERATIONS
+from ._threads import one_blas_thread
 
 __all__ = ["integrate_batch", "BatchResult"]
 
@@ -263,12 +264,16 @@ def integrate_batch(
     _, run_batch = _CACHE[key]
     out = np.empty_like(Y0)
     steps = np.zeros(Y0.shape[0], dtype=np.int64)
-    run_batch(
-        Y0, P, float(t_end), float(rtol), float(atol), int(max_steps), *_tableau(), out, steps
-    )
     lam = np.full((Y0.shape[0], ns.m), np.nan)
     n = ns.n
-    for b in range(Y0.shape[0]):
-        if np.all(np.isfinite(out[b])):
-            lam[b] = ns.accelerations(float(t_end), out[b].copy(), P[b].copy())[n:]
+    # One BLAS thread (issue 16, see ._threads): the loop's small products (A A^T) gain
+    # nothing from OpenBLAS's helper threads and wait on them when a core is busy; under
+    # numba's parallel loop they would only compete with its threads for the cores.
+    with one_blas_thread():
+        run_batch(
+            Y0, P, float(t_end), float(rtol), float(atol), int(max_steps), *_tableau(), out, steps
+        )
+        for b in range(Y0.shape[0]):
+            if np.all(np.isfinite(out[b])):
+                lam[b] = ns.accelerations(float(t_end), out[b].copy(), P[b].copy())[n:]
     return BatchResult(ns.coordinate_names, ns.constraint_names, out, lam, steps)

@@ -106,6 +106,9 @@ class NumericSystem:
     force_specs: list = field(default_factory=list)  # [(constraint index, [direction names])]
     rhs_kernel: Callable[..., Any] = None  # type: ignore[assignment]
     accelerations: Callable[..., Any] = None  # type: ignore[assignment]  # (t, y, p) -> [q''; lambda]
+    # solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows]: the
+    # kernels' structured KKT solve (compiled with jit), NaN where it fails (see _kkt)
+    kkt_solve: Callable[..., Any] = None  # type: ignore[assignment]
     pattern: tuple = ()  # structural nonzeros of A (see _kkt.sparsity)
     mass_diagonal: bool = False  # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
@@ -234,15 +237,16 @@ def _function_source(
 
 
 def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
-    """(rhs_kernel, accelerations, jitted): numba-compiled when ``jit`` and numba can
-    (``fns``' dynamics and constraints replaced by their compiled versions), else NumPy."""
+    """(rhs_kernel, accelerations, kkt_solve, jitted): numba-compiled when ``jit`` and
+    numba can (``fns``' dynamics and constraints replaced by their compiled versions), else
+    NumPy."""
     if jit and numba_available():
         try:
             import numba
 
             jd = numba.njit(cache=False)(fns["dynamics"])
             jc = numba.njit(cache=False)(fns["constraints"])
-            kernel, accel = jit_kernels(jd, diagonal, pattern)
+            kernel, accel, solve = jit_kernels(jd, diagonal, pattern)
             n = len(system.coordinates)
             q0 = np.zeros(n)
             p0 = np.array([p.numeric for p in system.parameters], dtype=float)
@@ -259,7 +263,7 @@ def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
             )
             accel(0.0, np.zeros(2 * n), p0)
             fns["dynamics"], fns["constraints"] = jd, jc
-            return kernel, accel, True
+            return kernel, accel, solve, True
         except Exception:  # pragma: no cover - numba refused the source
             pass
     return (*numpy_kernels(fns["dynamics"], diagonal), False)
@@ -401,7 +405,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
     }
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
-    kernel, accel, used_jit = _kernels(fns, system, diagonal, pattern, jit)
+    kernel, accel, solve, used_jit = _kernels(fns, system, diagonal, pattern, jit)
 
     flat = fns["force_jacobians_flat"]
 
@@ -431,6 +435,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         rhs_kernel=kernel,
         mass_diagonal=diagonal,
         accelerations=accel,
+        kkt_solve=solve,
         pattern=pattern,
         time_dependent=time_dependent,
         conservative=conservative,

@@ -68,9 +68,10 @@ def kkt_solve_numpy(diagonal: bool):
 
 
 def numpy_kernels(dyn, diagonal: bool):
-    """(rhs_kernel, accelerations) around the NumPy solve:
-    ``rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c) -> y'`` on a mode's active rows
-    and ``accelerations(t, y, p) -> [q''; lambda]`` with every constraint active."""
+    """(rhs_kernel, accelerations, solve) around the NumPy solve:
+    ``rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c) -> y'`` on a mode's active rows,
+    ``accelerations(t, y, p) -> [q''; lambda]`` with every constraint active, and the
+    solve itself (:func:`kkt_solve_numpy`), for the simulator's KKT solve at a state."""
     solve = kkt_solve_numpy(diagonal)
     none = np.zeros(0, dtype=np.int64)
 
@@ -88,12 +89,12 @@ def numpy_kernels(dyn, diagonal: bool):
         M, rhs, A, gam, mu = dyn(t, y[:n], y[n:], p)
         return solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
 
-    return rhs_kernel, accelerations
+    return rhs_kernel, accelerations, solve
 
 
 def jit_kernels(jd, diagonal: bool, pattern):
-    """(rhs_kernel, accelerations) as :func:`numpy_kernels`, numba-compiled around the
-    compiled solve of :func:`make_kkt_solve` and the compiled dynamics ``jd``."""
+    """(rhs_kernel, accelerations, solve) as :func:`numpy_kernels`, numba-compiled around
+    the compiled solve of :func:`make_kkt_solve` and the compiled dynamics ``jd``."""
     import numba
 
     solve = make_kkt_solve(numba.njit(cache=False), diagonal, pattern)
@@ -120,7 +121,7 @@ def jit_kernels(jd, diagonal: bool, pattern):
         none = np.zeros(0, dtype=np.int64)
         return solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
 
-    return rhs_kernel, accelerations
+    return rhs_kernel, accelerations, solve
 
 
 def sparsity(A):

@@ -52,14 +52,22 @@ class Setup:
 
 class Accel(NamedTuple):
     """The KKT solve at a state: q'', lam (m,) (NaN where inactive, the kinetic friction
-    where slipping), and the A, gamma, mu and KKT matrix K it came from."""
+    where slipping), and the A, gamma, mu it came from; M, the active ``rows`` and their
+    directions G make the KKT matrix :attr:`K` on demand."""
 
     qdd: np.ndarray
     lam: np.ndarray
     A: np.ndarray
     gam: np.ndarray
     mu: np.ndarray
-    K: np.ndarray
+    M: np.ndarray
+    rows: np.ndarray
+    G: np.ndarray
+
+    @property
+    def K(self) -> np.ndarray:
+        """The KKT matrix of the solve (built when asked: the conditioning check)."""
+        return kkt_matrix(self.M, self.A[self.rows], self.G)
 
 
 class Run:
@@ -87,10 +95,29 @@ class Run:
         mode = self.mode
         rows = mode.rows
         slip_c = np.array([mode.sN[j] * mode.sigma[j] for j, _ in mode.slips], dtype=float)
-        G = slip_directions(A, rows, mu, mode.kernel_args[1], mode.kernel_args[2], slip_c)
-        K = kkt_matrix(M, A[rows], G)
+        slip_j, slip_k = mode.kernel_args[1], mode.kernel_args[2]
+        G = slip_directions(A, rows, mu, slip_j, slip_k, slip_c)
+        # The right-hand side's structured solve (a Schur complement where M is diagonal,
+        # compiled with jit), not the full LU: 60-link chain, a 60-square banded system
+        # instead of a 180-square dense one, at every sample (issue 16). Where it fails
+        # (NaN: singular, or NaN in the dynamics) the full LU says which.
+        sol = self.setup.ns.kkt_solve(
+            M, rhs, A, gam, mu, mode.kernel_args[0], slip_j, slip_k, slip_c
+        )
+        if not np.all(np.isfinite(sol)):
+            sol = self._dense_solve(t, M, rhs, A, gam, rows, G)
+        n = self.setup.n
+        lam = np.full(self.setup.m, np.nan)
+        lam[rows] = sol[n:]
+        for j, k in mode.slips:
+            lam[j] = -mu[j] * mode.sN[j] * mode.sigma[j] * lam[k]
+        return Accel(sol[:n], lam, A, gam, mu, M, rows, G)
+
+    def _dense_solve(self, t, M, rhs, A, gam, rows, G) -> np.ndarray:
+        """The KKT system by LAPACK's LU; :class:`Stop` where it is singular or not
+        finite."""
         try:
-            sol = np.linalg.solve(K, kkt_rhs(rhs, gam[rows]))
+            sol = np.linalg.solve(kkt_matrix(M, A[rows], G), kkt_rhs(rhs, gam[rows]))
         except np.linalg.LinAlgError:
             raise Stop(self._singular(t, M, A[rows])) from None
         if not np.all(np.isfinite(sol)):
@@ -99,12 +126,7 @@ class Run:
                 "(NaN/inf in the dynamics: a coordinate left the domain of an "
                 "expression, or the KKT matrix is singular)"
             )
-        n = self.setup.n
-        lam = np.full(self.setup.m, np.nan)
-        lam[rows] = sol[n:]
-        for j, k in mode.slips:
-            lam[j] = -mu[j] * mode.sN[j] * mode.sigma[j] * lam[k]
-        return Accel(sol[:n], lam, A, gam, mu, K)
+        return sol
 
     def _singular(self, t: float, M: np.ndarray, A: np.ndarray) -> str:
         """Why the KKT matrix is singular at t, naming the coordinate without inertia

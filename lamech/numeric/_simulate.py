@@ -65,6 +65,7 @@ from ._params import numeric_system
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
 from ._switch import apply, initial_mode, settle
+from ._threads import one_blas_thread
 from ._trajectory import Trajectory
 
 __all__ = ["simulate"]
@@ -117,6 +118,10 @@ def simulate(
     is returned with ``status`` :attr:`Status.FAILED` or :attr:`Status.INTERRUPTED`
     (equal to "failed", "interrupted") and a ``message`` naming the time and cause; its
     ``final_time`` and final state are the last ones reached, between samples too.
+
+    While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
+    process: its helper threads only slow these small solves down. The limits in force
+    before are restored after the run.
     """
     check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
     ns, p = numeric_system(system, params, jit)
@@ -124,9 +129,13 @@ def simulate(
     times = sample_times(t0, t_end, samples, dt)
     run = Run(Setup.of(ns, p, Options(rtol, atol, max_step or math.inf, method)))
     notes: list[str] = []
-    y = initial_mode(run, t0, y0, project_initial, notes)
-    watch = Watch(t0, t_end, method, progress, pace)
-    return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes)
+    # One BLAS thread for the run, entered once (issue 16: with other work on the 2 cores,
+    # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the
+    # measurements are in ._threads).
+    with one_blas_thread():
+        y = initial_mode(run, t0, y0, project_initial, notes)
+        watch = Watch(t0, t_end, method, progress, pace)
+        return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes)
 
 
 def _integrate(
