@@ -67,6 +67,10 @@ def test_compiled_batch_gives_the_same_numbers(chain3):
     assert (a.steps == b.steps).all()
     assert np.allclose(a.q, b.q, rtol=0, atol=1e-12)
     assert np.allclose(a.lambdas, b.lambdas, rtol=1e-10)
+    # a batch smaller than numba's thread count runs the serial loop: the same numbers
+    one = integrate_batch(jitted, Y0[:1], 1.0)
+    assert one.steps[0] == b.steps[0]
+    assert np.allclose(one.q[0], b.q[0], rtol=0, atol=1e-14)
 
 
 def test_batch_over_parameters_matches_simulate():
