@@ -17,23 +17,25 @@ step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
 compiled twin of the simulator's projection (:mod:`lamech.numeric._project`), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
-and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). Without numba the same
-Python functions run uncompiled: the same numbers, slowly.
+and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is the
+``BATCH`` part of :mod:`._kernels`, compiled with the system's kernels (and cached on
+disk with them, :mod:`._jitcache`) by ``compile_system(system, jit=True)``; without
+numba the same Python functions run uncompiled: the same numbers, slowly.
 """
 
 from __future__ import annotations
+
+import types
 
 import numpy as np
 
 from ..linalg import gauss_inplace as _gauss
 from ._codegen import NumericSystem, numba_available
+from ._kernels import STAGES as _S  # DOP853's number of stages, checked in _tableau
 from ._project import PROJECTION_ITERATIONS
 from ._threads import one_blas_thread
 
 __all__ = ["integrate_batch", "BatchResult"]
-
-_S = 12
-"""DOP853's number of stages (checked against SciPy's table in :func:`_tableau`)."""
 
 
 def _tableau():
@@ -65,148 +67,25 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
-def _build(accel, cons, jit: bool):
-    """The loop, built around the system's compiled ``accelerations`` and ``constraints``
-    (numba-compiled when ``jit``: the same solve ``simulate`` uses, compiled once).
-    Returns (parallel loop, serial loop): the same function without numba."""
-    if jit:
-        import numba
+def _python_loops(accel, cons):
+    """(parallel loop, serial loop) of :mod:`._kernels`' batch part as Python, around the
+    system's NumPy ``accelerations`` and ``constraints``: its functions with globals of
+    their own (no numba: the same code the compiled system runs, slowly)."""
+    from . import _kernels
 
-        njit = numba.njit(cache=False)
-    else:
-
-        def njit(f):
-            return f
-
-    gauss_inplace = njit(_gauss)
-
-    def gauss(K, r):
-        x = r.copy()
-        gauss_inplace(K.copy(), x)
-        return x
-
-    gauss = njit(gauss)
-
-    def deriv(t, y, p, out):
-        n = y.shape[0] // 2
-        sol = accel(t, y, p)
-        for i in range(n):
-            out[i] = y[n + i]
-            out[n + i] = sol[i]
-
-    deriv = njit(deriv)
-
-    def project(t, y, p):
-        """Positions onto f = 0 (Gauss-Newton, minimum norm), then velocities onto
-        A v + b = 0; in place. The compiled twin of :mod:`lamech.numeric._project` with
-        the Euclidean metric, at most PROJECTION_ITERATIONS Gauss-Newton steps."""
-        n = y.shape[0] // 2
-        q = y[:n].copy()
-        for _ in range(PROJECTION_ITERATIONS):
-            f, A, b = cons(t, q, p)
-            m = f.shape[0]
-            big = 0.0
-            for j in range(m):
-                big = max(big, abs(f[j]))
-            if big <= 1e-15 * (1.0 + np.max(np.abs(q))):
-                break
-            G = A @ A.T
-            w = gauss(G, f)
-            q -= A.T @ w
-        f, A, b = cons(t, q, p)
-        v = y[n:].copy()
-        G = A @ A.T
-        w = gauss(G, A @ v + b)
-        v -= A.T @ w
-        y[:n] = q
-        y[n:] = v
-
-    project = njit(project)
-
-    def run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
-        N = y0.shape[0]
-        y = y0.copy()
-        t = 0.0
-        K = np.zeros((_S + 1, N))
-        f = np.zeros(N)
-        deriv(t, y, p, f)
-        # initial step (Hairer's heuristic, as scipy's select_initial_step)
-        scale = atol + np.abs(y) * rtol
-        d0 = np.sqrt(np.mean((y / scale) ** 2))
-        d1 = np.sqrt(np.mean((f / scale) ** 2))
-        h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-        y1 = y + h0 * f
-        f1 = np.zeros(N)
-        deriv(t + h0, y1, p, f1)
-        d2 = np.sqrt(np.mean(((f1 - f) / scale) ** 2)) / h0
-        if d1 <= 1e-15 and d2 <= 1e-15:
-            h1 = max(1e-6, h0 * 1e-3)
-        else:
-            h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-        h = min(100 * h0, h1, t_end)
-        steps = 0
-        ynew = np.zeros(N)
-        while t < t_end:
-            if steps >= max_steps:
-                return y * np.nan, -1
-            h = min(h, t_end - t)
-            if h < 10 * np.abs(np.nextafter(t, np.inf) - t):
-                return y * np.nan, -1
-            K[0] = f
-            for s in range(1, _S):
-                dy = np.zeros(N)
-                for k in range(s):
-                    if A[s, k] != 0.0:
-                        dy += A[s, k] * K[k]
-                deriv(t + C[s] * h, y + h * dy, p, K[s])
-            acc = np.zeros(N)
-            for k in range(_S):
-                acc += B[k] * K[k]
-            ynew[:] = y + h * acc
-            deriv(t + h, ynew, p, K[_S])
-            scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
-            err5 = np.zeros(N)
-            err3 = np.zeros(N)
-            for k in range(_S + 1):
-                err5 += E5[k] * K[k]
-                err3 += E3[k] * K[k]
-            e5 = np.sum((err5 / scale) ** 2)
-            e3 = np.sum((err3 / scale) ** 2)
-            if e5 == 0.0 and e3 == 0.0:
-                err = 0.0
-            else:
-                err = abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
-            if not np.isfinite(err):
-                return y * np.nan, -1
-            if err < 1.0:
-                factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-                t = t + h
-                y[:] = ynew
-                project(t, y, p)
-                deriv(t, y, p, f)
-                h = h * factor
-                steps += 1
-            else:
-                h = h * max(0.2, 0.9 * err ** (-1.0 / 8.0))
-        return y, steps
-
-    run_one = njit(run_one)
-
-    def run_batch(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
-        for b in prange(Y0.shape[0]):
-            y, s = run_one(Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
-            out[b] = y
-            steps[b] = s
-
-    if jit:
-        import numba
-
-        prange = numba.prange
-        # the same loop twice: over the cores, and serial (numba's prange is range
-        # outside a parallel function) for a batch smaller than the thread count
-        return numba.njit(parallel=True, cache=False)(run_batch), njit(run_batch)
-    prange = range
-    return run_batch, run_batch
+    namespace = {
+        "np": np,
+        "gauss_inplace": _gauss,
+        "accelerations": accel,
+        "constraints": cons,
+        "PROJECTION_ITERATIONS": PROJECTION_ITERATIONS,
+        "STAGES": _S,
+        "prange": range,
+    }
+    for name in (*_kernels.BATCH_NAMES, "batch_run", "batch_run_serial"):
+        f = getattr(_kernels, name)
+        namespace[name] = types.FunctionType(f.__code__, namespace, name)
+    return namespace["batch_run"], namespace["batch_run_serial"]
 
 
 _CACHE: dict[int, tuple] = {}
@@ -272,7 +151,8 @@ def integrate_batch(
     P = np.ascontiguousarray(P.reshape(Y0.shape[0], len(ns.parameter_names)))
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
-        _CACHE[key] = (ns, _build(ns.accelerations, ns.constraints, ns.jit and numba_available()))
+        loops = ns.batch_loops or _python_loops(ns.accelerations, ns.constraints)
+        _CACHE[key] = (ns, loops)
     _, (run_parallel, run_serial) = _CACHE[key]
     # A batch smaller than the thread count runs serially (issue 16): one trajectory
     # through the parallel loop pays for waking numba's other threads, which on a busy

@@ -33,7 +33,10 @@ function's docstring. Only code printed by SymPy from the derived expressions is
 compiled; no user text reaches ``exec``.
 
 When numba is installed, ``compile_system(system, jit=True)`` JIT-compiles the same
-source; the NumPy/``math`` version is the reference and gives the same numbers.
+source with the compiled KKT solve and batch loop of :mod:`._kernels`; the NumPy/``math``
+version is the reference and gives the same numbers. The compiled form is cached on disk
+(:mod:`._jitcache`, ``NumericSystem.jit_cache`` says whether it was loaded): the second
+process to compile the same system loads it instead of compiling it again.
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ from ..model import System, contact_partial_velocities
 from ..symbolic import Dynamics
 from ..symbolic import dynamics as derive_dynamics
 from ._initial import expression_values
-from ._kkt import jit_kernels, numpy_kernels, sparsity
+from ._kkt import numpy_kernels, sparsity
 
 __all__ = ["NumericSystem", "compile_system", "numba_available"]
 
@@ -109,10 +112,16 @@ class NumericSystem:
     # solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows]: the
     # kernels' structured KKT solve (compiled with jit), NaN where it fails (see _kkt)
     kkt_solve: Callable[..., Any] = None  # type: ignore[assignment]
+    # the compiled batch loop (over the cores, serial) of lamech.integrate_batch, with jit
+    batch_loops: tuple = ()
     pattern: tuple = ()  # structural nonzeros of A (see _kkt.sparsity)
     mass_diagonal: bool = False  # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
     jit: bool = False
+    # with jit, where the compiled code came from: "loaded" (the cache on disk, nothing
+    # compiled), "compiled" (compiled in this process and cached), "memory" (no usable
+    # cache directory: compiled for this process only); "" without jit
+    jit_cache: str = ""
     time_dependent: bool = False
     conservative: bool = True
     generation_seconds: float = 0.0
@@ -236,37 +245,26 @@ def _function_source(
     return "\n".join(lines)
 
 
-def _kernels(fns: dict, system: System, diagonal: bool, pattern, jit: bool):
-    """(rhs_kernel, accelerations, kkt_solve, jitted): numba-compiled when ``jit`` and
-    numba can (``fns``' dynamics and constraints replaced by their compiled versions), else
-    NumPy."""
+def _kernels(fns: dict, system: System, diagonal: bool, pattern, source: str, jit: bool):
+    """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
+    numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
+    by their compiled versions; the compiled form cached on disk, :mod:`._jitcache`),
+    else NumPy (no batch loops: :mod:`._batch` runs them as Python; state "")."""
     if jit and numba_available():
         try:
-            import numba
+            from ._jitcache import compiled_kernels, module_text
 
-            jd = numba.njit(cache=False)(fns["dynamics"])
-            jc = numba.njit(cache=False)(fns["constraints"])
-            kernel, accel, solve = jit_kernels(jd, diagonal, pattern)
-            n = len(system.coordinates)
-            q0 = np.zeros(n)
             p0 = np.array([p.numeric for p in system.parameters], dtype=float)
-            jd(0.0, q0, q0, p0)  # compile now: a numba failure shows here, not mid-run
-            jc(0.0, q0, p0)
-            kernel(
-                0.0,
-                np.zeros(2 * n),
-                p0,
-                np.zeros(0, dtype=np.int64),
-                np.zeros(0, dtype=np.int64),
-                np.zeros(0, dtype=np.int64),
-                np.zeros(0),
+            k = compiled_kernels(
+                module_text(source, pattern, diagonal), len(system.coordinates), p0
             )
-            accel(0.0, np.zeros(2 * n), p0)
-            fns["dynamics"], fns["constraints"] = jd, jc
-            return kernel, accel, solve, True
+            f = k.functions
+            fns["dynamics"], fns["constraints"] = f["dynamics"], f["constraints"]
+            loops = (f["batch_run"], f["batch_run_serial"])
+            return f["rhs_kernel"], f["accelerations"], f["kkt_solve"], loops, k.cache
         except Exception:  # pragma: no cover - numba refused the source
             pass
-    return (*numpy_kernels(fns["dynamics"], diagonal), False)
+    return (*numpy_kernels(fns["dynamics"], diagonal), (), "")
 
 
 def _force_geometry(system: System):
@@ -405,7 +403,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
     }
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
-    kernel, accel, solve, used_jit = _kernels(fns, system, diagonal, pattern, jit)
+    kernel, accel, solve, loops, jit_cache = _kernels(fns, system, diagonal, pattern, source, jit)
 
     flat = fns["force_jacobians_flat"]
 
@@ -431,11 +429,13 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         force_jacobians=force_jacobians,
         force_specs=force_specs,
         source=source,
-        jit=used_jit,
+        jit=bool(jit_cache),
+        jit_cache=jit_cache,
         rhs_kernel=kernel,
         mass_diagonal=diagonal,
         accelerations=accel,
         kkt_solve=solve,
+        batch_loops=loops,
         pattern=pattern,
         time_dependent=time_dependent,
         conservative=conservative,
