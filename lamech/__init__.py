@@ -49,6 +49,7 @@ _PUBLIC = {
     # symbolic
     "solve": "symbolic",
     "modes": "symbolic",
+    "steps": "symbolic",
     "Solution": "symbolic",
     "dynamics": "symbolic",
     "Dynamics": "symbolic",
@@ -101,6 +102,7 @@ __all__ = [
     "run_sweep",
     "simulate",
     "solve",
+    "steps",
     "sweep",
     "to_json",
     "to_latex",
@@ -143,4 +145,11 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
     from .sweeps import SweepError, run_sweep, sweep
-    from .symbolic import DegenerateConstraintsError, Dynamics, Solution, dynamics, solve
+    from .symbolic import (
+        DegenerateConstraintsError,
+        Dynamics,
+        Solution,
+        dynamics,
+        solve,
+        steps,
+    )

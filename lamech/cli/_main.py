@@ -46,6 +46,14 @@ def _parser() -> argparse.ArgumentParser:
         "coordinates move to meet the constraints. Repeatable",
     )
     _angles(s)
+    s.add_argument(
+        "--steps",
+        action="store_true",
+        help="show the derivation step by step, as the lecture writes it: dL/dq, "
+        "d/dt dL/dq' and df/dq per coordinate, the equations, the elimination, lambda "
+        "solved, the energy integral, lambda on the energy shell, where it vanishes, the "
+        "forces by virtual work (with --latex: LaTeX; with --json: JSON)",
+    )
     _formats(s)
     md = sub.add_parser(
         "modes",
@@ -168,12 +176,17 @@ def _dispatch(args: argparse.Namespace) -> int:
         text = "\n".join(printable(line) for line in str(exc).split("\n"))
         print(f"lamech: {printable(str(problem))}: {text}", file=sys.stderr)
         return 2
+    result: object = solution
+    if getattr(args, "steps", False):
+        from ..symbolic import steps
+
+        result = steps(solution)  # to_text, to_latex and to_json take a Derivation too
     if getattr(args, "json", False):
-        print(json.dumps(to_json(solution), indent=2, ensure_ascii=False))
+        print(json.dumps(to_json(result), indent=2, ensure_ascii=False))
     elif getattr(args, "latex", False):
-        print(to_latex(solution), end="")
+        print(to_latex(result), end="")
     else:
-        print(to_text(solution), end="")
+        print(to_text(result), end="")
     return 0
 
 

@@ -18,6 +18,7 @@ from ._report import CONVENTION
 from ._report import to_json as _solution_json
 from ._report import to_latex as _solution_latex
 from ._report import to_text as _solution_text
+from ._steps import steps_json, steps_latex, steps_text
 from ._sweep_plot import plot_sweep
 from ._trajectory import trajectory_csv, trajectory_text
 
@@ -31,6 +32,9 @@ __all__ = [
     "animate",
     "modes_text",
     "modes_latex",
+    "steps_text",
+    "steps_latex",
+    "steps_json",
     "Scene",
     "FORMATS",
     "CONVENTION",
@@ -43,16 +47,30 @@ def _is_trajectory(obj: Any) -> bool:
     return isinstance(obj, Trajectory)
 
 
+def _is_derivation(obj: Any) -> bool:
+    from ..symbolic import Derivation
+
+    return isinstance(obj, Derivation)
+
+
 def to_text(result: Any) -> str:
-    """The readable report of a Solution, or the summary of a Trajectory."""
+    """The readable report of a Solution, the steps of a Derivation
+    (:func:`lamech.steps`), or the summary of a Trajectory."""
+    if _is_derivation(result):
+        return steps_text(result)
     return trajectory_text(result) if _is_trajectory(result) else _solution_text(result)
 
 
 def to_json(result: Any) -> dict:
     """The ``--json`` object of a Solution (schema in the README) or a Trajectory."""
+    if _is_derivation(result):
+        return steps_json(result)
     return result.summary() if _is_trajectory(result) else _solution_json(result)
 
 
 def to_latex(result: Any, standalone_math: bool = False) -> str:
-    """A LaTeX fragment (amsmath ``align*``) of a Solution's main results."""
+    """A LaTeX fragment (amsmath ``align*``) of a Solution's main results, or of a
+    Derivation's steps."""
+    if _is_derivation(result):
+        return steps_latex(result, standalone_math=standalone_math)
     return _solution_latex(result, standalone_math=standalone_math)

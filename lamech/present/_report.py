@@ -242,12 +242,17 @@ def to_text(sol) -> str:
 
 
 def _latex_names(sol) -> dict:
+    return latex_names(sol.system)
+
+
+def latex_names(system) -> dict:
+    """{symbol: LaTeX}: dotted velocities and accelerations, lambda_{name} multipliers."""
     names = {}
-    for c in sol.system.coordinates:
+    for c in system.coordinates + system.chart_coordinates:
         base = sp.latex(c.symbol)
         names[c.velocity] = rf"\dot{{{base}}}"
         names[c.acceleration] = rf"\ddot{{{base}}}"
-    for c in sol.system.constraints:
+    for c in system.constraints:
         label = c.name.replace("_", r"\_")
         names[c.multiplier] = rf"\lambda_{{\mathrm{{{label}}}}}"
     return names

@@ -32,6 +32,7 @@ from ._reduce import (
     tidy,
 )
 from ._solution import Solution, readable, solve
+from ._steps import CORRECTION, Derivation, Line, Step, Term, steps
 
 __all__ = [
     "Dynamics",
@@ -71,4 +72,10 @@ __all__ = [
     "Mode",
     "Linear",
     "check_modes",
+    "steps",
+    "Derivation",
+    "Step",
+    "Line",
+    "Term",
+    "CORRECTION",
 ]
