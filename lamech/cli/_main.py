@@ -9,6 +9,7 @@ import os
 import sys
 
 from ._args import assignment
+from ._report import add_parser as add_report
 from ._simulate import add_parser as add_simulate  # light: argparse only
 from ._sweep import add_parser as add_sweep
 
@@ -79,6 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_parser("examples", help="list the bundled example problems")
     add_simulate(sub)
     add_sweep(sub)
+    add_report(sub)
     return p
 
 
@@ -132,6 +134,10 @@ def _dispatch(args: argparse.Namespace) -> int:
         from ._simulate import run
 
         return run(args)
+    if command == "report":
+        from ._report import run as run_report
+
+        return run_report(args)
     if command == "sweep":
         from ._sweep import run as run_sweep
 

@@ -13,6 +13,7 @@ from typing import Any
 
 from ._animate import FORMATS, Scene, animate
 from ._modes import modes_latex, modes_text
+from ._page import report_page
 from ._plot import plot_trajectory
 from ._report import CONVENTION
 from ._report import to_json as _solution_json
@@ -35,6 +36,7 @@ __all__ = [
     "steps_text",
     "steps_latex",
     "steps_json",
+    "report_page",
     "Scene",
     "FORMATS",
     "CONVENTION",

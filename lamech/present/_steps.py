@@ -141,6 +141,15 @@ def _value_tex(expr, names) -> str:
     return _tex(expr, names)
 
 
+def step_rows(step, names) -> list[str]:
+    """One step's lines as ``aligned`` rows: ``lhs &= rhs && \\text{label}``."""
+    rows = []
+    for line in step.lines:
+        label = rf"\text{{{_tex_text(line.label)}}}" if line.label else ""
+        rows.append(rf"{_term_tex(line.lhs, names)} &= {_value_tex(line.rhs, names)} && {label}")
+    return rows
+
+
 def steps_latex(d: Derivation, standalone_math: bool = False) -> str:
     """The derivation as LaTeX: a subsection per step, an ``align*`` of its lines, the
     notes as text. ``standalone_math``: for a web page (KaTeX/MathJax), each step's lines
@@ -151,12 +160,7 @@ def steps_latex(d: Derivation, standalone_math: bool = False) -> str:
         title = _tex_text(d.title)
         parts.append(f"% lamech: {title}, step by step\n% requires \\usepackage{{amsmath}}")
     for k, step in enumerate(d.steps, 1):
-        rows = []
-        for line in step.lines:
-            label = rf"\text{{{_tex_text(line.label)}}}" if line.label else ""
-            rows.append(
-                rf"{_term_tex(line.lhs, names)} &= {_value_tex(line.rhs, names)} && {label}"
-            )
+        rows = step_rows(step, names)
         body = " \\\\\n".join(rows)
         notes = "\n".join(_tex_text(n) + "\n" for n in step.notes)
         if standalone_math:

@@ -1,0 +1,129 @@
+"""``lamech report FILE -o report.html``: one self-contained HTML page of a problem
+(imports are lazy so that ``lamech --help`` stays instant)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from ._args import (
+    assignment,
+    evaluate_assignments,
+    positive_float,
+    refuse_overwriting_input,
+    shown_name,
+)
+
+__all__ = ["add_parser", "run"]
+
+DEFAULT_T_END = 3.0
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    s = subparsers.add_parser(
+        "report",
+        help="one self-contained HTML page: the problem, the results, the steps, the "
+        "force plot, the animation (opens offline)",
+        description="Write one HTML file that opens offline (math by an embedded KaTeX, "
+        "plots and the animation as embedded images): the problem file, the results of "
+        "`lamech solve`, the derivation step by step (`solve --steps`), and a simulation "
+        "to --t-end with its force plot, events, animation and summary.",
+    )
+    s.add_argument(
+        "problem",
+        nargs="?",
+        default="cylinder",
+        help="a .toml problem file or a bundled example name (default: cylinder)",
+    )
+    s.add_argument(
+        "-o",
+        "--out",
+        default="report.html",
+        metavar="HTML",
+        help="the page to write (default %(default)s)",
+    )
+    s.add_argument(
+        "--t-end",
+        type=positive_float,
+        default=DEFAULT_T_END,
+        metavar="T",
+        help="simulate to this time for the plot and the animation (default %(default)s)",
+    )
+    s.add_argument(
+        "--no-simulate", action="store_true", help="leave the simulation out (symbolic only)"
+    )
+    s.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="override a parameter for the simulation and the numbers. Repeatable",
+    )
+    return s
+
+
+def _source(problem: str) -> str | None:
+    from ..problem import example_names, example_path
+
+    p = Path(problem)
+    if not p.exists() and not p.suffix and problem in example_names():
+        p = example_path(problem)
+    try:
+        return p.read_text(encoding="utf-8-sig")[:1_000_000]
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+def run(args: argparse.Namespace) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from ..model import ModelError, with_values
+    from ..numeric import SimulationError, simulate
+    from ..present import report_page
+    from ..problem import ProblemFileError, load
+    from ..symbolic import DegenerateConstraintsError, solve, steps
+
+    name = shown_name(args.problem)
+    try:
+        refuse_overwriting_input(args.problem, {"--out": args.out})
+        system = load(args.problem)
+        params = evaluate_assignments(args.param, system, "--param") if args.param else {}
+        if params:
+            system = with_values(system, parameters=params)
+        sol = solve(system)
+        derivation = steps(sol)
+    except ProblemFileError as exc:
+        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        return 2
+    except (DegenerateConstraintsError, ModelError, ValueError) as exc:
+        print(f"lamech: {name}: {exc}", file=sys.stderr)
+        return 2
+    traj, note = None, ""
+    if not args.no_simulate:
+        try:
+            traj = simulate(system, args.t_end)
+        except SimulationError as exc:
+            note = f"no simulation: {exc}"
+    page = report_page(sol, derivation, _source(args.problem), traj, None, note)
+    out = Path(args.out)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        # written beside the target and renamed: a page is never left half-written
+        fd, tmp = tempfile.mkstemp(prefix=".lamech-", suffix=".html", dir=out.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(page)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 is for secrets, not a report
+        os.replace(tmp, out)
+    except OSError as exc:
+        print(f"lamech: cannot write {shown_name(str(out))}: {exc}", file=sys.stderr)
+        return 2
+    size = out.stat().st_size
+    print(f"wrote {out} ({size / 1e6:.2f} MB)")
+    return 0
