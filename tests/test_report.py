@@ -1,0 +1,134 @@
+"""``lamech report``: one self-contained HTML page that opens offline (issue 15, item 2),
+checked as text and, where Chromium is installed, rendered in a real headless browser
+through Playwright with every network request refused (item 4, for the report file)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+ARTEFACTS = ROOT / "tests" / "artefacts"
+
+
+def _lamech(*args, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "lamech", *args], capture_output=True, text=True, cwd=cwd
+    )
+
+
+@pytest.fixture(scope="module")
+def cylinder_page(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("report") / "cylinder.html"
+    run = _lamech("report", "cylinder", "-o", str(out))
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith(f"wrote {out} (")
+    return out
+
+
+def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
+    page = cylinder_page.read_text(encoding="utf-8")
+    assert cylinder_page.stat().st_size < 2_000_000  # issue 15: under 2 MB for the cylinder
+    # no resource from outside: every src/href is a data URI or a fragment
+    markup = re.sub(r"<script>.*?</script>", "", page, flags=re.S)  # KaTeX's own code
+    assert page.count("<script>") == 2  # KaTeX, and the call that renders the blocks
+    for attr in re.findall(r'(?:src|href)\s*=\s*"([^"]*)"', markup):
+        assert attr.startswith(("data:", "#")), attr
+    assert "<link" not in page and "@import" not in page
+    assert "url(fonts/" not in page  # KaTeX's fonts inlined
+    assert page.count("url(data:font/woff2;base64,") == 20
+    assert "Copyright (c) 2013-2020 Khan Academy" in page  # the licence kept
+    # the problem file, the results, the steps, the motion
+    assert 'f = &quot;r - (R1 + R2)&quot;' in page
+    assert r"\frac{4}{7}" in page and "55.15" in page
+    assert page.count('<h3 id="step-') == 13
+    assert 'class="note correction"' in page and "(R1 + R2) dtheta1" in page
+    assert page.count("data:image/png;base64,") == 1 and page.count("data:image/gif;base64,") == 1
+    assert "lift-off" in page  # the simulation summary's event
+
+
+def test_report_errors_say_where_and_lose_nothing(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('title = "x"\n[coordinates]\nx = { initial = 0, velocity = 0 }\n'
+                   '[lagrangian]\nT = "x\'^2/2"\nV = "x^^2"\n', encoding="utf-8")
+    run = _lamech("report", str(bad), "-o", str(tmp_path / "r.html"))
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert f"{bad}:6:" in run.stderr
+    assert not (tmp_path / "r.html").exists()
+    # the page may not replace the problem file
+    good = tmp_path / "p.toml"
+    good.write_text((ROOT / "lamech" / "examples" / "pendulum.toml").read_text(), encoding="utf-8")
+    before = good.read_bytes()
+    run = _lamech("report", str(good), "-o", str(good))
+    assert run.returncode == 2 and "--out" in run.stderr
+    assert good.read_bytes() == before
+
+
+def test_report_without_simulation_and_with_a_param(tmp_path):
+    out = tmp_path / "p.html"
+    run = _lamech("report", "pendulum", "-o", str(out), "--no-simulate", "--param", "theta0=1")
+    assert run.returncode == 0, run.stderr
+    page = out.read_text(encoding="utf-8")
+    assert 'id="motion"' not in page and "data:image/gif" not in page
+    assert "Step 1. The Lagrangian" in page
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+@pytest.mark.slow
+def test_the_report_renders_offline_in_headless_chromium(cylinder_page):
+    playwright = pytest.importorskip("playwright.sync_api", reason="playwright not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium on this machine (Debian: apt-get install chromium)")
+    requested: list[str] = []
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=browser_path,
+            args=["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--no-first-run"],
+        )
+        try:
+            page = browser.new_page(viewport={"width": 1100, "height": 1400})
+
+            def refuse(route):
+                if not route.request.url.startswith(("file:", "data:")):
+                    requested.append(route.request.url)
+                    route.abort()
+                else:
+                    route.continue_()
+
+            page.route("**/*", refuse)
+            page.goto(cylinder_page.as_uri())
+            page.wait_for_selector("body[data-rendered]", timeout=30_000)
+            blocks = page.locator(".math, .tex").count()
+            rendered = page.locator(".katex").count()
+            assert blocks > 100 and rendered == blocks  # every block typeset by KaTeX
+            assert page.locator(".katex-error").count() == 0
+            # the rendered lift-off row: cos(theta1) = 4/7 with its angle
+            lift = page.locator("tr", has_text="contact lets go").first
+            assert "55.15" in lift.inner_text()
+            assert lift.locator(".katex .mfrac").count() == 1
+            # the KaTeX fonts were loaded from the page itself
+            fonts = page.evaluate(
+                "Array.from(document.fonts).filter(f => f.status === 'loaded')"
+                ".map(f => f.family)"
+            )
+            assert any("KaTeX" in f for f in fonts)
+            ARTEFACTS.mkdir(exist_ok=True)
+            page.screenshot(path=str(ARTEFACTS / "report-cylinder.png"), full_page=False)
+        finally:
+            browser.close()
+    assert requested == []  # nothing asked of the network
+
