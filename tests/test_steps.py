@@ -251,3 +251,19 @@ def test_cli_steps_text_latex_json():
     assert shell["lines"][0] == {
         "lhs": "lambda_contact", "rhs": "g*m*(7*cos(theta1) - 4)/3", "label": "theta1'^2 put in"
     }
+
+
+def test_readme_steps_excerpt_is_real_output():
+    from pathlib import Path
+    import re
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"```text\n(.*?)```", readme, re.S)
+                 if b.startswith("Step 8. The multipliers solved"))
+    actual = lamech.to_text(lamech.steps(lamech.solve(lamech.load("cylinder")))).splitlines()
+    shown = [line for line in block.splitlines() if line != "..."]
+    for line in shown:
+        assert line in actual, line
+    # in the same order
+    positions = [actual.index(line) for line in shown]
+    assert positions == sorted(positions)
