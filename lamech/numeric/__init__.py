@@ -10,6 +10,7 @@ from ._batch import BatchResult, integrate_batch
 from ._codegen import NumericSystem, compile_system, numba_available
 from ._events import Event, EventKind, FrictionState, Status
 from ._initial import consistent_initial
+from ._jitcache import cache_dir as jit_cache_dir
 from ._kkt import kkt_solve_numpy
 from ._options import (
     DEFAULT_ATOL,
@@ -29,6 +30,7 @@ __all__ = [
     "NumericSystem",
     "compile_system",
     "numba_available",
+    "jit_cache_dir",
     "kkt_solve_numpy",
     "simulate",
     "SimulationError",

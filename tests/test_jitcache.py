@@ -1,0 +1,132 @@
+"""Compile once: a system compiled with numba is cached on disk, a second process loads it
+instead of compiling it again, two processes may compile it at once, a changed source
+gets a new file, and an unusable cache directory compiles in memory, silently."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import lamech
+from lamech.numeric import compile_system, jit_cache_dir, numba_available, simulate
+from lamech.problem import chain_toml, example_path
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
+
+# One run in a fresh process: compile a 2-link chain with jit, integrate it (simulate and
+# the batch loop), and report where the compiled code came from, how long compile_system
+# took, and the final states.
+PROBE = """
+import json, sys, time
+import numpy as np
+import lamech
+from lamech.numeric import compile_system, integrate_batch, simulate
+from lamech.problem import chain_toml
+system = lamech.loads(chain_toml(2))
+t0 = time.perf_counter()
+ns = compile_system(system, jit=True)
+seconds = time.perf_counter() - t0
+traj = simulate(ns, 1.0, samples=11)
+stats, batch = [], np.zeros((1, 0))
+if sys.argv[1:] == ["batch"]:  # one row: the serial loop (with two or more threads)
+    batch = integrate_batch(ns, [np.concatenate([traj.q[0], traj.qd[0]])], 0.5).q
+    stats = [f.stats for f in ns.batch_loops]
+print(json.dumps({
+    "jit": ns.jit, "cache": ns.jit_cache, "seconds": seconds,
+    "final": traj.q[-1].tolist() + traj.qd[-1].tolist(), "batch": batch.tolist(),
+    "batch_hits": sum(sum(s.cache_hits.values()) for s in stats),
+    "batch_misses": sum(sum(s.cache_misses.values()) for s in stats),
+}))
+"""
+
+
+def _start(cache: Path, *args: str) -> subprocess.Popen:
+    env = dict(os.environ, LAMECH_CACHE_DIR=str(cache))
+    return subprocess.Popen(
+        [sys.executable, "-c", PROBE, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, env=env,
+    )
+
+
+def _result(proc: subprocess.Popen) -> dict:
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert "Warning" not in err, err  # silent, in every case
+    return json.loads(out.splitlines()[-1])
+
+
+def test_the_cache_directory_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path / "mine"))
+    assert jit_cache_dir() == tmp_path / "mine" / "kernels"
+    monkeypatch.delenv("LAMECH_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert jit_cache_dir() == tmp_path / "xdg" / "lamech" / "kernels"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/ignored")  # the XDG spec: absolute only
+    assert jit_cache_dir() == Path.home() / ".cache" / "lamech" / "kernels"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert jit_cache_dir() == Path.home() / ".cache" / "lamech" / "kernels"
+
+
+@needs_numba
+@pytest.mark.slow
+def test_a_second_process_loads_the_compiled_system_and_two_may_compile_at_once(tmp_path):
+    cache = tmp_path / "cache"
+    # two processes compile the same system at once (a sweep's workers do): both finish,
+    # with the same numbers, and leave one module file (the batch loop, 10-15 s to
+    # compile, in one of them only)
+    first = [_start(cache, "batch"), _start(cache)]
+    a, b = (_result(p) for p in first)
+    assert a["jit"] and b["jit"]
+    assert {a["cache"], b["cache"]} <= {"compiled", "loaded"}
+    assert a["final"] == b["final"]
+    files = sorted((cache / "kernels").glob("lamech_*.py"))
+    assert len(files) == 1
+    assert not list((cache / "kernels").glob("*.tmp"))  # no temporary file left behind
+    # a later process compiles nothing: the kernels and the batch loop come from the cache
+    t0 = time.perf_counter()
+    c = _result(_start(cache, "batch"))
+    wall = time.perf_counter() - t0
+    assert c["cache"] == "loaded", c
+    assert c["batch_hits"] > 0 and c["batch_misses"] == 0, c
+    assert c["final"] == a["final"] and c["batch"] == a["batch"]
+    # compiling takes seconds; loading about 0.3 s here (4 s allows for a busy machine)
+    assert c["seconds"] < min(4.0, max(a["seconds"], b["seconds"])), (a, b, c)
+    assert wall < 30.0
+
+
+@needs_numba
+@pytest.mark.slow
+def test_an_unusable_cache_directory_compiles_in_memory_silently(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory\n")
+    proc = _start(blocker / "cache")  # under a regular file: cannot be created
+    result = _result(proc)
+    assert result["jit"] and result["cache"] == "memory"
+    reference = simulate(compile_system(lamech.loads(chain_toml(2))), 1.0, samples=11)
+    final = np.concatenate([reference.q[-1], reference.qd[-1]])
+    assert np.allclose(result["final"], final, rtol=1e-9, atol=1e-12)
+
+
+@needs_numba
+@pytest.mark.slow
+def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch):
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
+    text = example_path("pendulum").read_text(encoding="utf-8")
+    heavier = text.replace('V = "-m*g*r*cos(theta)"', 'V = "-2*m*g*r*cos(theta)"')
+    assert heavier != text
+    a = compile_system(lamech.load("pendulum"), jit=True)
+    b = compile_system(lamech.loads(heavier), jit=True)
+    assert a.source != b.source
+    files = [p.read_text(encoding="utf-8") for p in (tmp_path / "kernels").glob("lamech_*.py")]
+    assert len(files) == 2
+    for ns in (a, b):  # each file holds its own generated dynamics
+        dynamics = ns.source[ns.source.index("def dynamics") : ns.source.index("def constraints")]
+        assert sum(dynamics.strip() in t for t in files) == 1
+    assert {a.jit_cache, b.jit_cache} <= {"compiled", "loaded"}
