@@ -10,6 +10,7 @@ import sys
 
 from ._args import assignment
 from ._report import add_parser as add_report
+from ._serve import add_parser as add_serve
 from ._simulate import add_parser as add_simulate  # light: argparse only
 from ._sweep import add_parser as add_sweep
 
@@ -81,6 +82,7 @@ def _parser() -> argparse.ArgumentParser:
     add_simulate(sub)
     add_sweep(sub)
     add_report(sub)
+    add_serve(sub)
     return p
 
 
@@ -134,6 +136,10 @@ def _dispatch(args: argparse.Namespace) -> int:
         from ._simulate import run
 
         return run(args)
+    if command == "serve":
+        from ._serve import run as run_serve
+
+        return run_serve(args)
     if command == "report":
         from ._report import run as run_report
 

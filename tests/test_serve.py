@@ -1,0 +1,168 @@
+"""``lamech serve`` (issue 15, items 3 and 4): the API through Starlette's test client,
+and the page end to end in headless Chromium (Playwright) against a real server."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+starlette = pytest.importorskip("starlette", reason="lamech[serve] not installed")
+pytest.importorskip("httpx", reason="Starlette's test client needs httpx")
+from starlette.testclient import TestClient  # noqa: E402
+
+from lamech.cli import make_app  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+ARTEFACTS = ROOT / "tests" / "artefacts"
+CYLINDER = (ROOT / "lamech" / "examples" / "cylinder.toml").read_text(encoding="utf-8")
+BAD = CYLINDER.replace('V = "m*g*r*cos(theta1)"', 'V = "m*g*r*cos(theta1"')
+
+
+@pytest.fixture(scope="module")
+def client():
+    with TestClient(make_app(timeout=120)) as c:
+        yield c
+
+
+def _line_of(text: str, start: str) -> int:
+    return next(i for i, line in enumerate(text.splitlines(), 1) if line.startswith(start))
+
+
+def test_examples_and_the_page(client):
+    listed = client.get("/api/examples").json()
+    assert {"name": "cylinder", "title": "Solid cylinder rolling on a fixed cylinder"} in listed
+    assert client.get("/api/examples/cylinder").text == CYLINDER
+    assert client.get("/api/examples/nope").status_code == 404
+    page = client.get("/").text
+    assert 'id="editor"' in page and "/api/run" in page
+    assert "http://" not in page and "https://" not in page  # nothing from outside
+
+
+def test_check_gives_errors_at_their_line(client):
+    assert BAD != CYLINDER
+    answer = client.post("/api/check", json={"text": BAD}).json()
+    assert answer["ok"] is False
+    (error,) = answer["errors"]
+    assert error["line"] == _line_of(BAD, "V = ")
+    assert error["where"] == "lagrangian.V"
+    ok = client.post("/api/check", json={"text": CYLINDER}).json()
+    assert ok["ok"] is True and ok["title"] == "Solid cylinder rolling on a fixed cylinder"
+
+
+def test_run_solves_and_simulates(client):
+    answer = client.post("/api/run", json={"text": CYLINDER, "simulate": True, "t_end": 1.5}).json()
+    assert answer["ok"] is True, answer
+    (lift,) = answer["lets_go"]
+    assert lift["constraint"] == "contact" and abs(lift["degrees"] - 55.15) < 0.01
+    assert "55.15" in answer["page"] and "data:image/gif" in answer["page"]
+    assert answer["status"] == "ok"
+
+
+def test_bad_requests_get_the_same_clear_messages(client):
+    big = client.post("/api/check", json={"text": "#" * 1_100_000})
+    assert big.status_code == 413 and "over 1000 kB" in big.json()["errors"][0]["message"]
+    notjson = client.post("/api/check", content=b"{oops", headers={"content-type": "application/json"})
+    assert notjson.status_code == 400 and "not JSON" in notjson.json()["errors"][0]["message"]
+    notext = client.post("/api/run", json={"problem": CYLINDER})
+    assert notext.status_code == 400 and '"text"' in notext.json()["errors"][0]["message"]
+    for t_end in (-1, 0, 1e9, "3", True):
+        r = client.post("/api/run", json={"text": CYLINDER, "simulate": True, "t_end": t_end})
+        assert r.status_code == 400 and "t_end" in r.json()["errors"][0]["message"]
+    # a problem that is not a problem: the loader's message, no traceback
+    junk = client.post("/api/run", json={"text": "[[[["}).json()
+    assert junk["ok"] is False and "Traceback" not in json.dumps(junk)
+
+
+def test_a_request_that_takes_too_long_is_stopped_and_the_server_goes_on():
+    with TestClient(make_app(timeout=0.3)) as c:
+        slow = c.post("/api/run", json={"text": CYLINDER}).json()
+        assert slow["ok"] is False and "stopped after 0.3 s" in slow["errors"][0]["message"]
+        assert slow["seconds"] < 10
+        assert c.get("/api/examples").status_code == 200
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _chromium() -> str | None:
+    return next((p for p in map(shutil.which, ("chromium", "chromium-browser")) if p), None)
+
+
+@pytest.mark.slow
+def test_the_page_in_headless_chromium():
+    playwright = pytest.importorskip("playwright.sync_api", reason="playwright not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium on this machine (Debian: apt-get install chromium)")
+    port = _free_port()
+    server = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "serve", "--port", str(port)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        url = f"http://127.0.0.1:{port}/"
+        for _ in range(100):
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                time.sleep(0.2)
+        with playwright.sync_playwright() as p:
+            browser = p.chromium.launch(
+                executable_path=browser_path,
+                args=["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                      "--disable-component-update", "--disable-sync", "--no-first-run"],
+            )
+            try:
+                page = browser.new_page(viewport={"width": 1400, "height": 900})
+                outside: list[str] = []
+                page.on("request", lambda r: outside.append(r.url)
+                        if not r.url.startswith((url, "data:", "about:")) else None)
+                page.goto(url)
+                # type the cylinder problem (the last character typed by key: an input event)
+                page.fill("#editor", CYLINDER[:-1])
+                page.type("#editor", CYLINDER[-1])
+                page.wait_for_selector("#status.ok", timeout=60_000)
+                assert "valid" in page.inner_text("#status")
+                page.click("#solve")
+                page.wait_for_function(
+                    "document.getElementById('status').textContent.startsWith('done')",
+                    timeout=120_000,
+                )
+                assert "contact lets go at theta1 = 55.15°" in page.inner_text("#status")
+                report = page.frame_locator("#result")
+                report.locator("body[data-rendered]").wait_for(timeout=30_000)
+                assert report.locator(".katex").count() > 100
+                assert report.locator(".katex-error").count() == 0
+                assert "55.15" in report.locator("tr", has_text="contact lets go").first.inner_text()
+                ARTEFACTS.mkdir(exist_ok=True)
+                page.screenshot(path=str(ARTEFACTS / "serve-cylinder.png"))
+                # an error in the file shows at its line, and clicking it selects that line
+                page.fill("#editor", BAD[:-1])
+                page.type("#editor", BAD[-1])
+                line = _line_of(BAD, "V = ")
+                item = page.locator(f"#errors li[data-line='{line}']")
+                item.wait_for(timeout=60_000)
+                assert item.inner_text().startswith(f"line {line}: lagrangian.V:")
+                item.click()
+                selected = page.evaluate(
+                    "editor.value.substring(editor.selectionStart, editor.selectionEnd)"
+                )
+                assert selected == 'V = "m*g*r*cos(theta1"'
+                page.screenshot(path=str(ARTEFACTS / "serve-error.png"))
+                assert outside == []
+            finally:
+                browser.close()
+    finally:
+        server.terminate()
+        server.wait(10)
