@@ -63,6 +63,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         metavar="NAME=VALUE",
         help="override a parameter for the simulation and the numbers. Repeatable",
     )
+    s.add_argument(
+        "--initial",
+        action="append",
+        default=[],
+        type=assignment,
+        metavar="NAME=VALUE",
+        help="start the simulation with coordinate (or velocity x') NAME at VALUE, as "
+        "`lamech simulate --initial` (e.g. theta1=0.01 to roll off the top). Repeatable",
+    )
     return s
 
 
@@ -95,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
         params = evaluate_assignments(args.param, system, "--param") if args.param else {}
         if params:
             system = with_values(system, parameters=params)
+        initial = evaluate_assignments(args.initial, system, "--initial") if args.initial else {}
         sol = solve(system)
         derivation = steps(sol)
     except ProblemFileError as exc:
@@ -104,9 +114,15 @@ def run(args: argparse.Namespace) -> int:
         print(f"lamech: {name}: {exc}", file=sys.stderr)
         return 2
     traj, note = None, ""
+    if initial and not args.no_simulate:
+        note = (
+            "simulated from "
+            + ", ".join(f"{k} = {v:g}" for k, v in initial.items())
+            + (" (--initial; the closed forms and the steps are for the file's initial state)")
+        )
     if not args.no_simulate:
         try:
-            traj = simulate(system, args.t_end)
+            traj = simulate(system, args.t_end, initial=initial or None)
         except SimulationError as exc:
             note = f"no simulation: {exc}"
     page = report_page(sol, derivation, _source(args.problem), traj, None, note)

@@ -106,6 +106,14 @@ class Trajectory:
         cols += [("energy", self.energy), ("residual", self.residual)]
         return cols
 
+    def _repr_html_(self) -> str:
+        # Jupyter's display protocol calls this on the object itself: the one import of
+        # this module against the layer order (numeric -> present), declared as an
+        # exception in the import-linter contract; elsewhere, lamech.present.
+        from ..present import trajectory_html
+
+        return trajectory_html(self)
+
     def to_dataframe(self):
         """A pandas DataFrame with the CSV's columns (pandas must be installed)."""
         try:

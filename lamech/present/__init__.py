@@ -13,6 +13,7 @@ from typing import Any
 
 from ._animate import FORMATS, Scene, animate
 from ._modes import modes_latex, modes_text
+from ._notebook import Animation, animation, sweep_html, trajectory_html
 from ._page import report_page
 from ._plot import plot_trajectory
 from ._report import CONVENTION
@@ -37,6 +38,10 @@ __all__ = [
     "steps_latex",
     "steps_json",
     "report_page",
+    "animation",
+    "Animation",
+    "trajectory_html",
+    "sweep_html",
     "Scene",
     "FORMATS",
     "CONVENTION",

@@ -263,6 +263,13 @@ class SweepRun:
     def records(self) -> list[dict]:
         return [dict(r) for r in self.rows]
 
+    def _repr_html_(self) -> str:
+        # Jupyter's display protocol: the one import against the layer order (sweeps ->
+        # present), declared in the import-linter contract.
+        from ..present import sweep_html
+
+        return sweep_html(self)
+
     def to_dataframe(self):
         try:
             import pandas as pd
