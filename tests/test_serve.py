@@ -147,6 +147,17 @@ def test_the_page_in_headless_chromium():
                 assert "55.15" in report.locator("tr", has_text="contact lets go").first.inner_text()
                 ARTEFACTS.mkdir(exist_ok=True)
                 page.screenshot(path=str(ARTEFACTS / "serve-cylinder.png"))
+                # a sweep over mu with its progress bar, then its table
+                page.fill("#sweep_params", "mu=0.2,0.3,0.4")
+                page.fill("#sweep_measures", "slip")
+                page.click("#sweep")
+                page.wait_for_function(
+                    "document.getElementById('status').textContent.startsWith('sweep done')",
+                    timeout=120_000,
+                )
+                assert page.locator("#progress").get_attribute("max") == "3"
+                report.locator("th", has_text="slip:theta1").wait_for(timeout=30_000)
+                assert report.locator("tbody tr").count() == 3
                 # an error in the file shows at its line, and clicking it selects that line
                 page.fill("#editor", BAD[:-1])
                 page.type("#editor", BAD[-1])
@@ -166,3 +177,37 @@ def test_the_page_in_headless_chromium():
     finally:
         server.terminate()
         server.wait(10)
+
+
+def test_a_sweep_reports_progress_then_its_table(client):
+    start = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0.2,0.3,0.4"},
+                                            "measures": ["slip"], "t_end": 2.7}).json()
+    assert start["ok"] is True and start["total"] == 3
+    seen = set()
+    for _ in range(600):
+        job = client.get(f"/api/sweep/{start['job']}").json()
+        seen.add(job["done"])
+        if job["finished"]:
+            break
+        time.sleep(0.1)
+    assert job["ok"] is True, job
+    assert job["done"] == 3 and job["counts"] == {"ok": 3}
+    assert "<th>slip:theta1</th>" in job["html"] and job["html"].count("<tr>") == 4
+    # refused before anything runs: too many cases, no measures, a bad grid
+    big = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0:1:200", "R2": "1:2:100"},
+                                          "measures": ["slip"], "t_end": 1})
+    assert big.status_code == 400 and "20000 cases" in big.json()["errors"][0]["message"]
+    none = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0.2"}, "t_end": 1})
+    assert none.status_code == 400 and "measures" in none.json()["errors"][0]["message"]
+    odd = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0:1:x"},
+                                          "measures": ["slip"], "t_end": 1})
+    assert odd.status_code == 400 and "whole number" in odd.json()["errors"][0]["message"]
+    bad = client.post("/api/sweep", json={"text": CYLINDER, "params": {"nope": "1,2"},
+                                          "measures": ["slip"], "t_end": 1}).json()
+    for _ in range(300):
+        job = client.get(f"/api/sweep/{bad['job']}").json()
+        if job["finished"]:
+            break
+        time.sleep(0.1)
+    assert job["ok"] is False and "nope" in job["errors"][0]["message"]
+    assert client.get("/api/sweep/unknown").status_code == 404

@@ -107,8 +107,41 @@ def _work(kind: str, text: str, options: dict) -> dict:
     }
 
 
+MAX_CASES = 10_000
+"""The largest sweep the page runs (a terminal's `lamech sweep` has no such bound)."""
+
+
+def _sweep(conn, text: str, options: dict) -> dict:
+    """Run a sweep in this (child) process, sending ("progress", done, total) as cases
+    finish: the table and the plot as HTML."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from ..present import sweep_html
+    from ..problem import ProblemFileError, loads
+    from ..sweeps import SweepError, run_sweep
+
+    try:
+        system = loads(text, name="problem.toml")
+        run = run_sweep(
+            system,
+            options["params"],
+            options["measures"],
+            t_end=options["t_end"],
+            workers=1,  # this process is the worker: a daemon process has no children
+            samples=201,
+            progress=lambda done, total: conn.send(("progress", done, total)),
+        )
+    except (ProblemFileError, SweepError, ValueError) as exc:
+        return {"ok": False, "errors": _errors(exc)}
+    return {"ok": True, "html": sweep_html(run), "counts": run.counts}
+
+
 def _child(conn, kind: str, text: str, options: dict) -> None:
     try:
+        if kind == "sweep":
+            conn.send(("done", _sweep(conn, text, options)))
+            return
         conn.send(_work(kind, text, options))
     except BaseException as exc:  # noqa: BLE001 - whatever it is, say it, not a hang
         conn.send({"ok": False, "errors": _errors(RuntimeError(f"internal error: {exc!r}"))})
@@ -129,6 +162,54 @@ class Runner:
             self.ctx.set_forkserver_preload(["lamech.cli._serve", "lamech.symbolic"])
         except ValueError:  # pragma: no cover - no fork server on this platform
             self.ctx = mp.get_context("spawn")
+
+    def sweep(self, text: str, options: dict, job: dict) -> None:
+        """Run a sweep, ``job`` updated as it goes (``done``, ``total``), then with the
+        answer (``finished``); bounded by ten times the timeout."""
+        bound = 10 * self.timeout
+        with self.slots:
+            here, there = self.ctx.Pipe(duplex=False)
+            proc = self.ctx.Process(
+                target=_child, args=(there, "sweep", text, options), daemon=True
+            )
+            started = time.perf_counter()
+            proc.start()
+            there.close()
+            answer = None
+            try:
+                while answer is None:
+                    left = bound - (time.perf_counter() - started)
+                    if left <= 0 or not here.poll(left):
+                        answer = {
+                            "ok": False,
+                            "errors": _errors(
+                                TimeoutError(
+                                    f"the sweep was stopped after {bound:g} s (ten times the "
+                                    "server's --timeout); run it with `lamech sweep` in a "
+                                    "terminal, which has no bound and can resume"
+                                )
+                            ),
+                        }
+                        break
+                    try:
+                        msg = here.recv()
+                    except EOFError:
+                        answer = {"ok": False, "errors": _errors(RuntimeError("the sweep died"))}
+                        break
+                    if isinstance(msg, tuple) and msg[0] == "progress":
+                        job["done"], job["total"] = msg[1], msg[2]
+                    elif isinstance(msg, tuple) and msg[0] == "done":
+                        answer = msg[1]
+                    else:  # an internal error reported by _child
+                        answer = msg
+            finally:
+                if proc.is_alive():
+                    proc.kill()
+                proc.join(5)
+                here.close()
+            answer["seconds"] = round(time.perf_counter() - started, 3)
+            job.update(answer)
+            job["finished"] = True
 
     def __call__(self, kind: str, text: str, options: dict) -> dict:
         with self.slots:
@@ -238,8 +319,70 @@ def make_app(timeout: float = DEFAULT_TIMEOUT):
         options = {"simulate": simulate, "t_end": float(t_end) if simulate else None}
         return JSONResponse(await run_in_threadpool(runner, "run", data["text"], options))
 
+    jobs: dict[str, dict] = {}
+
+    def grid_size(params: dict) -> int:
+        size = 1
+        for name, v in params.items():
+            if isinstance(v, str) and v.count(":") == 2:
+                n = v.rsplit(":", 1)[1].strip()
+                if not n.isdigit():
+                    raise ValueError(f"{name}: A:B:N needs a whole number N, got {n!r}")
+                size *= int(n)
+            elif isinstance(v, str):
+                size *= len(v.split(","))
+            elif isinstance(v, list):
+                size *= len(v)
+            else:
+                raise ValueError(f'{name}: give "A:B:N", "a,b,c" or a list of numbers')
+        return size
+
+    async def sweep(request: Request) -> JSONResponse:
+        data, bad = await body(request)
+        if bad is not None:
+            return bad
+        assert data is not None
+        params, measures, t_end = data.get("params"), data.get("measures"), data.get("t_end")
+        if not isinstance(params, dict) or not params:
+            return refuse(400, 'a sweep needs "params": {name: "A:B:N" or "a,b,c"}')
+        if not isinstance(measures, list) or not all(isinstance(m, str) for m in measures):
+            return refuse(400, 'a sweep needs "measures": a list such as ["liftoff"]')
+        if isinstance(t_end, bool) or not isinstance(t_end, (int, float)):
+            return refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
+        if not 0 < t_end <= MAX_T_END:
+            return refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
+        try:
+            size = grid_size(params)
+        except ValueError as exc:
+            return refuse(400, str(exc))
+        if size > MAX_CASES:
+            return refuse(
+                400, f"{size} cases: the page runs at most {MAX_CASES}; use `lamech sweep`"
+            )
+        import uuid
+
+        key = uuid.uuid4().hex
+        job = {"done": 0, "total": size, "finished": False}
+        finished = [k for k, j in jobs.items() if j.get("finished")]
+        for old in finished[: max(0, len(finished) - 50)]:  # keep the last 50 answers
+            del jobs[old]
+        jobs[key] = job
+        options = {"params": params, "measures": measures, "t_end": float(t_end)}
+        threading.Thread(
+            target=runner.sweep, args=(data["text"], options, job), daemon=True
+        ).start()
+        return JSONResponse({"ok": True, "job": key, "total": size})
+
+    async def sweep_status(request: Request) -> JSONResponse:
+        job = jobs.get(request.path_params["job"])
+        if job is None:
+            return refuse(404, "no such sweep")
+        return JSONResponse(job)
+
     return Starlette(
         routes=[
+            Route("/api/sweep", sweep, methods=["POST"]),
+            Route("/api/sweep/{job}", sweep_status),
             Route("/", home),
             Route("/api/examples", examples),
             Route("/api/examples/{name}", example),
