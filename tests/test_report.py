@@ -5,7 +5,6 @@ through Playwright with every network request refused (item 4, for the report fi
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -79,57 +78,36 @@ def test_report_without_simulation_and_with_a_param(tmp_path):
     assert "Step 1. The Lagrangian" in page
 
 
-def _chromium() -> str | None:
-    for name in ("chromium", "chromium-browser", "google-chrome"):
-        found = shutil.which(name)
-        if found:
-            return found
-    return None
-
-
 @pytest.mark.slow
-def test_the_report_renders_offline_in_headless_chromium(cylinder_page):
-    playwright = pytest.importorskip("playwright.sync_api", reason="playwright not installed")
-    browser_path = _chromium()
-    if browser_path is None:
-        pytest.skip("no Chromium on this machine (Debian: apt-get install chromium)")
+def test_the_report_renders_offline_in_headless_chromium(cylinder_page, chromium):
     requested: list[str] = []
-    with playwright.sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=browser_path,
-            args=["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                  "--disable-component-update", "--disable-sync", "--no-first-run"],
-        )
-        try:
-            page = browser.new_page(viewport={"width": 1100, "height": 1400})
+    page = chromium.new_page(viewport={"width": 1100, "height": 1400})
+    def refuse(route):
+        if not route.request.url.startswith(("file:", "data:")):
+            requested.append(route.request.url)
+            route.abort()
+        else:
+            route.continue_()
 
-            def refuse(route):
-                if not route.request.url.startswith(("file:", "data:")):
-                    requested.append(route.request.url)
-                    route.abort()
-                else:
-                    route.continue_()
-
-            page.route("**/*", refuse)
-            page.goto(cylinder_page.as_uri())
-            page.wait_for_selector("body[data-rendered]", timeout=30_000)
-            blocks = page.locator(".math, .tex").count()
-            rendered = page.locator(".katex").count()
-            assert blocks > 100 and rendered == blocks  # every block typeset by KaTeX
-            assert page.locator(".katex-error").count() == 0
-            # the rendered lift-off row: cos(theta1) = 4/7 with its angle
-            lift = page.locator("tr", has_text="contact lets go").first
-            assert "55.15" in lift.inner_text()
-            assert lift.locator(".katex .mfrac").count() == 1
-            # the KaTeX fonts were loaded from the page itself
-            fonts = page.evaluate(
-                "Array.from(document.fonts).filter(f => f.status === 'loaded')"
-                ".map(f => f.family)"
-            )
-            assert any("KaTeX" in f for f in fonts)
-            ARTEFACTS.mkdir(exist_ok=True)
-            page.screenshot(path=str(ARTEFACTS / "report-cylinder.png"), full_page=False)
-        finally:
-            browser.close()
+    page.route("**/*", refuse)
+    page.goto(cylinder_page.as_uri())
+    page.wait_for_selector("body[data-rendered]", timeout=30_000)
+    blocks = page.locator(".math, .tex").count()
+    rendered = page.locator(".katex").count()
+    assert blocks > 100 and rendered == blocks  # every block typeset by KaTeX
+    assert page.locator(".katex-error").count() == 0
+    # the rendered lift-off row: cos(theta1) = 4/7 with its angle
+    lift = page.locator("tr", has_text="contact lets go").first
+    assert "55.15" in lift.inner_text()
+    assert lift.locator(".katex .mfrac").count() == 1
+    # the KaTeX fonts were loaded from the page itself
+    fonts = page.evaluate(
+        "Array.from(document.fonts).filter(f => f.status === 'loaded')"
+        ".map(f => f.family)"
+    )
+    assert any("KaTeX" in f for f in fonts)
+    ARTEFACTS.mkdir(exist_ok=True)
+    page.screenshot(path=str(ARTEFACTS / "report-cylinder.png"), full_page=False)
+    page.close()
     assert requested == []  # nothing asked of the network
 

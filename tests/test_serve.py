@@ -4,7 +4,6 @@ and the page end to end in headless Chromium (Playwright) against a real server.
 from __future__ import annotations
 
 import json
-import shutil
 import socket
 import subprocess
 import sys
@@ -94,20 +93,12 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _chromium() -> str | None:
-    return next((p for p in map(shutil.which, ("chromium", "chromium-browser")) if p), None)
-
-
 @pytest.mark.slow
-def test_the_page_in_headless_chromium():
-    playwright = pytest.importorskip("playwright.sync_api", reason="playwright not installed")
-    browser_path = _chromium()
-    if browser_path is None:
-        pytest.skip("no Chromium on this machine (Debian: apt-get install chromium)")
+def test_the_page_in_headless_chromium(chromium):
     port = _free_port()
     server = subprocess.Popen(
         [sys.executable, "-m", "lamech", "serve", "--port", str(port)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )
     try:
         url = f"http://127.0.0.1:{port}/"
@@ -117,63 +108,54 @@ def test_the_page_in_headless_chromium():
                 break
             except OSError:
                 time.sleep(0.2)
-        with playwright.sync_playwright() as p:
-            browser = p.chromium.launch(
-                executable_path=browser_path,
-                args=["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                      "--disable-component-update", "--disable-sync", "--no-first-run"],
-            )
-            try:
-                page = browser.new_page(viewport={"width": 1400, "height": 900})
-                outside: list[str] = []
-                page.on("request", lambda r: outside.append(r.url)
-                        if not r.url.startswith((url, "data:", "about:")) else None)
-                page.goto(url)
-                # type the cylinder problem (the last character typed by key: an input event)
-                page.fill("#editor", CYLINDER[:-1])
-                page.type("#editor", CYLINDER[-1])
-                page.wait_for_selector("#status.ok", timeout=60_000)
-                assert "valid" in page.inner_text("#status")
-                page.click("#solve")
-                page.wait_for_function(
-                    "document.getElementById('status').textContent.startsWith('done')",
-                    timeout=120_000,
-                )
-                assert "contact lets go at theta1 = 55.15°" in page.inner_text("#status")
-                report = page.frame_locator("#result")
-                report.locator("body[data-rendered]").wait_for(timeout=30_000)
-                assert report.locator(".katex").count() > 100
-                assert report.locator(".katex-error").count() == 0
-                assert "55.15" in report.locator("tr", has_text="contact lets go").first.inner_text()
-                ARTEFACTS.mkdir(exist_ok=True)
-                page.screenshot(path=str(ARTEFACTS / "serve-cylinder.png"))
-                # a sweep over mu with its progress bar, then its table
-                page.fill("#sweep_params", "mu=0.2,0.3,0.4")
-                page.fill("#sweep_measures", "slip")
-                page.click("#sweep")
-                page.wait_for_function(
-                    "document.getElementById('status').textContent.startsWith('sweep done')",
-                    timeout=120_000,
-                )
-                assert page.locator("#progress").get_attribute("max") == "3"
-                report.locator("th", has_text="slip:theta1").wait_for(timeout=30_000)
-                assert report.locator("tbody tr").count() == 3
-                # an error in the file shows at its line, and clicking it selects that line
-                page.fill("#editor", BAD[:-1])
-                page.type("#editor", BAD[-1])
-                line = _line_of(BAD, "V = ")
-                item = page.locator(f"#errors li[data-line='{line}']")
-                item.wait_for(timeout=60_000)
-                assert item.inner_text().startswith(f"line {line}: lagrangian.V:")
-                item.click()
-                selected = page.evaluate(
-                    "editor.value.substring(editor.selectionStart, editor.selectionEnd)"
-                )
-                assert selected == 'V = "m*g*r*cos(theta1"'
-                page.screenshot(path=str(ARTEFACTS / "serve-error.png"))
-                assert outside == []
-            finally:
-                browser.close()
+        page = chromium.new_page(viewport={"width": 1400, "height": 900})
+        outside: list[str] = []
+        page.on("request", lambda r: outside.append(r.url)
+                if not r.url.startswith((url, "data:", "about:")) else None)
+        page.goto(url)
+        # type the cylinder problem (the last character typed by key: an input event)
+        page.fill("#editor", CYLINDER[:-1])
+        page.type("#editor", CYLINDER[-1])
+        page.wait_for_selector("#status.ok", timeout=60_000)
+        assert "valid" in page.inner_text("#status")
+        page.click("#solve")
+        page.wait_for_function(
+            "document.getElementById('status').textContent.startsWith('done')",
+            timeout=120_000,
+        )
+        assert "contact lets go at theta1 = 55.15°" in page.inner_text("#status")
+        report = page.frame_locator("#result")
+        report.locator("body[data-rendered]").wait_for(timeout=30_000)
+        assert report.locator(".katex").count() > 100
+        assert report.locator(".katex-error").count() == 0
+        assert "55.15" in report.locator("tr", has_text="contact lets go").first.inner_text()
+        ARTEFACTS.mkdir(exist_ok=True)
+        page.screenshot(path=str(ARTEFACTS / "serve-cylinder.png"))
+        # a sweep over mu with its progress bar, then its table
+        page.fill("#sweep_params", "mu=0.2,0.3,0.4")
+        page.fill("#sweep_measures", "slip")
+        page.click("#sweep")
+        page.wait_for_function(
+            "document.getElementById('status').textContent.startsWith('sweep done')",
+            timeout=120_000,
+        )
+        assert page.locator("#progress").get_attribute("max") == "3"
+        report.locator("th", has_text="slip:theta1").wait_for(timeout=30_000)
+        assert report.locator("tbody tr").count() == 3
+        # an error in the file shows at its line, and clicking it selects that line
+        page.fill("#editor", BAD[:-1])
+        page.type("#editor", BAD[-1])
+        line = _line_of(BAD, "V = ")
+        item = page.locator(f"#errors li[data-line='{line}']")
+        item.wait_for(timeout=60_000)
+        assert item.inner_text().startswith(f"line {line}: lagrangian.V:")
+        item.click()
+        selected = page.evaluate(
+            "editor.value.substring(editor.selectionStart, editor.selectionEnd)"
+        )
+        assert selected == 'V = "m*g*r*cos(theta1"'
+        page.screenshot(path=str(ARTEFACTS / "serve-error.png"))
+        assert outside == []
     finally:
         server.terminate()
         server.wait(10)

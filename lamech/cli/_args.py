@@ -13,6 +13,7 @@ __all__ = [
     "samples",
     "assignment",
     "evaluate_assignments",
+    "add_assignments",
     "refuse_overwriting_input",
 ]
 
@@ -42,6 +43,13 @@ def assignment(text: str) -> tuple[str, str]:
     if not sep or not name.strip() or not value.strip():
         raise argparse.ArgumentTypeError(f"{text!r}: write NAME=VALUE, e.g. theta1=0.01")
     return name.strip(), value.strip()
+
+
+def add_assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> None:
+    """A repeatable NAME=VALUE option (``--param``, ``--initial``, ``--at``)."""
+    parser.add_argument(
+        flag, action="append", default=[], type=assignment, metavar="NAME=VALUE", help=text
+    )
 
 
 def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:

@@ -8,7 +8,7 @@ import json
 import os
 import sys
 
-from ._args import assignment
+from ._args import add_assignments, evaluate_assignments
 from ._report import add_parser as add_report
 from ._serve import add_parser as add_serve
 from ._simulate import add_parser as add_simulate  # light: argparse only
@@ -34,14 +34,14 @@ def _parser() -> argparse.ArgumentParser:
         help="a .toml problem file or a bundled example name "
         f"(default: {DEFAULT_PROBLEM}; see `lamech examples`)",
     )
-    _assignments(
+    add_assignments(
         s,
         "--param",
         "override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
         "coefficient) for the numbers: lift-off and slip angles, the "
         "verdicts at the start. Repeatable",
     )
-    _assignments(
+    add_assignments(
         s,
         "--initial",
         "start with coordinate (or velocity x') NAME at VALUE; the other "
@@ -67,8 +67,8 @@ def _parser() -> argparse.ArgumentParser:
         default=DEFAULT_PROBLEM,
         help="a .toml problem file or a bundled example name",
     )
-    _assignments(md, "--param", "override a parameter's value. Repeatable")
-    _assignments(
+    add_assignments(md, "--param", "override a parameter's value. Repeatable")
+    add_assignments(
         md,
         "--at",
         "linearise about this configuration at rest (every independent coordinate; "
@@ -84,13 +84,6 @@ def _parser() -> argparse.ArgumentParser:
     add_report(sub)
     add_serve(sub)
     return p
-
-
-def _assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> None:
-    """A repeatable NAME=VALUE option."""
-    parser.add_argument(
-        flag, action="append", default=[], type=assignment, metavar="NAME=VALUE", help=text
-    )
 
 
 def _angles(parser: argparse.ArgumentParser) -> None:
@@ -170,7 +163,6 @@ def _dispatch(args: argparse.Namespace) -> int:
         if command == "modes":
             from ..present import modes_latex, modes_text
             from ..symbolic import modes
-            from ._args import evaluate_assignments
 
             at = evaluate_assignments(args.at, system, "--at") if args.at else None
             found = modes(solution, at)
@@ -231,7 +223,6 @@ def _overridden(system, param_pairs, initial_pairs):
     coordinates onto the constraints exactly as ``lamech simulate --initial`` does."""
     from ..model import ModelError, with_values
     from ..numeric import compile_system, consistent_initial
-    from ._args import evaluate_assignments
 
     friction = {
         name: text

@@ -10,7 +10,7 @@ import tempfile
 from pathlib import Path
 
 from ._args import (
-    assignment,
+    add_assignments,
     evaluate_assignments,
     positive_float,
     refuse_overwriting_input,
@@ -55,21 +55,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument(
         "--no-simulate", action="store_true", help="leave the simulation out (symbolic only)"
     )
-    s.add_argument(
-        "--param",
-        action="append",
-        default=[],
-        type=assignment,
-        metavar="NAME=VALUE",
-        help="override a parameter for the simulation and the numbers. Repeatable",
+    add_assignments(
+        s, "--param", "override a parameter for the simulation and the numbers. Repeatable"
     )
-    s.add_argument(
+    add_assignments(
+        s,
         "--initial",
-        action="append",
-        default=[],
-        type=assignment,
-        metavar="NAME=VALUE",
-        help="start the simulation with coordinate (or velocity x') NAME at VALUE, as "
+        "start the simulation with coordinate (or velocity x') NAME at VALUE, as "
         "`lamech simulate --initial` (e.g. theta1=0.01 to roll off the top). Repeatable",
     )
     return s
