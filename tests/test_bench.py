@@ -64,3 +64,80 @@ def test_symbolic_benchmark_problems_load():
         system = lamech.loads(source) if "\n" in source else lamech.load(source)
         _, q, _, _, names = sympy_lagranges(system)
         assert len(q) == len(system.coordinates) and len(names) == len(system.constraints)
+
+
+def test_interleave_alternates_the_order_and_keeps_min_median_max():
+    from bench.run import interleave
+    order = []
+
+    def case(name, wall):
+        def run():
+            order.append(name)
+            return wall.pop(0), 0.5, name
+        return run
+
+    got = interleave([("a", case("a", [3.0, 1.0, 2.0])), ("b", case("b", [5.0, 4.0, 6.0]))],
+                     repeats=3)
+    assert order == ["a", "b", "b", "a", "a", "b"]      # reversed every other round
+    assert got["a"].wall == (1.0, 2.0, 3.0) and got["b"].wall == (4.0, 5.0, 6.0)
+    assert got["a"].cpu == (0.5, 0.5, 0.5) and got["a"].result == ("a",)
+    assert got["a"].runs == 3
+
+
+def test_interleave_runs_slow_and_capped_cases_once():
+    from bench.run import interleave
+    calls = {"slow": 0, "capped": 0, "fast": 0}
+
+    def run(name, wall):
+        def f():
+            calls[name] += 1
+            return None if wall is None else (wall, wall)
+        return f
+
+    got = interleave([("slow", run("slow", 40.0)), ("capped", run("capped", None)),
+                      ("fast", run("fast", 1.0))], repeats=3, alone_after=30.0)
+    assert calls == {"slow": 1, "capped": 1, "fast": 3}
+    assert got["capped"] is None and got["slow"].runs == 1 and got["fast"].runs == 3
+
+
+def test_at_error_interpolates_on_the_pareto_front():
+    from bench.run import at_error
+    # time = err^(-1/8): interpolation in log-log is exact on the front
+    pts = [(e ** (-1 / 8), e) for e in (1e-4, 1e-6, 1e-8, 1e-10)]
+    assert np.isclose(at_error(pts, 1e-7), 1e-7 ** (-1 / 8), rtol=1e-12)
+    assert np.isclose(at_error(pts, 1e-10), 1e-10 ** (-1 / 8), rtol=1e-12)
+    assert at_error(pts, 1e-11) is None and at_error(pts, 1e-3) is None
+    # a setting both slower and less accurate than another is not on the front
+    assert np.isclose(at_error(pts + [(100.0, 1e-5)], 1e-5), 1e-5 ** (-1 / 8), rtol=1e-12)
+
+
+def test_mujoco_positions_are_the_final_states():
+    """B3 reads MuJoCo's positions after mj_forward: RK4 at dt 1 ms over 0.2 s is within
+    1e-9 of lamech's tight run (the stored positions of the last step's forward pass
+    would be a step behind: about 1e-3 off)."""
+    pytest.importorskip("mujoco", reason="mujoco not installed (extra `bench`)")
+    from bench.run import ANGLE, _lamech_run, _mujoco_run
+    n = 2
+    system = lamech_chain(n)
+    _, _, ref_pos, ref_T = _lamech_run(system, 0.2, 1e-12, False)
+    _, _, pos, T = _mujoco_run(n, np.full(n, ANGLE), "RK4", 1e-3, 0.2)
+    assert np.max(np.abs(pos - ref_pos)) < 1e-9
+    assert np.max(np.abs(T - ref_T)) < 1e-7 * np.max(np.abs(ref_T))
+
+
+def test_casadi_peer_is_the_same_chain():
+    """B3/B4's CasADi model: its tensions at the start are lamech's (the check the
+    benchmark makes), and CVODES on it follows lamech's run."""
+    pytest.importorskip("casadi", reason="casadi not installed (extra `bench`)")
+    from bench.run import CasadiChain, _lamech_run, casadi_peer
+    n = 3
+    ns = compile_system(lamech_chain(n))
+    _, lam = lamech_qdd_lambda(ns)
+    peer = CasadiChain(n, jit=False)
+    y0 = np.concatenate((chain_state(n), np.zeros(2 * n)))
+    assert np.allclose(peer.tensions(y0), -2 * lam, rtol=1e-12)
+    assert casadi_peer(n, ns) is not None           # the benchmark's own check passes
+    _, _, ref_pos, ref_T = _lamech_run(ns.system, 0.5, 1e-12, False, ns)
+    _, _, pos, T = peer.run(y0, 0.5, 1e-12, 1e-14)
+    assert np.max(np.abs(pos - ref_pos)) < 1e-8
+    assert np.max(np.abs(T - ref_T)) < 1e-7 * np.max(np.abs(ref_T))
