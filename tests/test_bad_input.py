@@ -109,7 +109,7 @@ def check_message(message: str, name: str, expected: Header) -> None:
 def test_corpus_is_complete():
     assert len(FILES) >= 35
     for path in FILES:
-        assert re.fullmatch(r"\d\d-[a-z0-9-]+-?[A-Za-z0-9-]*\.toml", path.name), path.name
+        assert re.fullmatch(r"\d{2,3}-[a-z0-9-]+-?[A-Za-z0-9-]*\.toml", path.name), path.name
         assert header(path).expects, f"{path.name} has no '# expect:' line"
 
 

@@ -22,7 +22,8 @@ import sympy as sp
 import lamech
 from lamech.symbolic import CORRECTION, Derivation, Term
 
-SLOW = {"andrews_squeezer", "rolling_disc", "double_pendulum", "moving_support", "four_bar"}
+SLOW = {"andrews_squeezer", "rolling_disc", "double_pendulum", "moving_support", "four_bar",
+        "heavy_top"}
 
 
 @pytest.fixture(scope="module")

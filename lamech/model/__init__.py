@@ -25,9 +25,12 @@ from ._checks import (
     without_inertia,
 )
 from ._kinematics import (
+    angular_velocity,
     body_energy,
+    body_rotation,
     constraint_jacobian,
     contact_partial_velocities,
+    inertia_matrix,
     partial_velocities,
     time_derivative,
     velocity_form,
@@ -50,6 +53,9 @@ from ._system import (
 from ._values import with_values
 
 __all__ = [
+    "angular_velocity",
+    "body_rotation",
+    "inertia_matrix",
     "Parameter",
     "Chart",
     "ChartProposal",

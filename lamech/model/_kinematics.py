@@ -10,6 +10,9 @@ from ._system import Body, System
 __all__ = [
     "time_derivative",
     "body_energy",
+    "body_rotation",
+    "angular_velocity",
+    "inertia_matrix",
     "partial_velocities",
     "contact_partial_velocities",
     "velocity_form",
@@ -31,10 +34,92 @@ def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
     return out
 
 
+def _turn(axis: str, angle: sp.Expr) -> sp.Matrix:
+    """The rotation by ``angle`` about the x, y or z axis (active, right-handed)."""
+    c, s = sp.cos(angle), sp.sin(angle)
+    return {
+        "x": sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "y": sp.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "z": sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
+
+
+TRIGSIMP_OPS = 400
+"""A body's rotational energy longer than this is kept expanded (not trig-simplified)."""
+
+_AXES = {"x": sp.Matrix([1, 0, 0]), "y": sp.Matrix([0, 1, 0]), "z": sp.Matrix([0, 0, 1])}
+
+
+def body_rotation(body: Body) -> sp.Matrix | None:
+    """R, world from body (its columns are the body axes in the world frame), of a body
+    in space; None for a point or a planar body. Body-fixed turns compose as
+    R = R_1 R_2 R_3 (each about the axes the ones before left), space-fixed ones as
+    R = R_3 R_2 R_1."""
+    if body.orientation is not None:
+        return sp.Matrix(body.orientation)
+    if body.rotation is None:
+        return None
+    turns = [_turn(axis, angle) for axis, angle in body.rotation]
+    if body.rotation_frame == "space":
+        turns = turns[::-1]
+    R = sp.eye(3)
+    for m in turns:
+        R = R * m
+    return R
+
+
+def angular_velocity(system: System, body: Body) -> tuple[sp.Matrix, sp.Matrix] | None:
+    """(omega in the world frame, omega in the body frame) of a body in space, linear in
+    the velocities; None for a point or a planar body.
+
+    For a sequence of turns the angular velocity is the sum of each turn's rate about its
+    own axis, carried to the frame asked for (no simplification needed: Euler's
+    kinematic equations); for an ``orientation`` matrix, vee(R^T dR/dt)."""
+    R = body_rotation(body)
+    if R is None:
+        return None
+    if body.rotation is None:
+        dR = R.applyfunc(lambda e: time_derivative(e, system))
+        W = R.T * dR  # skew: (omega_body)^
+        w_body = sp.Matrix([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]) / 2
+        w_body = w_body.applyfunc(lambda e: sp.trigsimp(sp.expand(e)))
+        return R * w_body, w_body
+    turns = list(body.rotation)
+    w_world = sp.zeros(3, 1)
+    if body.rotation_frame == "space":
+        # R = R_k ... R_1: turn i's axis in the world is R_k ... R_{i+1} e_i
+        for i, (axis, angle) in enumerate(turns):
+            carry = sp.eye(3)
+            for a2, ang2 in turns[i + 1 :]:
+                carry = _turn(a2, ang2) * carry
+            w_world += carry * _AXES[axis] * time_derivative(angle, system)
+    else:
+        # R = R_1 ... R_k: turn i's axis in the world is R_1 ... R_{i-1} e_i
+        carry = sp.eye(3)
+        for axis, angle in turns:
+            w_world += carry * _AXES[axis] * time_derivative(angle, system)
+            carry = carry * _turn(axis, angle)
+    w_world = w_world.applyfunc(sp.expand)
+    w_body = (R.T * w_world).applyfunc(lambda e: sp.trigsimp(sp.expand(e)))
+    return w_world, w_body
+
+
+def inertia_matrix(body: Body) -> sp.Matrix:
+    """The 3 x 3 inertia tensor about the centre, in the body axes."""
+    i = body.inertia
+    if isinstance(i, tuple) and len(i) == 3 and isinstance(i[0], tuple):
+        return sp.Matrix(i)
+    if isinstance(i, tuple):
+        return sp.diag(*i)
+    return sp.eye(3) * (i if i is not None else 0)
+
+
 def body_energy(
     system: System, bodies: tuple[Body, ...], gravity: sp.Expr | None
 ) -> tuple[sp.Expr, sp.Expr]:
-    """Kinetic and gravitational potential energy of ``bodies`` (gravity along -y or -z)."""
+    """Kinetic and gravitational potential energy of ``bodies`` (gravity along -y or -z):
+    m v^2/2 of the centre, plus I phi'^2/2 (planar) or omega^T I omega/2 (in space, body
+    frame)."""
     T = sp.Integer(0)
     V = sp.Integer(0)
     for b in bodies:
@@ -42,6 +127,13 @@ def body_energy(
         T += b.mass * sum(v**2 for v in vel) / 2
         if b.angle is not None and b.inertia is not None:
             T += b.inertia * time_derivative(b.angle, system) ** 2 / 2
+        spin = angular_velocity(system, b)
+        if spin is not None:
+            w = spin[1]
+            rot = sp.expand((w.T * inertia_matrix(b) * w)[0, 0] / 2)
+            # sin^2 + cos^2 of the turns the inertia does not see (a disc's spin about
+            # its axle): merged while short; a long form is the same function
+            T += sp.trigsimp(rot) if sp.count_ops(rot) < TRIGSIMP_OPS else rot
         if gravity is not None:
             V += b.mass * gravity * b.position[-1]
     return T, V
@@ -49,8 +141,11 @@ def body_energy(
 
 def partial_velocities(system: System, body: Body, point: tuple[sp.Expr, ...]) -> sp.Matrix:
     """J_P, shape (dim, n_coords): the partial velocities dr_P/dq of the material point of
-    ``body`` that sits at ``point`` now (rigid planar body: dc/dq + dphi/dq z x (P - c))."""
+    ``body`` that sits at ``point`` now: dc/dq + (partial angular velocity) x (P - c), with
+    dphi/dq z for a planar body and d omega/dq' for a body in space."""
     dim = len(body.position)
+    spin = angular_velocity(system, body) if dim == 3 else None
+    rel3 = sp.Matrix([point[k] - body.position[k] for k in range(3)]) if spin else None
     rows = []
     for c in system.coordinates:
         col = [sp.diff(x, c.symbol) for x in body.position]
@@ -58,6 +153,10 @@ def partial_velocities(system: System, body: Body, point: tuple[sp.Expr, ...]) -
             w = sp.diff(body.angle, c.symbol)
             rel = [point[0] - body.position[0], point[1] - body.position[1]]
             col = [col[0] - w * rel[1], col[1] + w * rel[0]]
+        if spin is not None and rel3 is not None:
+            w3 = spin[0].applyfunc(lambda e, v=c.velocity: sp.diff(e, v))
+            turn = w3.cross(rel3)
+            col = [col[k] + turn[k] for k in range(3)]
         rows.append(col)
     return sp.Matrix(rows).T
 

@@ -329,11 +329,11 @@ def body_issues(b: Body) -> Issues:
             out.append(
                 (
                     _join(where, "angle"),
-                    "rigid bodies (with an angle) must be planar: give a 2-component position",
+                    "an `angle` turns a planar body: give a 2-component position, or, in "
+                    'space, a `rotation` (e.g. rotation = ["z:psi", "x:theta", "z:phi"])',
                 )
             )
-    if b.inertia is not None and not _is_expr(b.inertia):
-        out.append((_join(where, "inertia"), _not_expr(b.inertia, "the inertia")))
+    out += _spatial_issues(b, where)
     shape = b.shape
     if not (isinstance(shape, tuple) and len(shape) == 2):
         out.append(
@@ -351,6 +351,121 @@ def body_issues(b: Body) -> Issues:
             (_join(where, "shape"), _not_expr(shape[1], f"the size of the {shape[0].value}"))
         )
     return out
+
+
+def _spatial_issues(b: Body, where: str) -> Issues:
+    """A body in space: its rotation or orientation, and the form of its inertia."""
+    out: Issues = []
+    spatial = b.rotation is not None or b.orientation is not None
+    if b.rotation is not None and b.orientation is not None:
+        out.append((_join(where, "rotation"), "give `rotation` or `orientation`, not both"))
+    if spatial and b.angle is not None:
+        out.append(
+            (_join(where, "angle"), "a body in space turns by its `rotation`, not an `angle`")
+        )
+    if spatial and not (isinstance(b.position, tuple) and len(b.position) == 3):
+        out.append(
+            (
+                _join(where, "rotation"),
+                "a body turning in space needs a 3-component position (x, y, z)",
+            )
+        )
+    if spatial and b.inertia is None:
+        out.append(
+            (
+                _join(where, "inertia"),
+                "a turning body needs its `inertia` about the centre of mass, in its own "
+                'axes: the principal moments (inertia = ["I1", "I2", "I3"]) or the 3 x 3 '
+                "tensor",
+            )
+        )
+    if b.rotation is not None:
+        turns = b.rotation
+        if not isinstance(turns, tuple) or not turns:
+            out.append(
+                (_join(where, "rotation"), 'give a list of turns, e.g. ["z:psi", "x:theta"]')
+            )
+        else:
+            for turn in turns:
+                if not (isinstance(turn, tuple) and len(turn) == 2 and turn[0] in ("x", "y", "z")):
+                    out.append(
+                        (
+                            _join(where, "rotation"),
+                            f"each turn is (axis, angle) with axis x, y or z; got {turn!r}",
+                        )
+                    )
+                elif not _is_expr(turn[1]):
+                    out.append((_join(where, "rotation"), _not_expr(turn[1], "each angle")))
+    if b.rotation_frame not in ("body", "space"):
+        out.append(
+            (
+                _join(where, "rotation_frame"),
+                'must be "body" (intrinsic turns) or "space" (extrinsic); '
+                f"got {b.rotation_frame!r}",
+            )
+        )
+    if b.orientation is not None and not _is_matrix3(b.orientation):
+        out.append(
+            (_join(where, "orientation"), "must be 3 rows of 3 expressions (the rotation matrix)")
+        )
+    inertia = b.inertia
+    if inertia is None:
+        return out
+    if isinstance(inertia, tuple):
+        if not spatial:
+            out.append(
+                (
+                    _join(where, "inertia"),
+                    "principal moments or a tensor need a body in space (a `rotation` or an "
+                    "`orientation`); a planar body has one moment about its centre",
+                )
+            )
+        elif len(inertia) == 3 and all(_is_expr(x) for x in inertia):
+            pass
+        elif _is_matrix3(inertia):
+            if any(
+                sp.simplify(inertia[i][j] - inertia[j][i]) != 0 for i in range(3) for j in range(i)
+            ):
+                out.append((_join(where, "inertia"), "the inertia tensor must be symmetric"))
+        else:
+            out.append(
+                (
+                    _join(where, "inertia"),
+                    "give one moment, the 3 principal moments, or 3 rows of 3 (the tensor)",
+                )
+            )
+    elif not _is_expr(inertia):
+        out.append((_join(where, "inertia"), _not_expr(inertia, "the inertia")))
+    return out
+
+
+def _is_matrix3(m) -> bool:
+    return (
+        isinstance(m, tuple)
+        and len(m) == 3
+        and all(isinstance(r, tuple) and len(r) == 3 and all(_is_expr(x) for x in r) for r in m)
+    )
+
+
+def inertia_components(b: Body) -> list:
+    """Every expression in a body's inertia (scalar, moments or tensor), for checks."""
+    i = b.inertia
+    if i is None:
+        return []
+    if isinstance(i, tuple):
+        return [x for row in i for x in (row if isinstance(row, tuple) else (row,))]
+    return [i]
+
+
+def inertia_diagonal(b: Body) -> list:
+    """The moments that must be >= 0: the scalar, the principal moments, or the tensor's
+    diagonal."""
+    i = b.inertia
+    if i is None:
+        return []
+    if isinstance(i, tuple):
+        return [i[k][k] if isinstance(i[k], tuple) else i[k] for k in range(len(i))]
+    return [i]
 
 
 _SCENERY_FORMS = (
@@ -587,8 +702,13 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
             check(x, "position", f"{where} position")
         if b.angle is not None:
             check(b.angle, "angle", f"{where} angle")
-        if b.inertia is not None:
-            check(b.inertia, "inertia", f"{where} inertia")
+        for x in inertia_components(b):
+            check(x, "inertia", f"{where} inertia")
+        for _axis, angle in b.rotation or ():
+            check(angle, "angle", f"{where} rotation")
+        for row in b.orientation or ():
+            for x in row:
+                check(x, "angle", f"{where} orientation")
         if b.shape[1] is not None:
             check(b.shape[1], "shape", f"{where} shape")
     for i, g in enumerate(s.scenery):
@@ -752,7 +872,7 @@ def _value_issues(s: System, scope: _Scope) -> Issues:
 
     for i, b in enumerate(s.bodies):
         where = f"bodies[{i + 1}] `{b.name}`"
-        for label, expr in (("mass", b.mass), ("inertia", b.inertia)):
+        for label, expr in [("mass", b.mass)] + [("inertia", x) for x in inertia_diagonal(b)]:
             if expr is None:
                 continue
             v = at_parameters(expr)

@@ -209,20 +209,37 @@ class Constraint:
 
 @dataclass(frozen=True)
 class Body:
-    """A point mass or planar rigid body: centre-of-mass ``position`` (2 or 3 components,
-    y or z up), counterclockwise ``angle`` and ``inertia`` about the centre for rigid bodies.
-    ``shape`` is (kind, size) for drawing: (POINT, None), (CIRCLE, R) or (ROD, l); the
-    kind may be given as its string."""
+    """A point mass, a planar rigid body or a rigid body in space.
+
+    ``position`` is the centre of mass (2 or 3 components, y or z up). A planar rigid body
+    has a counterclockwise ``angle`` and a scalar ``inertia`` about the centre. A body in
+    space (3 components) is oriented by ``rotation``, a sequence of (axis, angle) turns
+    about x, y or z (``rotation_frame`` "body": each about the axes turned by the ones
+    before, intrinsic, as Euler's z-x-z or the 3-1-2 of a rolling disc; "space": each
+    about the fixed axes, extrinsic), or by ``orientation``, the 3 x 3 matrix whose columns
+    are the body axes in the world frame; its ``inertia`` about the centre, in the body
+    axes, is a scalar (the same about every axis), the 3 principal moments, or the 3 x 3
+    tensor. ``shape`` is (kind, size) for drawing: (POINT, None), (CIRCLE, R) or (ROD, l);
+    the kind may be given as its string."""
 
     name: str
     mass: sp.Expr
     position: tuple[sp.Expr, ...]
     angle: sp.Expr | None = None
-    inertia: sp.Expr | None = None
+    inertia: Any = None  # Expr; 3 principal moments; or a 3 x 3 tensor (tuples)
     shape: tuple[ShapeKind, sp.Expr | None] = (ShapeKind.POINT, None)
+    rotation: tuple[tuple[str, sp.Expr], ...] | None = None
+    rotation_frame: str = "body"
+    orientation: tuple[tuple[sp.Expr, ...], ...] | None = None
 
     def __post_init__(self) -> None:
         _as_tuple(self, "position", "shape")
+        for name in ("rotation", "orientation", "inertia"):
+            raw = getattr(self, name)
+            if isinstance(raw, (list, tuple)):
+                object.__setattr__(
+                    self, name, tuple(tuple(x) if isinstance(x, list) else x for x in raw)
+                )
         if isinstance(self.shape, tuple) and len(self.shape) == 2:
             kind = self.shape[0]
             if isinstance(kind, str) and kind in [k.value for k in ShapeKind]:

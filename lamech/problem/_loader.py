@@ -739,21 +739,39 @@ class _Loader:
             name = spec.get("name", f"body{i + 1}")
             where = f"bodies[{i + 1}] `{name}`"
             before = len(self.problems)
-            extra = set(spec) - {"name", "mass", "position", "angle", "inertia", "shape"}
+            keys = {"name", "mass", "position", "angle", "inertia", "shape"}
+            keys |= {"rotation", "rotation_frame", "orientation"}
+            extra = set(spec) - keys
             if extra:
                 self.problem(
                     where,
-                    f"unknown key `{sorted(extra)[0]}`; a body takes name, "
-                    "mass, position, angle, inertia, shape",
+                    f"unknown key `{sorted(extra)[0]}`; a body takes name, mass, position, "
+                    "angle, inertia, shape, and in space rotation, rotation_frame or "
+                    "orientation",
                     loc0,
                 )
             if "mass" not in spec:
                 self.problem(where, "missing `mass`", loc0)
                 continue
-            parts = {}
-            for key in ("mass", "angle", "inertia"):
+            parts: dict[str, Any] = {}
+            for key in ("mass", "angle"):
                 if key in spec:
                     parts[key] = self.field(spec[key], key, f"{where} {key}", ("bodies", i, key))
+            if "inertia" in spec:
+                parts["inertia"] = self._inertia(spec["inertia"], where, ("bodies", i, "inertia"))
+            if "rotation" in spec:
+                parts["rotation"] = self._rotation(
+                    spec["rotation"], where, ("bodies", i, "rotation")
+                )
+            if "rotation_frame" in spec:
+                parts["rotation_frame"] = spec["rotation_frame"]
+            if "orientation" in spec:
+                parts["orientation"] = self._matrix(
+                    spec["orientation"],
+                    "angle",
+                    f"{where} orientation",
+                    ("bodies", i, "orientation"),
+                )
             parts["position"] = self._vector(
                 spec.get("position"), "position", f"{where} position", ("bodies", i, "position")
             )
@@ -763,6 +781,62 @@ class _Loader:
                 if body is not None:
                     out.append(body)
         return out
+
+    def _rotation(self, value, where: str, loc: tuple):
+        """``["z:psi", "x:theta", "z:phi"]``: turns (axis, angle expression)."""
+        if not isinstance(value, list) or not value:
+            self.problem(
+                f"{where} rotation",
+                'give a list of turns "axis:angle", e.g. ["z:psi", "x:theta", "z:phi"]',
+                loc,
+            )
+            return None
+        turns = []
+        for item in value:
+            axis, sep, angle = str(item).partition(":") if isinstance(item, str) else ("", "", "")
+            axis = axis.strip().lower()
+            if not sep or axis not in ("x", "y", "z") or not angle.strip():
+                self.problem(
+                    f"{where} rotation",
+                    f'each turn is "axis:angle" with axis x, y or z (e.g. "z:psi"); got {item!r}',
+                    loc,
+                )
+                return None
+            expr = self.field(angle.strip(), "angle", f"{where} rotation", loc)
+            if expr is None:
+                return None
+            turns.append((axis, expr))
+        return tuple(turns)
+
+    def _matrix(self, value, field: str, where: str, loc: tuple):
+        """3 rows of 3 expressions."""
+        if not (
+            isinstance(value, list)
+            and len(value) == 3
+            and all(isinstance(r, list) and len(r) == 3 for r in value)
+        ):
+            self.problem(where, "must be 3 rows of 3 expressions", loc)
+            return None
+        rows = [[self.field(x, field, where, loc) for x in r] for r in value]
+        if any(x is None for r in rows for x in r):
+            return None
+        return tuple(tuple(r) for r in rows)
+
+    def _inertia(self, value, where: str, loc: tuple):
+        """One moment, the 3 principal moments, or 3 rows of 3 (the tensor)."""
+        if isinstance(value, list) and value and all(isinstance(r, list) for r in value):
+            return self._matrix(value, "inertia", f"{where} inertia", loc)
+        if isinstance(value, list):
+            if len(value) != 3:
+                self.problem(
+                    f"{where} inertia",
+                    "give one moment, the 3 principal moments, or 3 rows of 3 (the tensor)",
+                    loc,
+                )
+                return None
+            parts = [self.field(x, "inertia", f"{where} inertia", loc) for x in value]
+            return None if any(p is None for p in parts) else tuple(parts)
+        return self.field(value, "inertia", f"{where} inertia", loc)
 
     def _scenery(self) -> list[Scenery]:
         """``[[scenery]]``: drawn geometry, each entry a point, a line or a circle."""
