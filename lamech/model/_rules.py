@@ -79,6 +79,7 @@ FIELDS: dict[str, tuple[str, str]] = {
     "shape": ("parameters", "shapes (parameters only)"),
     "scenery": ("positions", "scenery"),
     "gravity": ("parameters", "gravity (parameters only)"),
+    "spring": ("parameters", "spring constants, lengths and damping (parameters only)"),
 }
 """What each kind of expression may contain, and its name in messages (the loader
 parses with the same)."""

@@ -34,8 +34,12 @@ from ..model import (
     Scenery,
     ShapeKind,
     System,
+    angular_velocity,
     body_energy,
+    body_rotation,
     name_problem,
+    partial_velocities,
+    time_derivative,
 )
 from ._examples import example_names, example_path
 
@@ -62,6 +66,7 @@ _KNOWN_SECTIONS = {
     "description",
     "scenery",
     "parametrisation",
+    "loads",
 }
 
 
@@ -174,6 +179,7 @@ LIMITS = {
     "constraints": 200,
     "bodies": 200,
     "scenery": 1000,
+    "loads": 1000,
 }
 """The most entries of each section a problem file may have: 20,000 coordinates fit in
 a 369 kB file, but their 20000 x 20000 symbolic mass matrix takes minutes to build."""
@@ -475,6 +481,10 @@ class _Loader:
         T, V = self._lagrangian(skeleton, bodies, gravity)
         constraints = self._constraints()
         forces = self._forces(coords)
+        if skeleton is not None and "loads" in self.data:
+            extra_Q, extra_V = self._loads(skeleton, bodies)
+            forces = [f + q for f, q in zip(forces, extra_Q)]
+            V = V + extra_V
         scenery = self._scenery()
         self.fail_if_any()
         notes = self._compare_energy(skeleton, bodies, gravity, T, V)
@@ -1105,6 +1115,164 @@ class _Loader:
                 out[by_name[name]] = e
         return out
 
+    def _loads(self, skeleton: System, bodies: list[Body]) -> tuple[list, sp.Expr]:
+        """``[[loads]]``: forces at material points, torques on bodies, springs and
+        dampers between points, as generalized forces by virtual work (Q_q = F . dr_P/dq,
+        tau . domega/dq'); a spring's energy k (d - L0)^2 / 2 joins V, its damper
+        -c d' dd/dq joins Q."""
+        n = len(skeleton.coordinates)
+        Q = [sp.Integer(0)] * n
+        V_extra = sp.Integer(0)
+        raw = self.data.get("loads", [])
+        if not isinstance(raw, list):
+            self.problem(
+                "loads",
+                "loads are an array of tables: each starts with `[[loads]]`",
+                (None, None, "loads"),
+            )
+            return Q, V_extra
+        by_name = {b.name: b for b in bodies}
+        kinds = ("force", "torque", "spring")
+        for i, spec in enumerate(raw):
+            loc0 = ("loads", i, None)
+            if not isinstance(spec, dict):
+                self.problem(f"loads[{i + 1}]", "must be a table", loc0)
+                continue
+            name = spec.get("name", f"load{i + 1}")
+            where = f"loads[{i + 1}] `{name}`"
+            given = [k for k in kinds if k in spec]
+            extra = sorted(set(spec) - {"name", "body", "at", "frame", *kinds})
+            if extra or len(given) != 1:
+                self.problem(
+                    where,
+                    (f"unknown key `{extra[0]}`; " if extra else "")
+                    + "a load is one of: force = [Fx, Fy(, Fz)] with body and at (a point of "
+                    "the body; default its centre), torque with body, or spring = { from = "
+                    '[...], to = [...], k = "k", length = "L0", damping = "c" }',
+                    loc0,
+                )
+                continue
+            frame = spec.get("frame", "world")
+            if frame not in ("world", "body"):
+                self.problem(where, 'frame is "world" (default) or "body"', ("loads", i, "frame"))
+                continue
+            if given[0] == "spring":
+                got = self._spring(skeleton, spec["spring"], where, ("loads", i, "spring"))
+                if got is not None:
+                    V_extra += got[0]
+                    Q = [a + b for a, b in zip(Q, got[1])]
+                continue
+            body = by_name.get(spec.get("body", ""))
+            if body is None:
+                self.problem(
+                    where,
+                    f"`body` must name one of the [[bodies]] ({', '.join(by_name) or 'none'})",
+                    ("loads", i, "body"),
+                )
+                continue
+            dim = len(body.position)
+            R = body_rotation(body)
+            if frame == "body" and R is None and body.angle is None:
+                self.problem(where, "a point mass has no body frame", ("loads", i, "frame"))
+                continue
+            if given[0] == "force":
+                F = self._vector(spec["force"], "forces", f"{where} force", ("loads", i, "force"))
+                at = (
+                    self._vector(spec["at"], "at", f"{where} at", ("loads", i, "at"))
+                    if "at" in spec
+                    else body.position
+                )
+                if F is None or at is None:
+                    continue
+                if len(F) != dim or len(at) != dim:
+                    self.problem(
+                        where,
+                        f"force and at need {dim} components, as the body's position",
+                        ("loads", i, "force"),
+                    )
+                    continue
+                Fw = sp.Matrix(F)
+                if frame == "body":
+                    Fw = (R if R is not None else _planar_turn(body.angle)) * Fw
+                J = partial_velocities(skeleton, body, tuple(at))
+                Q = [Q[k] + (Fw.T * J[:, k])[0] for k in range(n)]
+            else:
+                loc = ("loads", i, "torque")
+                value = spec["torque"]
+                if dim == 2:
+                    tau = self.field(value, "forces", f"{where} torque", loc)
+                    if tau is None:
+                        continue
+                    if body.angle is None:
+                        self.problem(where, "a torque needs a body that turns (an angle)", loc)
+                        continue
+                    Q = [
+                        Q[k] + tau * sp.diff(body.angle, c.symbol)
+                        for k, c in enumerate(skeleton.coordinates)
+                    ]
+                    continue
+                vec = self._vector(value, "forces", f"{where} torque", loc)
+                if vec is None:
+                    continue
+                spin = angular_velocity(skeleton, body)
+                if spin is None or len(vec) != 3:
+                    self.problem(
+                        where,
+                        "a torque in space needs 3 components and a body "
+                        "with a rotation or orientation",
+                        loc,
+                    )
+                    continue
+                tw = sp.Matrix(vec)
+                if frame == "body" and R is not None:
+                    tw = R * tw
+                Q = [
+                    Q[k] + (tw.T * spin[0].diff(c.velocity))[0]
+                    for k, c in enumerate(skeleton.coordinates)
+                ]
+        return Q, V_extra
+
+    def _spring(self, skeleton: System, spec, where: str, loc: tuple):
+        """(energy, generalized damping forces) of a spring (and damper) between two
+        points given as expressions (each may move with the coordinates)."""
+        if not isinstance(spec, dict) or not {"from", "to", "k"} <= set(spec):
+            self.problem(
+                where,
+                'spring = { from = [...], to = [...], k = "k", length = "L0", '
+                'damping = "c" } (length and damping optional)',
+                loc,
+            )
+            return None
+        a = self._vector(spec["from"], "at", f"{where} spring.from", loc)
+        b = self._vector(spec["to"], "at", f"{where} spring.to", loc)
+        k = self.field(spec["k"], "spring", f"{where} spring.k", loc)
+        L0 = self.field(spec.get("length", 0), "spring", f"{where} spring.length", loc)
+        c = self.field(spec.get("damping", 0), "spring", f"{where} spring.damping", loc)
+        if a is None or b is None or k is None or L0 is None or c is None:
+            return None
+        if len(a) != len(b):
+            self.problem(where, "from and to need the same number of components", loc)
+            return None
+        d = sp.Matrix(b) - sp.Matrix(a)
+        length = sp.sqrt(sum(x**2 for x in d)) if L0 != 0 else None
+        if length is None:  # a zero-length spring: k |d|^2 / 2, no square root
+            energy = k * sum(x**2 for x in d) / 2
+            rate = sum(x * time_derivative(x, skeleton) for x in d)  # |d| |d|'
+            Q = [
+                -c * rate * sum(x * sp.diff(x, q.symbol) for x in d) / sum(x**2 for x in d)
+                if c != 0
+                else sp.Integer(0)
+                for q in skeleton.coordinates
+            ]
+            return energy, Q
+        energy = k * (length - L0) ** 2 / 2
+        rate = time_derivative(length, skeleton)
+        Q = [
+            -c * rate * sp.diff(length, q.symbol) if c != 0 else sp.Integer(0)
+            for q in skeleton.coordinates
+        ]
+        return energy, Q
+
     # ----- notes ---------------------------------------------------------------------
     def _compare_energy(self, skeleton, bodies, gravity, T, V) -> list[str]:
         table = self.data.get("lagrangian")
@@ -1133,6 +1301,11 @@ class _Loader:
                     "other potential; V is used as given)"
                 )
         return notes
+
+
+def _planar_turn(angle: sp.Expr) -> sp.Matrix:
+    """The plane rotation by ``angle`` (a planar body's frame)."""
+    return sp.Matrix([[sp.cos(angle), -sp.sin(angle)], [sp.sin(angle), sp.cos(angle)]])
 
 
 def _numerically_equal(a: sp.Expr, b: sp.Expr, system: System, tries: int = 3) -> bool:

@@ -1,0 +1,157 @@
+"""Loads as the user thinks of them (issue 13, item 3): a force at a material point, a
+torque on a body, a spring and a damper between two points, turned into generalized
+forces by virtual work (the partial velocities of the point, the partial angular
+velocities of the body) and shown in the equations. Each against the generalized force
+written by hand, or a closed-form motion."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import lamech
+
+PENDULUM = """
+title = "pendulum pushed sideways"
+[parameters]
+m = 1
+g = 9.81
+l = 1
+F = 2
+[coordinates]
+r     = { initial = "l", velocity = 0 }
+theta = { initial = 0.2, velocity = 0 }
+[[constraints]]
+name = "rod"
+f = "l - r"
+[[bodies]]
+name = "bob"
+mass = "m"
+position = ["r*sin(theta)", "-r*cos(theta)"]
+[gravity]
+acceleration = "g"
+[[loads]]
+name = "push"
+body = "bob"
+force = ["F", 0]
+"""
+
+
+def _same(a, b) -> bool:
+    return sp.simplify(sp.expand(a - b)) == 0
+
+
+def test_a_force_at_a_point_is_F_dot_the_partial_velocity():
+    system = lamech.loads(PENDULUM)
+    S = system.symbols
+    F, r, th = S["F"], S["r"], S["theta"]
+    assert _same(system.forces[0], F * sp.sin(th))  # Q_r
+    assert _same(system.forces[1], F * r * sp.cos(th))  # Q_theta
+    # it shows in the equations, and the pendulum hangs at tan(theta) = F/(m g)
+    sol = lamech.solve(system)
+    assert any(e.has(F) for e in sol.equations)
+    (eq,) = [e for e in lamech.modes(sol).equilibria if e.stability == "stable"]
+    assert math.tan(eq.values["theta"]) == pytest.approx(2 / 9.81, rel=1e-9)
+    assert math.cos(eq.values["theta"]) > 0
+
+
+def test_a_force_in_the_body_frame_turns_with_the_body():
+    text = """
+title = "a disc spun by a tangential push"
+[parameters]
+m = 2
+R = 0.5
+P = 3
+[coordinates]
+phi = { initial = 0, velocity = 0 }
+[[bodies]]
+name = "disc"
+mass = "m"
+position = [0, 0]
+angle = "phi"
+inertia = "m*R^2/2"
+[[loads]]
+name = "push"
+body = "disc"
+at = ["R*cos(phi)", "R*sin(phi)"]
+force = [0, "P"]
+frame = "body"
+"""
+    system = lamech.loads(text)
+    # the body-frame y push at the body-frame x point is always tangential: Q = P R
+    assert _same(system.forces[0], system.symbols["P"] * system.symbols["R"])
+    traj = lamech.simulate(system, 1.0, samples=11)
+    alpha = 3 * 0.5 / (2 * 0.5**2 / 2)
+    assert traj.coordinate("phi")[-1] == pytest.approx(alpha / 2, rel=1e-9)
+
+
+def test_a_torque_on_a_body_in_space_uses_its_partial_angular_velocities():
+    text = open(lamech.problem.example_path("heavy_top")).read() + """
+[[loads]]
+name = "motor"
+body = "top"
+torque = [0, 0, "tau"]
+frame = "body"
+"""
+    text = text.replace("[parameters]\n", "[parameters]\ntau = 0.01\n", 1)
+    system = lamech.loads(text)
+    S = system.symbols
+    tau, th = S["tau"], S["theta"]
+    Q = dict(zip([c.name for c in system.coordinates], system.forces))
+    assert _same(Q["psi"], tau * sp.cos(th))
+    assert _same(Q["theta"], 0)
+    assert _same(Q["phi"], tau)
+
+
+def test_a_spring_and_a_damper_between_two_points():
+    text = """
+title = "mass on a damped spring"
+[parameters]
+m = 2
+k = 8
+c = 0.4
+[coordinates]
+x = { initial = 0.1, velocity = 0 }
+[[bodies]]
+name = "mass"
+mass = "m"
+position = ["x", 0]
+[[loads]]
+name = "spring"
+spring = { from = [0, 0], to = ["x", 0], k = "k", damping = "c" }
+"""
+    system = lamech.loads(text)
+    S = system.symbols
+    assert _same(system.V, S["k"] * S["x"] ** 2 / 2)
+    assert _same(system.forces[0], -S["c"] * S["x'"])
+    traj = lamech.simulate(system, 3.0, samples=301, rtol=1e-11, atol=1e-12)
+    # the damped oscillator: x = A e^(-z t) cos(w t) + B e^(-z t) sin(w t)
+    z = 0.4 / (2 * 2)
+    w = math.sqrt(8 / 2 - z**2)
+    t = traj.t
+    exact = 0.1 * np.exp(-z * t) * (np.cos(w * t) + z / w * np.sin(w * t))
+    assert np.max(np.abs(traj.coordinate("x") - exact)) < 1e-8
+
+
+def test_a_spring_with_a_natural_length_in_the_plane():
+    text = PENDULUM.replace('f = "l - r"', 'f = "l - r"\nunilateral = true').split("[[loads]]")[0]
+    text += """
+[[loads]]
+name = "spring"
+spring = { from = [0, 0], to = ["r*sin(theta)", "-r*cos(theta)"], k = "F", length = "l/2" }
+"""
+    system = lamech.loads(text)
+    S = system.symbols
+    r, l, F = S["r"], S["l"], S["F"]
+    spring = F * (r - l / 2) ** 2 / 2
+    extra = system.V - (-S["m"] * S["g"] * r * sp.cos(S["theta"]))
+    for rv, tv in ((0.7, 0.3), (1.3, -2.0)):  # r > 0: |r| = r
+        at = {r: rv, S["theta"]: tv, F: 2, l: 1}
+        assert float(extra.subs(at)) == pytest.approx(float(spring.subs(at)), rel=1e-12)
+    # at rest the stretched spring pulls the bob in by F (l - l/2): the rod's tension,
+    # m g cos(theta) along the rod, is that much less
+    lam = lamech.solve(system).initial_multipliers["rod"]
+    assert lam == pytest.approx(9.81 * math.cos(0.2) - 2 * 0.5, rel=1e-9)
