@@ -118,11 +118,15 @@ def test_an_unusable_cache_directory_compiles_in_memory_silently(tmp_path):
 @pytest.mark.slow
 def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch):
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
+    # two variants of the pendulum no other test compiles (one process compiles a text
+    # once, so a system compiled before in this worker would not be written here)
     text = example_path("pendulum").read_text(encoding="utf-8")
-    heavier = text.replace('V = "-m*g*r*cos(theta)"', 'V = "-2*m*g*r*cos(theta)"')
-    assert heavier != text
-    a = compile_system(lamech.load("pendulum"), jit=True)
-    b = compile_system(lamech.loads(heavier), jit=True)
+    one, two = (
+        text.replace('V = "-m*g*r*cos(theta)"', f'V = "-{k}*m*g*r*cos(theta)"') for k in (1.25, 1.5)
+    )
+    assert one != text and two != text
+    a = compile_system(lamech.loads(one), jit=True)
+    b = compile_system(lamech.loads(two), jit=True)
     assert a.source != b.source
     files = [p.read_text(encoding="utf-8") for p in (tmp_path / "kernels").glob("lamech_*.py")]
     assert len(files) == 2

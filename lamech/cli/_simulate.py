@@ -25,7 +25,6 @@ __all__ = ["add_parser", "run"]
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    from_defaults = "(default %(default)s)"
     s = subparsers.add_parser(
         "simulate",
         help="integrate the motion; multipliers, forces, contact events",
@@ -136,11 +135,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument(
         "--jit",
         action="store_true",
-        help="compile the dynamics with numba when it is installed. It costs a "
-        "few seconds of compilation and does not make one run faster today: "
-        "SciPy's integrator is driven from Python and its per-step overhead "
-        "dominates (1000 pendulum periods take about as long either way); "
-        "the compiled path pays in lamech.integrate_batch" + from_defaults[:0],
+        help="compile the dynamics with numba when it is installed. The first run of a "
+        "problem compiles it (3-9 s) and caches the result in $LAMECH_CACHE_DIR, else "
+        "$XDG_CACHE_HOME/lamech, else ~/.cache/lamech; later runs load it (about 0.3 s) "
+        "and integrate 2-3.5 times faster (the same numbers to rounding)",
     )
     return s
 

@@ -119,6 +119,12 @@ def simulate(
     (equal to "failed", "interrupted") and a ``message`` naming the time and cause; its
     ``final_time`` and final state are the last ones reached, between samples too.
 
+    ``jit``: compile the system's functions with numba, when it is installed. The
+    compiled form is cached on disk (:func:`lamech.numeric.jit_cache_dir`), so only the
+    first run of a problem pays for compiling (3-9 s); later runs load it (about 0.3 s)
+    and then integrate 2-3.5 times faster (pendulum, 5- and 20-link chains). Ignored
+    when ``system`` is already a :class:`NumericSystem`.
+
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force
     before are restored after the run.
