@@ -40,28 +40,33 @@ TIDY_OPS = 120
 """Lines longer than this are printed as derived (``factor_terms`` only): ``simplify`` of
 one costs seconds on a linkage's trigonometric terms and rarely shortens it much."""
 
-STEPS_SECONDS = 2.0
-"""The time the steps may spend simplifying in all (each line at most
-:data:`LINE_SECONDS`); past it, lines print as derived."""
+TIDY_LINES = 80
+"""At most this many lines are simplified (the first ones, in the order of the steps);
+a count, not a time, so that the same problem prints the same steps on any machine."""
 LINE_SECONDS = 0.5
+"""The time bound of one line's simplification (a safety: short lines take ms)."""
+STEPS_SECONDS = 20.0
+"""A last safety: past this much simplifying in all, lines print as derived."""
 
 
 class _Simplifier:
-    """:func:`tidy` for short lines while the time for all the steps lasts, else
-    ``factor_terms`` (cheap, bounded)."""
+    """:func:`tidy` for short lines (the first :data:`TIDY_LINES`), each within
+    :data:`LINE_SECONDS`; else ``factor_terms`` (cheap, bounded)."""
 
     def __init__(self, seconds: float = STEPS_SECONDS):
         self.deadline = time.perf_counter() + seconds
+        self.left = TIDY_LINES
 
     def __call__(self, expr):
         expr = sp.sympify(expr)
         if expr.is_Atom:
             return expr
-        left = self.deadline - time.perf_counter()
-        if sp.count_ops(expr) <= TIDY_OPS and left > 0:
-            with simplification_bound(min(left, LINE_SECONDS)):
+        ops = sp.count_ops(expr)
+        if ops <= TIDY_OPS and self.left > 0 and time.perf_counter() < self.deadline:
+            self.left -= 1
+            with simplification_bound(LINE_SECONDS):
                 return tidy(expr)
-        if sp.count_ops(expr) > 4 * TIDY_OPS:
+        if ops > 4 * TIDY_OPS:
             return expr
         return within(sp.factor_terms, expr, fallback=expr)
 
