@@ -96,8 +96,9 @@ def test_a_second_process_loads_the_compiled_system_and_two_may_compile_at_once(
     assert c["cache"] == "loaded", c
     assert c["batch_hits"] > 0 and c["batch_misses"] == 0, c
     assert c["final"] == a["final"] and c["batch"] == a["batch"]
-    # compiling takes seconds; loading about 0.3 s here (4 s allows for a busy machine)
-    assert c["seconds"] < min(4.0, max(a["seconds"], b["seconds"])), (a, b, c)
+    # compiling takes 5-8 s here, loading 0.3-0.6 s (both 10 times that on a machine
+    # busy with 8 processes at once)
+    assert c["seconds"] < max(a["seconds"], b["seconds"]) / 4, (a, b, c)
     assert wall < 30.0
 
 

@@ -134,7 +134,7 @@ def module_key(text: str) -> str:
 def _write(path: Path, text: str) -> None:
     """``text`` to ``path`` atomically (a temporary file in the same folder, renamed):
     a reader sees the whole file or none, and two writers of the same text both win."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the user's own: it is run
     fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
@@ -193,6 +193,16 @@ class Kernels:
 
 _LOADED: dict[str, Kernels] = {}
 _LOCK = threading.Lock()
+
+
+def _new_lock() -> None:
+    global _LOCK
+    _LOCK = threading.Lock()
+
+
+# a process forked while another thread compiles would inherit the lock held, forever
+if hasattr(os, "register_at_fork"):  # not on Windows (no fork there)
+    os.register_at_fork(after_in_child=_new_lock)
 
 _COMPILED = (
     "dynamics",
