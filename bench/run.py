@@ -183,10 +183,12 @@ class CasadiChain:
         if jit:
             self._dir = tempfile.mkdtemp(prefix="lamech-bench-casadi-")
             weakref.finalize(self, shutil.rmtree, self._dir, True)
-            opts = {"jit": True, "compiler": "shell", "jit_cleanup": True,
+            # the folder removed with this object (CasADi's own clean-up off: it would
+            # warn about the files removed under it; the loaded library stays mapped)
+            opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
                     "jit_name": "chain_rhs",
                     "jit_options": {"flags": [self.FLAGS], "verbose": False,
-                                    "directory": self._dir + os.sep}}
+                                    "directory": self._dir + os.sep, "cleanup": False}}
             rhs = ca.Function("chain_rhs", [x, p], [ode], opts)
             X, P = ca.MX.sym("x", x.shape[0]), ca.MX.sym("p", p.shape[0])
             self._dae = {"x": X, "p": P, "ode": rhs(X, P)}
@@ -846,10 +848,11 @@ def _draw(curves: dict, sizes, t_end: float) -> None:
                 continue
             pts = sorted(pts, key=lambda p: p[1])
             colour = _COLOURS.get(method, "tab:brown" if method.startswith("CasADi") else None)
-            ax.loglog([p[1] for p in pts], [p[0] for p in pts], "o-", label=method,
+            ax.loglog([p[1] for p in pts], [p[2] for p in pts], "o-", label=method,
                       color=colour)
         ax.set_xlabel(f"tension error at t = {t_end:g} s (relative)")
-        ax.set_ylabel("wall time, median of 3 (s)")
+        # CPU time: on a shared machine the wall time's medians still zigzag
+        ax.set_ylabel("CPU time, median of 3 (s)")
         ax.set_title(f"{n}-link chain, {t_end:g} s")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
