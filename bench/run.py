@@ -606,7 +606,7 @@ class _Clock:
         self.cpu = time.process_time() - self._c
 
 
-def _lamech_run(system, t_end, rtol, jit, ns=None):
+def lamech_run(system, t_end, rtol, jit, ns=None):
     """lamech's ``simulate``: (wall, CPU, positions, tensions) at t_end."""
     from lamech.numeric import simulate
     with _Clock() as clock:
@@ -626,7 +626,7 @@ def _kernel_run(ns, y0, t_end, rtol):
     return clock.wall, clock.cpu, res.q[0], -2 * L * res.lambdas[0]
 
 
-def _mujoco_run(n, angles, integrator, dt, t_end):
+def mujoco_run(n, angles, integrator, dt, t_end):
     """MuJoCo, ``mj_step`` at fixed dt: (wall, CPU, positions, tensions) at t_end. The
     positions and tensions after ``mj_forward`` at the final state: after ``mj_step``
     the stored body positions are those its last (RK4: last stage's) forward pass
@@ -729,14 +729,14 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
     for n in sizes:
         system = lamech_chain(n)
         ns = compile_system(system, jit=jit)
-        _, _, ref_pos, ref_T = _lamech_run(system, t_end, 1e-13, jit, ns)
+        _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-13, jit, ns)
         Tscale = np.max(np.abs(ref_T))
         angles = np.full(n, ANGLE)
         y0 = np.concatenate(ns.initial_state())[None]
         cases = []              # ((method, setting), fn)
         for rtol in rtols:
             cases.append((("lamech", f"rtol {rtol:g}"),
-                          lambda r=rtol: _lamech_run(system, t_end, r, jit, ns)))
+                          lambda r=rtol: lamech_run(system, t_end, r, jit, ns)))
         if jit:
             from lamech.numeric import integrate_batch
             integrate_batch(ns, y0, 0.01)           # compile outside the timing
@@ -748,7 +748,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
             for integrator in ("Euler", "RK4"):
                 for dt in dts:
                     cases.append(((f"MuJoCo {integrator}", f"dt {dt:g}"),
-                                  lambda i=integrator, d=dt: _mujoco_run(n, angles, i, d,
+                                  lambda i=integrator, d=dt: mujoco_run(n, angles, i, d,
                                                                          t_end)))
         except ImportError:
             pass
@@ -882,16 +882,16 @@ def bench_long_chains(sizes, t_end, quick, lines: list[str], repeats: int = 3):
     for n in sizes:
         system = lamech_chain(n)
         ns = compile_system(system)
-        _, _, ref_pos, ref_T = _lamech_run(system, t_end, 1e-12, False, ns)
+        _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-12, False, ns)
         Tscale = np.max(np.abs(ref_T))
         angles = np.full(n, ANGLE)
         cases = [(("lamech", f"rtol {rtol:g}"),
-                  lambda r=rtol: _lamech_run(system, t_end, r, False, ns))
+                  lambda r=rtol: lamech_run(system, t_end, r, False, ns))
                  for rtol in ((1e-9,) if quick else (1e-6, 1e-9))]
         try:
             import mujoco  # noqa: F401
             cases += [((f"MuJoCo {i}", "dt 0.001"),
-                       lambda i=i: _mujoco_run(n, angles, i, 1e-3, t_end))
+                       lambda i=i: mujoco_run(n, angles, i, 1e-3, t_end))
                       for i in ("Euler", "RK4")]
         except ImportError:
             pass
@@ -1018,7 +1018,7 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
             key = f"mujoco {integrator} {dt:g}"
             cases.append((key, roll))
             rows.append((key, f"mujoco.rollout {integrator} dt {dt:g} ({threads} threads)",
-                         runs, error(_mujoco_run(n, angles[0], integrator, dt, t_end)[3])))
+                         runs, error(mujoco_run(n, angles[0], integrator, dt, t_end)[3])))
     got = interleave(cases, repeats)
     batch_rate = (count / got["batch"].wall.median) if "batch" in got else None
     for key, label, runs, err in rows:

@@ -116,11 +116,11 @@ def test_mujoco_positions_are_the_final_states():
     1e-9 of lamech's tight run (the stored positions of the last step's forward pass
     would be a step behind: about 1e-3 off)."""
     pytest.importorskip("mujoco", reason="mujoco not installed (extra `bench`)")
-    from bench.run import ANGLE, _lamech_run, _mujoco_run
+    from bench.run import ANGLE, lamech_run, mujoco_run
     n = 2
     system = lamech_chain(n)
-    _, _, ref_pos, ref_T = _lamech_run(system, 0.2, 1e-12, False)
-    _, _, pos, T = _mujoco_run(n, np.full(n, ANGLE), "RK4", 1e-3, 0.2)
+    _, _, ref_pos, ref_T = lamech_run(system, 0.2, 1e-12, False)
+    _, _, pos, T = mujoco_run(n, np.full(n, ANGLE), "RK4", 1e-3, 0.2)
     assert np.max(np.abs(pos - ref_pos)) < 1e-9
     assert np.max(np.abs(T - ref_T)) < 1e-7 * np.max(np.abs(ref_T))
 
@@ -129,7 +129,7 @@ def test_casadi_peer_is_the_same_chain():
     """B3/B4's CasADi model: its tensions at the start are lamech's (the check the
     benchmark makes), and CVODES on it follows lamech's run."""
     pytest.importorskip("casadi", reason="casadi not installed (extra `bench`)")
-    from bench.run import CasadiChain, _lamech_run, casadi_peer
+    from bench.run import CasadiChain, lamech_run, casadi_peer
     n = 3
     ns = compile_system(lamech_chain(n))
     _, lam = lamech_qdd_lambda(ns)
@@ -137,7 +137,7 @@ def test_casadi_peer_is_the_same_chain():
     y0 = np.concatenate((chain_state(n), np.zeros(2 * n)))
     assert np.allclose(peer.tensions(y0), -2 * lam, rtol=1e-12)
     assert casadi_peer(n, ns) is not None           # the benchmark's own check passes
-    _, _, ref_pos, ref_T = _lamech_run(ns.system, 0.5, 1e-12, False, ns)
+    _, _, ref_pos, ref_T = lamech_run(ns.system, 0.5, 1e-12, False, ns)
     _, _, pos, T = peer.run(y0, 0.5, 1e-12, 1e-14)
     assert np.max(np.abs(pos - ref_pos)) < 1e-8
     assert np.max(np.abs(T - ref_T)) < 1e-7 * np.max(np.abs(ref_T))
