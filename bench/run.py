@@ -730,7 +730,6 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
         system = lamech_chain(n)
         ns = compile_system(system, jit=jit)
         _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-13, jit, ns)
-        Tscale = np.max(np.abs(ref_T))
         angles = np.full(n, ANGLE)
         y0 = np.concatenate(ns.initial_state())[None]
         cases = []              # ((method, setting), fn)
@@ -768,15 +767,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
                 cases.append(((peer.label, f"rtol {rtol:g}, atol {atol:g}"),
                               lambda r=rtol, a=atol: peer.run(ystart, t_end, r, a)))
         got = interleave(cases, repeats)
-        for (method, setting), _ in cases:
-            timed = got[(method, setting)]
-            pos, T = timed.result
-            eT = float(np.max(np.abs(T - ref_T)) / Tscale)
-            eP = float(np.max(np.abs(pos - ref_pos)))
-            row = (f"| {n} | {method} | {setting} | {_fmt_spread(timed.wall)} | "
-                   f"{_fmt_spread(timed.cpu)} | {eT:.2e} | {eP:.2e} |")
-            print("  " + row)
-            lines.append(row)
+        for method, timed, eT in _accuracy_rows(n, cases, got, ref_pos, ref_T, lines):
             curves.setdefault((n, method), []).append((timed.wall.median, eT,
                                                        timed.cpu.median))
     lines.append("")
@@ -784,6 +775,25 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
     bench_long_chains([60] if quick else [60, 100], t_end, quick, lines)
     _draw(curves, sizes, t_end)
     return curves
+
+
+def _accuracy_rows(n, cases, got, ref_pos, ref_T, lines: list[str]) -> list:
+    """One table row per timed case (medians and spreads of wall and CPU time, the
+    tension error relative to the largest reference tension, the position error),
+    printed and appended to ``lines``; [(method, timed, tension error)]."""
+    scale = np.max(np.abs(ref_T))
+    out = []
+    for (method, setting), _ in cases:
+        timed = got[(method, setting)]
+        pos, T = timed.result
+        eT = float(np.max(np.abs(T - ref_T)) / scale)
+        eP = float(np.max(np.abs(pos - ref_pos)))
+        row = (f"| {n} | {method} | {setting} | {_fmt_spread(timed.wall)} | "
+               f"{_fmt_spread(timed.cpu)} | {eT:.2e} | {eP:.2e} |")
+        print("  " + row)
+        lines.append(row)
+        out.append((method, timed, eT))
+    return out
 
 
 def b3_equal_error(curves: dict, sizes) -> list[str]:
@@ -883,7 +893,6 @@ def bench_long_chains(sizes, t_end, quick, lines: list[str], repeats: int = 3):
         system = lamech_chain(n)
         ns = compile_system(system)
         _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-12, False, ns)
-        Tscale = np.max(np.abs(ref_T))
         angles = np.full(n, ANGLE)
         cases = [(("lamech", f"rtol {rtol:g}"),
                   lambda r=rtol: lamech_run(system, t_end, r, False, ns))
@@ -896,15 +905,7 @@ def bench_long_chains(sizes, t_end, quick, lines: list[str], repeats: int = 3):
         except ImportError:
             pass
         got = interleave(cases, 1 if quick else repeats)
-        for (method, setting), _ in cases:
-            timed = got[(method, setting)]
-            pos, T = timed.result
-            eT = float(np.max(np.abs(T - ref_T)) / Tscale)
-            eP = float(np.max(np.abs(pos - ref_pos)))
-            row = (f"| {n} | {method} | {setting} | {_fmt_spread(timed.wall)} | "
-                   f"{_fmt_spread(timed.cpu)} | {eT:.2e} | {eP:.2e} |")
-            print("  " + row)
-            lines.append(row)
+        _accuracy_rows(n, cases, got, ref_pos, ref_T, lines)
     lines.append("")
 
 
