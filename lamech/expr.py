@@ -3,7 +3,8 @@
 The grammar (the only thing a problem file may contain in an expression):
 numbers, declared names, ``t``, ``x'`` for the velocity of coordinate ``x`` (``x''``
 for its acceleration in printed equations), ``+ - * / ^ **``, parentheses, the
-functions in :data:`FUNCTIONS` and ``pi``.
+functions in :data:`FUNCTIONS` and ``pi``; and ``body.wx`` (a dotted name: a body's
+angular velocity component, see :func:`parse`).
 
 User text is never handed to ``eval``, ``sympify`` or ``parse_expr``: Python's own
 tokenizer-free ``ast`` parses it (after two purely lexical rewrites, ``'`` suffixes and
@@ -241,6 +242,7 @@ class _Builder:
     def __init__(self, text: str, names: Mapping[str, sp.Expr], what: str, src: str, column_of):
         self.text = text
         self.names = names
+        self.hints: Mapping[str, str] = {}
         self.what = what
         self.src = src
         self.src_bytes = src.encode("utf-8")
@@ -327,8 +329,42 @@ class _Builder:
                 )
             allowed = "velocities" if kind == "'" else "accelerations"
             raise self.fail(f"`{key}`: {allowed} are not allowed in {self.what}", node)
-        known = sorted(n for n in self.names if not n.endswith("'"))
+        known = sorted(n for n in self.names if not n.endswith("'") and "." not in n)
         raise self.fail(f"unknown name `{key}`; known: " + (", ".join(known) or "(none)"), node)
+
+    def _Attribute(self, node: ast.Attribute) -> sp.Expr:
+        """``body.wx``: a dotted name, looked up whole in ``names`` (a body's angular
+        velocity component); ``hints`` says why a body's have none here."""
+        if not isinstance(node.value, ast.Name):
+            raise self.fail(
+                "a dotted name is a body's angular velocity component, `body.wx`; "
+                f"`{_short(self.segment(node) or self.text)}` is not one",
+                node,
+            )
+        body, part = node.value.id, node.attr
+        if part.endswith(_VEL_SUFFIX):
+            raise self.fail(
+                f"`{body}.{part[: -len(_VEL_SUFFIX)]}'`: the rates of angular velocities "
+                f"are not allowed in {self.what}",
+                node,
+            )
+        key = f"{body}.{part}"
+        if key in self.names:
+            return self.names[key]
+        parts = sorted(n.partition(".")[2] for n in self.names if n.startswith(body + "."))
+        if parts:
+            raise self.fail(
+                f"`{key}`: unknown component `{part}`; {body} has " + ", ".join(parts), node
+            )
+        if body in self.hints:
+            raise self.fail(f"`{key}`: {self.hints[body]}", node)
+        spinning = sorted({n.partition(".")[0] for n in self.names if "." in n})
+        raise self.fail(
+            f"`{key}`: no body named `{body}` turns in space here (a dotted name is a "
+            "body's angular velocity, e.g. top.wx); bodies with one: "
+            + (", ".join(spinning) or "(none)"),
+            node,
+        )
 
     def _UnaryOp(self, node: ast.UnaryOp) -> sp.Expr:
         operand = self.build(node.operand)
@@ -726,7 +762,13 @@ def _plain_complex(number: sp.Expr) -> str:
     return f"{float(re_part):.6g} {sign} {abs(float(im_part)):.6g} i"
 
 
-def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expression") -> sp.Expr:
+def parse(
+    text: object,
+    names: Mapping[str, sp.Expr],
+    what: str = "this expression",
+    *,
+    hints: Mapping[str, str] | None = None,
+) -> sp.Expr:
     """Parse expression ``text`` into SymPy using only ``names``.
 
     Parameters
@@ -736,8 +778,12 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
     names : mapping
         Every name the expression may use, including ``t``; velocities are keyed
         ``"x'"`` and accelerations ``"x''"``. ``pi`` and the functions are always known.
+        A dotted key (``"top.wx"``) is written ``top.wx`` (a body's angular velocity).
     what : str
         How to call the expression's place in error messages ("positions", ...).
+    hints : mapping, optional
+        Why ``name.anything`` cannot be used here, by the name before the dot (a planar
+        body, a point mass): the message for such a dotted name.
 
     Raises
     ------
@@ -806,6 +852,7 @@ def parse(text: object, names: Mapping[str, sp.Expr], what: str = "this expressi
     if _tree_depth(tree) > MAX_DEPTH:
         raise ExpressionError(f"expression nested too deeply (more than {MAX_DEPTH} levels)", text)
     builder = _Builder(text, names, what, src, node_column)
+    builder.hints = hints or {}
     try:
         return builder.build(tree)
     except RecursionError:
