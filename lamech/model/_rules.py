@@ -351,6 +351,12 @@ def body_issues(b: Body) -> Issues:
         out.append(
             (_join(where, "shape"), _not_expr(shape[1], f"the size of the {shape[0].value}"))
         )
+    if b.shape_axis not in ("x", "y", "z"):
+        out.append((_join(where, "shape"), f"axis is x, y or z (got {b.shape_axis!r})"))
+    elif b.shape_axis != "z" and not (isinstance(b.position, tuple) and len(b.position) == 3):
+        out.append(
+            (_join(where, "shape"), "an axis orients a shape in space: a planar body has none")
+        )
     return out
 
 

@@ -220,7 +220,9 @@ class Body:
     are the body axes in the world frame; its ``inertia`` about the centre, in the body
     axes, is a scalar (the same about every axis), the 3 principal moments, or the 3 x 3
     tensor. ``shape`` is (kind, size) for drawing: (POINT, None), (CIRCLE, R) or (ROD, l);
-    the kind may be given as its string."""
+    the kind may be given as its string. In space, ``shape_axis`` ("x", "y" or "z") is the
+    body axis a rod lies along and a circle turns about (its axle: the circle lies in the
+    plane of the other two body axes)."""
 
     name: str
     mass: sp.Expr
@@ -231,6 +233,7 @@ class Body:
     rotation: tuple[tuple[str, sp.Expr], ...] | None = None
     rotation_frame: str = "body"
     orientation: tuple[tuple[sp.Expr, ...], ...] | None = None
+    shape_axis: str = "z"
 
     def __post_init__(self) -> None:
         _as_tuple(self, "position", "shape")

@@ -785,7 +785,11 @@ class _Loader:
             parts["position"] = self._vector(
                 spec.get("position"), "position", f"{where} position", ("bodies", i, "position")
             )
-            parts["shape"] = self._shape(spec.get("shape"), where, ("bodies", i, "shape"))
+            shape = spec.get("shape")
+            if isinstance(shape, dict) and "axis" in shape:  # in space: the rod's or axle's
+                parts["shape_axis"] = shape["axis"]
+                shape = {k: v for k, v in shape.items() if k != "axis"}
+            parts["shape"] = self._shape(shape, where, ("bodies", i, "shape"))
             if len(self.problems) == before:
                 body = self.make(Body, name, part=where, **parts)
                 if body is not None:
@@ -911,7 +915,10 @@ class _Loader:
             return (ShapeKind.POINT, None)
         if not isinstance(spec, dict) or len(spec) != 1:
             self.problem(
-                where, 'shape is one of { circle = "R" }, { rod = "l" }, { point = true }', loc
+                where,
+                'shape is one of { circle = "R" }, { rod = "l" }, { point = true } (in space '
+                'with axis = "x", "y" or "z": the rod\'s body axis, the circle\'s axle)',
+                loc,
             )
             return None
         ((kind, value),) = spec.items()
