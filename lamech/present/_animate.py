@@ -18,6 +18,7 @@ self-contained page, matplotlib's ``to_jshtml``).
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import cast
 
@@ -57,25 +58,55 @@ def _series(fn, t: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def _plane(points: np.ndarray) -> np.ndarray:
-    """(N, 2) plane coordinates: x, y as given; in space the side view x, z."""
+    """(N, 2) plane coordinates: x, y as given; of a point in space, x and z."""
     return points[:, [0, 2]] if points.shape[1] == 3 else points[:, :2]
 
 
+def _space(points: np.ndarray) -> np.ndarray:
+    """(N, 3) coordinates in space: x, y, z as given; a point given in the plane at z = 0."""
+    if points.shape[1] == 3:
+        return points
+    return np.column_stack((points[:, :2], np.zeros(len(points))))
+
+
+_RIM = 48  # segments of a circle drawn in space
+_CORNERS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+
+
 class Scene:
-    """Numbers for every frame, computed once: body poses, force arrows, contact tracks."""
+    """Numbers for every frame, computed once: body poses, force arrows, contact tracks.
+
+    In the plane (``space`` False) points are (x, y). In space (bodies with 3-component
+    positions) they are (x, y, z), and ``rotations[i]`` holds body i's axes in the world
+    at every frame (shape (n_frames, 3, 3), columns x, y, z; None for a body that does not
+    turn), from its ``rotation`` or ``orientation``; ``shape_axes[i]`` is the body axis
+    (0, 1, 2) its rod lies along or its circle turns about, and ``axis_lengths[i]`` how
+    long its frame's arrows are drawn. :meth:`outline` and :meth:`frame_tips` are the
+    points drawn."""
 
     def __init__(self, traj, system, params, frames: np.ndarray):
+        from ..model import body_rotation
+
         self.traj = traj
         self.frames = frames
         t, q = traj.t[frames], traj.q[frames]
         self.t = t
         self.space = bool(system.bodies) and len(system.bodies[0].position) == 3
+        view = _space if self.space else _plane
         self.bodies = []
+        self.rotations: list[np.ndarray | None] = []
+        self.shape_axes: list[int] = []
         for b in system.bodies:
-            pos = _plane(_series(_lambdify(system, params, b.position), t, q))
+            pos = view(_series(_lambdify(system, params, b.position), t, q))
             angle = (
                 _series(_lambdify(system, params, [b.angle]), t, q)[:, 0]
                 if b.angle is not None and not self.space
+                else None
+            )
+            R = body_rotation(b) if self.space else None
+            turns = (
+                _series(_lambdify(system, params, list(R)), t, q).reshape(-1, 3, 3)
+                if R is not None
                 else None
             )
             kind, size = b.shape
@@ -84,16 +115,19 @@ class Scene:
                 if size is not None and kind in ("circle", "rod")
                 else 0.0
             )
-            if kind == "rod" and angle is None:
-                kind = "point"  # a rod needs an angle to be drawn as one
+            if kind == "rod" and angle is None and turns is None:
+                kind = "point"  # a rod needs an angle (or a rotation) to be drawn as one
             self.bodies.append((b.name, kind, size, pos, angle))
-        self.arrows = []  # (name, points (F,2), vectors (F,2))
-        self.tracks = []  # (name, points (F,2)) while engaged
+            self.rotations.append(turns)
+            self.shape_axes.append("xyz".index(b.shape_axis) if self.space else 2)
+        self.arrows = []  # (name, points (F,dim), vectors (F,dim))
+        self.tracks = []  # (name, points (F,dim)) while engaged
+        dim = 3 if self.space else 2
         for j, c in enumerate(system.constraints):
             spec = c.force
             if spec is None:
                 continue
-            at = _plane(_series(_lambdify(system, params, spec.at), t, q))
+            at = view(_series(_lambdify(system, params, spec.at), t, q))
             lam = traj.lambdas[frames, j]
             engaged = np.isfinite(lam)
             if c.unilateral:
@@ -101,14 +135,14 @@ class Scene:
                 self.tracks.append((c.name, track))
             if not spec.along:
                 continue
-            dirs = [_plane(_series(_lambdify(system, params, d), t, q)) for _, d in spec.along]
+            dirs = [view(_series(_lambdify(system, params, d), t, q)) for _, d in spec.along]
             comps = np.column_stack(
                 [
                     traj.forces.get(f"{c.name}:{name}", np.full(len(traj.t), np.nan))[frames]
                     for name, _ in spec.along
                 ]
             )
-            vec = np.full((len(frames), 2), np.nan)
+            vec = np.full((len(frames), dim), np.nan)
             for k in range(len(frames)):
                 D = np.array([d[k] / (np.linalg.norm(d[k]) or 1.0) for d in dirs])
                 ck = comps[k]
@@ -121,7 +155,7 @@ class Scene:
         self.scenery = []
         for g in system.scenery:
             pts = np.stack(
-                [_plane(_series(_lambdify(system, params, p), t, q)) for p in g.points], axis=1
+                [view(_series(_lambdify(system, params, p), t, q)) for p in g.points], axis=1
             )
             radius = (
                 _series(_lambdify(system, params, [g.radius]), t, q)[:, 0]
@@ -129,8 +163,90 @@ class Scene:
                 else None
             )
             self.scenery.append((g.kind.value, pts, radius))
+        self.axis_lengths: list[float | None] = [
+            self._axis_length(i) if R is not None else None for i, R in enumerate(self.rotations)
+        ]
 
-    def limits(self) -> tuple[float, float, float, float]:
+    # ----- in space ----------------------------------------------------------------------
+    def orientation(self, i: int) -> np.ndarray:
+        """(n_frames, 3, 3): body i's axes in the world (columns), the world's own for a
+        body that does not turn."""
+        R = self.rotations[i]
+        return R if R is not None else np.broadcast_to(np.eye(3), (len(self.t), 3, 3))
+
+    def outline(self, i: int) -> np.ndarray:
+        """(n_frames, P, 3): the points drawn for body i in space at every frame: its
+        centre (a point), the two ends of a rod along its shape axis, or the closed rim of
+        a circle about that axis (in the plane of the other two body axes)."""
+        _, kind, size, pos, _ = self.bodies[i]
+        R, a = self.orientation(i), self.shape_axes[i]
+        if kind == "rod":
+            half = 0.5 * size * R[:, :, a]
+            return np.stack((pos - half, pos + half), axis=1)
+        if kind == "circle":
+            s = np.linspace(0.0, 2 * np.pi, _RIM + 1)[None, :, None]
+            u, v = R[:, None, :, (a + 1) % 3], R[:, None, :, (a + 2) % 3]
+            return pos[:, None, :] + size * (np.cos(s) * u + np.sin(s) * v)
+        return pos[:, None, :]
+
+    def frame_tips(self, i: int) -> np.ndarray:
+        """(n_frames, 3, 3): the tips of body i's frame arrows (x, y, z), each
+        ``axis_lengths[i]`` from its centre along its axis."""
+        length = self.axis_lengths[i]
+        if length is None:
+            raise ValueError(f"body `{self.bodies[i][0]}` does not turn: it has no frame")
+        pos = self.bodies[i][3]
+        return pos[:, None, :] + length * np.swapaxes(self.orientation(i), 1, 2)
+
+    def _reach(self) -> float:
+        """The size of the motion: the largest extent of the centres and the scenery."""
+        pts = [b[3] for b in self.bodies] + [p.reshape(-1, p.shape[-1]) for _, p, _ in self.scenery]
+        allp = np.concatenate(pts)
+        if not np.isfinite(allp).any():
+            return 0.0
+        return float(np.max(np.nanmax(allp, axis=0) - np.nanmin(allp, axis=0)))
+
+    def _axis_length(self, i: int) -> float:
+        """A frame's arrows reach past the body's rim (a circle) or along half a rod, or
+        a quarter of the motion's size for a point (1 when nothing moves)."""
+        _, kind, size, _, _ = self.bodies[i]
+        if kind == "circle" and size > 0:
+            return 1.3 * size
+        if kind == "rod" and size > 0:
+            return 0.6 * size
+        reach = self._reach()
+        return 0.25 * reach if reach > 1e-9 else 0.5
+
+    def _limits_space(self) -> tuple[float, ...]:
+        pts = [self.outline(i).reshape(-1, 3) for i in range(len(self.bodies))]
+        pts += [self.frame_tips(i).reshape(-1, 3) for i, L in enumerate(self.axis_lengths) if L]
+        for kind, p, radius in self.scenery:
+            p = p.reshape(-1, 3)
+            if kind == "circle" and radius is not None:  # in the horizontal plane
+                r = np.abs(radius)
+                pts += [p + np.column_stack((sx * r, sy * r, 0 * r)) for sx, sy in _CORNERS]
+            else:
+                pts.append(p)
+        pts += [track for _, track in self.tracks]
+        allp = np.concatenate(pts)
+        lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
+        span = max(float(np.max(hi - lo)), 1e-9)
+        m = (0.18 if self.arrows else 0.08) * span
+        lo, hi = lo - m, hi + m
+        wide = 0.6 * float(np.max(hi - lo))  # no sliver of a box
+        out: list[float] = []
+        for a, b in zip(lo, hi):
+            if b - a < wide:
+                c = 0.5 * (a + b)
+                a, b = c - wide / 2, c + wide / 2
+            out += [float(a), float(b)]
+        return tuple(out)
+
+    def limits(self) -> tuple[float, ...]:
+        """The view, fitted once to the whole motion: (x0, x1, y0, y1) in the plane,
+        (x0, x1, y0, y1, z0, z1) in space (drawn with equal scales on all axes)."""
+        if self.space:
+            return self._limits_space()
         xs, ys = [], []
         for _, kind, size, pos, _ in self.bodies:
             pad = size if kind == "circle" else size / 2 if kind == "rod" else 0.0
@@ -201,8 +317,6 @@ def animate(
     import matplotlib
     from matplotlib import animation
     from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Circle, FancyArrowPatch
 
     path = Path(path)
     suffix = path.suffix.lower()
@@ -234,6 +348,53 @@ def animate(
     scene = Scene(traj, system, params, frames)
 
     fig = Figure(figsize=(6.4, 6.4), dpi=dpi)  # no pyplot: the caller's backend stays
+    heading = title or system.title
+    if scene.space:
+        from ._view3d import space_view
+
+        place = space_view(fig, scene, heading)
+    else:
+        place = _plane_view(fig, scene, heading)
+    # the clock and the event flash under the title, in the figure (a narrow view, the
+    # Atwood machine's, has no room for them inside the axes)
+    clock = fig.text(0.03, 0.955, "", va="top", fontsize=10)
+    flash = fig.text(0.97, 0.955, "", va="top", ha="right", fontsize=10, fontweight="bold")
+    events = [(e.t, e.kind, e.constraint) for e in traj.events if not e.initial]
+    hold = 0.06 * (scene.t[-1] - scene.t[0])
+
+    def draw(k: int):
+        place(k)
+        tk = scene.t[k]
+        clock.set_text(f"t = {tk:.3f} s   ({speed:.3g}x real time)")
+        recent = [e for e in events if e[0] <= tk < e[0] + hold]
+        if recent:
+            te, kind, con = recent[-1]
+            flash.set_text(f"{kind} ({con})" if con else kind)
+            flash.set_color(_EVENT_COLOURS.get(kind, "black"))
+        else:
+            flash.set_text("")
+        return []
+
+    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / rate, blit=False)
+    if suffix == ".gif":
+        anim.save(str(path), writer=animation.PillowWriter(fps=fps_arg), dpi=dpi)
+    elif suffix == ".mp4":
+        anim.save(str(path), writer=animation.FFMpegWriter(fps=fps_arg), dpi=dpi)
+    else:
+        with matplotlib.rc_context(
+            {"animation.frame_format": "jpeg", "animation.embed_limit": 200.0}
+        ):
+            page = anim.to_jshtml(fps=fps_arg, default_mode="once")
+        path.write_text(offline_page(page), encoding="utf-8")
+    return path
+
+
+def _plane_view(fig, scene: Scene, heading: str) -> Callable[[int], None]:
+    """Draw the planar scene into ``fig``: returns what places everything at frame k."""
+    import matplotlib
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Circle, FancyArrowPatch
+
     ax = fig.subplots()
     x0, x1, y0, y1 = scene.limits()
     ax.set_xlim(x0, x1)
@@ -241,9 +402,8 @@ def animate(
     ax.set_aspect("equal")
     ax.grid(True, alpha=0.25)
     ax.set_xlabel("x")
-    ax.set_ylabel("z (side view)" if scene.space else "y")
-    heading = title or system.title
-    ax.set_title(heading + (" — side view (x, z)" if scene.space else ""), fontsize=10)
+    ax.set_ylabel("y")
+    ax.set_title(heading, fontsize=10)
     span = max(x1 - x0, y1 - y0)
 
     scenery: list[tuple[str, Circle | Line2D, np.ndarray, np.ndarray | None]] = []
@@ -297,14 +457,8 @@ def animate(
         )
         ax.add_patch(arrow)
         quivers.append((arrow, at, vec))
-    # the clock and the event flash under the title, in the figure (a narrow view, the
-    # Atwood machine's, has no room for them inside the axes)
-    clock = fig.text(0.03, 0.955, "", va="top", fontsize=10)
-    flash = fig.text(0.97, 0.955, "", va="top", ha="right", fontsize=10, fontweight="bold")
-    events = [(e.t, e.kind, e.constraint) for e in traj.events if not e.initial]
-    hold = 0.06 * (scene.t[-1] - scene.t[0])
 
-    def draw(k: int):
+    def place(k: int) -> None:
         for _kind, art, pts, radius in scenery:
             if isinstance(art, Circle):
                 assert radius is not None
@@ -335,29 +489,8 @@ def animate(
             arrow.set_visible(visible)
             if visible:
                 arrow.set_positions(tuple(at[k]), tuple(at[k] + v))
-        tk = scene.t[k]
-        clock.set_text(f"t = {tk:.3f} s   ({speed:.3g}x real time)")
-        recent = [e for e in events if e[0] <= tk < e[0] + hold]
-        if recent:
-            te, kind, con = recent[-1]
-            flash.set_text(f"{kind} ({con})" if con else kind)
-            flash.set_color(_EVENT_COLOURS.get(kind, "black"))
-        else:
-            flash.set_text("")
-        return []
 
-    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / rate, blit=False)
-    if suffix == ".gif":
-        anim.save(str(path), writer=animation.PillowWriter(fps=fps_arg), dpi=dpi)
-    elif suffix == ".mp4":
-        anim.save(str(path), writer=animation.FFMpegWriter(fps=fps_arg), dpi=dpi)
-    else:
-        with matplotlib.rc_context(
-            {"animation.frame_format": "jpeg", "animation.embed_limit": 200.0}
-        ):
-            page = anim.to_jshtml(fps=fps_arg, default_mode="once")
-        path.write_text(offline_page(page), encoding="utf-8")
-    return path
+    return place
 
 
 # matplotlib's player draws its buttons with Font Awesome loaded from a CDN: offline they
