@@ -28,6 +28,7 @@ import warnings
 from collections.abc import Collection, Mapping
 
 import sympy as sp
+from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
 __all__ = [
@@ -45,6 +46,9 @@ __all__ = [
     "TimeDerivative",
     "printable",
     "not_differentiable",
+    "INPUTS",
+    "latex",
+    "switch_form",
 ]
 
 MAX_LENGTH = 4000
@@ -79,6 +83,16 @@ def _atan2(y, x):
     return sp.atan2(y, x)
 
 
+def _step(u):
+    """The unit step: 1 for u >= 0, else 0 (SymPy's Heaviside with H(0) = 1)."""
+    return sp.Heaviside(u, 1)
+
+
+def _clip(x, lo, hi):
+    """x held within [lo, hi]."""
+    return sp.Min(sp.Max(x, lo), hi)
+
+
 FUNCTIONS: dict[str, object] = {
     "sin": sp.sin,
     "cos": sp.cos,
@@ -95,8 +109,21 @@ FUNCTIONS: dict[str, object] = {
     "sqrt": sp.sqrt,
     "abs": sp.Abs,
     "sign": sp.sign,
+    "step": _step,
+    "min": sp.Min,
+    "max": sp.Max,
+    "clip": _clip,
+    "piecewise": sp.Piecewise,
 }
-_ARITY = {name: (2 if name == "atan2" else 1) for name in FUNCTIONS}
+_ARITY: dict[str, int | None] = {
+    name: {"atan2": 2, "clip": 3, "min": None, "max": None, "piecewise": None}.get(name, 1)
+    for name in FUNCTIONS
+}
+"""How many arguments each function takes (None: two or more)."""
+INPUTS = ("step", "min", "max", "clip", "piecewise")
+"""The functions with a jump or a kink: inputs that switch (a torque until t = 2, a
+one-sided spring). :func:`lamech.simulate` locates where they switch (an event), never
+steps over it."""
 RESERVED = frozenset(FUNCTIONS) | {"t", "pi"}
 _GROUP = {ast.Add: "+", ast.Sub: "+", ast.Mult: "*", ast.Div: "*"}
 
@@ -680,12 +707,16 @@ class _Builder:
             )
         if node.keywords:
             raise self.fail(f"`{name}` takes no keyword arguments", node)
-        if len(node.args) != _ARITY[name]:
+        arity = _ARITY[name]
+        if arity is None and len(node.args) < 2:
+            raise self.fail(f"`{name}` takes two or more arguments, got {len(node.args)}", node)
+        if arity is not None and len(node.args) != arity:
             raise self.fail(
-                f"`{name}` takes {_ARITY[name]} argument"
-                f"{'s' if _ARITY[name] > 1 else ''}, got {len(node.args)}",
+                f"`{name}` takes {arity} argument{'s' if arity > 1 else ''}, got {len(node.args)}",
                 node,
             )
+        if name == "piecewise":
+            return self._piecewise(node)
         args = [self.build(a) for a in node.args]
         if name == "log" and args[0] == 0:
             raise self.fail("log(0) is undefined", node)
@@ -706,6 +737,77 @@ class _Builder:
             )
         self._check_built(out, node, tuple(args))
         return out
+
+    # ----- inputs: piecewise and its conditions ------------------------------------------
+    def _piecewise(self, node: ast.Call) -> sp.Expr:
+        """``piecewise((v1, c1), (v2, c2), ..., otherwise)``: v1 where c1 holds, else v2
+        where c2 holds, ..., else ``otherwise``."""
+        *pairs, last = node.args
+        usage = "write piecewise((value, condition), ..., value otherwise)"
+        if isinstance(last, ast.Tuple):
+            raise self.fail(f"piecewise: the last argument is the value otherwise; {usage}", last)
+        cases = []
+        for pair in pairs:
+            if not isinstance(pair, ast.Tuple) or len(pair.elts) != 2:
+                raise self.fail(
+                    f"piecewise: `{_short(self.segment(pair))}` is not a (value, condition) "
+                    f"pair; {usage}",
+                    pair,
+                )
+            cases.append((self.build(pair.elts[0]), self._condition(pair.elts[1])))
+        cases.append((self.build(last), sp.true))
+        try:
+            out = sp.Piecewise(*cases)
+        except _SYMPY_FAILURES as exc:
+            raise self.cannot(node, exc) from None
+        self._check_built(out, node, tuple(v for v, _ in cases))
+        return out
+
+    def _condition(self, node: ast.AST):
+        """A condition of piecewise: comparisons (``t < 2``, ``0 <= x < 1``) joined by
+        ``and``, ``or`` and ``not``."""
+        if isinstance(node, ast.Compare):
+            ops = {ast.Lt: sp.Lt, ast.LtE: sp.Le, ast.Gt: sp.Gt, ast.GtE: sp.Ge}
+            terms = [self.build(node.left)] + [self.build(c) for c in node.comparators]
+            parts = []
+            for op, a, b in zip(node.ops, terms, terms[1:]):
+                if type(op) not in ops:
+                    raise self.fail(
+                        "piecewise conditions compare with < <= > >= only (an equality "
+                        "holds at single points: no force can act there alone)",
+                        node,
+                    )
+                for side in (a, b):
+                    if side.is_number and not side.is_extended_real:
+                        raise self.fail(
+                            f"`{_plain(side)}` is not real: it cannot be compared", node
+                        )
+                parts.append(ops[type(op)](a, b))
+            return sp.And(*parts)
+        if isinstance(node, ast.BoolOp):
+            join = sp.And if isinstance(node.op, ast.And) else sp.Or
+            return join(*(self._condition(v) for v in node.values))
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not):
+            return sp.Not(self._condition(node.operand))
+        raise self.fail(
+            f"piecewise: `{_short(self.segment(node))}` is not a condition (write a "
+            "comparison such as t < 2 or 0 <= x < 1, joined by and/or)",
+            node,
+        )
+
+    def _Compare(self, node: ast.Compare) -> sp.Expr:
+        raise self.fail(
+            "a comparison is not allowed here: it is a condition, only inside "
+            "piecewise((value, condition), ..., value otherwise); for a switch write "
+            "step(t - 2)",
+            node,
+        )
+
+    def _BoolOp(self, node: ast.BoolOp) -> sp.Expr:
+        raise self.fail(
+            "and/or are not allowed here: they join conditions, only inside piecewise(...)",
+            node,
+        )
 
 
 def _power_digits(base: sp.Rational, exponent: sp.Expr) -> tuple[float, float]:
@@ -916,8 +1018,50 @@ class TextPrinter(StrPrinter):
             raise ValueError(f"cannot print function {name} in the problem-file grammar")
         return f"{name}(" + ", ".join(self._print(a) for a in expr.args) + ")"
 
+    def _print_Heaviside(self, expr):
+        return f"step({self._print(expr.args[0])})"
+
+    def _print_Min(self, expr):
+        return "min(" + ", ".join(self._print(a) for a in expr.args) + ")"
+
+    def _print_Max(self, expr):
+        return "max(" + ", ".join(self._print(a) for a in expr.args) + ")"
+
     def _print_Piecewise(self, expr):
-        raise ValueError("piecewise result: no closed form in the grammar")
+        pairs = list(expr.args)
+        if pairs[-1].cond != sp.true:
+            raise ValueError("piecewise result without a value otherwise: not in the grammar")
+        shown = [f"({self._print(v)}, {self._condition(c)})" for v, c in pairs[:-1]]
+        return "piecewise(" + ", ".join([*shown, self._print(pairs[-1].expr)]) + ")"
+
+    def _condition(self, cond) -> str:
+        if isinstance(cond, sp.And):
+            return " and ".join(f"({self._condition(a)})" for a in cond.args)
+        if isinstance(cond, sp.Or):
+            return " or ".join(f"({self._condition(a)})" for a in cond.args)
+        if isinstance(cond, sp.Not):
+            return f"not ({self._condition(cond.args[0])})"
+        if isinstance(cond, sp.core.relational.Relational) and cond.rel_op in _RELATIONS:
+            return f"{self._print(cond.lhs)} {cond.rel_op} {self._print(cond.rhs)}"
+        raise ValueError(f"condition {cond} is not in the grammar")
+
+
+_RELATIONS = ("<", "<=", ">", ">=")
+
+
+class _LatexPrinter(LatexPrinter):
+    """SymPy's LaTeX with the grammar's names for the inputs: step(u), not SymPy's
+    theta(u, 1), which reads as a coordinate theta."""
+
+    def _print_Heaviside(self, expr, exp=None):
+        tex = rf"\operatorname{{step}}\left({self._print(expr.args[0])}\right)"
+        return tex if exp is None else rf"{tex}^{{{exp}}}"
+
+
+def latex(expr, **settings) -> str:
+    """LaTeX of ``expr`` (``settings`` as for :func:`sympy.latex`), with the grammar's
+    step function printed by name."""
+    return _LatexPrinter(settings).doprint(sp.sympify(expr))
 
 
 _REWRITES = (
@@ -972,15 +1116,19 @@ def not_differentiable(
     """Why ``expr`` has no derivative in the grammar by a symbol of ``once``, or by a
     pair (a, b) with a, b from one of the pairs of sets ``twice``; None when it has.
 
-    ``abs`` and ``sign`` are the grammar's functions with a kink and a jump: the
-    derivative of sign(u) is a delta function at u = 0 (an impulse), the second
-    derivative of abs(u) too, and either of a u that may be complex has no real
-    derivative. Only these functions' own derivatives are taken (a product's others
-    are no worse), so the check is cheap.
+    ``abs``, ``min``, ``max`` and ``clip`` are the grammar's functions with a kink,
+    ``sign``, ``step`` and ``piecewise`` those with a jump: the derivative of a jump is
+    a delta function (an impulse), and so is the second derivative of a kink; and
+    ``abs`` or ``sign`` of a u that may be complex has no real derivative. Only these
+    functions' own derivatives are taken (a product's others are no worse), so the
+    check is cheap. A piecewise counts as jumping in the names of its conditions (its
+    values may be continuous there, but that is not checked: write such a function with
+    min, max or clip).
     """
     once = set(once)
-    for f in sorted(expr.atoms(sp.Abs, sp.sign), key=sp.default_sort_key):
-        free = f.args[0].free_symbols
+    kinds = (sp.Abs, sp.sign, sp.Heaviside, sp.Min, sp.Max, sp.Piecewise)
+    for f in sorted(expr.atoms(*kinds), key=sp.default_sort_key):
+        free = _switch_symbols(f)
         orders = {(x,) for x in free & once}
         for first, second in twice:
             orders |= {
@@ -989,23 +1137,111 @@ def not_differentiable(
                 for b in free & set(second)
             }
         for wrt in sorted(orders, key=lambda w: (len(w), [str(x) for x in w])):
-            if _has_real_derivative(f, wrt):
+            if not isinstance(f, sp.Piecewise) and _has_real_derivative(f, wrt):
                 continue
-            u, text = _plain(f.args[0]), _plain(f)
-            if not f.args[0].is_extended_real:
-                return (
-                    f"`{text}`: {u} may be complex, and then {text} has no real "
-                    "derivative; take abs or sign of a real expression"
-                )
-            smooth = f"sqrt({u}^2 + eps^2)" if isinstance(f, sp.Abs) else f"tanh({u}/eps)"
-            kind = "has a kink" if isinstance(f, sp.Abs) else "jumps"
-            nth = "second derivative" if isinstance(f, sp.Abs) else "derivative"
-            return (
-                f"`{text}` {kind} at {u} = 0, where its {nth} is a delta function (an "
-                f"impulse) that the equations of motion cannot carry; write a smooth "
-                f"form such as {smooth} with a small parameter eps"
-            )
+            return _kink_message(f)
     return None
+
+
+def _switch_symbols(f: sp.Expr) -> set:
+    """The names in which ``f`` (one of the kinked or jumping functions) switches."""
+    if isinstance(f, sp.Piecewise):
+        return set().union(*(c.free_symbols for _, c in f.args))
+    if isinstance(f, (sp.Min, sp.Max)):
+        return f.free_symbols
+    return f.args[0].free_symbols
+
+
+def _kink_message(f: sp.Expr) -> str:
+    text = _plain(f)
+    if isinstance(f, (sp.Abs, sp.sign)) and not f.args[0].is_extended_real:
+        u = _plain(f.args[0])
+        return (
+            f"`{text}`: {u} may be complex, and then {text} has no real "
+            "derivative; take abs or sign of a real expression"
+        )
+    if isinstance(f, (sp.Abs, sp.Min, sp.Max)):
+        where = (
+            f"at {_plain(f.args[0])} = 0" if isinstance(f, sp.Abs) else "where its arguments meet"
+        )
+        smooth = (
+            f"sqrt({_plain(f.args[0])}^2 + eps^2)"
+            if isinstance(f, sp.Abs)
+            else "(a + b + sqrt((a - b)^2 + eps^2))/2 for max(a, b)"
+        )
+        return (
+            f"`{text}` has a kink {where}, where its second derivative is a delta function "
+            f"(an impulse) that the equations of motion cannot carry; write a smooth form "
+            f"such as {smooth} with a small parameter eps"
+        )
+    if isinstance(f, sp.Piecewise):
+        where, smooth = "where its conditions change", "(1 + tanh(u/eps))/2 for step(u)"
+    else:
+        u = _plain(f.args[0])
+        where = f"at {u} = 0"
+        smooth = f"tanh({u}/eps)" if isinstance(f, sp.sign) else f"(1 + tanh({u}/eps))/2"
+    return (
+        f"`{text}` jumps {where}, where its derivative is a delta function (an impulse) "
+        f"that the equations of motion cannot carry; switch a force there instead "
+        f"([forces], [[loads]]), or write a smooth form such as {smooth} with a small "
+        "parameter eps"
+    )
+
+
+def switch_form(expr: sp.Expr, branch) -> sp.Expr:
+    """``expr`` with every input function written through its switches, innermost first:
+    ``step(u)`` is ``branch(u)``, ``max(a, b)`` is ``b + (a - b) branch(a - b)``,
+    ``min(a, b)`` is ``a + (b - a) branch(a - b)``, and ``piecewise`` the sum of its
+    values weighted by its conditions (``u < v``: ``branch(v - u)``; and, or, not:
+    products). ``branch(s)`` stands for step(s), 1 where s >= 0 and 0 elsewhere; the
+    caller gives it: a symbol per switch locks the branches (the simulator holds them
+    fixed between the events where s crosses 0), a random value tests an identity
+    for every combination of branches at once (the expression is linear in each)."""
+    expr = sp.sympify(expr)
+    if not expr.has(sp.Heaviside, sp.Min, sp.Max, sp.Piecewise):
+        return expr
+
+    def cond(c) -> sp.Expr:
+        if c == sp.true:
+            return sp.Integer(1)
+        if c == sp.false:
+            return sp.Integer(0)
+        if isinstance(c, sp.And):
+            return sp.Mul(*(cond(a) for a in c.args))
+        if isinstance(c, sp.Or):
+            return 1 - sp.Mul(*(1 - cond(a) for a in c.args))
+        if isinstance(c, sp.Not):
+            return 1 - cond(c.args[0])
+        lhs, rhs = walk(c.lhs), walk(c.rhs)
+        if isinstance(c, (sp.StrictLessThan, sp.LessThan)):
+            return branch(rhs - lhs)
+        if isinstance(c, (sp.StrictGreaterThan, sp.GreaterThan)):
+            return branch(lhs - rhs)
+        raise ValueError(f"condition {c} is not a comparison with < <= > >=")
+
+    def walk(e: sp.Expr) -> sp.Expr:
+        if not isinstance(e, sp.Basic) or not e.has(sp.Heaviside, sp.Min, sp.Max, sp.Piecewise):
+            return e
+        if isinstance(e, sp.Piecewise):
+            out = walk(e.args[-1].expr)
+            if e.args[-1].cond != sp.true:
+                out = walk(e.args[-1].expr) * cond(e.args[-1].cond)
+            for v, c in reversed(e.args[:-1]):
+                w = cond(c)
+                out = walk(v) * w + out * (1 - w)
+            return out
+        args = [walk(a) for a in e.args]
+        if isinstance(e, sp.Heaviside):
+            return branch(args[0])
+        if isinstance(e, (sp.Min, sp.Max)):
+            out = args[0]
+            for a in args[1:]:
+                b = branch(out - a)  # 1 where out >= a
+                out = out * b + a * (1 - b) if isinstance(e, sp.Max) else a * b + out * (1 - b)
+            return out
+        return e.func(*args)
+
+    return walk(expr)
 
 
 def _has_real_derivative(f: sp.Expr, wrt: tuple) -> bool:

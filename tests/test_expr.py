@@ -273,7 +273,7 @@ def test_to_text_floats_have_17_digits():
     assert float(parse(text, NAMES)) == value
 
 
-@pytest.mark.parametrize("expr", [sp.I, x + sp.I, sp.Piecewise((x, x > 0), (0, True)),
+@pytest.mark.parametrize("expr", [sp.I, x + sp.I, sp.Piecewise((x, x > 0)),
                                   sp.Function("f")(x), sp.gamma(x)])
 def test_to_text_refuses_what_the_grammar_cannot_say(expr):
     with pytest.raises(ValueError):
@@ -605,3 +605,86 @@ def test_printable_escapes_control_characters():
     assert printable("a\x1b[2Jb\x00c\x7f\u202e") == "a\\x1b[2Jb\\x00c\\x7f\\u202e"
     assert printable("tab\there, θ ok") == "tab\there, θ ok"
     assert printable("plain") == "plain"
+
+
+# --------------------------------------------------------------------------------------
+# Inputs: step, min, max, clip, piecewise (issue 13 item 4)
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "text, at, value",
+    [
+        ("15*step(t - 2)", {t: 1.999}, 0),
+        ("15*step(t - 2)", {t: 2}, 15),  # step(0) = 1: the switch has happened at t = 2
+        ("min(x, 1, 2*x)", {x: 3}, 1),
+        ("min(x, 1, 2*x)", {x: -3}, -6),
+        ("max(0, -x)^2", {x: -2}, 4),
+        ("clip(x, -1, 1)", {x: 5}, 1),
+        ("clip(x, -1, 1)", {x: -0.25}, -0.25),
+        ("piecewise((15, t < 2), (5, 2 <= t < 5 and x > 0), 0)", {t: 1, x: -1}, 15),
+        ("piecewise((15, t < 2), (5, 2 <= t < 5 and x > 0), 0)", {t: 3, x: 1}, 5),
+        ("piecewise((15, t < 2), (5, 2 <= t < 5 and x > 0), 0)", {t: 3, x: -1}, 0),
+        ("piecewise((1, not (t < 2) or x > 1), 0)", {t: 1, x: 2}, 1),
+    ],
+)
+def test_inputs_have_their_values_and_print_back(text, at, value):
+    expr = parse(text, NAMES)
+    assert expr.subs(at) == value
+    back = parse(to_text(expr), NAMES)
+    assert back == expr
+    assert back.subs(at) == value
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("t < 2", ["comparison", "piecewise"]),
+        ("piecewise((1, t == 2), 0)", ["< <= > >= only"]),
+        ("piecewise(1, 2)", ["(value, condition) pair"]),
+        ("piecewise((1, t < 2), (2, t < 3))", ["value otherwise"]),
+        ("piecewise((1, x), 0)", ["`x` is not a condition"]),
+        ("min(x)", ["two or more"]),
+        ("clip(x, 1)", ["3 arguments"]),
+        ("step(x, 1)", ["1 argument"]),
+    ],
+)
+def test_input_errors_say_how_to_write_them(text, words):
+    with pytest.raises(ExpressionError) as err:
+        parse(text, NAMES)
+    for w in words:
+        assert w in err.value.message
+
+
+def test_the_step_prints_by_name_in_latex_not_as_theta():
+    from lamech.expr import latex
+
+    assert latex(parse("15*step(t - 2)", NAMES)) == r"15 \operatorname{step}\left(t - 2\right)"
+
+
+@pytest.mark.parametrize(
+    "text, wrt, words",
+    [
+        ("step(t - 2)", {t}, ["jumps at t - 2 = 0", "delta function"]),
+        ("max(0, -x)", {x}, None),  # a kink: its first derivative is step(-x)
+        ("piecewise((1, x < 0), 0)", {x}, ["jumps where its conditions change"]),
+        ("piecewise((x, t < 0), 0)", {x}, None),  # differentiated in its values only
+    ],
+)
+def test_differentiating_an_input_into_a_delta_is_refused(text, wrt, words):
+    from lamech.expr import not_differentiable
+
+    problem = not_differentiable(parse(text, NAMES), wrt)
+    if words is None:
+        assert problem is None
+    else:
+        assert problem is not None and all(w in problem for w in words), problem
+
+
+def test_a_kink_differentiated_twice_is_refused():
+    from lamech.expr import not_differentiable
+
+    problem = not_differentiable(parse("max(0, -x)", NAMES), set(), [({x}, {x})])
+    assert problem is not None and "kink" in problem
+    # The check looks at the function, not at what surrounds it: max(0, -x)^2 is C1,
+    # yet refused where it is differentiated twice (a constraint f, T in q').
+    problem = not_differentiable(parse("max(0, -x)^2", NAMES), set(), [({x}, {x})])
+    assert problem is not None

@@ -729,11 +729,12 @@ def _expression_issues(s: System, scope: _Scope) -> Issues:
 
 
 def _kink_problem(expr: sp.Expr, field: str, s: System) -> str | None:
-    """An ``abs`` or ``sign`` where the derivation differentiates ``field`` into a delta
+    """A function with a kink or a jump (``abs``, ``sign``, ``step``, ``min``, ``max``,
+    ``clip``, ``piecewise``) where the derivation differentiates ``field`` into a delta
     function: V once in q (the force), T and L in q' and then in q, q', t (M and
     d/dt dT/dq'), f and the bodies' positions twice in q, t (gamma, and T from the
     bodies), velocity constraints once, a force's point once in q (partial velocities)."""
-    if not expr.has(sp.Abs, sp.sign):
+    if not expr.has(sp.Abs, sp.sign, sp.Heaviside, sp.Min, sp.Max, sp.Piecewise):
         return None
     q = {c.symbol for c in s.coordinates}
     v = {c.velocity for c in s.coordinates}

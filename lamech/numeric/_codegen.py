@@ -50,6 +50,7 @@ import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
+from ..expr import switch_form, to_text
 from ..model import System, contact_partial_velocities
 from ..symbolic import Dynamics
 from ..symbolic import dynamics as derive_dynamics
@@ -71,6 +72,10 @@ class _Printer(PythonCodePrinter):
     def _print_Rational(self, expr):
         return f"({int(expr.p)}/{int(expr.q)})"
 
+    def _print_Branch(self, expr):
+        lock, s = (self._print(a) for a in expr.args)
+        return f"({lock} if {lock} == {lock} else (1.0 if {s} >= 0.0 else 0.0))"
+
     def _print_Pow(self, expr, rational=False):
         base, exp = expr.as_base_exp()
         if exp.is_Integer and 1 < int(exp) <= 4:
@@ -81,6 +86,50 @@ class _Printer(PythonCodePrinter):
         if exp == -1:
             return f"(1.0/{self.parenthesize(base, 1000)})"
         return super()._print_Pow(expr, rational=rational)
+
+
+class Branch(sp.Function):
+    """``Branch(lock, s)``: step(s), 1 where the switching function s >= 0, else 0 -- or
+    ``lock`` (0 or 1) when it is a number: the simulator holds each switch's branch fixed
+    between the events where its s crosses 0 (so the step in which an input switches is
+    located, never stepped over); NaN (the default) leaves it free."""
+
+    nargs = 2
+
+
+class _Switches:
+    """The input functions of a system's expressions written through locked branches
+    (:func:`lamech.expr.switch_form`): one lock symbol per distinct switching function,
+    in the order met."""
+
+    def __init__(self):
+        self.functions: list[sp.Expr] = []
+        self.locks: list[sp.Symbol] = []
+        self._index: dict[sp.Expr, int] = {}
+
+    def _branch(self, s: sp.Expr) -> sp.Expr:
+        k = self._index.get(s)
+        if k is None:
+            k = self._index[s] = len(self.functions)
+            self.functions.append(s)
+            self.locks.append(sp.Symbol(f"lock__{k}", real=True))
+        return Branch(self.locks[k], s)
+
+    def matrix(self, mat: sp.Matrix) -> sp.Matrix:
+        return mat.applyfunc(lambda e: switch_form(e, self._branch))
+
+    def names(self) -> list[str]:
+        """How each switch reads: step(s), with its s in free form."""
+        free = {Branch(lk, s): sp.Heaviside(s, 1) for lk, s in zip(self.locks, self.functions)}
+        out = []
+        for s in self.functions:
+            for _ in range(len(free)):  # inner switches first
+                s = s.xreplace(free)
+            try:
+                out.append(to_text(sp.Heaviside(s, 1)))
+            except ValueError:
+                out.append(f"step({s})")
+        return out
 
 
 def numba_available() -> bool:
@@ -107,6 +156,10 @@ class NumericSystem:
     restitution: Callable[..., Any]
     force_jacobians: Callable[..., Any]
     force_specs: list = field(default_factory=list)  # [(constraint index, [direction names])]
+    # switches(t, q, v, p) -> s (K,): the inputs' switching functions; each branch's lock
+    # is p[len(parameters) - K + k] (NaN: free; 0 or 1: held), see Branch
+    switches: Callable[..., Any] = None  # type: ignore[assignment]
+    switch_names: list = field(default_factory=list)  # step(s) of each, as text
     rhs_kernel: Callable[..., Any] = None  # type: ignore[assignment]
     accelerations: Callable[..., Any] = None  # type: ignore[assignment]  # (t, y, p) -> [q''; lambda]
     # solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows]: the
@@ -133,6 +186,12 @@ class NumericSystem:
     @property
     def m(self) -> int:
         return len(self.constraint_names)
+
+    @property
+    def switch_slots(self) -> np.ndarray:
+        """Where in ``p`` each switch's lock is (after the parameters)."""
+        first = len(self.system.parameters)
+        return np.arange(first, first + len(self.switch_names))
 
     def parameter_vector(self, overrides: dict | None = None) -> np.ndarray:
         """The parameter array with ``overrides`` {name: value}; parameters whose value is
@@ -162,7 +221,7 @@ class NumericSystem:
                 val = nxt
             val = val.subs(self.system.parameter_values)
             out.append(float(val))
-        return np.array(out, dtype=float)
+        return np.array(out + [math.nan] * len(self.switch_names), dtype=float)
 
     def initial_state(self, p: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(q0, v0) from the coordinates' initial expressions at parameters ``p``
@@ -183,7 +242,7 @@ def _rename(system: System):
     return mapping
 
 
-_VECTORS = {"rhs", "gamma", "mu", "f", "b", "E", "e"}
+_VECTORS = {"rhs", "gamma", "mu", "f", "b", "E", "e", "s"}
 
 
 def _function_source(
@@ -245,7 +304,9 @@ def _function_source(
     return "\n".join(lines)
 
 
-def _kernels(fns: dict, system: System, diagonal: bool, pattern, source: str, jit: bool):
+def _kernels(
+    fns: dict, system: System, diagonal: bool, pattern, source: str, jit: bool, locks: list
+):
     """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
     numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
     by their compiled versions; the compiled form cached on disk, :mod:`._jitcache`),
@@ -254,7 +315,7 @@ def _kernels(fns: dict, system: System, diagonal: bool, pattern, source: str, ji
         try:
             from ._jitcache import compiled_kernels, module_text
 
-            p0 = np.array([p.numeric for p in system.parameters], dtype=float)
+            p0 = np.array([p.numeric for p in system.parameters] + locks, dtype=float)
             k = compiled_kernels(
                 module_text(source, pattern, diagonal), len(system.coordinates), p0
             )
@@ -290,9 +351,11 @@ def _force_geometry(system: System):
 
 
 def _source(system: System, dyn: Dynamics):
-    """(source, A, force_specs): the generated module of the system's functions."""
+    """(source, A, force_specs, switch names): the generated module of the system's
+    functions."""
     n, m = len(system.coordinates), len(system.constraints)
     mapping = _rename(system)
+    sw = _Switches()
     qd0 = {v: sp.Integer(0) for v in system.qd}
     F = dyn.velocity_forms
     A = dyn.A if m else sp.zeros(0, n)
@@ -309,6 +372,15 @@ def _source(system: System, dyn: Dynamics):
     )
     e = sp.Matrix([c.restitution for c in system.constraints]) if m else sp.zeros(0, 1)
     rhs = dyn.Q - dyn.h
+    force_specs, jac_outputs = _force_geometry(system)
+    M, rhs, gamma = sw.matrix(dyn.M), sw.matrix(rhs), sw.matrix(dyn.gamma if m else sp.zeros(0, 1))
+    A_locked, f, b, e = sw.matrix(A), sw.matrix(f), sw.matrix(b), sw.matrix(e)
+    energy = sw.matrix(sp.Matrix([system.T, system.V]))
+    jac_outputs = [(name, sw.matrix(mat)) for name, mat in jac_outputs]
+    switches = sp.Matrix(sw.functions) if sw.functions else sp.zeros(0, 1)
+    P = len(system.parameters)
+    for k, lock in enumerate(sw.locks):
+        mapping[lock] = sp.Symbol(f"p_{P + k}", real=True)
     order = (
         f"q = [{', '.join(c.name for c in system.coordinates)}]; "
         f"v = [{', '.join(c.name + chr(39) for c in system.coordinates)}]; "
@@ -322,13 +394,7 @@ def _source(system: System, dyn: Dynamics):
             # never the title: it is the user's text (a backslash or a NUL in it would
             # break the source); the names in `order` are identifiers, checked
             "(M, rhs = Q - h, A, gamma, mu) of the system. " + order,
-            [
-                ("M", dyn.M),
-                ("rhs", rhs),
-                ("A", A),
-                ("gamma", dyn.gamma if m else sp.zeros(0, 1)),
-                ("mu", mu),
-            ],
+            [("M", M), ("rhs", rhs), ("A", A_locked), ("gamma", gamma), ("mu", mu)],
             mapping,
             n,
             m,
@@ -338,7 +404,7 @@ def _source(system: System, dyn: Dynamics):
             "constraints",
             "t, q, p",
             "(f, A, b) with F = A v + b. " + order,
-            [("f", f), ("A", A), ("b", b)],
+            [("f", f), ("A", A_locked), ("b", b)],
             mapping,
             n,
             m,
@@ -348,7 +414,7 @@ def _source(system: System, dyn: Dynamics):
             "energy",
             "t, q, v, p",
             "(T, V). " + order,
-            [("E", sp.Matrix([system.T, system.V]))],
+            [("E", energy)],
             mapping,
             n,
             m,
@@ -365,7 +431,22 @@ def _source(system: System, dyn: Dynamics):
             ("q", "p"),
         ),
     ]
-    force_specs, jac_outputs = _force_geometry(system)
+    if sw.functions:
+        srcs.append(
+            _function_source(
+                "switches",
+                "t, q, v, p",
+                "the inputs' switching functions s (a branch switches where one crosses 0). "
+                + order,
+                [("s", switches)],
+                mapping,
+                n,
+                m,
+                ("q", "v", "p"),
+            )
+        )
+    else:
+        srcs.append("def switches(t, q, v, p):\n    return numpy.zeros(0)")
     if jac_outputs:
         srcs.append(
             _function_source(
@@ -381,7 +462,8 @@ def _source(system: System, dyn: Dynamics):
         )
     else:
         srcs.append("def force_jacobians_flat(t, q, p):\n    return ()")
-    return "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n", A, force_specs
+    source = "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n"
+    return source, A, force_specs, sw.names()
 
 
 def compile_system(system: System, jit: bool = False) -> NumericSystem:
@@ -393,17 +475,27 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
 
     t0 = _time.perf_counter()
     dyn = derive_dynamics(system)
-    source, A, force_specs = _source(system, dyn)
+    source, A, force_specs, switch_names = _source(system, dyn)
     namespace: dict = {"math": math, "numpy": np}
     exec(compile(source, "<lamech generated>", "exec"), namespace)
 
     fns = {
         k: namespace[k]
-        for k in ("dynamics", "constraints", "energy", "restitution", "force_jacobians_flat")
+        for k in (
+            "dynamics",
+            "constraints",
+            "energy",
+            "restitution",
+            "force_jacobians_flat",
+            "switches",
+        )
     }
+    locks = [math.nan] * len(switch_names)
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
-    kernel, accel, solve, loops, jit_cache = _kernels(fns, system, diagonal, pattern, source, jit)
+    kernel, accel, solve, loops, jit_cache = _kernels(
+        fns, system, diagonal, pattern, source, jit, locks
+    )
 
     flat = fns["force_jacobians_flat"]
 
@@ -414,7 +506,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
     t_sym = system.t
     time_dependent = bool(system.L.has(t_sym) or any(c.expr.has(t_sym) for c in system.constraints))
     conservative = all(sp.sympify(x) == 0 for x in (system.forces or ()))
-    params = np.array([p.numeric for p in system.parameters], dtype=float)
+    params = np.array([p.numeric for p in system.parameters] + locks, dtype=float)
     return NumericSystem(
         system=system,
         dyn=dyn,
@@ -428,6 +520,8 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         restitution=fns["restitution"],
         force_jacobians=force_jacobians,
         force_specs=force_specs,
+        switches=fns["switches"],
+        switch_names=switch_names,
         source=source,
         jit=bool(jit_cache),
         jit_cache=jit_cache,

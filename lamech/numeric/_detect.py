@@ -9,7 +9,16 @@ import numpy as np
 from ._events import EventKind
 from ._run import Accel, Run
 
-__all__ = ["event_values", "update_arming", "inside_step", "locate"]
+__all__ = [
+    "event_values",
+    "update_arming",
+    "inside_step",
+    "locate",
+    "lock_switches",
+    "switches_crossed",
+    "locate_switch",
+    "flip_switch",
+]
 
 
 def event_values(run: Run, t: float, y: np.ndarray, acc: Accel | None = None) -> np.ndarray:
@@ -146,3 +155,88 @@ def locate(
         if r < te or ie < 0:
             te, ie = r, int(i)
     return te, ie
+
+
+# ----- inputs that switch -------------------------------------------------------------
+# An input with a jump or a kink (step, min, max, clip, piecewise) is evaluated with each
+# switch's branch held (its lock in p: 0 or 1), so that the right-hand side is smooth
+# within a segment and the integrator's error control and dense output stay valid up to
+# the switch; where a switching function s crosses 0 is located on the dense output like
+# any event, the branch flips there, and the integration restarts (as a contact change
+# does). Stepping over the jump instead costs accuracy (the step that contains it is
+# accepted with an error of the size of the jump times the step) and makes an event time
+# such as a lift-off that follows from the switch come out late by up to a step.
+
+
+def lock_switches(run: Run, t: float, y: np.ndarray) -> None:
+    """Hold every switch on the branch it is on at (t, y): step(s) = 1 where s >= 0."""
+    ns, p = run.setup.ns, run.setup.p
+    slots = ns.switch_slots
+    if not len(slots):
+        return
+    n = ns.n
+    p[slots] = np.nan  # free: evaluated from the state, inner switches too
+    s = ns.switches(t, y[:n], y[n:], p)
+    p[slots] = np.where(s >= 0.0, 1.0, 0.0)
+
+
+def switches_crossed(run: Run, t: float, y: np.ndarray) -> np.ndarray:
+    """The switches whose s at (t, y) is on the other side of their held branch."""
+    ns, p = run.setup.ns, run.setup.p
+    slots = ns.switch_slots
+    if not len(slots):
+        return slots
+    n = ns.n
+    s = ns.switches(t, y[:n], y[n:], p)
+    return np.nonzero((s >= 0.0) != (p[slots] == 1.0))[0]
+
+
+def locate_switch(run: Run, dense, crossed, t_a: float, t_b: float) -> tuple[float, int]:
+    """(ts, k): the first of the switches ``crossed`` within (t_a, t_b], located on the
+    dense output (root finding, Brent)."""
+    from scipy.optimize import brentq
+
+    ns, p = run.setup.ns, run.setup.p
+    n, slots = ns.n, ns.switch_slots
+    best = (t_b, -1)
+    for k in crossed:
+        held = p[slots[k]]
+
+        def side(tau: float, k=int(k)) -> float:
+            y = dense(tau)
+            return float(ns.switches(tau, y[:n], y[n:], p)[k])
+
+        s_a = side(t_a)
+        if (s_a >= 0.0) != (held == 1.0):  # already across at the step's start
+            ts = t_a
+        else:
+            try:
+                ts = brentq(
+                    side,
+                    t_a,
+                    t_b,
+                    xtol=1e-15 * max(1.0, abs(t_b)),
+                    rtol=4 * np.finfo(float).eps,
+                    maxiter=200,
+                )
+            except ValueError:
+                ts = t_b
+            # s = 0 exactly counts as switched (step(0) = 1): for a branch held at 0 the
+            # root is where s reaches 0; Brent may stop just short of it, which is fine
+            # to within its tolerance.
+        if ts < best[0] or best[1] < 0:
+            best = (ts, int(k))
+    return best
+
+
+def flip_switch(run: Run, t: float, y: np.ndarray, k: int) -> None:
+    """Switch k takes its other branch from t on; logged as a ``switch`` event."""
+    from ._events import Event
+
+    ns, p = run.setup.ns, run.setup.p
+    slot = ns.switch_slots[k]
+    p[slot] = 1.0 - p[slot]
+    n, names = ns.n, ns.coordinate_names
+    coords = {c: float(y[i]) for i, c in enumerate(names)}
+    coords.update({c + "'": float(y[n + i]) for i, c in enumerate(names)})
+    run.events.append(Event(float(t), EventKind.SWITCH, ns.switch_names[k], coords))

@@ -56,6 +56,9 @@ class EventKind(_Text):
     CONTACT = "contact"
     SLIP = "slip"
     STICK = "stick"
+    SWITCH = "switch"
+    """An input (step, min, max, clip, piecewise) takes its other branch; the event's
+    ``constraint`` names it as step(s), s its switching function."""
 
 
 class FrictionState(_Text):

@@ -46,7 +46,16 @@ import numpy as np
 
 from ..model import System
 from ._codegen import NumericSystem
-from ._detect import event_values, inside_step, locate, update_arming
+from ._detect import (
+    event_values,
+    flip_switch,
+    inside_step,
+    locate,
+    locate_switch,
+    lock_switches,
+    switches_crossed,
+    update_arming,
+)
 from ._events import EventKind, Status
 from ._initial import initial_state
 from ._options import (
@@ -157,6 +166,7 @@ def _integrate(
     saved = np.seterr(invalid="ignore", over="ignore", divide="ignore")
     try:
         at.y = settle(run, at.t, at.y)
+        lock_switches(run, at.t, at.y)
         rec.start(at.t, at.y)
         # A state 1e12 times its start (in size) is a blow-up, not physics to follow with
         # ever smaller steps (a 1/(1 - t)^3 force took 175 000 steps to fail otherwise).
@@ -205,8 +215,15 @@ def _segment(
         for i, (_, hi) in brackets.items():
             crossed[i] = hi < t_b or g_new[i] <= 0  # a dip, or a crossing after the apex
         hit = np.nonzero(crossed)[0]
-        if len(hit):
-            _event(run, rec, at, dense(), hit, t_a, t_b, zeno, brackets)
+        switched = switches_crossed(run, t_b, yb)
+        if len(hit) or len(switched):
+            located = locate(run, dense(), hit, t_a, t_b, brackets) if len(hit) else None
+            first = locate_switch(run, dense(), switched, t_a, t_b) if len(switched) else None
+            if first is not None and (located is None or first[0] <= located[0]):
+                _switch(run, rec, at, dense(), first, zeno)
+            else:
+                assert located is not None
+                _event(run, rec, at, dense(), located, zeno)
             watch.step(run, at.t, at.y, t_b - t_a, at.steps)
             return
         _check_penetration(run, t_b, yb)
@@ -234,18 +251,11 @@ def _restart_from(solver, y: np.ndarray, f: np.ndarray) -> None:
 
 
 def _event(
-    run: Run,
-    rec: Recorder,
-    at: Progress,
-    dense,
-    hit,
-    t_a: float,
-    t_b: float,
-    zeno: _Zeno,
-    brackets: dict[int, tuple[float, float]],
+    run: Run, rec: Recorder, at: Progress, dense, located: tuple[float, int], zeno: _Zeno
 ) -> None:
-    """Locate the first event of the step, sample up to it, and apply it."""
-    te, ie = locate(run, dense, hit, t_a, t_b, brackets)
+    """Sample up to the first event of the step (``located``: its time and index in the
+    mode's watch list), and apply it."""
+    te, ie = located
     rec.up_to(te, lambda: dense)
     ye, _ = run.project(te, dense(te))
     kind, j = run.mode.watch[ie]
@@ -253,6 +263,21 @@ def _event(
     logged = len(run.events)
     at.y = apply(run, te, ye, kind, j)
     zeno.check(te, [(str(e.kind), e.constraint) for e in run.events[logged:]])
+
+
+def _switch(
+    run: Run, rec: Recorder, at: Progress, dense, located: tuple[float, int], zeno: _Zeno
+) -> None:
+    """Sample up to the time an input switches, hold its new branch from there, and
+    make the mode consistent (a force that jumps may lift a contact off)."""
+    ts, k = located
+    rec.up_to(ts, lambda: dense)
+    ys, _ = run.project(ts, dense(ts))
+    at.t, at.y = ts, ys
+    logged = len(run.events)
+    flip_switch(run, ts, ys, k)
+    at.y = settle(run, ts, ys)
+    zeno.check(ts, [(str(e.kind), e.constraint) for e in run.events[logged:]])
 
 
 class _Lazy:

@@ -7,6 +7,7 @@ import math
 
 import sympy as sp
 
+from ..expr import latex
 from ..expr import to_text as _expr_text
 
 __all__ = ["modes_text", "modes_latex"]
@@ -165,9 +166,9 @@ def modes_latex(md) -> str:
         if not e.exists:
             continue
         for k, v in e.at.items():
-            rows.append(rf"{sp.latex(sp.Symbol(k))} &= {sp.latex(v)} && \text{{equilibrium {i}}}")
+            rows.append(rf"{sp.latex(sp.Symbol(k))} &= {latex(v)} && \text{{equilibrium {i}}}")
         for m in e.modes:
             if m.squared is not None:
                 label = "oscillation" if m.frequency is not None else "growth: $-\\omega^2$"
-                rows.append(rf"\omega^2 &= {sp.latex(m.squared)} && \text{{{label}}}")
+                rows.append(rf"\omega^2 &= {latex(m.squared)} && \text{{{label}}}")
     return "\\begin{align*}\n" + " \\\\\n".join(rows) + "\n\\end{align*}\n"

@@ -10,7 +10,7 @@ import re
 
 import sympy as sp
 
-from ..expr import ExpressionError, parse
+from ..expr import ExpressionError, latex, parse
 from ..expr import to_text as _expr_text
 from ..symbolic import READABLE_OPS
 
@@ -264,7 +264,7 @@ def _tex_text(text: str) -> str:
 
 
 def _tex(expr, names) -> str:
-    return sp.latex(expr, symbol_names=names)
+    return latex(expr, symbol_names=names)
 
 
 def to_latex(sol, standalone_math: bool = False) -> str:

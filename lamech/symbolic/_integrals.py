@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import mpmath
 import sympy as sp
 
+from ..expr import switch_form
 from ..model import Coordinate
 from ._budget import within
 from ._derive import Dynamics
@@ -58,6 +59,10 @@ def _is_zero(e: sp.Expr) -> bool:
         return True
     if e.is_Number:
         return False
+    # Inputs that switch (step(t - 1), max(0, -x)) are zero at some points only: each
+    # switch becomes a symbol of its own, so that the test covers every branch.
+    switches: dict = {}
+    e = switch_form(e, lambda s: switches.setdefault(s, sp.Dummy(f"branch{len(switches)}")))
     rng = random.Random(5)
     symbols = sorted(e.free_symbols, key=str)
     terms = sp.Add.make_args(e)
