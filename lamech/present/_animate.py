@@ -8,8 +8,10 @@ contact point while the contact holds (the part of the fixed surface the motion
 touches), the problem's ``[[scenery]]`` (fixed cylinders, pivots, walls, strings and
 rods between bodies: points, lines and circles that may move with the coordinates), the
 time, and each event (lift-off, impact, slip, ...) flashed as it happens.
-The view is fitted once to the whole motion. Bodies in space are drawn in side view
-(x–z).
+The view is fitted once to the whole motion. Bodies in space (3-component positions) are
+drawn in a 3-D view (z up, equal scales; :mod:`._view3d`): a rod along its body's shape
+axis, a circle as a disc about it, each turning body with its frame (x, y, z arrows),
+trails with their shadows on the floor, the scenery and the forces in 3-D.
 
 Writers: ``.gif`` (Pillow), ``.mp4`` (ffmpeg, when it is on PATH), ``.html`` (one
 self-contained page, matplotlib's ``to_jshtml``).
