@@ -125,6 +125,9 @@ INPUTS = ("step", "min", "max", "clip", "piecewise")
 one-sided spring). :func:`lamech.simulate` locates where they switch (an event), never
 steps over it."""
 RESERVED = frozenset(FUNCTIONS) | {"t", "pi"}
+ANGULAR_VELOCITY = ("wx", "wy", "wz", "w1", "w2", "w3")
+"""The components a dotted name ``body.wx`` may ask for: a body's angular velocity in
+the world axes (x, y, z) and in its own (1, 2, 3)."""
 _GROUP = {ast.Add: "+", ast.Sub: "+", ast.Mult: "*", ast.Div: "*"}
 
 _DECIMAL = re.compile(r"((?:[0-9]+\.?[0-9]*|\.[0-9]+))(?:[eE]([+-]?[0-9]+))?")
@@ -362,34 +365,34 @@ class _Builder:
     def _Attribute(self, node: ast.Attribute) -> sp.Expr:
         """``body.wx``: a dotted name, looked up whole in ``names`` (a body's angular
         velocity component); ``hints`` says why a body's have none here."""
-        if not isinstance(node.value, ast.Name):
+        body = node.value.id if isinstance(node.value, ast.Name) else None
+        part = node.attr.removesuffix(_VEL_SUFFIX)
+        spinning = sorted({n.partition(".")[0] for n in self.names if "." in n})
+        if body is None or part not in ANGULAR_VELOCITY:
+            if body in spinning:
+                raise self.fail(
+                    f"`{body}.{part}`: unknown component `{part}`; {body} has "
+                    + ", ".join(sorted(ANGULAR_VELOCITY)),
+                    node,
+                )
             raise self.fail(
-                "a dotted name is a body's angular velocity component, `body.wx`; "
-                f"`{_short(self.segment(node) or self.text)}` is not one",
-                node,
-            )
-        body, part = node.value.id, node.attr
-        if part.endswith(_VEL_SUFFIX):
-            raise self.fail(
-                f"`{body}.{part[: -len(_VEL_SUFFIX)]}'`: the rates of angular velocities "
-                f"are not allowed in {self.what}",
+                "attribute access (a.b) is not allowed in an expression; the only dotted "
+                "names are a body's angular velocity components, body."
+                + ", body.".join(ANGULAR_VELOCITY),
                 node,
             )
         key = f"{body}.{part}"
+        if node.attr != part:
+            raise self.fail(
+                f"`{key}'`: the rates of angular velocities are not allowed in {self.what}", node
+            )
         if key in self.names:
             return self.names[key]
-        parts = sorted(n.partition(".")[2] for n in self.names if n.startswith(body + "."))
-        if parts:
-            raise self.fail(
-                f"`{key}`: unknown component `{part}`; {body} has " + ", ".join(parts), node
-            )
         if body in self.hints:
             raise self.fail(f"`{key}`: {self.hints[body]}", node)
-        spinning = sorted({n.partition(".")[0] for n in self.names if "." in n})
         raise self.fail(
-            f"`{key}`: no body named `{body}` turns in space here (a dotted name is a "
-            "body's angular velocity, e.g. top.wx); bodies with one: "
-            + (", ".join(spinning) or "(none)"),
+            f"`{key}`: no body named `{body}` turns in space here; bodies with an angular "
+            "velocity: " + (", ".join(spinning) or "(none)"),
             node,
         )
 
@@ -1179,7 +1182,8 @@ def _kink_message(f: sp.Expr) -> str:
     else:
         u = _plain(f.args[0])
         where = f"at {u} = 0"
-        smooth = f"tanh({u}/eps)" if isinstance(f, sp.sign) else f"(1 + tanh({u}/eps))/2"
+        over = f"{u}/eps" if f.args[0].is_Atom else f"({u})/eps"
+        smooth = f"tanh({over})" if isinstance(f, sp.sign) else f"(1 + tanh({over}))/2"
     return (
         f"`{text}` jumps {where}, where its derivative is a delta function (an impulse) "
         f"that the equations of motion cannot carry; switch a force there instead "

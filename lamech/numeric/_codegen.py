@@ -108,6 +108,8 @@ class _Switches:
         self._index: dict[sp.Expr, int] = {}
 
     def _branch(self, s: sp.Expr) -> sp.Expr:
+        if s.could_extract_minus_sign():  # step(-s) is 1 - step(s): one switch, not two
+            return 1 - self._branch(-s)
         k = self._index.get(s)
         if k is None:
             k = self._index[s] = len(self.functions)
