@@ -23,7 +23,7 @@ import lamech
 from lamech.symbolic import CORRECTION, Derivation, Term
 
 SLOW = {"andrews_squeezer", "rolling_disc", "double_pendulum", "moving_support", "four_bar",
-        "heavy_top"}
+        "heavy_top", "rolling_sphere"}
 
 
 @pytest.fixture(scope="module")

@@ -3,6 +3,8 @@ energy of its bodies, and the partial velocities of their material points."""
 
 from __future__ import annotations
 
+import functools
+
 import sympy as sp
 
 from ._system import Body, System
@@ -74,7 +76,15 @@ def angular_velocity(system: System, body: Body) -> tuple[sp.Matrix, sp.Matrix] 
 
     For a sequence of turns the angular velocity is the sum of each turn's rate about its
     own axis, carried to the frame asked for (no simplification needed: Euler's
-    kinematic equations); for an ``orientation`` matrix, vee(R^T dR/dt)."""
+    kinematic equations); for an ``orientation`` matrix, vee(R^T dR/dt). Remembered for
+    the last few (system, body) pairs: the body frame's form is trig-simplified, and the
+    partial velocities of every contact ask for it again."""
+    spin = _angular_velocity(system, body)
+    return None if spin is None else (spin[0].copy(), spin[1].copy())
+
+
+@functools.lru_cache(maxsize=32)
+def _angular_velocity(system: System, body: Body) -> tuple[sp.Matrix, sp.Matrix] | None:
     R = body_rotation(body)
     if R is None:
         return None

@@ -298,6 +298,7 @@ class _Loader:
         self.problems: list[Issue] = []
         self.t = sp.Symbol("t", real=True)
         self.scopes: dict[str, dict[str, sp.Expr]] = {}
+        self.spin_hints: dict[str, str] = {}  # body: why `body.wx` means nothing
 
     # ----- reporting -----------------------------------------------------------------
     def problem(
@@ -357,12 +358,18 @@ class _Loader:
             return None
 
     def expr(
-        self, value: Any, names: dict[str, sp.Expr], where: str, loc: tuple, what: str
+        self,
+        value: Any,
+        names: dict[str, sp.Expr],
+        where: str,
+        loc: tuple,
+        what: str,
+        hints: dict[str, str] | None = None,
     ) -> sp.Expr | None:
         if isinstance(value, sp.Basic):
             return self._sympy_value(value, names, where, loc)
         try:
-            return parse(value, names, what)
+            return parse(value, names, what, hints=hints)
         except ExpressionError as exc:
             shown = str(value) if len(str(value)) <= 120 else str(value)[:117] + "..."
             col = f" (column {exc.column})" if exc.column else ""
@@ -373,7 +380,10 @@ class _Loader:
         """Parse ``value`` as the model's ``field`` (a key of :data:`lamech.model.FIELDS`):
         with the names that field may contain, named in messages as the model does."""
         scope, what = FIELDS[field]
-        return self.expr(value, self.scopes[scope], where, loc, what)
+        hints = self.spin_hints
+        if scope != "velocities":  # a body's angular velocity is a velocity
+            hints = {b: f"angular velocities are not allowed in {what}" for b in self._body_names()}
+        return self.expr(value, self.scopes[scope], where, loc, what, hints)
 
     def _sympy_value(
         self, value: sp.Basic, names: dict[str, sp.Expr], where: str, loc: tuple
@@ -384,7 +394,7 @@ class _Loader:
             self.problem(
                 where,
                 f"unknown name `{unknown[0]}`; known: "
-                + ", ".join(sorted(n for n in names if "'" not in n)),
+                + ", ".join(sorted(n for n in names if "'" not in n and "." not in n)),
                 loc,
             )
             return None
@@ -478,6 +488,7 @@ class _Loader:
 
         gravity = self._gravity()
         bodies = self._bodies()
+        self._angular_velocities(skeleton, bodies)
         T, V = self._lagrangian(skeleton, bodies, gravity)
         constraints = self._constraints()
         forces = self._forces(coords)
@@ -795,6 +806,41 @@ class _Loader:
                 if body is not None:
                     out.append(body)
         return out
+
+    def _body_names(self) -> list[str]:
+        """The names the file gives its bodies (parsed or not)."""
+        raw = self.data.get("bodies")
+        if not isinstance(raw, list):
+            return []
+        return [b["name"] for b in raw if isinstance(b, dict) and isinstance(b.get("name"), str)]
+
+    def _angular_velocities(self, skeleton: System, bodies: list[Body]) -> None:
+        """``top.wx, top.wy, top.wz`` (world axes) and ``top.w1, top.w2, top.w3`` (the
+        body's own axes) into the velocities' names, for each body in space that turns
+        (T from the bodies asks for the same, remembered); and what `disc.wx` says for
+        a planar body, a point or a body whose description failed."""
+        for name in self._body_names():
+            self.spin_hints[name] = "this body's description has errors (see above)"
+        for body in bodies:
+            if body.rotation is not None or body.orientation is not None:
+                self.spin_hints.pop(body.name, None)
+                spin = angular_velocity(skeleton, body)
+                if spin is None:
+                    continue
+                for k, axis in enumerate("xyz"):
+                    self.scopes["velocities"][f"{body.name}.w{axis}"] = spin[0][k]
+                    self.scopes["velocities"][f"{body.name}.w{k + 1}"] = spin[1][k]
+            elif body.angle is not None:
+                rate = to_text(time_derivative(body.angle, skeleton))
+                self.spin_hints[body.name] = (
+                    f"{body.name} is a planar body: its angular velocity is the rate of its "
+                    f"angle, {rate} (counterclockwise); write that"
+                )
+            else:
+                self.spin_hints[body.name] = (
+                    f"{body.name} does not turn: a point mass has no angular velocity "
+                    "(give a body in space a `rotation` or `orientation`)"
+                )
 
     def _rotation(self, value, where: str, loc: tuple):
         """``["z:psi", "x:theta", "z:phi"]``: turns (axis, angle expression)."""
