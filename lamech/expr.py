@@ -28,6 +28,7 @@ import warnings
 from collections.abc import Collection, Mapping
 
 import sympy as sp
+from sympy.core.symbol import Str
 from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
@@ -49,6 +50,11 @@ __all__ = [
     "INPUTS",
     "latex",
     "switch_form",
+    "tabulated",
+    "Table",
+    "is_table",
+    "table_form",
+    "table_knots",
 ]
 
 MAX_LENGTH = 4000
@@ -1021,6 +1027,9 @@ class TextPrinter(StrPrinter):
             raise ValueError(f"cannot print function {name} in the problem-file grammar")
         return f"{name}(" + ", ".join(self._print(a) for a in expr.args) + ")"
 
+    def _print_Table(self, expr):
+        return expr.label
+
     def _print_Heaviside(self, expr):
         return f"step({self._print(expr.args[0])})"
 
@@ -1130,7 +1139,8 @@ def not_differentiable(
     """
     once = set(once)
     kinds = (sp.Abs, sp.sign, sp.Heaviside, sp.Min, sp.Max, sp.Piecewise)
-    for f in sorted(expr.atoms(*kinds), key=sp.default_sort_key):
+    found = expr.atoms(*kinds, Table)
+    for f in sorted(found, key=sp.default_sort_key):
         free = _switch_symbols(f)
         orders = {(x,) for x in free & once}
         for first, second in twice:
@@ -1140,7 +1150,7 @@ def not_differentiable(
                 for b in free & set(second)
             }
         for wrt in sorted(orders, key=lambda w: (len(w), [str(x) for x in w])):
-            if not isinstance(f, sp.Piecewise) and _has_real_derivative(f, wrt):
+            if not isinstance(f, (sp.Piecewise, Table)) and _has_real_derivative(f, wrt):
                 continue
             return _kink_message(f)
     return None
@@ -1150,12 +1160,18 @@ def _switch_symbols(f: sp.Expr) -> set:
     """The names in which ``f`` (one of the kinked or jumping functions) switches."""
     if isinstance(f, sp.Piecewise):
         return set().union(*(c.free_symbols for _, c in f.args))
-    if isinstance(f, (sp.Min, sp.Max)):
+    if isinstance(f, (sp.Min, sp.Max, Table)):
         return f.free_symbols
     return f.args[0].free_symbols
 
 
 def _kink_message(f: sp.Expr) -> str:
+    if is_table(f):
+        return (
+            f"`{f.label}` is a table, interpolated linearly: its rate jumps at every row, "
+            "so it cannot be differentiated in t; use it where lamech does not "
+            "differentiate it in time (a force in [forces] or [[loads]], or V)"
+        )
     text = _plain(f)
     if isinstance(f, (sp.Abs, sp.sign)) and not f.args[0].is_extended_real:
         u = _plain(f.args[0])
@@ -1192,6 +1208,101 @@ def _kink_message(f: sp.Expr) -> str:
     )
 
 
+class Table(sp.Function):
+    """``Table(t, times, values, name)``: an input tabulated at ``times`` (strictly
+    increasing, two or more) with ``values``, interpolated linearly between them and
+    held at the first and last value outside; made by :func:`tabulated`. It prints as
+    its name, evaluates at a number (``subs(t, 0.5)``), and pickles (a sweep's workers
+    get it). :func:`table_form` writes it with steps (a switch at every row, where its
+    slope changes): that is how the simulator evaluates it, locating each corner like
+    any other switch."""
+
+    nargs = 4
+
+    @classmethod
+    def eval(cls, t, times, values, name):
+        if t.is_Number:
+            return sp.Float(_interpolate(t, times, values))
+        return None
+
+    def _eval_evalf(self, prec):
+        t = self.args[0].evalf(prec)
+        return sp.Float(_interpolate(t, *self.args[1:3]), prec) if t.is_Number else None
+
+    @property
+    def label(self) -> str:
+        return str(self.args[3])
+
+    def _sympystr(self, printer) -> str:
+        return self.label
+
+    def _latex(self, printer) -> str:
+        return rf"\operatorname{{{self.label}}}\left({printer._print(self.args[0])}\right)"
+
+    def _eval_derivative(self, s):
+        if s in self.args[0].free_symbols:
+            return sp.Derivative(self, s, evaluate=False)
+        return sp.Integer(0)
+
+
+def _interpolate(t, times, values) -> float:
+    import bisect
+
+    ts, vs = [float(x) for x in times], [float(x) for x in values]
+    x = float(t)
+    if x <= ts[0]:
+        return vs[0]
+    if x >= ts[-1]:
+        return vs[-1]
+    i = bisect.bisect_right(ts, x) - 1
+    return vs[i] + (vs[i + 1] - vs[i]) * (x - ts[i]) / (ts[i + 1] - ts[i])
+
+
+def tabulated(name: str, times, values, t: sp.Symbol) -> sp.Expr:
+    """The input ``name``, tabulated (see :class:`Table`), as a function of ``t``."""
+    return Table(
+        t,
+        sp.Tuple(*(sp.Float(x) for x in times)),
+        sp.Tuple(*(sp.Float(x) for x in values)),
+        Str(name),
+    )
+
+
+def is_table(e: sp.Basic) -> bool:
+    """Whether ``e`` is a tabulated input (:func:`tabulated`)."""
+    return isinstance(e, Table)
+
+
+def table_form(expr: sp.Expr) -> sp.Expr:
+    """``expr`` with each tabulated input written out: v0 + sum over the rows of the
+    slope times ((t - t_i) step(t - t_i) - (t - t_i+1) step(t - t_i+1)), each term
+    bounded by the rise of its row (no sum of ever larger terms cancelling)."""
+    tables = sp.sympify(expr).atoms(Table)
+    if not tables:
+        return expr
+    out = {}
+    for a in tables:
+        t, ts, vs, _ = a.args
+        terms = [sp.Float(vs[0])]
+        for i in range(len(ts) - 1):
+            slope = (float(vs[i + 1]) - float(vs[i])) / (float(ts[i + 1]) - float(ts[i]))
+            if slope == 0:
+                continue
+            lo, hi = t - ts[i], t - ts[i + 1]
+            terms.append(sp.Float(slope) * (lo * sp.Heaviside(lo, 1) - hi * sp.Heaviside(hi, 1)))
+        out[a] = sp.Add(*terms)
+    return expr.xreplace(out)
+
+
+def table_knots(expr: sp.Expr) -> set:
+    """The switching functions t - t_i of the tabulated inputs in ``expr``."""
+    out = set()
+    for a in sp.sympify(expr).atoms(Table):
+        t, ts = a.args[:2]
+        out |= {t - x for x in ts}
+    return out
+
+
 def switch_form(expr: sp.Expr, branch) -> sp.Expr:
     """``expr`` with every input function written through its switches, innermost first:
     ``step(u)`` is ``branch(u)``, ``max(a, b)`` is ``b + (a - b) branch(a - b)``,
@@ -1201,7 +1312,7 @@ def switch_form(expr: sp.Expr, branch) -> sp.Expr:
     caller gives it: a symbol per switch locks the branches (the simulator holds them
     fixed between the events where s crosses 0), a random value tests an identity
     for every combination of branches at once (the expression is linear in each)."""
-    expr = sp.sympify(expr)
+    expr = table_form(sp.sympify(expr))
     if not expr.has(sp.Heaviside, sp.Min, sp.Max, sp.Piecewise):
         return expr
 

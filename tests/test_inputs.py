@@ -181,3 +181,90 @@ def test_the_compiled_path_gives_the_same_switches():
     b = lamech.simulate(system, 3.0, jit=True, **TIGHT)
     assert [e.t for e in _switches(a)] == pytest.approx([e.t for e in _switches(b)], abs=1e-12)
     assert np.max(np.abs(a.q - b.q)) < 1e-10
+
+
+TABLED = """
+title = "a rotor driven by a tabulated torque"
+[parameters]
+I = 0.5
+[coordinates]
+phi = { initial = 0, velocity = 0 }
+[inputs]
+tau = { csv = "torque.csv", column = "tau" }
+[lagrangian]
+T = "I/2*phi'^2"
+V = "0"
+[forces]
+phi = "tau"
+"""
+
+
+@pytest.fixture
+def tabled(tmp_path):
+    (tmp_path / "torque.csv").write_text("t,tau,unused\n0,0,9\n1,2,9\n2,2,9\n3,0,9\n")
+    path = tmp_path / "rotor.toml"
+    path.write_text(TABLED)
+    return path
+
+
+def test_a_tabulated_torque_is_interpolated_and_its_corners_located(tabled):
+    system = lamech.load(tabled)
+    assert "tau" in lamech.to_text(lamech.solve(system))
+    traj = lamech.simulate(system, 4.0, samples=401, **TIGHT)
+    assert traj.status == "ok"
+    assert _switches(traj) == []  # a table's rows are corners, not events
+    # phi'' = tau/I = 2 tau; tau a ramp to 2 over [0, 1], 2 until 2, a ramp to 0 at 3
+    t = traj.t
+    exact = np.select(
+        [t <= 1, t <= 2, t <= 3],
+        [
+            2 * t**3 / 3,
+            2 / 3 + 2 * (t - 1) + 2 * (t - 1) ** 2,
+            14 / 3 + 6 * (t - 2) + 2 * (t - 2) ** 2 - 2 * (t - 2) ** 3 / 3,
+        ],
+        12 + 8 * (t - 3),
+    )
+    assert np.max(np.abs(traj.q[:, 0] - exact)) < 1e-9
+    assert traj.qd[-1, 0] == pytest.approx(8, abs=1e-10)
+
+
+def test_a_tabulated_input_evaluates_prints_and_pickles(tabled):
+    import pickle
+
+    system = lamech.load(tabled)
+    (Q,) = system.forces
+    assert float(Q.subs(system.t, 0.25)) == 0.5
+    assert float(Q.subs(system.t, 7)) == 0.0  # held at the last row
+    assert pickle.loads(pickle.dumps(system)).forces == system.forces  # a sweep's workers
+    assert lamech.to_latex(lamech.solve(system)).count(r"\operatorname{tau}") >= 1
+
+
+@pytest.mark.parametrize(
+    "table, words",
+    [
+        ("t,tau\n0,0\n1,2\n1,3\n", ["row 4", "the times must increase"]),
+        ("t,tau\n0,0\n", ["two or more rows"]),
+        ("t,tau\n0,0\n1,x\n", ["row 3", "not two numbers"]),
+        ("t,torque\n0,0\n1,1\n", ["column `tau` is not a column", "torque"]),
+    ],
+)
+def test_a_bad_table_is_refused_with_its_row(tmp_path, table, words):
+    (tmp_path / "torque.csv").write_text(table)
+    path = tmp_path / "rotor.toml"
+    path.write_text(TABLED)
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.load(path)
+    text = str(err.value)
+    assert "inputs.tau" in text and ":8:" in text  # the line of the input
+    assert "unknown name" not in text  # its uses are no further error
+    for w in words:
+        assert w in text, text
+
+
+def test_a_table_differentiated_in_time_is_refused(tmp_path):
+    (tmp_path / "torque.csv").write_text("t,tau\n0,1\n1,2\n")
+    path = tmp_path / "rotor.toml"
+    path.write_text(TABLED.replace('T = "I/2*phi\'^2"', 'T = "tau*I/2*phi\'^2"'))
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.load(path)
+    assert "`tau` is a table" in str(err.value)

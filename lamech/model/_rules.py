@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..expr import FUNCTIONS, RESERVED
+from ..expr import FUNCTIONS, RESERVED, Table
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._system import (
@@ -734,7 +734,7 @@ def _kink_problem(expr: sp.Expr, field: str, s: System) -> str | None:
     function: V once in q (the force), T and L in q' and then in q, q', t (M and
     d/dt dT/dq'), f and the bodies' positions twice in q, t (gamma, and T from the
     bodies), velocity constraints once, a force's point once in q (partial velocities)."""
-    if not expr.has(sp.Abs, sp.sign, sp.Heaviside, sp.Min, sp.Max, sp.Piecewise):
+    if not expr.has(sp.Abs, sp.sign, sp.Heaviside, sp.Min, sp.Max, sp.Piecewise, Table):
         return None
     q = {c.symbol for c in s.coordinates}
     v = {c.velocity for c in s.coordinates}

@@ -50,7 +50,7 @@ import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from ..expr import switch_form, to_text
+from ..expr import switch_form, table_knots, to_text
 from ..model import System, contact_partial_velocities
 from ..symbolic import Dynamics
 from ..symbolic import dynamics as derive_dynamics
@@ -102,10 +102,11 @@ class _Switches:
     (:func:`lamech.expr.switch_form`): one lock symbol per distinct switching function,
     in the order met."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.functions: list[sp.Expr] = []
         self.locks: list[sp.Symbol] = []
         self._index: dict[sp.Expr, int] = {}
+        self.quiet: set = set()  # the rows of tables: corners, not events to log
 
     def _branch(self, s: sp.Expr) -> sp.Expr:
         if s.could_extract_minus_sign():  # step(-s) is 1 - step(s): one switch, not two
@@ -118,6 +119,8 @@ class _Switches:
         return Branch(self.locks[k], s)
 
     def matrix(self, mat: sp.Matrix) -> sp.Matrix:
+        for e in mat:
+            self.quiet |= table_knots(e)
         return mat.applyfunc(lambda e: switch_form(e, self._branch))
 
     def names(self) -> list[str]:
@@ -125,6 +128,9 @@ class _Switches:
         free = {Branch(lk, s): sp.Heaviside(s, 1) for lk, s in zip(self.locks, self.functions)}
         out = []
         for s in self.functions:
+            if s in self.quiet:
+                out.append("")
+                continue
             for _ in range(len(free)):  # inner switches first
                 s = s.xreplace(free)
             try:

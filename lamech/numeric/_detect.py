@@ -236,6 +236,8 @@ def flip_switch(run: Run, t: float, y: np.ndarray, k: int) -> None:
     ns, p = run.setup.ns, run.setup.p
     slot = ns.switch_slots[k]
     p[slot] = 1.0 - p[slot]
+    if not ns.switch_names[k]:  # a table's row: a corner of an input, not an event
+        return
     n, names = ns.n, ns.coordinate_names
     coords = {c: float(y[i]) for i, c in enumerate(names)}
     coords.update({c + "'": float(y[n + i]) for i, c in enumerate(names)})

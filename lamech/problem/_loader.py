@@ -19,7 +19,16 @@ from typing import Any
 
 import sympy as sp
 
-from ..expr import MAX_NUMBER_DIGITS, ExpressionError, TimeDerivative, parse, printable, to_text
+from ..expr import (
+    MAX_NUMBER_DIGITS,
+    RESERVED,
+    ExpressionError,
+    TimeDerivative,
+    parse,
+    printable,
+    tabulated,
+    to_text,
+)
 from ..model import (
     FIELDS,
     Body,
@@ -67,6 +76,7 @@ _KNOWN_SECTIONS = {
     "scenery",
     "parametrisation",
     "loads",
+    "inputs",
 }
 
 
@@ -183,6 +193,74 @@ LIMITS = {
 }
 """The most entries of each section a problem file may have: 20,000 coordinates fit in
 a 369 kB file, but their 20000 x 20000 symbolic mass matrix takes minutes to build."""
+
+
+MAX_TABLE_ROWS = 2000
+"""Rows of a tabulated input (each row is a switch the generated code evaluates)."""
+
+
+def _read_table(source: str, spec: dict) -> tuple[list[float], list[float]] | str:
+    """(times, values) of an ``[inputs]`` table, or what is wrong with it. The file is
+    found beside the problem file; at most 1 MB of it is read."""
+    import csv
+    import io
+
+    file = spec["csv"]
+    if not isinstance(file, str) or not file:
+        return "csv must be a file name"
+    base = Path(source).parent if source and not source.startswith("<") else Path.cwd()
+    path = base / file
+    try:
+        if not path.is_file():
+            return (
+                f"no such file `{printable(str(path))}` (a csv path is relative to the "
+                "problem file)"
+            )
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_BYTES + 1)
+        if len(raw) > MAX_BYTES:
+            return f"`{printable(file)}` is too large (over 1 MB)"
+        rows = list(csv.reader(io.StringIO(raw.decode("utf-8-sig"))))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        return f"cannot read `{printable(file)}`: {exc}"
+    rows = [r for r in rows if any(c.strip() for c in r)]
+    if len(rows) < 3:
+        return f"`{printable(file)}` needs a header row and two or more rows of numbers"
+    header = [c.strip() for c in rows[0]]
+    time_name = spec.get("time", header[0])
+    column = spec.get("column")
+    if column is None:
+        if len(header) != 2:
+            return f'`{printable(file)}` has {len(header)} columns: say which with column = "..."'
+        column = header[1]
+    for what, key in (("time", time_name), ("column", column)):
+        if not isinstance(key, str) or key not in header:
+            return (
+                f"{what} `{printable(str(key))}` is not a column of `{printable(file)}`; "
+                "its columns: " + ", ".join(printable(h) for h in header)
+            )
+    ti, vi = header.index(time_name), header.index(column)
+    times: list[float] = []
+    values: list[float] = []
+    for line, row in enumerate(rows[1:], start=2):
+        try:
+            tv, vv = float(row[ti]), float(row[vi])
+        except (IndexError, ValueError):
+            return (
+                f"`{printable(file)}` row {line}: not two numbers in columns {time_name}, {column}"
+            )
+        if not (math.isfinite(tv) and math.isfinite(vv)):
+            return f"`{printable(file)}` row {line}: not a finite number"
+        if times and tv <= times[-1]:
+            return (
+                f"`{printable(file)}` row {line}: the times must increase ({tv:g} after "
+                f"{times[-1]:g})"
+            )
+        times.append(tv)
+        values.append(vv)
+    if len(times) > MAX_TABLE_ROWS:
+        return f"`{printable(file)}` has {len(times)} rows; at most {MAX_TABLE_ROWS} (resample it)"
+    return times, values
 
 
 def load(path: str | Path) -> System:
@@ -471,6 +549,8 @@ class _Loader:
         for c in coords:
             velocities[c.name + "'"] = c.velocity
         self.scopes.update(positions=positions, velocities=velocities)
+        for name, value in self._inputs(positions).items():
+            positions[name] = velocities[name] = value
         # The coordinates and parameters alone (checked as such), for the kinematics of
         # the bodies: T is a stand-in (time derivatives need only q and t).
         skeleton = self.make(
@@ -589,6 +669,43 @@ class _Loader:
             )
             return None
         return Chart(tuple(new), tuple(pairs))
+
+    def _inputs(self, taken: dict) -> dict[str, sp.Expr]:
+        """``[inputs]``: tabulated inputs, ``name = { csv = "file.csv", column = "tau" }``
+        (``time = "t"``: the time column, by default the first), a function of t
+        interpolated linearly between the rows (:func:`lamech.expr.tabulated`)."""
+        table = self.table("inputs") or {}
+        out: dict[str, sp.Expr] = {}
+        for name, spec in table.items():
+            where, loc = f"inputs.{name}", ("inputs", None, name)
+            if (
+                name in taken
+                or name in RESERVED
+                or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name)
+            ):
+                self.problem(
+                    where,
+                    f"`{name}` cannot name an input: it is taken or not a plain name",
+                    loc,
+                )
+                continue
+            if not isinstance(spec, dict) or "csv" not in spec:
+                self.problem(
+                    where,
+                    'an input is a table: name = { csv = "file.csv", column = "name" }',
+                    loc,
+                )
+                continue
+            extra = sorted(set(spec) - {"csv", "column", "time"})
+            if extra:
+                self.problem(where, f"unknown key `{extra[0]}`; known: csv, column, time", loc)
+                continue
+            read = _read_table(self.source, spec)
+            if isinstance(read, str):
+                self.problem(where, read, loc)
+                read = ([0.0, 1.0], [0.0, 0.0])  # a stand-in: its uses are no further error
+            out[name] = tabulated(name, *read, self.t)
+        return out
 
     def _parameters(self) -> list[Parameter]:
         table = self.table("parameters") or {}
