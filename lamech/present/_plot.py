@@ -57,7 +57,8 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
                 rotation=90,
             )
         seen.add(e.kind)
-    ax1.legend(fontsize=8, loc="best")
+    if ax1.get_legend_handles_labels()[0]:  # a system without constraints has no lambda
+        ax1.legend(fontsize=8, loc="best")
     ax1.grid(alpha=0.25)
     for i, name in enumerate(traj.coordinates):
         ax2.plot(t, traj.q[:, i], lw=1.3, label=name)
