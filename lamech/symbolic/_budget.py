@@ -87,11 +87,16 @@ def within(fn: Callable[..., T], *args: Any, fallback: T, seconds: float | None 
     start = time.monotonic()
     signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
-        return fn(*args)
+        try:
+            return fn(*args)
+        finally:
+            # Disarmed first: a timer that fires between fn's return and here raises
+            # _Late in this block, which the clause below still catches (under load, a
+            # 1 ms bound let it escape from the old single finally).
+            armed[0] = False
     except _Late:
         return fallback
     finally:
-        armed[0] = False
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old_handler)
         if old_delay:
