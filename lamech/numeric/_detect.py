@@ -131,7 +131,6 @@ def locate(
     """(te, i): the first of the events ``hit`` (indices into the mode's watch list)
     within (t_a, t_b] (for event i in ``brackets``, within that bracket), located on
     the dense output."""
-    from scipy.optimize import brentq
 
     te, ie = t_b, -1
     brackets = brackets or {}
@@ -141,20 +140,23 @@ def locate(
         def g(s, i=i):
             return event_values(run, s, dense(s))[i]
 
-        try:
-            r = brentq(
-                g,
-                t_from,
-                t_to,
-                xtol=1e-15 * max(1.0, abs(t_b)),
-                rtol=4 * np.finfo(float).eps,
-                maxiter=200,
-            )
-        except ValueError:
-            r = t_to
+        r = _root(g, t_from, t_to, t_b)
         if r < te or ie < 0:
             te, ie = r, int(i)
     return te, ie
+
+
+def _root(g, lo: float, hi: float, t_b: float) -> float:
+    """Where g crosses zero in [lo, hi] (Brent, to about 1e-15 of the step's end t_b);
+    ``hi`` when g has the same sign at both ends (a crossing only just seen)."""
+    from scipy.optimize import brentq
+
+    try:
+        return brentq(
+            g, lo, hi, xtol=1e-15 * max(1.0, abs(t_b)), rtol=4 * np.finfo(float).eps, maxiter=200
+        )
+    except ValueError:
+        return hi
 
 
 # ----- inputs that switch -------------------------------------------------------------
@@ -194,7 +196,6 @@ def switches_crossed(run: Run, t: float, y: np.ndarray) -> np.ndarray:
 def locate_switch(run: Run, dense, crossed, t_a: float, t_b: float) -> tuple[float, int]:
     """(ts, k): the first of the switches ``crossed`` within (t_a, t_b], located on the
     dense output (root finding, Brent)."""
-    from scipy.optimize import brentq
 
     ns, p = run.setup.ns, run.setup.p
     n, slots = ns.n, ns.switch_slots
@@ -210,17 +211,7 @@ def locate_switch(run: Run, dense, crossed, t_a: float, t_b: float) -> tuple[flo
         if (s_a >= 0.0) != (held == 1.0):  # already across at the step's start
             ts = t_a
         else:
-            try:
-                ts = brentq(
-                    side,
-                    t_a,
-                    t_b,
-                    xtol=1e-15 * max(1.0, abs(t_b)),
-                    rtol=4 * np.finfo(float).eps,
-                    maxiter=200,
-                )
-            except ValueError:
-                ts = t_b
+            ts = _root(side, t_a, t_b, t_b)
             # s = 0 exactly counts as switched (step(0) = 1): for a branch held at 0 the
             # root is where s reaches 0; Brent may stop just short of it, which is fine
             # to within its tolerance.
