@@ -120,8 +120,14 @@ def value(expr, env: dict) -> float:
 def numeric_matrix(expr: sp.Matrix, env: dict) -> np.ndarray:
     # xreplace with numbers, not subs: subs re-simplifies at every node (10 s for the
     # 30-link chain's A against 0.1 s).
+    # Entry by entry, the zeros skipped: a chain's A is N x 2N with 4N nonzeros.
     values = {s: sp.Float(v, 30) if not isinstance(v, sp.Basic) else v for s, v in env.items()}
-    return np.array(expr.xreplace(values).evalf(), dtype=float)
+    if not isinstance(expr, sp.MatrixBase):
+        return np.array(sp.sympify(expr).xreplace(values).evalf(), dtype=float)
+    out = np.zeros(expr.shape)
+    for (i, j), e in expr.todok().items():
+        out[i, j] = float(e.xreplace(values).evalf())
+    return out
 
 
 def dependent_constraints(system: System) -> list[tuple[tuple[str, ...], bool]]:

@@ -19,6 +19,8 @@ __all__ = [
     "contact_partial_velocities",
     "velocity_form",
     "constraint_jacobian",
+    "jacobian",
+    "gradient",
 ]
 
 
@@ -27,10 +29,11 @@ def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
     out = sp.sympify(expr)
     for _ in range(order):
         total = sp.diff(out, system.t)
+        free = out.free_symbols
         for c in system.coordinates + system.chart_coordinates:
-            if out.has(c.symbol):
+            if c.symbol in free:
                 total += sp.diff(out, c.symbol) * c.velocity
-            if out.has(c.velocity):
+            if c.velocity in free:
                 total += sp.diff(out, c.velocity) * c.acceleration
         out = total
     return out
@@ -189,9 +192,54 @@ def velocity_form(system: System, constraint) -> sp.Expr:
     return constraint.expr
 
 
+def jacobian(exprs, symbols) -> sp.Matrix:
+    """d exprs_i / d symbols_j, differentiating each expression only by the symbols it
+    contains. SymPy's ``Matrix.jacobian`` differentiates every entry by every symbol: for
+    a chain of N links in Cartesian coordinates that is N x 2N derivatives of which 4N are
+    not zero (3.9 s at N = 100, 0.05 s this way)."""
+    exprs = [sp.sympify(e) for e in exprs]
+    symbols = list(symbols)
+    out = sp.zeros(len(exprs), len(symbols))
+    column = {s: j for j, s in enumerate(symbols)}
+    for i, e in enumerate(exprs):
+        for s in e.free_symbols & column.keys():
+            out[i, column[s]] = sp.diff(e, s)
+    return out
+
+
+def gradient(expr, symbols) -> list[sp.Expr]:
+    """[d expr / d s for s in symbols], the same expressions as ``sp.diff`` gives, each
+    term of a sum differentiated only by the symbols it contains: for a T of N squared
+    velocities ``sp.diff`` by each symbol costs N^2 term derivatives (4.6 s for the check
+    of the 100-link chain's T), this N. A constant times a sum (T = m/2*(x1'^2 + ...))
+    is the constant times the sum's gradient, as ``sp.diff`` writes it."""
+    symbols = list(symbols)
+    wanted = set(symbols)
+
+    def walk(e: sp.Expr) -> dict:
+        free = e.free_symbols & wanted
+        if not free:
+            return {}
+        if isinstance(e, sp.Add):
+            parts: dict = {}
+            for term in e.args:
+                for s, d in walk(term).items():
+                    parts.setdefault(s, []).append(d)
+            return {s: sp.Add(*ds) for s, ds in parts.items()}
+        if isinstance(e, sp.Mul):
+            inner = [f for f in e.args if f.free_symbols & free]
+            if len(inner) == 1 and isinstance(inner[0], sp.Add):
+                rest = sp.Mul(*[f for f in e.args if f is not inner[0]])
+                return {s: rest * d for s, d in walk(inner[0]).items()}
+        return {s: sp.diff(e, s) for s in free}
+
+    found = walk(sp.sympify(expr))
+    return [found.get(s, sp.Integer(0)) for s in symbols]
+
+
 def constraint_jacobian(system: System) -> tuple[sp.Matrix, sp.Matrix]:
     """(A, F): A = dF/dq' (m, n) and the velocity forms F (m, 1)."""
     F = sp.Matrix([velocity_form(system, c) for c in system.constraints])
     if not system.constraints:
         return sp.zeros(0, len(system.coordinates)), F
-    return F.jacobian(sp.Matrix(system.qd)), F
+    return jacobian(F, system.qd), F

@@ -1035,13 +1035,14 @@ def _negative_kinetic_issues(s: System, env: dict) -> Issues:
     constraints give it inertia)."""
     import numpy as np
 
-    from ._checks import value
+    from ._checks import numeric_matrix
+    from ._kinematics import gradient, jacobian
 
     qd = [c.velocity for c in s.coordinates if s.T.has(c.velocity)]
     if not qd:
         return []
     try:
-        M = np.array([[value(sp.diff(s.T, a, b), env) for b in qd] for a in qd], dtype=float)
+        M = numeric_matrix(jacobian(gradient(s.T, qd), qd), env)
     except (TypeError, ValueError, ArithmeticError):
         return []
     if not np.all(np.isfinite(M)):
@@ -1106,7 +1107,7 @@ def _massless_issues(s: System) -> Issues:
         numeric_matrix,
         without_inertia,
     )
-    from ._kinematics import constraint_jacobian
+    from ._kinematics import constraint_jacobian, gradient, jacobian
 
     pv = s.parameter_values
     if not massless(s, pv):
@@ -1114,7 +1115,7 @@ def _massless_issues(s: System) -> Issues:
     try:
         env = {**pv, **initial_values(s), s.t: 0.0}
         qd = sp.Matrix(s.qd)
-        M = numeric_matrix(sp.hessian(s.L, qd), env)
+        M = numeric_matrix(jacobian(gradient(s.L, qd), qd), env)
         A = numeric_matrix(constraint_jacobian(holding_at_start(s))[0], env)
     except (TypeError, ValueError):
         return []  # not numbers at the start: reported elsewhere, or left to solve

@@ -34,6 +34,8 @@ from ..model import (
     System,
     constraint_jacobian,
     dependent_group,
+    gradient,
+    jacobian,
     numeric_matrix,
     without_inertia,
 )
@@ -68,13 +70,14 @@ def dynamics(system: System) -> Dynamics:
     q, qd, qdd = system.q, system.qd, system.qdd
     n = len(q)
     L = system.L
-    p = [sp.diff(L, v) for v in qd]
-    M = sp.Matrix(n, n, lambda i, j: sp.diff(p[i], qd[j]))
+    p = gradient(L, qd)
+    M = jacobian(p, qd)
+    dLdq = gradient(L, q)
     h = sp.Matrix(
         [
-            sum((sp.diff(p[i], q[k]) * qd[k] for k in range(n) if p[i].has(q[k])), sp.Integer(0))
+            sp.Add(*(sp.diff(p[i], x) * v for x, v in zip(q, qd) if x in p[i].free_symbols))
             + sp.diff(p[i], system.t)
-            - sp.diff(L, q[i])
+            - dLdq[i]
             for i in range(n)
         ]
     )
@@ -83,7 +86,7 @@ def dynamics(system: System) -> Dynamics:
     m = len(system.constraints)
     gamma = sp.Matrix(
         [
-            sum((sp.diff(F[j], q[k]) * qd[k] for k in range(n) if F[j].has(q[k])), sp.Integer(0))
+            sp.Add(*(sp.diff(F[j], x) * v for x, v in zip(q, qd) if x in F[j].free_symbols))
             + sp.diff(F[j], system.t)
             for j in range(m)
         ]
