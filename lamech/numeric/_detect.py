@@ -85,7 +85,8 @@ def inside_step(
       flight in the step) is armed at the apex if the gap opened beyond ``arm_pos``;
       its crossing is sought in (apex, t_b];
     * an armed one whose gap falls and rises again (a narrow obstacle passed in one
-      step) hit the surface if the gap went negative; the crossing is in (t_a, bottom].
+      step) hit the surface if the gap went negative; the crossing is in (t_a, bottom]
+      (a disarmed one likewise if it went below -``arm_pos``, where its event fires).
 
     Returns {watch index: (t_from, t_to)}, the bracket to search. ``dense()`` gives the
     step's dense output, asked for only when a gap velocity changes sign (y_a, y_b: the
@@ -113,6 +114,10 @@ def inside_step(
                 if gap(apex, j)[0] > setup.arm_pos:
                     mode.arm(kind, j)
                     out[i] = (apex, t_b)
+            elif rate_a < 0.0 < rate_b:
+                bottom = turn(j)
+                if gap(bottom, j)[0] + setup.arm_pos <= 0.0:
+                    out[i] = (t_a, bottom)
         elif rate_a < 0.0 < rate_b:
             bottom = turn(j)
             if gap(bottom, j)[0] <= 0.0:

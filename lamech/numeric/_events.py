@@ -32,6 +32,10 @@ class Status(_Text):
 
     OK = "ok"
     FAILED = "failed"
+    PENETRATED = "penetrated"
+    """A state reached the forbidden side of a unilateral constraint (f below minus the
+    event tolerance while it was released) with no contact located: a body through a
+    surface, stopped there rather than followed."""
     INTERRUPTED = "interrupted"
 
     @property
@@ -43,6 +47,9 @@ class Status(_Text):
 _MEANINGS = {
     Status.OK: "the run reached t_end",
     Status.FAILED: "the run stopped early: see the message for the time, cause and what to try",
+    Status.PENETRATED: "the run stopped where a body had passed through a unilateral "
+    "constraint's surface unseen (f < 0 while released, no contact located): see the message "
+    "for the constraint, the time and the depth; try a tighter rtol/atol or a smaller max_step",
     Status.INTERRUPTED: "the run was interrupted (Ctrl-C; SIGTERM or SIGHUP in the "
     "command): the trajectory up to there is kept; run again to go further",
 }
@@ -76,8 +83,11 @@ class Event:
     velocities (``x'``) at the event. The optional details: ``multiplier`` (the pulling
     multiplier of a lift-off found when the mode settles), ``ratio`` (|lambda| / mu N of
     a slip found when the mode settles), ``impulse``, ``velocity_before`` and
-    ``restitution`` (impact and contact), ``initial`` (a slip at the start) and
-    ``reversal`` (a stick that could not hold: the slip went on, reversed or not)."""
+    ``restitution`` (impact and contact), ``initial`` (a slip at the start),
+    ``reversal`` (a stick that could not hold: the slip went on, reversed or not) and
+    ``accumulation`` (a contact that begins where impacts accumulate: the bounces after
+    the last logged impact too small to resolve, their flights summed in closed form;
+    ``accumulation`` is the time they took)."""
 
     t: float
     kind: EventKind
@@ -90,6 +100,7 @@ class Event:
     restitution: float | None = None
     initial: bool = False
     reversal: bool | None = None
+    accumulation: float | None = None
 
     def to_json(self) -> dict:
         """The event as the ``--json`` summary gives it: t, kind, constraint,
@@ -100,7 +111,14 @@ class Event:
             "constraint": self.constraint,
             "coordinates": {k: float(v) for k, v in self.coordinates.items()},
         }
-        for name in ("multiplier", "ratio", "impulse", "velocity_before", "restitution"):
+        for name in (
+            "multiplier",
+            "ratio",
+            "impulse",
+            "velocity_before",
+            "restitution",
+            "accumulation",
+        ):
             value = getattr(self, name)
             if value is not None:
                 out[name] = value

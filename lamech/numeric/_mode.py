@@ -46,8 +46,11 @@ class Mode:
     ``friction`` (:class:`FrictionState` per friction constraint, None for the others),
     ``sigma`` (the sign of each slip velocity), ``sN`` (the sign of a bilateral normal
     force, so that the friction limit is mu |N|), ``offset`` (the value f_j is held at
-    while friction j sticks) and ``armed`` (an event (kind, j) that must first move away
-    from zero before it may fire again).
+    while friction j sticks), ``armed`` (an event (kind, j) that must first move away
+    from zero before it may fire again) and ``accumulating`` {unilateral j: (t_impact,
+    t_acc)}: j engaged at an impact at t_impact whose further bounces are too small to
+    resolve, its ``contact`` to be logged at their accumulation time t_acc (dropped if j
+    lets go first).
 
     Derived by :meth:`rebuild` after every switch: ``rows`` (the active constraint rows),
     ``hrows`` (the holonomic ones), ``pos`` (each row's position among them), ``slips``
@@ -65,6 +68,7 @@ class Mode:
         self.sN = np.ones(m)
         self.offset = np.zeros(m)
         self.armed: dict[tuple[EventKind, int], bool] = {}
+        self.accumulating: dict[int, tuple[float, float]] = {}
         self.rebuild()
 
     # ----- derived ----------------------------------------------------------------
@@ -143,6 +147,7 @@ class Mode:
     def release(self, j: int) -> None:
         """Unilateral j lifts off; its contact event waits until the gap opens."""
         self.engaged[j] = False
+        self.accumulating.pop(j, None)
         self.disarm(EventKind.CONTACT, j)
         self.rebuild()
 

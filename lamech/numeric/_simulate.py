@@ -63,7 +63,7 @@ from ._options import (
     DEFAULT_ATOL,
     DEFAULT_RTOL,
     IMPLICIT,
-    PENETRATION,
+    INITIAL_TOLERANCE,
     Options,
     Stop,
     check_options,
@@ -174,6 +174,8 @@ def _integrate(
         zeno = _Zeno(at.t, t_end)
         while at.t < t_end and rec.pending:
             _segment(run, rec, at, t_end, blow_up, zeno, watch)
+    except _Penetrated as stop:
+        status, message = Status.PENETRATED, stop.cause
     except Stop as stop:
         status, message = Status.FAILED, stop.cause
     except KeyboardInterrupt:
@@ -192,8 +194,14 @@ def _segment(
     """Integrate from ``at`` until an event (applied) or t_end: step, project, look for
     an event, sample; ``at`` follows every accepted step."""
     n, opts = run.setup.n, run.setup.options
+    # A contact engaged at an impact whose bounces accumulate begins at their
+    # accumulation time: the segment ends there, to log it (the mode does not change).
+    bound = min([t_end, *(t for _, t in run.mode.accumulating.values())])
+    if bound <= at.t:
+        _accumulated(run, at)
+        return
     solver = opts.integrator()(
-        run.fun, at.t, at.y, t_end, rtol=opts.rtol, atol=opts.atol, max_step=opts.max_step
+        run.fun, at.t, at.y, bound, rtol=opts.rtol, atol=opts.atol, max_step=opts.max_step
     )
     g_old = event_values(run, at.t, at.y)
     while solver.status == "running":
@@ -235,7 +243,18 @@ def _segment(
         _restart_from(solver, yb, np.concatenate((yb[n:], acc.qdd)))
         at.t, at.y = t_b, yb
         watch.step(run, t_b, yb, t_b - t_a, at.steps)
-    at.t = t_end  # finished
+    at.t = bound  # finished
+    _accumulated(run, at)
+
+
+def _accumulated(run: Run, at: Progress) -> None:
+    """Log ``contact`` for each constraint whose bounces have accumulated by ``at.t``."""
+    pending = run.mode.accumulating
+    for j, (t_impact, t_acc) in sorted(pending.items(), key=lambda item: item[1][1]):
+        if t_acc <= at.t:
+            del pending[j]
+            e = float(run.setup.ns.restitution(at.t, at.y[: run.setup.n], run.setup.p)[j])
+            run.log(at.t, at.y, EventKind.CONTACT, j, restitution=e, accumulation=at.t - t_impact)
 
 
 def _restart_from(solver, y: np.ndarray, f: np.ndarray) -> None:
@@ -260,6 +279,8 @@ def _event(
     ye, _ = run.project(te, dense(te))
     kind, j = run.mode.watch[ie]
     at.t, at.y = te, ye  # reached, whether or not the event can be applied
+    if kind == EventKind.CONTACT:
+        _check_penetration(run, te, ye, met=j)
     logged = len(run.events)
     at.y = apply(run, te, ye, kind, j)
     zeno.check(te, [(str(e.kind), e.constraint) for e in run.events[logged:]])
@@ -347,24 +368,46 @@ class _Zeno:
         )
 
 
-def _check_penetration(run: Run, t: float, y: np.ndarray) -> None:
-    """A released unilateral constraint whose gap is below -``PENETRATION`` (relative
-    to the size of q) at a step end is a body through a surface the problem names: a
-    failure, never a silent ``ok``."""
+class _Penetrated(Stop):
+    """A run stopped at a state on the forbidden side of a unilateral constraint."""
+
+
+def _check_penetration(run: Run, t: float, y: np.ndarray, met: int | None = None) -> None:
+    """A released unilateral constraint whose gap is below minus the event tolerance is a
+    body through a surface the problem names: the run stops with status ``penetrated``,
+    never a silent ``ok``. Checked at each step end with no contact located (there the
+    crossing was not seen: the step began on or below the surface) and, for constraint
+    ``met``, where its contact was located (a gap that jumps below zero: the surface
+    moved through the body). The tolerance is 10 ``arm_pos`` (1000 atol; a contact is
+    located at a gap of at most ``arm_pos`` below zero), or the initial state's
+    tolerance where that is larger."""
     mode, setup = run.mode, run.setup
     if not mode.released:
         return
     released = [j for kind, j in mode.watch if kind == EventKind.CONTACT]
+    if met is not None:
+        released = [met]
     n = setup.n
     f = run.constraints(t, y[:n])[0]
-    depth = PENETRATION * (1.0 + float(np.max(np.abs(y[:n]))))
+    big = float(np.max(np.abs(y[:n]), initial=0.0))
+    depth = max(10.0 * setup.arm_pos, INITIAL_TOLERANCE * (1.0 + big))
     for j in released:
-        if f[j] < -max(depth, 10.0 * setup.arm_pos):
-            raise Stop(
-                f"`{setup.ns.constraint_names[j]}` was passed through undetected at "
-                f"t = {t:.12g} (f = {f[j]:.3g} < 0 while released): a contact the "
-                "event detection missed; try a smaller --max-step or a tighter rtol"
+        if f[j] >= -depth:
+            continue
+        name = setup.ns.constraint_names[j]
+        if met is None:
+            where = (
+                "and no contact was located (the step began on or below the surface); the "
+                "run stops at the last state on the allowed side"
             )
+        else:
+            where = "where its contact was located: the gap jumped below zero (the surface "
+            where += "moved through the body, or f is discontinuous); the run stops there"
+        raise _Penetrated(
+            f"`{name}` was passed through at t = {t:.12g}: f = {f[j]:.3g} < -{depth:.3g} "
+            f"(the tolerance) while it was released, {where}. Try a tighter rtol/atol or a "
+            "smaller --max-step, and check that f is continuous"
+        )
 
 
 def _check_growth(y: np.ndarray, t: float, blow_up: float) -> None:

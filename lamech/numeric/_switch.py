@@ -184,7 +184,15 @@ def impact(run: Run, t: float, y: np.ndarray, j: int) -> np.ndarray:
     """Released unilateral j closes its gap: the impulse on the active rows and j gives
     F_j+ = -e F_j- (Newton's law). It bounces (``impact``) or, when e = 0 or the bounce
     is too small to resolve, engages (``contact``) with its friction sticking, or
-    slipping where the impulse needed exceeds mu times the normal impulse."""
+    slipping where the impulse needed exceeds mu times the normal impulse.
+
+    A bounce too small to resolve with 0 < e < 1, pressed back onto the surface (the
+    gap's acceleration a_n < 0 with j free), begins a Zeno sequence: bounces of
+    velocity e^k |F_j-|, each in flight 2 e^k |F_j-| / |a_n|, accumulating after
+    2 e |F_j-| / (|a_n| (1 - e)). The impact is logged as the bounce it is; the motion
+    goes on in contact from here (the bounces' heights, below 4 ``arm_pos``, are below
+    what the integrator resolves, and their impulses sum to the contact's) and the
+    ``contact`` is logged at the accumulation time (:attr:`Mode.accumulating`)."""
     setup = run.setup
     n = setup.n
     q, v = y[:n], y[n:]
@@ -200,17 +208,38 @@ def impact(run: Run, t: float, y: np.ndarray, j: int) -> np.ndarray:
     run.dissipative = run.dissipative or e < 1 or engage
     target = (0.0 if engage else -e * Fm) - b[j]
     vp, imp, slipping = _impulses(run, t, j, target, M, A, b, v, acc.mu, frows)
-    y = np.concatenate((q, vp))
     details = {"impulse": float(imp[j]), "velocity_before": Fm, "restitution": e}
-    if engage:
-        _engage(run, t, y, j, A, b, slipping)
-        run.log(t, y, EventKind.CONTACT, j, **details)
-        for i in slipping:
-            run.log(t, y, EventKind.SLIP, i, impulse=float(imp[i]))
-    else:
+    y = np.concatenate((q, vp))
+    if not engage:
         run.mode.disarm(EventKind.CONTACT, j)
         run.log(t, y, EventKind.IMPACT, j, **details)
+        return y
+    rest = _accumulation(run, t, q, vp, j, e, Fm) if 0 < e < 1 else None
+    if rest is not None:  # log the bounce Newton's law gives, then go on in contact
+        vb, ib, _ = _impulses(run, t, j, -e * Fm - b[j], M, A, b, v, acc.mu, [])
+        bounce = np.concatenate((q, vb))
+        run.log(t, bounce, EventKind.IMPACT, j, **{**details, "impulse": float(ib[j])})
+    _engage(run, t, y, j, A, b, slipping)
+    if rest is None:
+        run.log(t, y, EventKind.CONTACT, j, **details)
+    else:
+        run.mode.accumulating[j] = (t, t + rest)
+    for i in slipping:
+        run.log(t, y, EventKind.SLIP, i, impulse=float(imp[i]))
     return y
+
+
+def _accumulation(run: Run, t: float, q, vp, j: int, e: float, Fm: float) -> float | None:
+    """The time the bounces of unilateral j after an impact of gap velocity ``Fm`` take
+    to accumulate, 2 e |Fm| / (|a_n| (1 - e)), with a_n the gap's acceleration with j
+    free at the velocities ``vp`` of the contact that follows (None where a_n >= 0: the
+    motion moves off the surface by itself, no Zeno sequence)."""
+    acc = run.kkt(t, q, vp)
+    _, A, b = run.constraints(t, q)
+    a_n = float(A[j] @ acc.qdd + acc.gam[j])
+    if not a_n < 0:
+        return None
+    return 2.0 * e * abs(Fm) / (-a_n * (1.0 - e))
 
 
 def _impulses(run: Run, t, j, target, M, A, b, v, mu, frows):
