@@ -22,7 +22,9 @@ the step's dense output:
 * ``impact`` / ``contact``: a released unilateral f reaches zero from f > 0: the
   generalized impulse on the active set plus this constraint gives F_j+ = -e F_j-
   (Newton's law, ``restitution`` e); it bounces (``impact``) or, when e = 0 or the
-  bounce is too small to resolve, engages (``contact``);
+  bounce is too small to resolve, engages (``contact``). Bounces that accumulate
+  (0 < e < 1) engage at the last one resolved and log the ``contact`` at their
+  accumulation time, 2 e |F_j-| / (|a_n| (1 - e)) later (:func:`._switch.impact`);
 * ``slip``: |lambda_friction| reaches mu N: the friction constraint is removed and
   kinetic friction applied, opposing the slip velocity;
 * ``stick``: the slip velocity reaches zero and sticking can hold (else the slip
@@ -126,7 +128,10 @@ def simulate(
     a vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far
     is returned with ``status`` :attr:`Status.FAILED` or :attr:`Status.INTERRUPTED`
     (equal to "failed", "interrupted") and a ``message`` naming the time and cause; its
-    ``final_time`` and final state are the last ones reached, between samples too.
+    ``final_time`` and final state are the last ones reached, between samples too. A
+    state through the surface of a released unilateral constraint (f below -1000 atol
+    with no contact located, or a gap that jumps below zero) stops it with
+    :attr:`Status.PENETRATED` ("penetrated").
 
     ``jit``: compile the system's functions with numba, when it is installed. The
     compiled form is cached on disk (:func:`lamech.numeric.jit_cache_dir`), so only the
