@@ -23,11 +23,13 @@ B3  work-precision: wall time against the error of the rod tensions and the posi
     same read at equal error (:func:`at_error`); then the long chains, N = 60 and 100
     (``--quick``: 60), with wall and CPU time.
 B4  ensembles: trajectories per second over many initial conditions.
-B5  symbolic: derivation to the multipliers (problem text -> lambda in closed form),
-    lamech's load + solve against SymPy's LagrangesMethod + form_lagranges_equations()
-    + solve_multipliers() on the same Lagrangian and constraints, for the four-bar
-    linkage, the rolling disc and the double pendulum (polar and Cartesian); runs alone
-    with ``--only B5`` (or ``--only symbolic``).
+B5  symbolic: derivation to the multipliers (equations -> every lambda in closed form),
+    lamech's ``lamech.symbolic.multipliers`` against SymPy's LagrangesMethod +
+    form_lagranges_equations() + solve_multipliers() on the same Lagrangian and
+    constraints, each from the loaded System, every repeat in a forked child on an
+    empty SymPy cache; beside them lamech's whole report (load + solve); for the
+    four-bar linkage, the rolling disc and the double pendulum (polar and Cartesian);
+    runs alone with ``--only B5`` (or ``--only symbolic``).
 
 Results go to stdout (with lamech/peer ratios) and to bench/RESULTS.md (date, CPU,
 versions); B3 also draws bench/work_precision.png.
@@ -1133,79 +1135,158 @@ def sympy_b5(system, lagranges=None) -> tuple[dict, float, float]:
     form_lagranges_equations(), solve_multipliers() (symbolic, no operating point).
     Returns (lamech's multipliers evaluated at the initial state, SymPy's sign turned:
     lambda_lamech = -lambda_SymPy; seconds to form the equations; seconds to solve)."""
+    values, _, _, t_form, t_solve = sympy_b5_timed(system, lagranges)
+    return values, t_form, t_solve
+
+
+def sympy_b5_timed(system, lagranges=None) -> tuple[dict, float, float, float, float]:
+    """:func:`sympy_b5` with the whole time: (multipliers at the initial state, wall and
+    CPU seconds of form + solve, seconds to form, seconds to solve). Evaluating the
+    multipliers at the initial state is outside the time."""
     from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols, msubs
     L, q, hol, vel, names = lagranges or sympy_lagranges(system)
+    c0 = time.process_time()
     t0 = time.perf_counter()
     lm = LagrangesMethod(L, q, hol_coneqs=hol or None, nonhol_coneqs=vel or None)
     lm.form_lagranges_equations()
     t1 = time.perf_counter()
     lam = lm.solve_multipliers(sol_type="Matrix")
     t2 = time.perf_counter()
+    cpu = time.process_time() - c0
     t = dynamicsymbols._t
     op = dict(system.parameter_values)
     for c, f in zip(system.coordinates, q):
         op[f.diff(t)] = float(system.numeric(c.initial_velocity))
         op[f] = float(system.numeric(c.initial))
     values = {n: -float(msubs(v, op).evalf()) for n, v in zip(names, lam)}
-    return values, t1 - t0, t2 - t1
+    return values, t2 - t0, cpu, t1 - t0, t2 - t1
 
 
-def lamech_b5(source: str) -> tuple[dict, float]:
-    """lamech's path: problem text -> Solution (load + solve). Returns (multipliers at
-    the initial state, seconds)."""
-    import lamech
-    t0 = time.perf_counter()
-    sol = lamech.solve(_lamech_problem(source))
-    sec = time.perf_counter() - t0
-    system = sol.system
+def _at_start(system, exprs: dict) -> dict:
+    """Each expression at the system's initial state and parameter values (30 digits:
+    the raw closed forms are long), as floats."""
+    import sympy as sp
     vals = {**system.parameter_values, system.t: 0.0}
     for c in system.coordinates:
         vals[c.symbol] = float(system.numeric(c.initial))
         vals[c.velocity] = float(system.numeric(c.initial_velocity))
-    out = {n: float(e.xreplace(vals).evalf()) for n, e in sol.multipliers.items()}
-    return out, sec
+    vals = {k: sp.Float(v, 30) for k, v in vals.items()}
+    return {n: float(sp.N(sp.sympify(e).xreplace(vals), 30)) for n, e in exprs.items()}
 
 
-def bench_b5(cap: float, lines: list[str]):
+def lamech_b5(source: str) -> tuple[dict, float]:
+    """lamech's whole report: problem text -> Solution (load + solve). Returns
+    (multipliers at the initial state, seconds)."""
+    values, sec, _, _ = lamech_b5_full(source)
+    return values, sec
+
+
+def lamech_b5_full(source: str) -> tuple[dict, float, float, float]:
+    """lamech's whole report, problem text -> Solution (load + solve: readable
+    equations, reduction, tidy closed forms, integrals, shells, lift-off, forces).
+    Returns (multipliers at the initial state, wall and CPU seconds of load + solve,
+    seconds of the load alone)."""
+    import lamech
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    system = _lamech_problem(source)
+    t1 = time.perf_counter()
+    sol = lamech.solve(system)
+    t2 = time.perf_counter()
+    cpu = time.process_time() - c0
+    return _at_start(sol.system, sol.multipliers), t2 - t0, cpu, t1 - t0
+
+
+def lamech_b5_fast(system) -> tuple[dict, float, float]:
+    """lamech's derivation to the multipliers, the like-for-like of SymPy's form +
+    solve_multipliers: ``lamech.symbolic.multipliers`` on the loaded System (the
+    Euler-Lagrange equations with lambda, then every lambda in closed form, raw).
+    Returns (multipliers at the initial state, wall and CPU seconds)."""
+    from lamech.symbolic import multipliers
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    lam = multipliers(system)
+    sec, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return _at_start(system, lam), sec, cpu
+
+
+def _agree(label: str, what: str, got: dict, lam: dict) -> None:
+    """lamech's multipliers (``got``) against SymPy's (``lam``) at the initial state."""
+    missing = sorted(set(lam) - set(got))
+    if missing:
+        print(f"  {label}: {what} gave no closed form for {', '.join(missing)}")
+    for n in set(lam) & set(got):
+        if not math.isclose(lam[n], got[n], rel_tol=1e-8, abs_tol=1e-9):
+            raise AssertionError(f"B5 {label}: lambda_{n} {what} {got[n]} != SymPy {lam[n]}")
+
+
+def _fmt_wall(t) -> str:
+    """median (min–max) of a case's wall time, or — when it was stopped."""
+    if t is None:
+        return "—"
+    w = t.wall
+    return f"{_fmt_s(w.median)} ({_fmt_s(w.min)}–{_fmt_s(w.max)})"
+
+
+def bench_b5(cap: float, lines: list[str], repeats: int = 3):
     print("\nB5  symbolic: derivation to the multipliers")
     lines += ["## B5 derivation to the multipliers", "",
-              "From the problem to every multiplier in closed form, each side on an empty "
-              "SymPy cache in its own forked process, capped at "
-              f"{cap:.0f} s. lamech: `lamech.load` (or `loads`) + `lamech.solve` (the "
-              "Solution: equations, reduction, closed forms, integrals, forces). SymPy: "
-              "`LagrangesMethod(L, q, hol_coneqs, nonhol_coneqs)` on the same L and "
-              "constraints, `form_lagranges_equations()`, `solve_multipliers()` "
-              "(symbolic). Both sides' multipliers agree at the initial state before a "
-              "time counts.", "",
-              "| problem | lamech load + solve | SymPy form | SymPy solve_multipliers "
-              "| SymPy total | ratio SymPy/lamech |", "|---|---|---|---|---|---|"]
+              "From the equations of motion to every multiplier in closed form. lamech: "
+              "`lamech.symbolic.multipliers(system)` on the loaded System (M, h, A, γ and "
+              "the Euler-Lagrange equations with λ, then every λ as one expression, raw: "
+              "the KKT system solved by its structure, λ = (A M⁻¹ Aᵀ)⁻¹ (A M⁻¹ (h − Q) − "
+              "γ) with M⁻¹ by a symbolic LDLᵀ). SymPy: `LagrangesMethod(L, q, "
+              "hol_coneqs, nonhol_coneqs)` on the same L and constraints (built from the "
+              "same System, outside the time), `form_lagranges_equations()`, "
+              "`solve_multipliers()` (symbolic, raw). Beside them, lamech's whole report: "
+              "`lamech.load` (or `loads`, the problem text → System, its own column) + "
+              "`lamech.solve` (readable equations, elimination, tidy closed forms, "
+              "integrals, energy shell, lift-off and slip, forces). Every run in its own "
+              f"forked process on an empty SymPy cache (modules imported beforehand), "
+              f"{repeats} interleaved repeats (lamech, SymPy, lamech load + solve, then "
+              f"the other way round), each capped at {cap:.0f} s; wall time median (min–"
+              "max), ratio of medians; SymPy's split (form; solve) and lamech's load time "
+              "are the last run's. Both sides' multipliers agree at the initial state "
+              "(to 1e-8) before a time counts.", "",
+              "| problem | lamech `multipliers` | SymPy form + solve_multipliers (form; "
+              "solve) | SymPy / lamech | lamech load | lamech load + solve |",
+              "|---|---|---|---|---|---|"]
+
+    import lamech.symbolic  # noqa: F401  (imports outside the time, both sides)
+    import sympy.physics.mechanics  # noqa: F401
+
+    def case(fn, *args):
+        def run():
+            res, _, _ = _capped(fn, args, cap, cold=True)
+            return None if res is None else (res[1], res[2], *res)
+        return run
+
     for label, source in B5_PROBLEMS:
         system = _lamech_problem(source)
-        mine, _, _ = _capped(lamech_b5, (source,), cap, cold=True)
-        theirs, _, _ = _capped(sympy_b5, (system, sympy_lagranges(system)), cap,
-                               cold=True)
-        t_l = mine[1] if mine else None
-        t_form, t_solve = (theirs[1], theirs[2]) if theirs else (None, None)
-        if mine and theirs:
-            lam, got = theirs[0], mine[0]
-            missing = sorted(set(lam) - set(got))
-            if missing:
-                print(f"  {label}: lamech gave no closed form for {', '.join(missing)}")
-            for n in set(lam) & set(got):
-                if not math.isclose(lam[n], got[n], rel_tol=1e-8, abs_tol=1e-9):
-                    raise AssertionError(f"B5 {label}: lambda_{n} lamech {got[n]} != "
-                                         f"SymPy {lam[n]}")
-        total = t_form + t_solve if theirs else None
-        over = f"> {cap:.0f} s"
-        if t_l and total:
-            ratio = f"{total / t_l:.2g}×"
-        elif t_l:
-            ratio = f"> {cap / t_l:.2g}×"
+        got = interleave([("lamech", case(lamech_b5_fast, system)),
+                          ("SymPy", case(sympy_b5_timed, system, sympy_lagranges(system))),
+                          ("full", case(lamech_b5_full, source))], repeats)
+        fast, peer, full = got["lamech"], got["SymPy"], got["full"]
+        if peer is not None:
+            lam = peer.result[0]
+            if fast is not None:
+                _agree(label, "lamech multipliers", fast.result[0], lam)
+            if full is not None:
+                _agree(label, "lamech solve", full.result[0], lam)
+        if peer is None:
+            sympy_cell = f"> {cap:.0f} s"
+        else:
+            sympy_cell = (f"{_fmt_wall(peer)} ({_fmt_s(peer.result[3])}; "
+                          f"{_fmt_s(peer.result[4])})")
+        if fast and peer:
+            ratio = f"{peer.wall.median / fast.wall.median:.3g}×"
+        elif fast:
+            ratio = f"> {cap / fast.wall.median:.3g}×"
         else:
             ratio = "—"
-        row = (f"| {label} | {_fmt_s(t_l) if t_l else over} | {_fmt_s(t_form)} "
-               f"| {_fmt_s(t_solve) if theirs else over + ' (with form)'} "
-               f"| {_fmt_s(total) if theirs else over} | {ratio} |")
+        load = _fmt_s(full.result[3]) if full else "—"
+        row = (f"| {label} | {_fmt_wall(fast) if fast else f'> {cap:.0f} s'} | {sympy_cell} "
+               f"| {ratio} | {load} | {_fmt_wall(full) if full else f'> {cap:.0f} s'} |")
         print("  " + row)
         lines.append(row)
     lines.append("")

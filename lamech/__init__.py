@@ -48,6 +48,7 @@ _PUBLIC = {
     "ExpressionError": "expr",
     # symbolic
     "solve": "symbolic",
+    "multipliers": "symbolic",
     "modes": "symbolic",
     "steps": "symbolic",
     "Solution": "symbolic",
@@ -98,6 +99,7 @@ __all__ = [
     "load",
     "loads",
     "modes",
+    "multipliers",
     "plot_trajectory",
     "run_sweep",
     "simulate",
@@ -150,6 +152,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         Dynamics,
         Solution,
         dynamics,
+        multipliers,
         solve,
         steps,
     )

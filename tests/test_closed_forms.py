@@ -287,10 +287,11 @@ def peer_method(name: str):
     return peer, lm
 
 
-def sympy_multipliers(name: str, state: dict, params: dict) -> dict:
+def sympy_multipliers(name: str, state: dict, params: dict, method=None) -> dict:
     """lamech's multipliers from SymPy's ``solve_multipliers`` at a numeric state
-    (names -> floats): SymPy's lambda with its sign turned (module docstring)."""
-    peer, lm = peer_method(name)
+    (names -> floats): SymPy's lambda with its sign turned (module docstring).
+    ``method``: a (Peer, LagrangesMethod) of :func:`peer_method` to reuse."""
+    peer, lm = method or peer_method(name)
     op = {}
     for q_name, q in peer.q.items():
         op[q.diff(TIME)] = state[q_name + "'"]
@@ -575,6 +576,69 @@ def test_multipliers_agree_with_sympy(name):
             mine = lamech_multiplier(solution, c.name, vals)
             assert mine == pytest.approx(theirs[c.name], rel=RTOL, abs=RTOL), (
                 f"{name}: lambda_{c.name} = {mine}, SymPy {theirs[c.name]} at {state}, {params}"
+            )
+
+
+# ------------------------------------------ the fast path: lamech.multipliers (raw)
+
+
+@functools.cache
+def raw(name: str) -> dict:
+    """``lamech.multipliers``: every lambda with nothing eliminated or simplified (the
+    lamech column of benchmark B5)."""
+    return lamech.multipliers(SOURCES[name]())
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_raw_multipliers_agree_with_sympy_and_the_tidy_ones(name):
+    """At the initial state and random states on the constraint manifold, each raw
+    multiplier equals SymPy's ``solve_multipliers`` (sign turned: lambda_lamech =
+    -lambda_SymPy) and ``lamech.solve``'s tidy one (``Solution.multipliers``, in the
+    independent coordinates where the double pendulums eliminate some)."""
+    fast = raw(name)
+    solution = solved(name)
+    system = solution.system
+    assert set(fast) == {c.name for c in system.constraints}
+    method = peer_method(name)
+    for state, params in states(name):
+        vals = symbol_values(system, state, params)
+        assert_on_manifold(system, vals)
+        assert_eliminated_agree(solution, vals)
+        theirs = sympy_multipliers(name, state, params, method)
+        for c in system.constraints:
+            mine = value(fast[c.name], vals)
+            tidy = lamech_multiplier(solution, c.name, vals)
+            assert mine == pytest.approx(theirs[c.name], rel=RTOL, abs=RTOL), (
+                f"{name}: raw lambda_{c.name} = {mine}, SymPy {theirs[c.name]} at {state}"
+            )
+            assert mine == pytest.approx(tidy, rel=RTOL, abs=RTOL), (
+                f"{name}: raw lambda_{c.name} = {mine}, tidy {tidy} at {state}"
+            )
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_raw_multipliers_hold_off_the_constraint_manifold(name):
+    """Nothing in the raw multipliers uses the constraints (no elimination, no
+    simplification on the manifold): they equal SymPy's at states that break every
+    constraint, with every coordinate and velocity drawn at random."""
+    system = SOURCES[name]()
+    fast = raw(name)
+    method = peer_method(name)
+    rng = random.Random(3)
+    make_params = STATE[name][1]
+    for _ in range(3):
+        params = {**file_params(system), **make_params(rng)}
+        state = {}
+        for c in system.coordinates:
+            state[c.name] = rng.uniform(0.2, 1.4) * rng.choice((-1, 1))
+            state[c.name + "'"] = rng.uniform(-2, 2)
+        vals = symbol_values(system, state, params)
+        assert any(abs(value(c.expr, vals)) > 1e-3 for c in system.constraints)
+        theirs = sympy_multipliers(name, state, params, method)
+        for c in system.constraints:
+            mine = value(fast[c.name], vals)
+            assert mine == pytest.approx(theirs[c.name], rel=RTOL, abs=RTOL), (
+                f"{name}: raw lambda_{c.name} = {mine}, SymPy {theirs[c.name]} at {state}"
             )
 
 

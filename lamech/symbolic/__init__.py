@@ -1,9 +1,10 @@
 """The symbolic layer: derivation (M, h, A, gamma, the KKT system), elimination of
-constrained coordinates, closed forms of the accelerations and multipliers, first
-integrals and the energy shell, where a constraint lets go or slips, and the
-generalized and Cartesian constraint forces; all gathered by :func:`solve` into a frozen
-:class:`Solution`. Every function here is a pure function of a
-:class:`~lamech.model.System`; the sign convention is stated in :mod:`lamech.model`.
+constrained coordinates, closed forms of the accelerations and multipliers (tidy; or
+raw and fast, :func:`multipliers`), first integrals and the energy shell, where a
+constraint lets go or slips, and the generalized and Cartesian constraint forces; all
+gathered by :func:`solve` into a frozen :class:`Solution`. Every function here is a
+pure function of a :class:`~lamech.model.System`; the sign convention is stated in
+:mod:`lamech.model`.
 """
 
 from ._budget import SIMPLIFY_SECONDS, simplification_bound
@@ -20,6 +21,7 @@ from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._modes import Equilibrium, Linear, Mode, Modes, check_modes, modes
+from ._multipliers import multipliers
 from ._reduce import (
     CLOSED_FORM_LIMIT,
     KKT_OPS,
@@ -38,6 +40,7 @@ __all__ = [
     "Dynamics",
     "dynamics",
     "kkt_numeric",
+    "multipliers",
     "DegenerateConstraintsError",
     "Reduction",
     "eliminate",
