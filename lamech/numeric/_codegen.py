@@ -250,7 +250,7 @@ def _rename(system: System):
     return mapping
 
 
-_VECTORS = {"rhs", "gamma", "mu", "f", "b", "E", "e", "s"}
+_VECTORS = {"rhs", "gamma", "mu", "f", "b", "E", "e", "s", "Md", "Av"}
 
 
 def _function_source(
@@ -309,6 +309,39 @@ def _function_source(
         target = f"{oname}[{i}]" if oname in _VECTORS else f"{oname}[{i}, {j}]"
         lines.append(f"    {target} = {printer.doprint(e)}")
     lines.append(f"    return {', '.join(o for o, _ in outputs)}")
+    return "\n".join(lines)
+
+
+def _scatter_source(n: int, m: int, nonzero: list[tuple[int, int]]) -> str:
+    """``dynamics`` of a diagonal M from ``dynamics_sparse``: the matrices filled."""
+    lines = [
+        "def dynamics(t, q, v, p):",
+        '    """(M, rhs = Q - h, A, gamma, mu) of the system (from dynamics_sparse)."""',
+        "    Md, rhs, Av, gamma, mu = dynamics_sparse(t, q, v, p)",
+        f"    M = numpy.zeros(({n}, {n}))",
+        f"    for i in range({n}):",
+        "        M[i, i] = Md[i]",
+        f"    A = numpy.zeros(({m}, {n}))",
+    ]
+    lines += [f"    A[{j}, {i}] = Av[{e}]" for e, (j, i) in enumerate(nonzero)]
+    lines.append("    return M, rhs, A, gamma, mu")
+    return "\n".join(lines)
+
+
+def _gather_source(n: int, nonzero: list[tuple[int, int]]) -> str:
+    """``dynamics_sparse`` from ``dynamics`` (a full M: the compiled solve uses
+    ``dynamics``; this one only keeps the kernels' names defined)."""
+    lines = [
+        "def dynamics_sparse(t, q, v, p):",
+        '    """(diagonal of M, rhs = Q - h, nonzeros of A by row, gamma, mu)."""',
+        "    M, rhs, A, gamma, mu = dynamics(t, q, v, p)",
+        f"    Md = numpy.empty({n})",
+        f"    for i in range({n}):",
+        "        Md[i] = M[i, i]",
+        f"    Av = numpy.empty({len(nonzero)})",
+    ]
+    lines += [f"    Av[{e}] = A[{j}, {i}]" for e, (j, i) in enumerate(nonzero)]
+    lines.append("    return Md, rhs, Av, gamma, mu")
     return "\n".join(lines)
 
 
@@ -395,19 +428,44 @@ def _source(system: System, dyn: Dynamics):
         f"p = [{', '.join(p.name for p in system.parameters)}]; "
         f"constraints = [{', '.join(c.name for c in system.constraints)}]"
     )
+    # The compiled solve reads M and A by their structural nonzeros (``dynamics_sparse``:
+    # M's diagonal and A's nonzeros in the order of _kkt.sparsity); ``dynamics`` gives the
+    # matrices. One is generated, the other reads it: one CSE, never two.
+    nonzero = sorted(A.todok()) if m else []
+    if dyn.M.is_diagonal():
+        Md = sp.Matrix([M[i, i] for i in range(n)])
+        Av = sp.Matrix([A_locked[j, i] for j, i in nonzero]) if nonzero else sp.zeros(0, 1)
+        dynamics_srcs = [
+            _function_source(
+                "dynamics_sparse",
+                "t, q, v, p",
+                "(diagonal of M, rhs = Q - h, nonzeros of A by row, gamma, mu). " + order,
+                [("Md", Md), ("rhs", rhs), ("Av", Av), ("gamma", gamma), ("mu", mu)],
+                mapping,
+                n,
+                m,
+                ("q", "v", "p"),
+            ),
+            _scatter_source(n, m, nonzero),
+        ]
+    else:
+        dynamics_srcs = [
+            _function_source(
+                "dynamics",
+                "t, q, v, p",
+                # never the title: it is the user's text (a backslash or a NUL in it would
+                # break the source); the names in `order` are identifiers, checked
+                "(M, rhs = Q - h, A, gamma, mu) of the system. " + order,
+                [("M", M), ("rhs", rhs), ("A", A_locked), ("gamma", gamma), ("mu", mu)],
+                mapping,
+                n,
+                m,
+                ("q", "v", "p"),
+            ),
+            _gather_source(n, nonzero),
+        ]
     srcs = [
-        _function_source(
-            "dynamics",
-            "t, q, v, p",
-            # never the title: it is the user's text (a backslash or a NUL in it would
-            # break the source); the names in `order` are identifiers, checked
-            "(M, rhs = Q - h, A, gamma, mu) of the system. " + order,
-            [("M", M), ("rhs", rhs), ("A", A_locked), ("gamma", gamma), ("mu", mu)],
-            mapping,
-            n,
-            m,
-            ("q", "v", "p"),
-        ),
+        *dynamics_srcs,
         _function_source(
             "constraints",
             "t, q, p",
@@ -491,6 +549,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         k: namespace[k]
         for k in (
             "dynamics",
+            "dynamics_sparse",
             "constraints",
             "energy",
             "restitution",

@@ -67,7 +67,7 @@ def module_text(source: str, pattern, diagonal: bool) -> str:
     sparsity ``pattern`` (:func:`._kkt.sparsity`) and ``diagonal`` as constants, and the
     kernels and the batch loop of :mod:`._kernels`."""
     body = source.removeprefix("import math\nimport numpy\n")
-    ptr, idx, cptr, crow = pattern
+    ptr, idx, cptr, crow, cpos = pattern
     return "\n".join(
         [
             '"""lamech: the compiled kernels of one system (generated; safe to delete)."""',
@@ -89,6 +89,7 @@ def module_text(source: str, pattern, diagonal: bool) -> str:
             _array("IDX", idx),
             _array("CPTR", cptr),
             _array("CROW", crow),
+            _array("CPOS", cpos),
             f"DIAGONAL = {bool(diagonal)!r}",
             f"STAGES = {STAGES!r}",
             f"PROJECTION_ITERATIONS = {PROJECTION_ITERATIONS!r}",

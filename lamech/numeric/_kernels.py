@@ -49,17 +49,31 @@ def dynamics(t, q, v, p):  # (M, rhs, A, gamma, mu)
     raise NotImplementedError
 
 
+def dynamics_sparse(t, q, v, p):  # (diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)
+    raise NotImplementedError
+
+
 def constraints(t, q, p):  # (f, A, b)
     raise NotImplementedError
 
 
-PTR = IDX = CPTR = CROW = np.zeros(1, dtype=np.int64)
+PTR = IDX = CPTR = CROW = CPOS = np.zeros(1, dtype=np.int64)
 DIAGONAL = False
 prange = range  # numba.prange in the generated module
 
-KERNEL_NAMES = ("kkt_dense", "kkt_schur", "rhs_kernel", "accelerations")
-"""The functions of the ``KERNELS`` part that numba compiles; ``kkt_solve`` is
-``kkt_schur`` when ``DIAGONAL``, else ``kkt_dense``."""
+KERNEL_NAMES = (
+    "dynamics_sparse",
+    "kkt_dense",
+    "kkt_schur",
+    "kkt_schur_sparse",
+    "dense_matrices",
+    "kkt_state",
+    "rhs_kernel",
+    "accelerations",
+)
+"""The functions of the ``KERNELS`` part that numba compiles (and the generated
+``dynamics_sparse``); ``kkt_solve`` is ``kkt_schur`` when ``DIAGONAL``, else
+``kkt_dense``."""
 BATCH_NAMES = ("batch_solve", "batch_deriv", "batch_project", "batch_run_one")
 """The functions of the ``BATCH`` part that numba compiles (and ``batch_run`` in
 parallel, ``batch_run_serial``)."""
@@ -104,17 +118,47 @@ def kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
 
 
 def kkt_schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
-    """The Schur complement over A's nonzeros (PTR, IDX by row; CPTR, CROW by column)."""
+    """:func:`kkt_schur_sparse` on dense M and A (the simulator's solve at a state)."""
     n = rhs.shape[0]
-    m = A.shape[0]
+    Md = np.empty(n)
+    for i in range(n):
+        Md[i] = M[i, i]
+    Av = np.empty(IDX.shape[0])
+    for j in range(PTR.shape[0] - 1):
+        for e in range(PTR[j], PTR[j + 1]):
+            Av[e] = A[j, IDX[e]]
+    return kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
+
+
+def dense_matrices(Md, Av):
+    """M and A as matrices from their structural nonzeros."""
+    n = Md.shape[0]
+    M = np.zeros((n, n))
+    for i in range(n):
+        M[i, i] = Md[i]
+    A = np.zeros((PTR.shape[0] - 1, n))
+    for j in range(PTR.shape[0] - 1):
+        for e in range(PTR[j], PTR[j + 1]):
+            A[j, IDX[e]] = Av[e]
+    return M, A
+
+
+def kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
+    """The Schur complement over the structural nonzeros: M's diagonal ``Md`` and A's
+    nonzeros ``Av`` (by row: PTR, IDX; by column: CPTR, CROW, and CPOS their positions
+    in Av). Nothing of size n x n or m x n is formed, unless a zero M_ii or dependent rows
+    send it to the full KKT matrix."""
+    n = rhs.shape[0]
+    m = PTR.shape[0] - 1
     na = rows.shape[0]
     minv = np.empty(n)
     positive = True
     for i in range(n):
-        if M[i, i] == 0.0:
+        if Md[i] == 0.0:
+            M, A = dense_matrices(Md, Av)
             return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
-        minv[i] = 1.0 / M[i, i]
-        positive = positive and M[i, i] > 0.0
+        minv[i] = 1.0 / Md[i]
+        positive = positive and Md[i] > 0.0
     out = np.empty(n + na)
     for i in range(n):
         out[i] = rhs[i]
@@ -132,19 +176,24 @@ def kkt_schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
         acc = -gam[j]
         for e in range(PTR[j], PTR[j + 1]):
             i = IDX[e]
-            w = A[j, i] * minv[i]
+            w = Av[e] * minv[i]
             acc -= w * rhs[i]
             for f in range(CPTR[i], CPTR[i + 1]):
                 b = pos[CROW[f]]
                 if b >= 0:
-                    S[a, b] += w * A[CROW[f], i]
+                    S[a, b] += w * Av[CPOS[f]]
             for s in range(slip_j.shape[0]):
-                S[a, slip_k[s]] -= w * mu[slip_j[s]] * slip_c[s] * A[slip_j[s], i]
+                js = slip_j[s]
+                # A[js, i]: row js's entry in column i, if it has one
+                for g in range(PTR[js], PTR[js + 1]):
+                    if IDX[g] == i:
+                        S[a, slip_k[s]] -= w * mu[js] * slip_c[s] * Av[g]
         r[a] = acc
     if slip_j.shape[0] == 0 and positive:
         # S = A_r M^-1 A_r^T is symmetric positive definite (M_ii > 0, independent
         # rows): Cholesky, half the work of elimination and no pivot search.
         if not cholesky_inplace(S, r):  # dependent rows here: let the full KKT decide
+            M, A = dense_matrices(Md, Av)
             return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
     else:
         gauss_inplace(S, r)  # r becomes lambda
@@ -152,12 +201,12 @@ def kkt_schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
         j = rows[a]
         out[n + a] = r[a]
         for e in range(PTR[j], PTR[j + 1]):
-            out[IDX[e]] += A[j, IDX[e]] * r[a]
+            out[IDX[e]] += Av[e] * r[a]
     for s in range(slip_j.shape[0]):
         j = slip_j[s]
         c = mu[j] * slip_c[s] * r[slip_k[s]]
         for e in range(PTR[j], PTR[j + 1]):
-            out[IDX[e]] -= c * A[j, IDX[e]]
+            out[IDX[e]] -= c * Av[e]
     for i in range(n):
         out[i] *= minv[i]
     return out
@@ -166,13 +215,22 @@ def kkt_schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
 kkt_solve = kkt_schur if DIAGONAL else kkt_dense
 
 
+def kkt_state(t, q, v, p, rows, slip_j, slip_k, slip_c):
+    """[q''; lambda_rows] at a state: the generated functions and the solve, over the
+    structural nonzeros when ``DIAGONAL`` (no n x n M or m x n A filled per call)."""
+    if DIAGONAL:
+        Md, rhs, Av, gam, mu = dynamics_sparse(t, q, v, p)
+        return kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
+    M, rhs, A, gam, mu = dynamics(t, q, v, p)
+    return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
+
+
 def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
     """y' = [v; q''] on a mode's active rows."""
     n = y.shape[0] // 2
     q = y[:n].copy()
     v = y[n:].copy()
-    M, rhs, A, gam, mu = dynamics(t, q, v, p)
-    sol = kkt_solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
+    sol = kkt_state(t, q, v, p, rows, slip_j, slip_k, slip_c)
     out = np.empty(2 * n)
     for i in range(n):
         out[i] = v[i]
@@ -183,11 +241,11 @@ def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
 def accelerations(t, y, p):
     """[q''; lambda] with every constraint active."""
     n = y.shape[0] // 2
-    M, rhs, A, gam, mu = dynamics(t, y[:n], y[n:], p)
     # writable arrays of rhs_kernel's types, so that numba reuses the compiled solve
     # (read-only constant arrays would compile it again: 2 s more)
     none = np.zeros(0, dtype=np.int64)
-    return kkt_solve(M, rhs, A, gam, mu, np.arange(A.shape[0]), none, none, np.zeros(0))
+    rows = np.arange(PTR.shape[0] - 1)
+    return kkt_state(t, y[:n].copy(), y[n:].copy(), p, rows, none, none, np.zeros(0))
 
 
 # BATCH

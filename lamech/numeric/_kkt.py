@@ -92,11 +92,19 @@ def numpy_kernels(dyn, diagonal: bool):
 
 
 def sparsity(A):
-    """The structural nonzeros of the constraint rows A, by row (CSR: ptr, idx) and by
-    column (CSC: cptr, crow), as int64 arrays for the compiled solve."""
+    """The structural nonzeros of the constraint rows A, by row (CSR: ptr, idx; the
+    generated ``dynamics_sparse`` gives A's values in this order) and by column (CSC:
+    cptr, crow, and cpos: the CSR position of each CSC entry), as int64 arrays for the
+    compiled solve."""
     m, n = A.shape
-    rows = [[i for i in range(n) if A[j, i] != 0] for j in range(m)]
-    cols = [[j for j in range(m) if A[j, i] != 0] for i in range(n)]
+    nonzero = sorted(A.todok()) if m and n else []  # (j, i), by row then column
+    rows: list[list[int]] = [[] for _ in range(m)]
+    cols: list[list[int]] = [[] for _ in range(n)]
+    cpos_of: list[list[int]] = [[] for _ in range(n)]
+    for e, (j, i) in enumerate(nonzero):
+        rows[j].append(i)
+        cols[i].append(j)
+        cpos_of[i].append(e)
 
     def pack(lists):
         ptr = np.zeros(len(lists) + 1, dtype=np.int64)
@@ -104,4 +112,4 @@ def sparsity(A):
         idx = np.array([k for x in lists for k in x], dtype=np.int64)
         return ptr, idx
 
-    return (*pack(rows), *pack(cols))
+    return (*pack(rows), *pack(cols), pack(cpos_of)[1])
