@@ -487,11 +487,22 @@ def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
 
 
 # ----- B2 -----------------------------------------------------------------------------
-def _per_call(fn, repeat=5, budget=0.3) -> float:
-    timer = timeit.Timer(fn)
-    number, _ = timer.autorange()
-    number = max(1, int(number * budget / 0.2))
-    return min(timer.repeat(repeat=repeat, number=number)) / number
+def _per_call_case(fn, budget=0.2):
+    """A case for :func:`interleave`: ``fn`` called in a loop for about ``budget`` s,
+    returning (wall, CPU) seconds per call, the better of 3 such loops."""
+    number = max(1, int(timeit.Timer(fn).autorange()[0] * budget / 0.2))
+
+    def case():
+        best = None
+        for _ in range(3):
+            w, c = time.perf_counter(), time.process_time()
+            for _ in range(number):
+                fn()
+            got = ((time.perf_counter() - w) / number, (time.process_time() - c) / number)
+            best = got if best is None or got[0] < best[0] else best
+        return best
+
+    return case
 
 
 def pydy_chain(n: int):
@@ -530,22 +541,27 @@ def pydy_chain(n: int):
     return f, N
 
 
-def bench_b2(sizes, lines: list[str]):
+def bench_b2(sizes, lines: list[str], repeats: int = 3):
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
 
     from lamech.numeric import compile_system
     print("\nB2  one dynamics evaluation (q'' and lambda), µs per call")
     lines += ["## B2 one dynamics evaluation", "",
-              "One evaluation of (q'', λ) at the initial state, called from Python, best "
-              "of 5 timeit runs. lamech: `NumericSystem.accelerations(t, y, p)` (NumPy: "
-              "generated M, Q − h, A, γ plus `numpy.linalg.solve` of the KKT matrix; numba: "
-              "the same source compiled, M diagonal so λ from the Schur complement "
-              "A M⁻¹ Aᵀ over A's structural nonzeros). Peers: `lambdify(cse=True)` of "
-              "SymPy's `LagrangesMethod.rhs()` (N ≤ 8; larger `rhs()` does not finish); "
-              "PyDy's Cython back end (`CythonMatrixGenerator` for `mass_matrix_full`, "
-              "`forcing_full`, then `numpy.linalg.solve`, as PyDy's ODE function does). "
-              "Every peer's q'' and λ agree with lamech's before a time counts.", "",
+              "One evaluation of (q'', λ) at the initial state, called from Python. Each "
+              f"method is timed in a loop of about 0.2 s (the best of 3 loops), in {repeats} "
+              "interleaved rounds (every method once per round, the order reversed every "
+              "other round); cells give the median wall time per call and, in brackets, "
+              "the min–max over the rounds. lamech: `NumericSystem.accelerations(t, y, p)` "
+              "(NumPy: generated M, Q − h, A, γ plus `numpy.linalg.solve` of the KKT "
+              "matrix; numba: the same source compiled, M diagonal so λ from the Schur "
+              "complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
+              "generated code gives as vectors: nothing of size N² is filled per call). "
+              "Peers: `lambdify(cse=True)` of SymPy's `LagrangesMethod.rhs()` (N ≤ 8; "
+              "larger `rhs()` does not finish); PyDy's Cython back end "
+              "(`CythonMatrixGenerator` for `mass_matrix_full`, `forcing_full`, then "
+              "`numpy.linalg.solve`, as PyDy's ODE function does). Every peer's q'' and λ "
+              "agree with lamech's before a time counts.", "",
               "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | PyDy Cython "
               "| lambdify/lamech numba | PyDy/lamech numba |",
               "|---|---|---|---|---|---|---|"]
@@ -553,12 +569,12 @@ def bench_b2(sizes, lines: list[str]):
         ns = compile_system(lamech_chain(n))
         y, p, *_ = kernel_inputs(ns)
         ref = ns.accelerations(0.0, y, p)
-        t_np = _per_call(lambda: ns.accelerations(0.0, y, p))
-        t_nb = None
+        cases = [("numpy", lambda ns=ns: ns.accelerations(0.0, y, p))]
         try:
             import numba  # noqa: F401
             nj = compile_system(lamech_chain(n), jit=True)
-            t_nb = _per_call(lambda: nj.accelerations(0.0, y, p))
+            nj.accelerations(0.0, y, p)
+            cases.append(("numba", lambda: nj.accelerations(0.0, y, p)))
         except ImportError:
             pass
         x0, v0, c0 = chain_state(n), np.zeros(2 * n), (1.0, G, L)
@@ -570,26 +586,35 @@ def bench_b2(sizes, lines: list[str]):
                     and np.allclose(lam, ref[2 * n:], rtol=1e-8, atol=1e-9)):
                 raise AssertionError(f"B2 N={n}: {who} and lamech disagree on (q'', λ)")
 
-        t_sp = None
         if n <= 8:
             lm, q, (m, g, l) = sympy_chain(n)
             lm.form_lagranges_equations()
             t = dynamicsymbols._t
             f = sp.lambdify((q, [c.diff(t) for c in q], (m, g, l)), list(lm.rhs()), cse=True)
             agree(f(x0, v0, c0), "SymPy")
-            t_sp = _per_call(lambda: f(x0, v0, c0))
-        t_pd = None
-        if n <= 8:
+            cases.append(("sympy", lambda f=f: f(x0, v0, c0)))
             built = pydy_chain(n)
             if built is not None:
                 fp, _ = built
                 c_arr = np.array(c0)
                 agree(fp(x0, v0, c_arr), "PyDy")
-                t_pd = _per_call(lambda: fp(x0, v0, c_arr))
-        us = lambda s: "—" if s is None else f"{s * 1e6:.3g} µs"  # noqa: E731
-        ratio = lambda peer: f"{peer / t_nb:.1f}×" if peer and t_nb else "—"  # noqa: E731
-        row = (f"| {n} | {us(t_np)} | {us(t_nb)} | {us(t_sp)} | {us(t_pd)} | {ratio(t_sp)} "
-               f"| {ratio(t_pd)} |")
+                cases.append(("pydy", lambda fp=fp: fp(x0, v0, c_arr)))
+        got = interleave([(k, _per_call_case(fn)) for k, fn in cases], repeats)
+
+        def us(key):
+            timed = got.get(key)
+            if timed is None:
+                return "—"
+            w = timed.wall
+            return f"{w.median * 1e6:.3g} µs ({w.min * 1e6:.3g}–{w.max * 1e6:.3g})"
+
+        def ratio(key):
+            if got.get(key) is None or got.get("numba") is None:
+                return "—"
+            return f"{got[key].wall.median / got['numba'].wall.median:.1f}×"
+
+        row = (f"| {n} | {us('numpy')} | {us('numba')} | {us('sympy')} | {us('pydy')} "
+               f"| {ratio('sympy')} | {ratio('pydy')} |")
         print("  " + row)
         lines.append(row)
     lines.append("")
@@ -1385,7 +1410,7 @@ def main(argv=None) -> int:
         bench_b1([2, 4, 8] if args.quick else [2, 4, 8, 12, 16, 30],
                  20.0 if args.quick else 120.0, lines)
     if "B2" in want:
-        bench_b2([2, 8] if args.quick else [2, 8, 30], lines)
+        bench_b2([2, 8] if args.quick else [2, 8, 30, 100], lines, 1 if args.quick else 3)
     if "B3" in want:
         bench_b3([5] if args.quick else [5, 20], 10.0, args.quick, lines)
     if "B4" in want:
