@@ -12,7 +12,7 @@ import sympy as sp
 
 from ..expr import ExpressionError, latex, parse
 from ..expr import to_text as _expr_text
-from ..symbolic import READABLE_OPS
+from ..symbolic import READABLE_OPS, count_ops
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
@@ -31,7 +31,7 @@ def _t(expr) -> str:
 
 
 def _ops(expr) -> int:
-    return 0 if expr is None else int(sp.count_ops(expr))
+    return 0 if expr is None else count_ops(expr)  # remembered from the solve
 
 
 def _shown(expr, value: float | None = None) -> str:

@@ -7,7 +7,7 @@ pure function of a :class:`~lamech.model.System`; the sign convention is stated 
 :mod:`lamech.model`.
 """
 
-from ._budget import SIMPLIFY_SECONDS, simplification_bound
+from ._budget import SIMPLIFY_SECONDS, count_ops, simplification_bound
 from ._conditions import (
     Root,
     Verdict,
@@ -53,6 +53,7 @@ __all__ = [
     "SYMBOLIC_SECONDS",
     "SIMPLIFY_SECONDS",
     "simplification_bound",
+    "count_ops",
     "Integrals",
     "integrals",
     "Shell",

@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
-__all__ = ["within", "SIMPLIFY_SECONDS", "simplification_bound"]
+import sympy as sp
+
+__all__ = ["within", "SIMPLIFY_SECONDS", "simplification_bound", "count_ops"]
 
 SIMPLIFY_SECONDS = 8.0
 """Default bound on one simplification, in seconds (the slowest useful one here takes
@@ -102,3 +105,23 @@ def within(fn: Callable[..., T], *args: Any, fallback: T, seconds: float | None 
         if old_delay:
             left = max(old_delay - (time.monotonic() - start), 1e-3)
             signal.setitimer(signal.ITIMER_REAL, left, old_interval)
+
+
+@functools.lru_cache(maxsize=4096)
+def _count(expr: Any) -> int:
+    return int(sp.count_ops(expr))
+
+
+def count_ops(expr: Any) -> int:
+    """``sympy.count_ops(expr)``, remembered: a solve asks it of the same long closed
+    forms again and again (to bound ``simplify``, ``angle_tidy``, the manifold
+    rewriting, to decide what is printed), and on an expression of 15,000 operations
+    (the rolling disc's accelerations) one count takes tens of milliseconds; counting
+    them was three quarters of ``closed_forms`` there."""
+    expr = sp.sympify(expr)
+    if expr.is_Atom:
+        return 0
+    try:
+        return _count(expr)
+    except TypeError:  # unhashable (a matrix): count it afresh
+        return int(sp.count_ops(expr))

@@ -21,7 +21,7 @@ import sympy as sp
 
 from ..expr import to_text
 from ..model import System
-from ._budget import within
+from ._budget import count_ops, within
 from ._integrals import Shell
 from ._student import has_big_integer, student
 
@@ -330,7 +330,7 @@ def _at_start(system: System, expr: sp.Expr) -> tuple[sp.Expr, float | None]:
 
 def tidy_light(expr: sp.Expr) -> sp.Expr:
     """A cheap simplification for conditions (bounded by size)."""
-    if sp.count_ops(expr) > 200:
+    if count_ops(expr) > 200:
         return expr
     try:
         return within(sp.simplify, expr, fallback=expr)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..model import System, time_derivative
-from ._budget import within
+from ._budget import count_ops, within
 from ._student import student
 
 __all__ = ["manifold_simplifier"]
@@ -107,16 +107,16 @@ class _Manifold:
 
     def __call__(self, expr: sp.Expr) -> sp.Expr:
         expr = sp.sympify(expr)
-        if expr.is_Atom or not (self.radicals or self.orders) or sp.count_ops(expr) > MAX_OPS:
+        if expr.is_Atom or not (self.radicals or self.orders) or count_ops(expr) > MAX_OPS:
             return expr
         return within(self._on_manifold, expr, fallback=expr)
 
     def _on_manifold(self, expr: sp.Expr) -> sp.Expr:
         try:
             first = self.radicals_replaced(expr)
-            best, score = expr, sp.count_ops(expr)
+            best, score = expr, count_ops(expr)
             candidates = [first]
-            if self.orders and sp.count_ops(first) <= BUDGET:
+            if self.orders and count_ops(first) <= BUDGET:
                 num, den = sp.fraction(sp.together(first))
                 symbols = (num.free_symbols | den.free_symbols | _symbols(self.relations)) - set(
                     self.gens
@@ -128,7 +128,7 @@ class _Manifold:
             if cand is None:
                 continue
             cand = student(sp.factor_terms(cand))
-            ops = sp.count_ops(cand)
+            ops = count_ops(cand)
             if ops < score:
                 best, score = cand, ops
         return best
@@ -167,7 +167,7 @@ def _same(e: sp.Expr, P: sp.Expr) -> bool:
     return (
         e.is_Add
         and e.free_symbols == P.free_symbols
-        and sp.count_ops(e) <= 2 * sp.count_ops(P) + 4
+        and count_ops(e) <= 2 * count_ops(P) + 4
         and sp.expand(e) == P
     )
 

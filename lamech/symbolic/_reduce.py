@@ -30,7 +30,7 @@ except ImportError:  # pragma: no cover - SymPy 1.12
     from sympy.matrices.common import NonInvertibleMatrixError
 
 from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_derivative
-from ._budget import within
+from ._budget import count_ops, within
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier
 from ._student import outer_signs, student
@@ -74,7 +74,7 @@ def tidy(expr: sp.Expr) -> sp.Expr:
 
 
 def _tidy(expr: sp.Expr) -> sp.Expr:
-    ops = sp.count_ops(expr)
+    ops = count_ops(expr)
     if ops > MAX_OPS:
         return expr
     if ops > SIMPLIFY_OPS:
@@ -85,9 +85,9 @@ def _tidy(expr: sp.Expr) -> sp.Expr:
     try:
         out = sp.simplify(sp.factor_terms(expr))
         trig = sp.trigsimp(out)
-        if sp.count_ops(trig) < sp.count_ops(out):
+        if count_ops(trig) < count_ops(out):
             out = trig
-        return student(out if sp.count_ops(out) <= ops else expr)
+        return student(out if count_ops(out) <= ops else expr)
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return expr
 
@@ -96,13 +96,13 @@ def present(expr: sp.Expr, velocities: list[sp.Symbol]) -> sp.Expr:
     """Group a result by powers of the velocities with factored coefficients
     (m g cos th - m (R1 + R2) th'^2 rather than m (g cos th - R1 th'^2 - R2 th'^2))."""
     present_v = [v for v in velocities if expr.has(v)]
-    if not present_v or sp.count_ops(expr) > SIMPLIFY_OPS:
+    if not present_v or count_ops(expr) > SIMPLIFY_OPS:
         return expr
     try:
         grouped = sp.collect(sp.expand(expr), present_v, func=sp.factor)
     except (TypeError, ValueError, sp.PolynomialError):
         return expr
-    return outer_signs(grouped if sp.count_ops(grouped) <= sp.count_ops(expr) + 4 else expr)
+    return outer_signs(grouped if count_ops(grouped) <= count_ops(expr) + 4 else expr)
 
 
 @dataclass(frozen=True)
@@ -316,7 +316,7 @@ def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) ->
     kept = [system.constraints[j].expr for j in rest if system.constraints[j].holonomic]
     on_manifold = manifold_simplifier(system, kept)
     small = len(unknowns) <= CLOSED_FORM_LIMIT and (
-        sum(sp.count_ops(e) for e in list(K) + list(rhs)) <= KKT_OPS
+        sum(count_ops(e) for e in list(K) + list(rhs)) <= KKT_OPS
     )
     try:
         projected = None
@@ -368,14 +368,14 @@ def _closed(system: System, red: Reduction, out: list, on_manifold: Any) -> Clos
     sizes: dict = {}
     for j, c in enumerate(system.constraints):
         expr = out[nacc + j]
-        ops = sp.count_ops(expr)
+        ops = count_ops(expr)
         if ops > READABLE_OPS:
             sizes[c.name] = ops
             lam[c.name] = expr
         else:
             lam[c.name] = present(expr, velocities)
     for key, expr in acc.items():
-        ops = sp.count_ops(expr)
+        ops = count_ops(expr)
         if ops > READABLE_OPS:
             sizes[key] = ops
     return ClosedForms(acc, lam, manifold=on_manifold, sizes=sizes)
@@ -413,7 +413,7 @@ def angle_tidy(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
     used = [a for a in angles if a in inside]
     if len(used) < 2 or len(used) > 4:
         return expr
-    ops = sp.count_ops(expr)
+    ops = count_ops(expr)
     if ops > ANGLE_OPS:
         return expr
     deltas = [sp.Dummy(f"delta{k}") for k in range(len(used) - 1)]
@@ -431,7 +431,7 @@ def angle_tidy(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
     if e is expr:
         return expr
     e = e.xreplace(back)
-    return e if sp.count_ops(e) < ops else expr
+    return e if count_ops(e) < ops else expr
 
 
 def _solve_projected(dyn: Dynamics, red: Reduction) -> list[sp.Expr]:
@@ -479,7 +479,7 @@ def _multipliers_projected(
     for e in eqs[: len(system.q)]:
         coeffs = [sp.diff(e, x) for x in lam]
         rest = e.xreplace({x: 0 for x in lam}).xreplace(sub)
-        rows.append((sum(sp.count_ops(c) for c in coeffs) + sp.count_ops(rest), coeffs, rest))
+        rows.append((sum(count_ops(c) for c in coeffs) + count_ops(rest), coeffs, rest))
     rows.sort(key=lambda r: r[0])
     probe = _probe(system, red, set().union(*(sp.Matrix(r[1]).free_symbols for r in rows)))
     chosen: list = []
@@ -583,7 +583,7 @@ def _pre(e: sp.Expr) -> sp.Expr:
     """``cancel`` while short and free of nested radicals (cancelling over nested
     square roots, a chain eliminated in Cartesian coordinates, costs minutes)."""
     e = sp.sympify(e)
-    if sp.count_ops(e) >= SIMPLIFY_OPS or _nested_radical(e):
+    if count_ops(e) >= SIMPLIFY_OPS or _nested_radical(e):
         return e
     return within(sp.cancel, e, fallback=e)
 

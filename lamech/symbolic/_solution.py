@@ -3,13 +3,14 @@ frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import sympy as sp
 
 from ..model import System, circle_chart, holding_at_start, initial_values, open_at_start
-from ._budget import within
+from ._budget import count_ops, within
 from ._conditions import (
     Root,
     Verdict,
@@ -242,7 +243,7 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
     multipliers, each coefficient and the rest trig-simplified (sin^2 + cos^2 = 1) and
     common factors pulled out. Kept only when it is markedly shorter (by a quarter), so
     short textbook forms stay as derived; bounded by size (:data:`SIMPLIFY_OPS`)."""
-    ops = sp.count_ops(equation)
+    ops = count_ops(equation)
     if ops > 4 * SIMPLIFY_OPS:
         return equation
     try:
@@ -250,13 +251,24 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
             lambda: sp.collect(
                 sp.expand(equation),
                 system.qdd + system.multipliers,
-                func=lambda c: sp.factor_terms(sp.trigsimp(c)),
+                func=_coefficient,
             ),
             fallback=equation,
         )
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return equation
-    return new if sp.count_ops(new) <= 0.75 * ops else equation
+    return new if count_ops(new) <= 0.75 * ops else equation
+
+
+@functools.lru_cache(maxsize=1024)
+def _coefficient(c: sp.Expr) -> sp.Expr:
+    """A coefficient of :func:`readable`, trig-simplified with common factors pulled out;
+    remembered, since the equations share theirs (M is symmetric, and sin(theta) alone
+    is the coefficient of many terms: 7 ms of ``trigsimp`` each time), and left alone
+    when it is a symbol or a function of one (``trigsimp`` gives it back)."""
+    if c.is_Atom or (c.is_Function and all(a.is_Atom for a in c.args)):
+        return c
+    return sp.factor_terms(sp.trigsimp(c))
 
 
 def _verdicts(

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ._budget import within
+from ._budget import count_ops, within
 
 __all__ = ["student", "outer_signs", "has_big_integer"]
 
@@ -30,7 +30,7 @@ def student(expr: sp.Expr) -> sp.Expr:
     """The most readable of a few identities of ``expr`` (see the module docstring),
     within :data:`SIMPLIFY_SECONDS`."""
     expr = sp.sympify(expr)
-    if expr.is_Atom or sp.count_ops(expr) > BUDGET:
+    if expr.is_Atom or count_ops(expr) > BUDGET:
         return outer_signs(expr)
     return within(_student, expr, fallback=expr)
 
@@ -98,7 +98,7 @@ def has_big_integer(e: sp.Expr) -> bool:
 
 
 def _score(e: sp.Expr) -> float:
-    score = float(sp.count_ops(e))
+    score = float(count_ops(e))
     trig = _trig_arguments(e)
     score += 6 * sum(1 for a in trig if _is_multiple(a, trig))
     score += 4 * sum(1 for n in e.atoms(sp.Rational) if abs(n.p) >= 1000 or abs(n.q) >= 1000)
