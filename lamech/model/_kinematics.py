@@ -26,17 +26,29 @@ __all__ = [
 
 def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
     """Total time derivative along the motion: sum dE/dq q' + dE/dq' q'' + dE/dt."""
+    kin = tuple(
+        (c.symbol, c.velocity, c.acceleration)
+        for c in system.coordinates + system.chart_coordinates
+    )
     out = sp.sympify(expr)
     for _ in range(order):
-        total = sp.diff(out, system.t)
-        free = out.free_symbols
-        for c in system.coordinates + system.chart_coordinates:
-            if c.symbol in free:
-                total += sp.diff(out, c.symbol) * c.velocity
-            if c.velocity in free:
-                total += sp.diff(out, c.velocity) * c.acceleration
-        out = total
+        out = _derivative(out, system.t, kin)
     return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _derivative(expr: sp.Expr, t: sp.Symbol, kin: tuple) -> sp.Expr:
+    """One total time derivative, remembered: the loader's checks and the derivation ask
+    for the same constraints' velocity forms (24 derivatives for the 8-link chain, each
+    taken once)."""
+    total = sp.diff(expr, t)
+    free = expr.free_symbols
+    for q, v, a in kin:
+        if q in free:
+            total += sp.diff(expr, q) * v
+        if v in free:
+            total += sp.diff(expr, v) * a
+    return total
 
 
 def _turn(axis: str, angle: sp.Expr) -> sp.Matrix:
