@@ -551,8 +551,8 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
               "One evaluation of (q'', λ) at the initial state, called from Python. Each "
               f"method is timed in a loop of about 0.2 s (the best of 3 loops), in {repeats} "
               "interleaved rounds (every method once per round, the order reversed every "
-              "other round); cells give the median wall time per call and, in brackets, "
-              "the min–max over the rounds. lamech: `NumericSystem.accelerations(t, y, p)` "
+              "other round); cells give the median wall time per call, in brackets the "
+              "median CPU time, then the min–max wall time over the rounds. lamech: `NumericSystem.accelerations(t, y, p)` "
               "(NumPy: generated M, Q − h, A, γ plus `numpy.linalg.solve` of the KKT "
               "matrix; numba: the same source compiled, M diagonal so λ from the Schur "
               "complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
@@ -605,8 +605,9 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
             timed = got.get(key)
             if timed is None:
                 return "—"
-            w = timed.wall
-            return f"{w.median * 1e6:.3g} µs ({w.min * 1e6:.3g}–{w.max * 1e6:.3g})"
+            w, c = timed.wall, timed.cpu
+            return (f"{w.median * 1e6:.3g} µs ({c.median * 1e6:.3g}); "
+                    f"{w.min * 1e6:.3g}–{w.max * 1e6:.3g}")
 
         def ratio(key):
             if got.get(key) is None or got.get("numba") is None:
