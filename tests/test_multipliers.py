@@ -92,3 +92,22 @@ def test_dependent_constraints_are_refused():
 
 def test_no_constraints_no_multipliers():
     assert lamech.multipliers(lamech.load("heavy_top")) == {}
+
+
+@pytest.mark.parametrize("name", ["pendulum", "knife_edge"])
+def test_the_benchmark_times_what_sympy_computes(name):
+    """B5's lamech column (``lamech_b5_fast``) and its SymPy peer give the same
+    multipliers at the initial state (the benchmark checks that too, before a time
+    counts), and the whole report's agree with them."""
+    from bench.run import lamech_b5_fast, lamech_b5_full, sympy_b5_timed
+
+    system = lamech.load(name)
+    fast, wall, cpu = lamech_b5_fast(system)
+    theirs = sympy_b5_timed(system)[0]
+    full = lamech_b5_full(name)[0]
+    assert wall > 0 and cpu > 0
+    assert set(fast) == set(theirs) == set(full) == {c.name for c in system.constraints}
+    for k, v in fast.items():
+        assert abs(v) > 0.1
+        assert v == pytest.approx(theirs[k], rel=1e-10)
+        assert v == pytest.approx(full[k], rel=1e-10)
