@@ -97,6 +97,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         metavar="N",
         help="output samples per run, for max/min/final (default %(default)s)",
     )
+    s.add_argument(
+        "--engine",
+        choices=("auto", "compiled", "python", "simulate"),
+        default="auto",
+        help="how the cases run: the compiled loop with events where every measure is an "
+        "event or final:<coordinate> (auto: numba when its compiled loop is cached or "
+        "from 500 cases, else the same loop as Python; compiled: numba whenever "
+        "installed; python), with simulate for the cases it leaves (impacts, stick, "
+        "failures); simulate: every case by simulate on --workers processes "
+        "(default %(default)s)",
+    )
     add_tolerance_options(s)
     return s
 
@@ -157,6 +168,7 @@ def _run(args) -> int:
                 atol=args.atol,
                 max_step=args.max_step,
                 method=args.method,
+                engine=args.engine,
             )
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)

@@ -1,12 +1,22 @@
 """The numeric layer: code generated from the derivation and compiled (NumPy, or numba
 when installed), every KKT solve of the hot path, the simulator with its contact and
-friction events, the compiled batch integrator, and the :class:`Trajectory` they give,
+friction events, the compiled batch integrator (and its twin with events for sweeps),
+and the :class:`Trajectory` they give,
 with its typed :class:`Event` log and :class:`Status`.
 
 SciPy is imported by the simulator only when a simulation runs.
 """
 
-from ._batch import BatchResult, integrate_batch
+from ._batch import FALLBACKS as EVENT_FALLBACKS
+from ._batch import (
+    BatchResult,
+    EventBatchResult,
+    initial_states,
+    integrate_batch,
+    integrate_events,
+    jit_is_cached,
+    parameter_rows,
+)
 from ._codegen import NumericSystem, compile_system, numba_available
 from ._events import Event, EventKind, FrictionState, Status
 from ._initial import consistent_initial
@@ -52,4 +62,10 @@ __all__ = [
     "Status",
     "integrate_batch",
     "BatchResult",
+    "integrate_events",
+    "EventBatchResult",
+    "EVENT_FALLBACKS",
+    "parameter_rows",
+    "initial_states",
+    "jit_is_cached",
 ]

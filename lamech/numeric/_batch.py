@@ -1,4 +1,5 @@
-"""A compiled integration loop for ensembles: many runs of one system, bilateral only.
+"""A compiled integration loop for ensembles: many runs of one system; bilateral only, or
+with the contact and friction events of sweeps (:func:`integrate_events`).
 
 :func:`integrate_batch` integrates a batch of initial states of a compiled system
 (:func:`lamech.numeric.compile_system`) to ``t_end`` inside one numba-compiled loop (the
@@ -21,10 +22,22 @@ and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code
 ``BATCH`` part of :mod:`._kernels`, compiled with the system's kernels (and cached on
 disk with them, :mod:`._jitcache`) by ``compile_system(system, jit=True)``; without
 numba the same Python functions run uncompiled: the same numbers, slowly.
+
+:func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
+DOP853 loop carrying the simulator's contact and friction mode (``ev_*`` in the
+``BATCH`` part), the watched events located by Brent's method on DOP853's dense output,
+lift-off and slip applied in the loop, and a status that hands what it does not mirror
+(impacts and contacts, stick, failures) to :func:`lamech.numeric.simulate`; with
+:func:`parameter_rows` and :func:`initial_states`, the case-by-case parameter vectors
+and consistent starts computed for a whole batch at once. Its projection is the
+simulator's (mass-matrix metric), so that its event times are the simulator's to about
+1e-14 (the tests hold them to 1e-9).
 """
 
 from __future__ import annotations
 
+import functools
+import os
 import types
 
 import numpy as np
@@ -35,13 +48,47 @@ from ._kernels import STAGES as _S  # DOP853's number of stages, checked in _tab
 from ._project import PROJECTION_ITERATIONS
 from ._threads import one_blas_thread
 
-__all__ = ["integrate_batch", "BatchResult"]
+__all__ = [
+    "integrate_batch",
+    "BatchResult",
+    "integrate_events",
+    "EventBatchResult",
+    "parameter_rows",
+    "initial_states",
+    "jit_is_cached",
+    "FALLBACKS",
+]
 
 
+@functools.cache
+def _dop853():
+    """SciPy's module of DOP853 coefficients, without importing ``scipy.integrate`` (0.3-0.5
+    s at a sweep's start) where its file can be loaded alone (it imports only NumPy)."""
+    import importlib.util
+    import sys
+
+    if "scipy.integrate" not in sys.modules:
+        try:
+            spec = importlib.util.find_spec("scipy")
+            where = spec.submodule_search_locations if spec is not None else None
+            if where:
+                path = os.path.join(list(where)[0], "integrate", "_ivp", "dop853_coefficients.py")
+                alone = importlib.util.spec_from_file_location("_lamech_dop853", path)
+                if alone is not None and alone.loader is not None:
+                    module = importlib.util.module_from_spec(alone)
+                    alone.loader.exec_module(module)
+                    return module
+        except Exception:  # pragma: no cover - an unusual SciPy install: import it
+            pass
+    from scipy.integrate._ivp import dop853_coefficients
+
+    return dop853_coefficients
+
+
+@functools.cache
 def _tableau():
-    """SciPy's DOP853 coefficients (A, B, C, E3, E5), imported on first use."""
-    from scipy.integrate._ivp import dop853_coefficients as dop
-
+    """SciPy's DOP853 coefficients (A, B, C, E3, E5), loaded on first use."""
+    dop = _dop853()
     assert dop.N_STAGES == _S
     return (
         np.ascontiguousarray(dop.A[:_S, :_S]),
@@ -49,6 +96,19 @@ def _tableau():
         np.ascontiguousarray(dop.C[:_S]),
         np.ascontiguousarray(dop.E3),
         np.ascontiguousarray(dop.E5),
+    )
+
+
+@functools.cache
+def _dense_tableau():
+    """DOP853's dense output (scipy's ``_dense_output_impl``): the 3 extra stages
+    (A_EXTRA (3, 16), C_EXTRA (3,)) and the interpolator's D (4, 16)."""
+    dop = _dop853()
+    assert dop.INTERPOLATOR_POWER == 7 and dop.N_STAGES_EXTENDED == _S + 4
+    return (
+        np.ascontiguousarray(dop.A[_S + 1 :]),
+        np.ascontiguousarray(dop.C[_S + 1 :]),
+        np.ascontiguousarray(dop.D),
     )
 
 
@@ -67,28 +127,48 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
-def _python_loops(accel, cons):
-    """(parallel loop, serial loop) of :mod:`._kernels`' batch part as Python, around the
-    system's NumPy ``accelerations`` and ``constraints``: its functions with globals of
-    their own (no numba: the same code the compiled system runs, slowly)."""
+def _python_namespace(ns: NumericSystem) -> dict:
+    """:mod:`._kernels`' batch part as Python, around the system's NumPy functions: its
+    functions with globals of their own (no numba: the same code the compiled system
+    runs, slowly)."""
     from . import _kernels
 
     namespace = {
         "np": np,
         "gauss_inplace": _gauss,
-        "accelerations": accel,
-        "constraints": cons,
+        "accelerations": ns.accelerations,
+        "constraints": ns.constraints,
+        "dynamics": ns.dynamics,
+        "kkt_solve": ns.kkt_solve,
+        "rhs_kernel": ns.rhs_kernel,
         "PROJECTION_ITERATIONS": PROJECTION_ITERATIONS,
         "STAGES": _S,
         "prange": range,
     }
-    for name in (*_kernels.BATCH_NAMES, "batch_run", "batch_run_serial"):
+    for name in _kernels.EVENT_CONSTANTS:
+        namespace[name] = getattr(_kernels, name)
+    names = (*_kernels.BATCH_NAMES, "batch_run", "batch_run_serial")
+    for name in (*names, *_kernels.EVENT_NAMES, "ev_run"):
         f = getattr(_kernels, name)
         namespace[name] = types.FunctionType(f.__code__, namespace, name)
+    return namespace
+
+
+def _python_loops(ns: NumericSystem):
+    """(parallel loop, serial loop) of the batch part as Python (:func:`_python_namespace`)."""
+    namespace = _python_namespace(ns)
     return namespace["batch_run"], namespace["batch_run_serial"]
 
 
 _CACHE: dict[int, tuple] = {}
+
+
+def _cpus() -> int:
+    """The CPUs this process may use (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+        return os.cpu_count() or 1
 
 
 def _threads() -> int:
@@ -151,7 +231,7 @@ def integrate_batch(
     P = np.ascontiguousarray(P.reshape(Y0.shape[0], len(ns.parameter_names)))
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
-        loops = ns.batch_loops or _python_loops(ns.accelerations, ns.constraints)
+        loops = ns.batch_loops or _python_loops(ns)
         _CACHE[key] = (ns, loops)
     _, (run_parallel, run_serial) = _CACHE[key]
     # A batch smaller than the thread count runs serially (issue 16): one trajectory
@@ -174,3 +254,309 @@ def integrate_batch(
             if np.all(np.isfinite(out[b])):
                 lam[b] = ns.accelerations(float(t_end), out[b].copy(), P[b].copy())[n:]
     return BatchResult(ns.coordinate_names, ns.constraint_names, out, lam, steps)
+
+
+# ----- the loop with events -------------------------------------------------------------
+_EVENT_CODES = {"lift-off": 0, "contact": 1, "impact": 1, "slip": 2, "stick": 3}
+FALLBACKS = {
+    2: "contact",
+    3: "stick",
+    4: "events",
+    5: "step",
+    6: "growth",
+    7: "penetration",
+    8: "graze",
+    9: "settle",
+    10: "start",
+    11: "singular",
+}
+"""The statuses of a run the loop with events leaves to :func:`lamech.numeric.simulate`
+(the loop's ``ST_*`` codes): an impact or contact, a stick, more events than recorded,
+a step-size collapse, a blow-up, a penetration, a gap that turns within a step, a mode
+that does not settle, a start that is not all engaged and sticking, a singular KKT
+solve."""
+
+
+class EventBatchResult:
+    """Runs of :func:`integrate_events`: ``t`` (B,) the time reached, ``y`` (B, 2n) the
+    state there, ``events`` (B lists of :class:`~lamech.numeric.Event`: kind, constraint,
+    t, coordinates and velocities), ``steps`` (B,), ``status`` (B,): ``"end"`` (reached
+    t_end), ``"found"`` (stopped once every wanted event was found), or the reason the
+    run is left to ``simulate`` (:data:`FALLBACKS`); ``fallback`` (B,) is True for
+    those, whose ``t``, ``y`` and ``events`` are where the loop stopped."""
+
+    def __init__(self, t, y, status, events, steps):
+        self.t, self.y, self.events, self.steps = t, y, events, steps
+        self.status = [("end", "found")[s] if s < 2 else FALLBACKS[s] for s in status]
+        self.fallback = np.array([s >= 2 for s in status], dtype=bool)
+
+
+_EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
+
+
+def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
+    """{"ev_run", "ev_starts", "numba"}: numba's when ``jit`` (default:
+    ``ns.jit``) and numba is installed (the system's compiled module, :mod:`._jitcache`,
+    loaded without warming up the kernels: the loop's machine code holds them), else the
+    same functions as Python."""
+    use = bool(ns.jit if jit is None else jit) and numba_available()
+    known = _EVENT_CACHE.get((id(ns), use))
+    if known is not None and known[0] is ns:
+        return known[1]
+    names = ("ev_run", "ev_starts")
+    if use:
+        from ._jitcache import compiled_kernels, module_text
+
+        text = module_text(ns.source, ns.pattern, ns.mass_diagonal)
+        f = compiled_kernels(text, ns.n, ns.parameters.copy(), warm=False).functions
+    else:
+        f = _python_namespace(ns)
+    out = {k: f[k] for k in names}
+    out["numba"] = use
+    _EVENT_CACHE[(id(ns), use)] = (ns, out)
+    return out
+
+
+def jit_is_cached(ns: NumericSystem, function: str = "ev_run_one") -> bool:
+    """Whether the numba-compiled ``function`` of ``ns``'s module (:mod:`._jitcache`) is in
+    the cache on disk: using it then costs a load (about a second), not a compile (about a
+    minute for the loop with events)."""
+    import importlib.util
+
+    if importlib.util.find_spec("numba") is None:  # not numba_available(): no import
+        return False
+    from ._jitcache import is_cached, module_text
+
+    return is_cached(module_text(ns.source, ns.pattern, ns.mass_diagonal), function)
+
+
+def parameter_rows(ns: NumericSystem, names, values) -> np.ndarray:
+    """The parameter vectors (B, len(ns.parameters)) of B cases that set the parameters
+    ``names`` to the columns of ``values`` (B, len(names)): the rows
+    :meth:`NumericSystem.parameter_vector` gives (a parameter written as an expression
+    of the set ones follows them, the others keep the file's values), each derived
+    expression turned into a NumPy function once instead of substituted per case."""
+    import sympy as sp
+
+    system = ns.system
+    values = np.asarray(values, dtype=float).reshape(-1, len(names))
+    unknown = set(names) - set(ns.parameter_names)
+    if unknown:
+        raise KeyError(
+            f"unknown parameter(s) {sorted(unknown)}; known: {', '.join(ns.parameter_names)}"
+        )
+    cols = {name: values[:, k] for k, name in enumerate(names)}
+    syms = [p.symbol for p in system.parameters if p.name in cols]
+    args = [cols[p.name] for p in system.parameters if p.name in cols]
+    rest = {s: v for s, v in system.parameter_values.items() if s not in set(syms)}
+    out = np.tile(ns.parameters, (values.shape[0], 1))
+    for i, par in enumerate(system.parameters):
+        if par.name in cols:
+            out[:, i] = cols[par.name]
+            continue
+        val = sp.sympify(par.value)
+        if val.free_symbols & set(syms):
+            fn = sp.lambdify(syms, val.subs(rest), "numpy")
+            out[:, i] = np.broadcast_to(np.asarray(fn(*args), dtype=float), values.shape[0])
+    return out
+
+
+_STARTS: dict[int, tuple] = {}  # id(ns) -> (ns, the initial expressions as functions)
+
+
+def initial_states(
+    ns: NumericSystem, P: np.ndarray, initial=(), *, jit: bool | None = None
+) -> np.ndarray:
+    """The initial states (B, 2n) at the parameter vectors P (B, len(ns.parameters)): the
+    coordinates' initial expressions, with ``initial`` [(coordinate or ``x'``, value)]
+    held and the others moved onto the constraints the problem's own start meets, as
+    :func:`lamech.numeric.consistent_initial` does case by case (here the expressions
+    are evaluated as NumPy functions over the batch, and the projection runs in the
+    compiled loop's module: numba's when ``jit``, by default ``ns.jit``)."""
+    import sympy as sp
+
+    from ._options import INITIAL_TOLERANCE
+
+    system = ns.system
+    P = np.ascontiguousarray(np.atleast_2d(np.asarray(P, dtype=float)))
+    B, n = P.shape[0], ns.n
+    syms = [p.symbol for p in system.parameters]
+    cols = [P[:, i] for i in range(len(syms))]
+    known = _STARTS.get(id(ns))
+    if known is None or known[0] is not ns:
+        exprs = [c.initial for c in system.coordinates]
+        exprs += [c.initial_velocity for c in system.coordinates]
+        known = _STARTS[id(ns)] = (ns, [sp.lambdify(syms, sp.sympify(e), "numpy") for e in exprs])
+    Y = np.empty((B, 2 * n))
+    for k, fn in enumerate(known[1]):
+        Y[:, k] = np.broadcast_to(np.asarray(fn(*cols), dtype=float), B)
+    if not initial:
+        return Y
+    names = ns.coordinate_names
+    hold = np.zeros((2, n), dtype=np.bool_)
+    value = np.zeros((2, n))
+    for name, x in initial:
+        w = 1 if name.endswith("'") else 0
+        i = names.index(name.rstrip("'"))
+        hold[w, i] = True
+        value[w, i] = float(x)
+    Q = np.ascontiguousarray(Y[:, :n])
+    V = np.ascontiguousarray(Y[:, n:])
+    starts = _event_functions(ns, jit)["ev_starts"]
+    with one_blas_thread():
+        starts(Q, V, P, hold[0], hold[1], value[0], value[1], _kinds(system), INITIAL_TOLERANCE)
+    return np.concatenate((Q, V), axis=1)
+
+
+def _kinds(system) -> np.ndarray:
+    """(3, m) int64: unilateral, holonomic, normal index (-1 where not friction)."""
+    names = [c.name for c in system.constraints]
+    m = len(names)
+    out = np.zeros((3, m), dtype=np.int64)
+    for j, c in enumerate(system.constraints):
+        out[0, j] = int(c.unilateral)
+        out[1, j] = int(c.holonomic)
+        out[2, j] = names.index(c.friction.normal) if c.friction else -1
+    return out
+
+
+def _parameter_rows(ns: NumericSystem, params, rows: int) -> np.ndarray:
+    """(rows, len(p)) parameter vectors: None, one dict, a sequence of dicts, or an array
+    of vectors as :meth:`NumericSystem.parameter_vector` gives them."""
+    if params is None or isinstance(params, dict):
+        return np.tile(ns.parameter_vector(params), (rows, 1))
+    if isinstance(params, np.ndarray):
+        P = np.array(params, dtype=float, ndmin=2)
+        if P.shape != (rows, len(ns.parameters)):
+            raise ValueError(f"params: an array of shape ({rows}, {len(ns.parameters)})")
+        return P
+    params = list(params)
+    if len(params) != rows:
+        raise ValueError(
+            f"params: {len(params)} parameter sets for {rows} initial states; give one "
+            "dict per row of y0s, or one dict for all"
+        )
+    return np.array([ns.parameter_vector(d) for d in params], dtype=float)
+
+
+def integrate_events(
+    ns: NumericSystem,
+    y0s,
+    t_end: float,
+    *,
+    params=None,
+    rtol: float = 1e-11,
+    atol: float = 1e-12,
+    max_step: float | None = None,
+    want=(),
+    to_end: bool = True,
+    max_events: int = 32,
+    max_steps: int = 10_000_000,
+    threads: int | None = None,
+    jit: bool | None = None,
+) -> EventBatchResult:
+    """Every row of ``y0s`` ((B, 2n), consistent with the constraints) from t = 0 to
+    ``t_end`` in the compiled loop with events: the DOP853 loop of :func:`integrate_batch`
+    (SciPy's tableau and step control, its rule that a step does not grow right after a
+    rejection, its initial step after every event), with the contact and friction mode
+    of :func:`lamech.numeric.simulate` and its events located the same way: after every
+    accepted step the watched event functions (a unilateral lambda for lift-off, the gap
+    of a released one for contact, mu N - |F| for slip, the slip velocity for stick) are
+    checked for a sign change, and a crossing is located by Brent's method on DOP853's
+    dense output (the 7th-order interpolant with its 3 extra stages). Lift-off and slip
+    (kinetic friction against the slip velocity) are applied in the loop, each followed
+    by the simulator's settling (a constraint that pulls is released, friction beyond
+    mu N slips), and the projection after each step is the simulator's (mass-matrix
+    metric, the mode's rows and held offsets).
+
+    Not mirrored here, and left to ``simulate`` (the run stops with that ``status``,
+    ``fallback`` True): impacts and contacts (restitution, engaging), stick and slip
+    reversal, a start that is not all engaged and sticking (or off the constraints),
+    a released gap that turns within one step, and failures (see :data:`FALLBACKS`).
+    The conditioning check and the chattering test of ``simulate`` are not made (a run
+    with more than ``max_events`` events falls back).
+
+    ``want``: (kind, constraint or None) pairs (kinds ``"lift-off"``, ``"slip"``,
+    ``"stick"``, ``"contact"``, ``"impact"``); with ``to_end=False`` a run stops once each
+    has happened (status ``"found"``). ``params`` as for :func:`integrate_batch`, or an
+    array of parameter vectors (B, len(ns.parameters)). Compiled by numba when ``jit``
+    (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and numba is
+    installed, else the same loop runs as Python (same numbers). Compiled, the batch is
+    cut into slices run in ``threads`` threads (default: the CPUs this process may use;
+    the loop releases the GIL).
+    Systems with inputs that switch (step, min, max, clip, piecewise) are refused.
+    """
+    from ._events import Event, EventKind
+    from ._options import BLOW_UP, INITIAL_TOLERANCE, PENETRATION
+
+    if len(ns.switch_slots):
+        raise ValueError("integrate_events: inputs that switch are not handled; use simulate")
+    if not (t_end > 0 and np.isfinite(t_end)):
+        raise ValueError(f"t_end must be a positive finite number, got {t_end}")
+    Y0 = np.ascontiguousarray(np.atleast_2d(np.asarray(y0s, dtype=float)))
+    B, N = Y0.shape
+    if N != 2 * ns.n:
+        raise ValueError(f"each initial state has {2 * ns.n} entries (q then q'), got {N}")
+    P = np.ascontiguousarray(_parameter_rows(ns, params, B))
+    names = ns.constraint_names
+    wanted = np.array(
+        [
+            [_EVENT_CODES[str(k)] for k, _ in want],
+            [-1 if c is None else names.index(c) for _, c in want],
+        ],
+        dtype=np.int64,
+    ).reshape(2, len(want))
+    kinds = _kinds(ns.system)
+    m = ns.m
+    IM = np.zeros((B, 4, m), dtype=np.int64)
+    IM[:, 0, :] = 1  # engaged
+    IM[:, 1, :] = np.where(kinds[2] >= 0, 1, 0)  # friction sticks
+    IM[:, 2:, :] = 1  # contact and stick events armed
+    FM = np.zeros((B, 3, m))
+    FM[:, 1, :] = 1.0  # sN
+    arm = max(100.0 * atol, 1e-13)  # Setup.of
+    EK = np.zeros((B, max_events), dtype=np.int64)
+    EJ = np.zeros((B, max_events), dtype=np.int64)
+    ET = np.zeros((B, max_events))
+    EY = np.zeros((B, max_events, N))
+    YOUT = np.zeros((B, N))
+    TOUT = np.zeros(B)
+    STATUS = np.zeros(B, dtype=np.int64)
+    NEV = np.zeros(B, dtype=np.int64)
+    STEPS = np.zeros(B, dtype=np.int64)
+    run = _event_functions(ns, jit)
+    consts = (
+        float(t_end), float(rtol), float(atol), float(np.inf if max_step is None else max_step),
+        int(max_steps), *_tableau(), *_dense_tableau(), kinds,
+    )  # fmt: skip
+    rest = (arm, arm, BLOW_UP, PENETRATION, INITIAL_TOLERANCE, wanted, bool(to_end))
+    per_run = (Y0, P, IM, FM, EK, EJ, ET, EY, YOUT, TOUT, STATUS, NEV, STEPS)
+
+    def part(a: int, b: int) -> None:
+        Y, Pp, I_, F_, K_, J_, T_, EY_, YO, TO, S_, N_, ST = (x[a:b] for x in per_run)
+        run["ev_run"](Y, Pp, *consts, I_, F_, *rest, K_, J_, T_, EY_, YO, TO, S_, N_, ST)
+
+    k = 1 if not run["numba"] else max(1, min(int(threads or _cpus()), B))
+    # trial states a step rejects may overflow (the Python loop's NumPy warns; numba not)
+    with one_blas_thread(), np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        if k == 1:
+            part(0, B)
+        else:  # the compiled loop releases the GIL: slices of the batch in k threads
+            from concurrent.futures import ThreadPoolExecutor
+
+            cuts = np.linspace(0, B, min(B, 4 * k) + 1).astype(int)
+            with ThreadPoolExecutor(k) as pool:
+                list(pool.map(part, cuts[:-1], cuts[1:]))
+    kind_of = {0: EventKind.LIFT_OFF, 1: EventKind.CONTACT, 2: EventKind.SLIP, 3: EventKind.STICK}
+    coords = ns.coordinate_names
+    n = ns.n
+    events = []
+    for b in range(B):
+        out = []
+        for e in range(NEV[b]):
+            y = EY[b, e]
+            values = {c: float(y[i]) for i, c in enumerate(coords)}
+            values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
+            out.append(Event(float(ET[b, e]), kind_of[int(EK[b, e])], names[EJ[b, e]], values))
+        events.append(out)
+    return EventBatchResult(TOUT, YOUT, STATUS, events, STEPS)

@@ -38,7 +38,15 @@ import numpy as np
 from ..linalg import cholesky_inplace, gauss_inplace
 from ._project import PROJECTION_ITERATIONS
 
-__all__ = ["kernel_text", "KERNEL_NAMES", "BATCH_NAMES", "STAGES", "PROJECTION_ITERATIONS"]
+__all__ = [
+    "kernel_text",
+    "KERNEL_NAMES",
+    "BATCH_NAMES",
+    "EVENT_NAMES",
+    "EVENT_CONSTANTS",
+    "STAGES",
+    "PROJECTION_ITERATIONS",
+]
 
 STAGES = 12
 """DOP853's number of stages (checked against SciPy's table in :mod:`._batch`)."""
@@ -77,6 +85,50 @@ KERNEL_NAMES = (
 BATCH_NAMES = ("batch_solve", "batch_deriv", "batch_project", "batch_run_one")
 """The functions of the ``BATCH`` part that numba compiles (and ``batch_run`` in
 parallel, ``batch_run_serial``)."""
+EVENT_NAMES = (
+    "ev_active",
+    "ev_mode",
+    "ev_watch",
+    "ev_lam",
+    "ev_values",
+    "ev_correction",
+    "ev_project",
+    "ev_dense",
+    "ev_brent",
+    "ev_log",
+    "ev_settle",
+    "ev_first_step",
+    "ev_all",
+    "ev_run_one",
+    "ev_restricted",
+    "ev_consistent",
+    "ev_starts",
+)
+"""The functions of the ``BATCH`` part's loop with events that numba compiles (and
+``ev_run``, without the GIL; ``ev_starts`` the batch's initial states)."""
+EVENT_CONSTANTS = (
+    "EV_LIFT_OFF",
+    "EV_CONTACT",
+    "EV_SLIP",
+    "EV_STICK",
+    "FR_NONE",
+    "FR_STICK",
+    "FR_SLIP",
+    "FR_OFF",
+    "ST_END",
+    "ST_FOUND",
+    "ST_CONTACT",
+    "ST_STICK",
+    "ST_EVENTS",
+    "ST_STEP",
+    "ST_GROWTH",
+    "ST_PENETRATION",
+    "ST_GRAZE",
+    "ST_SETTLE",
+    "ST_START",
+    "ST_SINGULAR",
+)
+"""The module constants of the loop with events (event kinds, friction states, statuses)."""
 
 
 def kernel_text(part: str = "KERNELS") -> str:
@@ -378,3 +430,981 @@ def batch_run_serial(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, 
         y, s = batch_run_one(Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
         out[b] = y
         steps[b] = s
+
+
+# The compiled loop with events (lamech.numeric.integrate_events): the loop above with a
+# contact and friction mode, the twin of lamech.numeric.simulate for the events it can
+# apply (lift-off, slip; the start's and each event's settling), stopping with a
+# fallback status where simulate's rules are not mirrored here (impact and contact,
+# stick, an inside-step graze, too many events, a failure), so that the caller runs
+# simulate for that case. The mode lives in arrays: ``kinds`` (3, m) int64 rows
+# unilateral, holonomic, normal (-1: not friction); ``imode`` (4, m) int64 rows engaged,
+# friction state (FR_*), contact armed, stick armed; ``fmode`` (3, m) rows sigma (slip
+# sign), sN (sign of a bilateral normal), offset (f held while friction sticks).
+EV_LIFT_OFF = 0
+EV_CONTACT = 1
+EV_SLIP = 2
+EV_STICK = 3
+FR_NONE = 0
+FR_STICK = 1
+FR_SLIP = 2
+FR_OFF = 3
+ST_END = 0  # reached t_end
+ST_FOUND = 1  # stopped once every wanted event was found
+ST_CONTACT = 2  # fallbacks: a released contact closes (impact or contact)
+ST_STICK = 3  # a slip velocity reaches zero (stick or reversal)
+ST_EVENTS = 4  # more events than the record holds
+ST_STEP = 5  # step size collapsed, or too many steps
+ST_GROWTH = 6  # the state blows up or is not finite
+ST_PENETRATION = 7  # a released constraint passed through
+ST_GRAZE = 8  # a released gap turns within a step (simulate's inside_step)
+ST_SETTLE = 9  # the mode does not settle
+ST_START = 10  # the start is not all engaged and sticking, or violates the constraints
+ST_SINGULAR = 11  # the KKT solve fails at an accepted state
+
+
+def ev_active(j, kinds, imode):
+    """Constraint j's row is in the KKT system (Mode.row_active)."""
+    for _ in range(kinds.shape[1] + 1):
+        k = kinds[2, j]
+        if k < 0:
+            if kinds[0, j] == 1:
+                return imode[0, j] == 1
+            return True
+        if imode[1, j] != FR_STICK:
+            return False
+        j = k
+    return False
+
+
+def ev_mode(kinds, imode, fmode):
+    """(rows, hrows, slip_j, slip_k, slip_c) of the mode (Mode.rebuild; friction on a
+    released normal goes off, and sticks again when it engages)."""
+    m = kinds.shape[1]
+    rows = np.empty(m, dtype=np.int64)
+    na = 0
+    for j in range(m):
+        k = kinds[2, j]
+        if k >= 0:
+            if not ev_active(k, kinds, imode):
+                imode[1, j] = FR_OFF
+            elif imode[1, j] == FR_OFF:
+                imode[1, j] = FR_STICK
+            if imode[1, j] == FR_STICK:
+                rows[na] = j
+                na += 1
+        elif ev_active(j, kinds, imode):
+            rows[na] = j
+            na += 1
+    pos = np.full(m, -1, dtype=np.int64)
+    nh = 0
+    for a in range(na):
+        pos[rows[a]] = a
+        if kinds[1, rows[a]] == 1:
+            nh += 1
+    hrows = np.empty(nh, dtype=np.int64)
+    nh = 0
+    for a in range(na):
+        if kinds[1, rows[a]] == 1:
+            hrows[nh] = rows[a]
+            nh += 1
+    ns = 0
+    for j in range(m):
+        if kinds[2, j] >= 0 and imode[1, j] == FR_SLIP:
+            ns += 1
+    slip_j = np.empty(ns, dtype=np.int64)
+    slip_k = np.empty(ns, dtype=np.int64)
+    slip_c = np.empty(ns)
+    ns = 0
+    for j in range(m):
+        if kinds[2, j] >= 0 and imode[1, j] == FR_SLIP:
+            slip_j[ns] = j
+            slip_k[ns] = pos[kinds[2, j]]
+            slip_c[ns] = fmode[1, j] * fmode[0, j]
+            ns += 1
+    return rows[:na].copy(), hrows, slip_j, slip_k, slip_c
+
+
+def ev_watch(kinds, imode):
+    """(kinds, constraints) of the events the mode watches (Mode._watched)."""
+    m = kinds.shape[1]
+    wk = np.empty(2 * m, dtype=np.int64)
+    wj = np.empty(2 * m, dtype=np.int64)
+    nw = 0
+    for j in range(m):
+        if kinds[0, j] == 1:
+            wk[nw] = EV_LIFT_OFF if imode[0, j] == 1 else EV_CONTACT
+            wj[nw] = j
+            nw += 1
+        if kinds[2, j] >= 0:
+            if imode[1, j] == FR_STICK:
+                wk[nw] = EV_SLIP
+                wj[nw] = j
+                nw += 1
+            elif imode[1, j] == FR_SLIP:
+                wk[nw] = EV_STICK
+                wj[nw] = j
+                nw += 1
+    return wk[:nw].copy(), wj[:nw].copy()
+
+
+def ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c):
+    """(q'', lambda (m,): NaN where inactive, the kinetic friction where slipping, mu)
+    on the mode's rows (Run.kkt)."""
+    n = y.shape[0] // 2
+    q = y[:n].copy()
+    v = y[n:].copy()
+    M, rhs, A, gam, mu = dynamics(t, q, v, p)
+    sol = kkt_solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
+    lam = np.full(m, np.nan)
+    for a in range(rows.shape[0]):
+        lam[rows[a]] = sol[n + a]
+    for s in range(slip_j.shape[0]):
+        lam[slip_j[s]] = -mu[slip_j[s]] * slip_c[s] * sol[n + slip_k[s]]
+    return sol[:n].copy(), lam, mu
+
+
+def ev_values(t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel):
+    """The watched events' functions at (t, y) (_detect.event_values): lambda_j of an
+    engaged unilateral (lift-off), f_j of a released one (contact), mu sN N - |lambda_j| of
+    sticking friction (slip), sigma s_j of slipping friction (stick); a disarmed contact
+    or stick shifted up by its threshold."""
+    nw = wk.shape[0]
+    out = np.empty(nw)
+    if nw == 0:
+        return out
+    n = y.shape[0] // 2
+    m = kinds.shape[1]
+    qdd, lam, mu = ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c)
+    f, A, b = constraints(t, y[:n].copy(), p)
+    for i in range(nw):
+        kind = wk[i]
+        j = wj[i]
+        if kind == EV_LIFT_OFF:
+            out[i] = lam[j]
+        elif kind == EV_CONTACT:
+            out[i] = f[j] + (0.0 if imode[2, j] == 1 else arm_pos)
+        elif kind == EV_SLIP:
+            out[i] = mu[j] * fmode[1, j] * lam[kinds[2, j]] - abs(lam[j])
+        else:
+            s = b[j]
+            for c in range(n):
+                s += A[j, c] * y[n + c]
+            out[i] = fmode[0, j] * s + (0.0 if imode[3, j] == 1 else arm_vel)
+    return out
+
+
+def ev_correction(W, Ar, r):
+    """dx minimising dx^T W dx subject to Ar dx = r (the KKT system, by elimination);
+    Euclidean where that is singular (linalg.min_norm_correction, _project.Metric)."""
+    n = W.shape[0]
+    k = Ar.shape[0]
+    K = np.zeros((n + k, n + k))
+    x = np.zeros(n + k)
+    for i in range(n):
+        for c in range(n):
+            K[i, c] = W[i, c]
+    for a in range(k):
+        x[n + a] = r[a]
+        for i in range(n):
+            K[i, n + a] = Ar[a, i]
+            K[n + a, i] = Ar[a, i]
+    gauss_inplace(K, x)
+    if np.all(np.isfinite(x)):
+        return x[:n].copy()
+    G = Ar @ Ar.T
+    w = batch_solve(G, r)
+    return Ar.T @ w
+
+
+def ev_project(t, y, p, rows, hrows, offset):
+    """y onto the mode's manifold, in place (_project in the mass-matrix metric):
+    positions onto f_h = offset_h (Gauss-Newton), velocities onto A_r v + b_r = 0."""
+    n = y.shape[0] // 2
+    q = y[:n].copy()
+    v = y[n:].copy()
+    if hrows.shape[0] > 0:
+        W = np.zeros((n, n))
+        have_w = False
+        for _ in range(PROJECTION_ITERATIONS):
+            f, A, b = constraints(t, q, p)
+            r = np.empty(hrows.shape[0])
+            big = 0.0
+            for a in range(hrows.shape[0]):
+                r[a] = -(f[hrows[a]] - offset[hrows[a]])
+                big = max(big, abs(r[a]))
+            scale = 1.0 + np.max(np.abs(q))
+            if big <= 2e-16 * scale * max(1.0, np.max(np.abs(A))):
+                break
+            if not have_w:
+                W = dynamics(t, q, v, p)[0]
+                have_w = True
+            dq = ev_correction(W, A[hrows], r)
+            q += dq
+            if np.max(np.abs(dq)) <= 1e-16 * scale:
+                break
+    if rows.shape[0] > 0:
+        f, A, b = constraints(t, q, p)
+        Ar = A[rows]
+        r = -(Ar @ v + b[rows])
+        if np.any(r != 0.0):
+            W = dynamics(t, q, v, p)[0]
+            v += ev_correction(W, Ar, r)
+    y[:n] = q
+    y[n:] = v
+
+
+def ev_dense(s, t_old, h, y_old, F):
+    """DOP853's dense output at s (scipy's Dop853DenseOutput)."""
+    x = (s - t_old) / h
+    y = np.zeros(y_old.shape[0])
+    P = F.shape[0]
+    for i in range(P):
+        y += F[P - 1 - i]
+        if i % 2 == 0:
+            y *= x
+        else:
+            y *= 1.0 - x
+    y += y_old
+    return y
+
+
+def ev_brent(
+    i,
+    xa,
+    xb,
+    t_old,
+    h,
+    y_old,
+    F,
+    p,
+    wk,
+    wj,
+    kinds,
+    imode,
+    fmode,
+    rows,
+    slip_j,
+    slip_k,
+    slip_c,
+    arm_pos,
+    arm_vel,
+):
+    """Where event i's function crosses zero on the dense output in [xa, xb]: Brent's
+    method as scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200
+    iterations: _detect._root); xb where the ends have one sign."""
+    xtol = 1e-15 * max(1.0, abs(xb))
+    rtol = 4.0 * 2.220446049250313e-16
+    xpre = xa
+    xcur = xb
+    fpre = ev_values(
+        xpre,
+        ev_dense(xpre, t_old, h, y_old, F),
+        p,
+        wk,
+        wj,
+        kinds,
+        imode,
+        fmode,
+        rows,
+        slip_j,
+        slip_k,
+        slip_c,
+        arm_pos,
+        arm_vel,
+    )[i]
+    fcur = ev_values(
+        xcur,
+        ev_dense(xcur, t_old, h, y_old, F),
+        p,
+        wk,
+        wj,
+        kinds,
+        imode,
+        fmode,
+        rows,
+        slip_j,
+        slip_k,
+        slip_c,
+        arm_pos,
+        arm_vel,
+    )[i]
+    if fpre == 0.0:
+        return xpre
+    if fcur == 0.0:
+        return xcur
+    if (fpre < 0.0) == (fcur < 0.0):
+        return xb
+    xblk = 0.0
+    fblk = 0.0
+    spre = 0.0
+    scur = 0.0
+    for _ in range(200):
+        if fpre != 0.0 and fcur != 0.0 and (fpre < 0.0) != (fcur < 0.0):
+            xblk = xpre
+            fblk = fpre
+            spre = xcur - xpre
+            scur = spre
+        if abs(fblk) < abs(fcur):
+            xpre = xcur
+            xcur = xblk
+            xblk = xpre
+            fpre = fcur
+            fcur = fblk
+            fblk = fpre
+        delta = (xtol + rtol * abs(xcur)) / 2.0
+        sbis = (xblk - xcur) / 2.0
+        if fcur == 0.0 or abs(sbis) < delta:
+            return xcur
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)
+            else:
+                dpre = (fpre - fcur) / (xpre - xcur)
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            if 2.0 * abs(stry) < min(abs(spre), 3.0 * abs(sbis) - delta):
+                spre = scur
+                scur = stry
+            else:
+                spre = sbis
+                scur = sbis
+        else:
+            spre = sbis
+            scur = sbis
+        xpre = xcur
+        fpre = fcur
+        if abs(scur) > delta:
+            xcur += scur
+        else:
+            xcur += delta if sbis > 0.0 else -delta
+        fcur = ev_values(
+            xcur,
+            ev_dense(xcur, t_old, h, y_old, F),
+            p,
+            wk,
+            wj,
+            kinds,
+            imode,
+            fmode,
+            rows,
+            slip_j,
+            slip_k,
+            slip_c,
+            arm_pos,
+            arm_vel,
+        )[i]
+    return xcur
+
+
+def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev):
+    """Record event (kind, j) at (t, y); mark the wanted events it is; the new count, or -1
+    when the record is full."""
+    if nev >= ev_kind.shape[0]:
+        return -1
+    ev_kind[nev] = kind
+    ev_j[nev] = j
+    ev_t[nev] = t
+    ev_y[nev, :] = y
+    for w in range(want.shape[1]):
+        if want[0, w] == kind and (want[1, w] < 0 or want[1, w] == j):
+            found[w] = True
+    return nev + 1
+
+
+def ev_settle(t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, nev):
+    """Make the mode consistent at (t, y), in place (_switch.settle): release the
+    unilateral constraint pulling hardest, else let the friction furthest beyond mu N
+    slip, logging each; (count, 0) or (count, ST_EVENTS / ST_SETTLE / ST_SINGULAR)."""
+    n = y.shape[0] // 2
+    m = kinds.shape[1]
+    for _ in range(4 * m + 4):
+        rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
+        ev_project(t, y, p, rows, hrows, fmode[2])
+        qdd, lam, mu = ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c)
+        if not np.all(np.isfinite(qdd)):
+            return nev, ST_SINGULAR
+        scale = 0.0
+        for j in range(m):
+            if np.isfinite(lam[j]):
+                scale = max(scale, abs(lam[j]))
+        scale += 1.0
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            k = kinds[2, j]
+            if k >= 0 and kinds[0, k] == 0 and lam[k] != 0.0:
+                fmode[1, j] = np.copysign(1.0, lam[k])
+        worst = 0.0
+        jw = -1
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            if kinds[0, j] == 1 and lam[j] < -1e-12 * scale and lam[j] < worst:
+                worst = lam[j]
+                jw = j
+        if jw >= 0:
+            imode[0, jw] = 0
+            imode[2, jw] = 0
+            nev = ev_log(EV_LIFT_OFF, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            if nev < 0:
+                return 0, ST_EVENTS
+            continue
+        worst = 0.0
+        jw = -1
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            k = kinds[2, j]
+            if k >= 0:
+                excess = abs(lam[j]) - mu[j] * fmode[1, j] * lam[k]
+                if excess > 1e-12 * scale and excess > worst:
+                    worst = excess
+                    jw = j
+        if jw >= 0:
+            f, A, b = constraints(t, y[:n].copy(), p)
+            s = b[jw]
+            for c in range(n):
+                s += A[jw, c] * y[n + c]
+            if abs(s) <= arm_vel:
+                fmode[0, jw] = -np.copysign(1.0, lam[jw])
+            else:
+                fmode[0, jw] = np.copysign(1.0, s)
+            imode[1, jw] = FR_SLIP
+            imode[3, jw] = 0
+            nev = ev_log(EV_SLIP, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            if nev < 0:
+                return 0, ST_EVENTS
+            continue
+        return nev, 0
+    return nev, ST_SETTLE
+
+
+def ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol):
+    """scipy's select_initial_step for DOP853 (error estimator order 7)."""
+    interval = abs(t_end - t)
+    if interval == 0.0:
+        return 0.0
+    scale = atol + np.abs(y) * rtol
+    d0 = np.sqrt(np.mean((y / scale) ** 2))
+    d1 = np.sqrt(np.mean((f / scale) ** 2))
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    f1 = rhs_kernel(t + h0, y + h0 * f, p, rows, slip_j, slip_k, slip_c)
+    d2 = np.sqrt(np.mean(((f1 - f) / scale) ** 2)) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    return min(100.0 * h0, h1, interval, max_step)
+
+
+def ev_all(found, to_end):
+    """Every wanted event found (and no need to go on to t_end)."""
+    if to_end or found.shape[0] == 0:
+        return False
+    for w in range(found.shape[0]):
+        if not found[w]:
+            return False
+    return True
+
+
+def ev_run_one(
+    y0,
+    p,
+    t_end,
+    rtol,
+    atol,
+    max_step,
+    max_steps,
+    A,
+    B,
+    C,
+    E3,
+    E5,
+    AX,
+    CX,
+    D,
+    kinds,
+    imode,
+    fmode,
+    arm_pos,
+    arm_vel,
+    blow,
+    pen,
+    tol,
+    want,
+    to_end,
+    ev_kind,
+    ev_j,
+    ev_t,
+    ev_y,
+    y_out,
+):
+    """One run from t = 0, every constraint engaged and sticking: (t reached, status
+    ST_*, events logged, steps); y_out the state at t."""
+    N = y0.shape[0]
+    n = N // 2
+    m = kinds.shape[1]
+    y = y0.copy()
+    t = 0.0
+    y_out[:] = y
+    found = np.zeros(want.shape[1], dtype=np.bool_)
+    # the start (_switch.initial_mode): anything but all engaged and sticking, within
+    # the constraints, is left to simulate
+    f0, A0, b0 = constraints(t, y[:n].copy(), p)
+    tol_q = tol * (1.0 + np.max(np.abs(y[:n])))
+    for j in range(m):
+        F = b0[j]
+        for c in range(n):
+            F += A0[j, c] * y[n + c]
+        if kinds[1, j] == 1 and abs(f0[j]) > tol_q:
+            return t, ST_START, 0, 0
+        if kinds[0, j] == 1 and f0[j] > tol_q:
+            return t, ST_START, 0, 0
+        if abs(F) > tol_q:
+            return t, ST_START, 0, 0
+    nev, st = ev_settle(
+        t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, 0
+    )
+    y_out[:] = y
+    if st != 0:
+        return t, st, nev, 0
+    if ev_all(found, to_end):
+        return t, ST_FOUND, nev, 0
+    blow_up = blow * (1.0 + np.max(np.abs(y)))
+    rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
+    wk, wj = ev_watch(kinds, imode)
+    f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+    h_abs = ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol)
+    g_old = ev_values(
+        t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
+    )
+    K = np.zeros((D.shape[1], N))
+    F = np.zeros((7, N))
+    ynew = np.zeros(N)
+    steps = 0
+    while t < t_end:
+        if steps >= max_steps:
+            return t, ST_STEP, nev, steps
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h_abs > max_step:
+            h_abs = max_step
+        elif h_abs < min_step:
+            h_abs = min_step
+        rejected = False
+        t_new = t
+        h = 0.0
+        while True:
+            if h_abs < min_step:
+                return t, ST_STEP, nev, steps
+            t_new = t + h_abs
+            if t_new > t_end:
+                t_new = t_end
+            h = t_new - t
+            h_abs = abs(h)
+            K[0] = f
+            for s in range(1, STAGES):
+                dy = np.zeros(N)
+                for k in range(s):
+                    if A[s, k] != 0.0:
+                        dy += A[s, k] * K[k]
+                K[s] = rhs_kernel(t + C[s] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
+            acc = np.zeros(N)
+            for k in range(STAGES):
+                acc += B[k] * K[k]
+            ynew[:] = y + h * acc
+            K[STAGES] = rhs_kernel(t + h, ynew, p, rows, slip_j, slip_k, slip_c)
+            scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
+            err5 = np.zeros(N)
+            err3 = np.zeros(N)
+            for k in range(STAGES + 1):
+                err5 += E5[k] * K[k]
+                err3 += E3[k] * K[k]
+            e5 = np.sum((err5 / scale) ** 2)
+            e3 = np.sum((err3 / scale) ** 2)
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
+            if err < 1.0:
+                factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs *= factor
+                break
+            shrink = 0.9 * err ** (-1.0 / 8.0)
+            if not shrink > 0.2:  # also NaN, as max(0.2, nan) in scipy
+                shrink = 0.2
+            h_abs *= shrink
+            rejected = True
+        steps += 1
+        big = np.max(np.abs(ynew))
+        if not np.isfinite(big) or big > blow_up:
+            return t, ST_GROWTH, nev, steps
+        yb = ynew.copy()
+        ev_project(t_new, yb, p, rows, hrows, fmode[2])
+        g_new = ev_values(
+            t_new,
+            yb,
+            p,
+            wk,
+            wj,
+            kinds,
+            imode,
+            fmode,
+            rows,
+            slip_j,
+            slip_k,
+            slip_c,
+            arm_pos,
+            arm_vel,
+        )
+        released = False
+        for i in range(wk.shape[0]):
+            if wk[i] == EV_CONTACT:
+                released = True
+        if released:  # a gap that turns within the step: simulate's inside_step
+            fa, Aa, ba = constraints(t, y[:n].copy(), p)
+            fb, Ab, bb = constraints(t_new, yb[:n].copy(), p)
+            for i in range(wk.shape[0]):
+                if wk[i] == EV_CONTACT:
+                    j = wj[i]
+                    ra = ba[j]
+                    rb = bb[j]
+                    for c in range(n):
+                        ra += Aa[j, c] * y[n + c]
+                        rb += Ab[j, c] * yb[n + c]
+                    if (imode[2, j] == 0 and ra > 0.0 > rb) or (imode[2, j] == 1 and ra < 0.0 < rb):
+                        return t, ST_GRAZE, nev, steps
+        hit = False
+        for i in range(wk.shape[0]):
+            if g_old[i] > 0.0 and g_new[i] <= 0.0:
+                hit = True
+        if hit:
+            # the step's dense output: 3 more stages (scipy's _dense_output_impl)
+            for s in range(STAGES + 1, D.shape[1]):
+                dy = np.zeros(N)
+                for k in range(s):
+                    if AX[s - STAGES - 1, k] != 0.0:
+                        dy += AX[s - STAGES - 1, k] * K[k]
+                K[s] = rhs_kernel(
+                    t + CX[s - STAGES - 1] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c
+                )
+            F[0] = ynew - y
+            F[1] = h * K[0] - F[0]
+            F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])
+            for r in range(D.shape[0]):
+                acc = np.zeros(N)
+                for k in range(D.shape[1]):
+                    acc += D[r, k] * K[k]
+                F[3 + r] = h * acc
+            te = t_new
+            ie = -1
+            for i in range(wk.shape[0]):
+                if g_old[i] > 0.0 and g_new[i] <= 0.0:
+                    r = ev_brent(
+                        i,
+                        t,
+                        t_new,
+                        t,
+                        h,
+                        y,
+                        F,
+                        p,
+                        wk,
+                        wj,
+                        kinds,
+                        imode,
+                        fmode,
+                        rows,
+                        slip_j,
+                        slip_k,
+                        slip_c,
+                        arm_pos,
+                        arm_vel,
+                    )
+                    if r < te or ie < 0:
+                        te = r
+                        ie = i
+            ye = ev_dense(te, t, h, y, F)
+            ev_project(te, ye, p, rows, hrows, fmode[2])
+            y_out[:] = ye
+            kind = wk[ie]
+            j = wj[ie]
+            if kind == EV_CONTACT:
+                return te, ST_CONTACT, nev, steps
+            if kind == EV_STICK:
+                return te, ST_STICK, nev, steps
+            if kind == EV_LIFT_OFF:
+                imode[0, j] = 0
+                imode[2, j] = 0
+            else:
+                lam_j = ev_lam(te, ye, p, m, rows, slip_j, slip_k, slip_c)[1][j]
+                fmode[0, j] = -np.copysign(1.0, lam_j)
+                imode[1, j] = FR_SLIP
+                imode[3, j] = 0
+            nev = ev_log(kind, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            if nev < 0:
+                return te, ST_EVENTS, 0, steps
+            nev, st = ev_settle(
+                te, ye, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, nev
+            )
+            y_out[:] = ye
+            if st != 0:
+                return te, st, nev, steps
+            if ev_all(found, to_end):
+                return te, ST_FOUND, nev, steps
+            t = te
+            y = ye
+            rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
+            wk, wj = ev_watch(kinds, imode)
+            f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+            h_abs = ev_first_step(
+                t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol
+            )
+            g_old = ev_values(
+                t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
+            )
+            continue
+        if released:  # a body through a surface (simulate's _check_penetration)
+            fb = constraints(t_new, yb[:n].copy(), p)[0]
+            depth = max(pen * (1.0 + np.max(np.abs(yb[:n]))), 10.0 * arm_pos)
+            for i in range(wk.shape[0]):
+                if wk[i] == EV_CONTACT and fb[wj[i]] < -depth:
+                    return t_new, ST_PENETRATION, nev, steps
+        armed = False
+        for i in range(wk.shape[0]):
+            j = wj[i]
+            if (wk[i] == EV_CONTACT and imode[2, j] == 0) or (
+                wk[i] == EV_STICK and imode[3, j] == 0
+            ):
+                fb, Ab, bb = constraints(t_new, yb[:n].copy(), p)
+                if wk[i] == EV_CONTACT:
+                    if fb[j] > arm_pos:
+                        imode[2, j] = 1
+                        armed = True
+                else:
+                    s = bb[j]
+                    for c in range(n):
+                        s += Ab[j, c] * yb[n + c]
+                    if fmode[0, j] * s > arm_vel:
+                        imode[3, j] = 1
+                        armed = True
+        if armed:
+            g_old = ev_values(
+                t_new,
+                yb,
+                p,
+                wk,
+                wj,
+                kinds,
+                imode,
+                fmode,
+                rows,
+                slip_j,
+                slip_k,
+                slip_c,
+                arm_pos,
+                arm_vel,
+            )
+        else:
+            g_old = g_new
+        t = t_new
+        y = yb
+        f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+        if not np.all(np.isfinite(f)):
+            return t, ST_SINGULAR, nev, steps
+    y_out[:] = y
+    return t, ST_END, nev, steps
+
+
+def ev_run(
+    Y0,
+    P,
+    t_end,
+    rtol,
+    atol,
+    max_step,
+    max_steps,
+    A,
+    B,
+    C,
+    E3,
+    E5,
+    AX,
+    CX,
+    D,
+    kinds,
+    IM,
+    FM,
+    arm_pos,
+    arm_vel,
+    blow,
+    pen,
+    tol,
+    want,
+    to_end,
+    EK,
+    EJ,
+    ET,
+    EY,
+    YOUT,
+    TOUT,
+    STATUS,
+    NEV,
+    STEPS,
+):
+    """Every row of Y0 (parameters P, modes IM, FM) through :func:`ev_run_one`, in one
+    thread (compiled with ``nogil``: the caller spreads slices of a batch over threads)."""
+    for b in range(Y0.shape[0]):
+        t, st, nev, steps = ev_run_one(
+            Y0[b],
+            P[b],
+            t_end,
+            rtol,
+            atol,
+            max_step,
+            max_steps,
+            A,
+            B,
+            C,
+            E3,
+            E5,
+            AX,
+            CX,
+            D,
+            kinds,
+            IM[b],
+            FM[b],
+            arm_pos,
+            arm_vel,
+            blow,
+            pen,
+            tol,
+            want,
+            to_end,
+            EK[b],
+            EJ[b],
+            ET[b],
+            EY[b],
+            YOUT[b],
+        )
+        TOUT[b] = t
+        STATUS[b] = st
+        NEV[b] = nev
+        STEPS[b] = steps
+
+
+def ev_restricted(t, q, v, p, rows, free, what):
+    """One correction of the start onto the constraints ``rows`` over the ``free``
+    coordinates (mask), the mass-matrix metric restricted to them (_project with
+    ``free``): ``what`` 0 positions (f = 0), 1 velocities (A v + b = 0). (dx over all
+    coordinates, 0 on the held ones; the residual's size; the number of movable rows)."""
+    n = q.shape[0]
+    f, A, b = constraints(t, q, p)
+    nf = 0
+    for i in range(n):
+        if free[i]:
+            nf += 1
+    idx = np.empty(nf, dtype=np.int64)
+    nf = 0
+    for i in range(n):
+        if free[i]:
+            idx[nf] = i
+            nf += 1
+    act = np.empty(rows.shape[0], dtype=np.int64)
+    na = 0
+    for a in range(rows.shape[0]):
+        for c in range(nf):
+            if A[rows[a], idx[c]] != 0.0:
+                act[na] = rows[a]
+                na += 1
+                break
+    dx = np.zeros(n)
+    if na == 0:
+        return dx, 0.0, 0, 0.0
+    r = np.empty(na)
+    big = 0.0
+    for a in range(na):
+        j = act[a]
+        if what == 0:
+            r[a] = -f[j]
+        else:
+            s = b[j]
+            for c in range(n):
+                s += A[j, c] * v[c]
+            r[a] = -s
+        big = max(big, abs(r[a]))
+    Af = np.empty((na, nf))
+    for a in range(na):
+        for c in range(nf):
+            Af[a, c] = A[act[a], idx[c]]
+    if what == 0 and big <= 2e-16 * (1.0 + np.max(np.abs(q))) * max(1.0, np.max(np.abs(A))):
+        return dx, big, na, 0.0
+    if what == 1 and big == 0.0:
+        return dx, big, na, 0.0
+    M = dynamics(t, q, v, p)[0]
+    W = np.empty((nf, nf))
+    for a in range(nf):
+        for c in range(nf):
+            W[a, c] = M[idx[a], idx[c]]
+    d = ev_correction(W, Af, r)
+    step = 0.0
+    for c in range(nf):
+        dx[idx[c]] = d[c]
+        step = max(step, abs(d[c]))
+    return dx, big, na, step
+
+
+def ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
+    """The start with the held coordinates and velocities set and the others moved onto
+    the constraints the unheld start meets (_initial.consistent_initial), in place."""
+    n = q.shape[0]
+    m = kinds.shape[1]
+    f, A, b = constraints(0.0, q, p)
+    tol_q = tol * (1.0 + np.max(np.abs(q)))
+    nq = 0
+    nv = 0
+    inq = np.zeros(m, dtype=np.bool_)
+    for j in range(m):
+        if kinds[1, j] == 1 and abs(f[j]) <= tol_q:
+            inq[j] = True
+            nq += 1
+    rows_q = np.empty(nq, dtype=np.int64)
+    rows_v = np.empty(m, dtype=np.int64)
+    nq = 0
+    for j in range(m):
+        if inq[j]:
+            rows_q[nq] = j
+            nq += 1
+        s = b[j]
+        for c in range(n):
+            s += A[j, c] * v[c]
+        if abs(s) <= tol_q and (kinds[1, j] == 0 or inq[j]):
+            rows_v[nv] = j
+            nv += 1
+    free_q = np.ones(n, dtype=np.bool_)
+    free_v = np.ones(n, dtype=np.bool_)
+    for i in range(n):
+        if hold_q[i]:
+            q[i] = value_q[i]
+            free_q[i] = False
+        if hold_v[i]:
+            v[i] = value_v[i]
+            free_v[i] = False
+    if nq > 0 and np.any(free_q):
+        # the metric's M at the first iteration's state (_project.project_positions)
+        for _ in range(PROJECTION_ITERATIONS):
+            dx, big, na, step = ev_restricted(0.0, q, v, p, rows_q, free_q, 0)
+            if na == 0 or step == 0.0:
+                break
+            q += dx
+            if step <= 1e-16 * (1.0 + np.max(np.abs(q - dx))):
+                break
+    if nv > 0 and np.any(free_v):
+        dx, big, na, step = ev_restricted(0.0, q, v, p, rows_v[:nv].copy(), free_v, 1)
+        v += dx
+
+
+def ev_starts(Q, V, P, hold_q, hold_v, value_q, value_v, kinds, tol):
+    """:func:`ev_consistent` for every row of Q, V (parameters P), in place."""
+    for b in range(Q.shape[0]):
+        ev_consistent(Q[b], V[b], P[b], hold_q, hold_v, value_q, value_v, kinds, tol)

@@ -1,0 +1,194 @@
+"""The compiled loop with events (lamech.numeric.integrate_events) against simulate: the
+cylinder's slip and lift-off at the same times (to 1e-9, against the energy integral's
+slip angle to 1e-9), the sweeps' engines giving the same rows, the cases it leaves to
+simulate (an impact) run by simulate, the batch's parameters and starts as the
+case-by-case ones, and numba's loop the same numbers as the Python one."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import lamech
+from lamech.numeric import (
+    compile_system,
+    consistent_initial,
+    initial_states,
+    integrate_events,
+    jit_is_cached,
+    numba_available,
+    parameter_rows,
+    simulate,
+    with_friction_parameters,
+)
+from lamech.sweeps import SweepError, run_sweep
+
+THETA_S = 0.01
+
+
+def _slip_angle(mu: float, ths: float = THETA_S) -> float:
+    """sin th = mu (7 cos th - 4 cos ths): the energy integral's slip angle (test_sweep)."""
+    top = math.acos(4 / 7 * math.cos(ths))
+    return brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(ths)),
+                  ths, top, xtol=1e-15)
+
+
+def _cylinder(jit=False):
+    return compile_system(with_friction_parameters(lamech.load("cylinder"), ["mu"]), jit=jit)
+
+
+GRID = np.array([[mu, R2] for mu in (0.1, 0.35, 1e6) for R2 in (0.3, 1.0)])
+
+
+def _batch(ns, **kw):
+    P = parameter_rows(ns, ["mu", "R2"], GRID)
+    Y0 = initial_states(ns, P, [("theta1", THETA_S)])
+    return P, Y0, integrate_events(ns, Y0, 3.0, params=P, **kw)
+
+
+def test_cylinder_events_match_simulate_and_the_energy_integral():
+    ns = _cylinder()
+    P, Y0, res = _batch(ns)
+    assert res.status == ["end"] * len(GRID) and not res.fallback.any()
+    for (mu, R2), y0, events, y_end in zip(GRID, Y0, res.events, res.y):
+        traj = simulate(ns, 3.0, params={"mu": mu, "R2": R2}, q0=y0[:3], qd0=y0[3:],
+                        samples=11)
+        assert traj.status == "ok"
+        assert [(e.kind, e.constraint) for e in events] == \
+               [(e.kind, e.constraint) for e in traj.events] == \
+               [("slip", "rolling"), ("lift-off", "contact")]
+        for a, b in zip(events, traj.events):
+            assert abs(a.t - b.t) < 1e-9
+            assert all(abs(a.coordinates[k] - b.coordinates[k]) < 1e-9 for k in a.coordinates)
+        slip = events[0]
+        assert abs(slip.coordinates["theta1"] - _slip_angle(mu)) < 1e-9
+        assert abs(slip.coordinates["theta2"] - (1 + R2) / R2 * slip.coordinates["theta1"]) < 1e-9
+        # after lift-off the wheel flies freely to t = 3: the same final state
+        assert np.max(np.abs(y_end - np.concatenate((traj.final_q, traj.final_qd)))) < 1e-7
+
+
+def test_the_loop_stops_once_the_wanted_events_are_found():
+    ns = _cylinder()
+    _, _, res = _batch(ns, want=[("slip", None), ("lift-off", "contact")], to_end=False)
+    assert res.status == ["found"] * len(GRID)
+    assert all(abs(t - e[-1].t) == 0 for t, e in zip(res.t, res.events))
+    _, _, slip_only = _batch(ns, want=[("slip", "rolling")], to_end=False)
+    assert all([e.kind for e in evs] == ["slip"] for evs in slip_only.events)
+
+
+def test_parameters_and_starts_as_case_by_case():
+    ns = _cylinder()
+    P, Y0, _ = _batch(ns, want=[("slip", None)], to_end=False)
+    for (mu, R2), p, y0 in zip(GRID, P, Y0):
+        p1 = ns.parameter_vector({"mu": mu, "R2": R2})
+        assert np.array_equal(p, p1)
+        q, v = consistent_initial(ns, p1, [("theta1", THETA_S)])
+        assert np.max(np.abs(y0 - np.concatenate((q, v)))) < 1e-15
+    # a parameter written as an expression of the swept ones follows them
+    top = compile_system(lamech.load("heavy_top"))
+    vals = np.array([[0.3, 20.0], [0.5, 35.0]])
+    rows = parameter_rows(top, ["theta0", "Omega"], vals)
+    for v, row in zip(vals, rows):
+        ref = top.parameter_vector({"theta0": v[0], "Omega": v[1]})
+        assert np.allclose(row, ref, rtol=1e-14, atol=0)
+    with pytest.raises(KeyError, match="unknown parameter"):
+        parameter_rows(top, ["nope"], [[1.0]])
+
+
+def test_sweep_engines_give_the_same_rows():
+    params = {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}
+    measures = ["slip", "liftoff", "final:theta1", "final:r'"]
+    kw = dict(t_end=2.9, samples=11, workers=1, initial={"theta1": THETA_S})
+    fast = run_sweep("cylinder", params, measures, engine="python", **kw)
+    slow = run_sweep("cylinder", params, measures, engine="simulate", **kw)
+    assert fast.backend == "the compiled loop with events (Python)"
+    assert slow.backend == "this process"
+    assert fast.counts == slow.counts == {"ok": 4}
+    for a, b in zip(fast.rows, slow.rows):
+        assert a.keys() == b.keys()
+        for k in a:
+            if isinstance(a[k], float) and k.startswith(("slip", "liftoff")):
+                assert abs(a[k] - b[k]) < 1e-9, k
+            elif isinstance(a[k], float):
+                assert abs(a[k] - b[k]) < 1e-7, k       # final: the last sample
+            else:
+                assert a[k] == b[k]
+        assert abs(a["slip:theta1"] - _slip_angle(a["mu"])) < 1e-9
+    # a measure the loop cannot give: every case by simulate
+    run = run_sweep("cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python",
+                    **kw)
+    assert run.backend == "this process"
+    with pytest.raises(SweepError, match="unknown engine"):
+        run_sweep("cylinder", {"mu": [0.3]}, ["slip"], engine="fast", **kw)
+
+
+BALL = {
+    "title": "A ball on a floor pushed up by a force that comes and goes",
+    "parameters": {"m": 1.0, "g": 9.81, "A": 20.0, "w": 3.0},
+    "coordinates": {"y": {"initial": 0, "velocity": 0}},
+    "lagrangian": {"T": "m/2*y'^2", "V": "m*g*y"},
+    "constraints": [{"name": "floor", "f": "y", "unilateral": True}],
+    "forces": {"y": "A*sin(w*t)"},
+}
+
+
+def test_an_impact_is_left_to_simulate():
+    ball = lamech.from_dict(BALL)
+    ns = compile_system(ball)
+    # max_step: resting on the floor the state does not move, and the steps would span the
+    # force's whole rise and fall (simulate's too)
+    res = integrate_events(ns, [[0.0, 0.0]], 3.0, params={"A": 20.0}, max_step=0.01)
+    assert res.status == ["contact"] and res.fallback[0]
+    lift = res.events[0][0]
+    # lifts off where A sin(w t) = m g
+    assert lift.kind == "lift-off" and abs(lift.t - math.asin(9.81 / 20) / 3) < 1e-9
+    params = {"A": [5.0, 20.0, 30.0]}                  # 5 < m g: stays on the floor
+    kw = dict(t_end=3.0, samples=11, workers=1, max_step=0.01)
+    fast = run_sweep(ball, params, ["liftoff", "contact"], engine="python", **kw)
+    slow = run_sweep(ball, params, ["liftoff", "contact"], engine="simulate", **kw)
+    assert fast.backend.startswith("the compiled loop with events (Python); 2 by simulate")
+    assert fast.rows == slow.rows           # the two that landed came from simulate itself
+    assert math.isnan(fast.rows[0]["liftoff:t"]) and fast.rows[1]["contact:t"] > 0
+    # only the lift-off wanted: the loop stops there, nothing left to simulate
+    only = run_sweep(ball, params, ["liftoff"], engine="python", **kw)
+    assert only.backend == "the compiled loop with events (Python)"
+    assert [r["liftoff:t"] for r in only.rows[1:]] == [r["liftoff:t"] for r in slow.rows[1:]]
+
+
+def test_inputs_that_switch_are_refused():
+    ball = lamech.from_dict({**BALL, "forces": {"y": "A*step(t - 1)"}})
+    with pytest.raises(ValueError, match="inputs that switch"):
+        integrate_events(compile_system(ball), [[0.0, 0.0]], 2.0)
+    # the sweep runs such a system by simulate
+    run = run_sweep(ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1,
+                    max_step=0.01)
+    assert run.backend == "this process" and abs(run.rows[0]["liftoff:t"] - 1) < 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_numba_loop_gives_the_python_loop_numbers():
+    py = _cylinder()
+    jit = _cylinder(jit=True)
+    _, Y0, a = _batch(py)
+    _, Y1, b = _batch(jit)
+    assert np.max(np.abs(Y0 - Y1)) < 1e-15
+    assert a.status == b.status
+    for ea, eb in zip(a.events, b.events):
+        assert [(e.kind, e.constraint) for e in ea] == [(e.kind, e.constraint) for e in eb]
+        assert max(abs(x.t - y.t) for x, y in zip(ea, eb)) < 1e-12
+    assert np.max(np.abs(a.y - b.y)) < 1e-10
+    assert jit_is_cached(jit, "ev_run_one")
+    # the sweep: numba when its loop is cached (it is now), over two threads
+    kw = dict(t_end=2.9, samples=11, initial={"theta1": THETA_S})
+    run = run_sweep("cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"],
+                    workers=2, **kw)
+    assert run.backend == "the compiled loop with events (numba, 2 threads)"
+    ref = run_sweep("cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"],
+                    workers=1, engine="python", **kw)
+    for x, y in zip(run.rows, ref.rows):
+        assert abs(x["slip:t"] - y["slip:t"]) < 1e-12
+        assert abs(x["liftoff:theta1"] - y["liftoff:theta1"]) < 1e-12
