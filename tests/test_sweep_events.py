@@ -192,3 +192,15 @@ def test_numba_loop_gives_the_python_loop_numbers():
     for x, y in zip(run.rows, ref.rows):
         assert abs(x["slip:t"] - y["slip:t"]) < 1e-12
         assert abs(x["liftoff:theta1"] - y["liftoff:theta1"]) < 1e-12
+
+
+def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
+    # sqrt of a negative number once y > h: the Python loop raises; simulate stops the run
+    # with its reason, and the sweep's row says so, as before
+    ball = lamech.from_dict({**BALL, "parameters": {**BALL["parameters"], "h": 0.05},
+                             "forces": {"y": "A*sin(w*t) - sqrt(h - y)"}})
+    kw = dict(t_end=1.0, samples=11, workers=1, max_step=0.01)
+    fast = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="python", **kw)
+    slow = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="simulate", **kw)
+    assert "by simulate" in fast.backend
+    assert fast.rows == slow.rows and fast.rows[0]["status"] == "failed"

@@ -664,22 +664,26 @@ def _run_compiled(ns, plan: _Plan, cases, todo, record, workers, engine) -> tupl
     for start in range(0, len(todo), CHUNK):
         chunk = todo[start : start + CHUNK]
         vals = np.array([[cases[i][k] for k in names] for i in chunk], dtype=float)
-        P = parameter_rows(ns, names, vals)
-        Y0 = initial_states(ns, P, plan.initial, jit=jit)
-        ok = np.all(np.isfinite(Y0), axis=1)
-        res = integrate_events(
-            ns,
-            Y0[ok],
-            plan.t_end,
-            params=P[ok],
-            rtol=plan.rtol,
-            atol=plan.atol,
-            max_step=plan.max_step,
-            want=want,
-            to_end=to_end,
-            threads=threads,
-            jit=jit,
-        )
+        try:
+            P = parameter_rows(ns, names, vals)
+            Y0 = initial_states(ns, P, plan.initial, jit=jit)
+            ok = np.all(np.isfinite(Y0), axis=1)
+            res = integrate_events(
+                ns,
+                Y0[ok],
+                plan.t_end,
+                params=P[ok],
+                rtol=plan.rtol,
+                atol=plan.atol,
+                max_step=plan.max_step,
+                want=want,
+                to_end=to_end,
+                threads=threads,
+                jit=jit,
+            )
+        except Exception:  # e.g. an expression out of its domain (the Python loop raises):
+            left.extend(chunk)  # simulate runs these cases and says what went wrong
+            continue
         b = 0
         for i, fine in zip(chunk, ok):
             if not fine:
