@@ -114,6 +114,7 @@ def _unit_forces(dyn: Dynamics, red: Reduction, j: int) -> dict:
     system = dyn.system
     c = system.constraints[j]
     spec = c.force
+    assert spec is not None  # cartesian_forces asks only for constraints with one
     J = contact_partial_velocities(system, spec).applyfunc(red.apply)
     Q = (dyn.A[j, :].T * c.multiplier).applyfunc(red.apply)
     dim = J.rows
