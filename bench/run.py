@@ -552,9 +552,9 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
               f"method is timed in a loop of about 0.2 s (the best of 3 loops), in {repeats} "
               "interleaved rounds (every method once per round, the order reversed every "
               "other round); cells give the median wall time per call, in brackets the "
-              "median CPU time, then the min–max wall time over the rounds. lamech: `NumericSystem.accelerations(t, y, p)` "
-              "(NumPy: generated M, Q − h, A, γ plus `numpy.linalg.solve` of the KKT "
-              "matrix; numba: the same source compiled, M diagonal so λ from the Schur "
+              "median CPU time, then the min–max wall time over the rounds. lamech: "
+              "`NumericSystem.accelerations(t, y, p)` (NumPy: generated M, Q − h, A, γ "
+              "plus `numpy.linalg.solve` of the KKT matrix; numba: the same source compiled, M diagonal so λ from the Schur "
               "complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
               "generated code gives as vectors: nothing of size N² is filled per call). "
               "Peers: `lambdify(cse=True)` of SymPy's `LagrangesMethod.rhs()` (N ≤ 8; "
@@ -1278,8 +1278,9 @@ def bench_b5(cap: float, lines: list[str], repeats: int = 3):
               "solve) | SymPy / lamech | lamech load | lamech load + solve |",
               "|---|---|---|---|---|---|"]
 
-    import lamech.symbolic  # noqa: F401  (imports outside the time, both sides)
     import sympy.physics.mechanics  # noqa: F401
+
+    import lamech.symbolic  # noqa: F401  (imports outside the time, both sides)
 
     def case(fn, *args):
         def run():
