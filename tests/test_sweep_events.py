@@ -204,3 +204,37 @@ def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
     slow = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="simulate", **kw)
     assert "by simulate" in fast.backend
     assert fast.rows == slow.rows and fast.rows[0]["status"] == "failed"
+
+
+def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
+    # a disk set down sliding (s' = v0, theta' = 0) on a level floor: kinetic friction
+    # mu m g slows the slide and spins the disk up until s' = R theta', at t = v0/(3 mu g)
+    ns = compile_system(lamech.load("incline_disk"))
+    vals = np.array([[0.0, 0.1], [0.0, 0.3], [0.3, 0.1]])
+    P = parameter_rows(ns, ["alpha", "mu"], vals)
+    Y0 = initial_states(ns, P, [("s'", 2.0), ("theta'", 0.0)])
+    Y0[2, 3:] = [0.0, 0.0, 5.0]     # on the slope, spinning forward: slips backward first
+    res = integrate_events(ns, Y0, 2.0, params=P)
+    assert res.status == ["end"] * 3
+    for (alpha, mu), y0, events in zip(vals, Y0, res.events):
+        traj = simulate(ns, 2.0, params={"alpha": alpha, "mu": mu}, q0=y0[:3], qd0=y0[3:],
+                        samples=11)
+        assert [(e.kind, e.constraint) for e in events] == \
+               [(e.kind, e.constraint) for e in traj.events]
+        assert max(abs(a.t - b.t) for a, b in zip(events, traj.events)) < 1e-9
+    assert [e.kind for e in res.events[0]] == ["slip", "stick"]
+    assert abs(res.events[0][1].t - 2.0 / (3 * 0.1 * 9.81)) < 1e-9
+    assert abs(res.events[1][1].t - 2.0 / (3 * 0.3 * 9.81)) < 1e-9
+    # tan(alpha)/3 > mu: where the backward slip stops it cannot stick, it slips on forward
+    assert [e.kind for e in res.events[2]] == ["slip", "slip"]
+    kw = dict(t_end=2.0, samples=11, workers=1, initial={"s'": 2.0, "theta'": 0.0})
+    grid = {"alpha": [0.0, 0.3], "mu": [0.1, 0.3]}
+    fast = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="python", **kw)
+    slow = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="simulate", **kw)
+    assert fast.backend == "the compiled loop with events (Python)"
+    for a, b in zip(fast.rows, slow.rows):
+        assert a["status"] == b["status"] == "ok"
+        assert math.isnan(a["stick:t"]) == math.isnan(b["stick:t"])
+        if not math.isnan(a["stick:t"]):
+            assert abs(a["stick:t"] - b["stick:t"]) < 1e-9
+        assert abs(a["final:s"] - b["final:s"]) < 1e-7

@@ -104,7 +104,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="how the cases run: the compiled loop with events where every measure is an "
         "event or final:<coordinate> (auto: numba when its compiled loop is cached or "
         "from 500 cases, else the same loop as Python; compiled: numba whenever "
-        "installed; python), with simulate for the cases it leaves (impacts, stick, "
+        "installed; python), with simulate for the cases it leaves (impacts, "
         "failures); simulate: every case by simulate on --workers processes "
         "(default %(default)s)",
     )

@@ -26,8 +26,8 @@ numba the same Python functions run uncompiled: the same numbers, slowly.
 :func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
 DOP853 loop carrying the simulator's contact and friction mode (``ev_*`` in the
 ``BATCH`` part), the watched events located by Brent's method on DOP853's dense output,
-lift-off and slip applied in the loop, and a status that hands what it does not mirror
-(impacts and contacts, stick, failures) to :func:`lamech.numeric.simulate`; with
+lift-off, slip and stick applied in the loop, and a status that hands what it does not mirror
+(impacts and contacts, failures) to :func:`lamech.numeric.simulate`; with
 :func:`parameter_rows` and :func:`initial_states`, the case-by-case parameter vectors
 and consistent starts computed for a whole batch at once. Its projection is the
 simulator's (mass-matrix metric), so that its event times are the simulator's to about
@@ -271,9 +271,10 @@ FALLBACKS = {
     11: "singular",
 }
 """The statuses of a run the loop with events leaves to :func:`lamech.numeric.simulate`
-(the loop's ``ST_*`` codes): an impact or contact, a stick, more events than recorded,
+(the loop's ``ST_*`` codes; 3, stick, is no longer used): an impact or contact, more
+events than recorded,
 a step-size collapse, a blow-up, a penetration, a gap that turns within a step, a mode
-that does not settle, a start that is not all engaged and sticking, a singular KKT
+that does not settle, a start off the constraints, a singular KKT
 solve."""
 
 
@@ -463,15 +464,18 @@ def integrate_events(
     accepted step the watched event functions (a unilateral lambda for lift-off, the gap
     of a released one for contact, mu N - |F| for slip, the slip velocity for stick) are
     checked for a sign change, and a crossing is located by Brent's method on DOP853's
-    dense output (the 7th-order interpolant with its 3 extra stages). Lift-off and slip
-    (kinetic friction against the slip velocity) are applied in the loop, each followed
-    by the simulator's settling (a constraint that pulls is released, friction beyond
-    mu N slips), and the projection after each step is the simulator's (mass-matrix
-    metric, the mode's rows and held offsets).
+    dense output (the 7th-order interpolant with its 3 extra stages). Lift-off, slip
+    (kinetic friction against the slip velocity) and stick (friction held where the slip
+    velocity reaches zero if mu N can hold it, else a slip on, reversed or not) are
+    applied in the loop, each followed by the simulator's settling (a constraint that
+    pulls is released, friction beyond mu N slips); the start's mode is the simulator's
+    (a unilateral constraint open or opening starts released, friction with a slip
+    velocity starts slipping), and the projection after each step is the simulator's
+    (mass-matrix metric, the mode's rows and held offsets).
 
     Not mirrored here, and left to ``simulate`` (the run stops with that ``status``,
-    ``fallback`` True): impacts and contacts (restitution, engaging), stick and slip
-    reversal, a start that is not all engaged and sticking (or off the constraints),
+    ``fallback`` True): impacts and contacts (restitution, engaging), a start off the
+    constraints (simulate refuses it, naming the values),
     a released gap that turns within one step, and failures (see :data:`FALLBACKS`).
     The conditioning check and the chattering test of ``simulate`` are not made (a run
     with more than ``max_events`` events falls back).

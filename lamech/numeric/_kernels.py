@@ -434,13 +434,14 @@ def batch_run_serial(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, 
 
 # The compiled loop with events (lamech.numeric.integrate_events): the loop above with a
 # contact and friction mode, the twin of lamech.numeric.simulate for the events it can
-# apply (lift-off, slip; the start's and each event's settling), stopping with a
-# fallback status where simulate's rules are not mirrored here (impact and contact,
-# stick, an inside-step graze, too many events, a failure), so that the caller runs
-# simulate for that case. The mode lives in arrays: ``kinds`` (3, m) int64 rows
-# unilateral, holonomic, normal (-1: not friction); ``imode`` (4, m) int64 rows engaged,
-# friction state (FR_*), contact armed, stick armed; ``fmode`` (3, m) rows sigma (slip
-# sign), sN (sign of a bilateral normal), offset (f held while friction sticks).
+# apply (lift-off, slip, stick with its re-check and slip reversal; the initial mode and
+# each event's settling), stopping with a fallback status where simulate's rules are not
+# mirrored here (impact and contact, an inside-step graze, too many events, a start off
+# the constraints, a failure), so that the caller runs simulate for that case. The mode
+# lives in arrays: ``kinds`` (3, m) int64 rows unilateral, holonomic, normal (-1: not
+# friction); ``imode`` (4, m) int64 rows engaged, friction state (FR_*), contact armed,
+# stick armed; ``fmode`` (3, m) rows sigma (slip sign), sN (sign of a bilateral normal),
+# offset (f held while friction sticks).
 EV_LIFT_OFF = 0
 EV_CONTACT = 1
 EV_SLIP = 2
@@ -452,14 +453,14 @@ FR_OFF = 3
 ST_END = 0  # reached t_end
 ST_FOUND = 1  # stopped once every wanted event was found
 ST_CONTACT = 2  # fallbacks: a released contact closes (impact or contact)
-ST_STICK = 3  # a slip velocity reaches zero (stick or reversal)
+ST_STICK = 3  # unused: stick is mirrored (the code kept for the status names)
 ST_EVENTS = 4  # more events than the record holds
 ST_STEP = 5  # step size collapsed, or too many steps
 ST_GROWTH = 6  # the state blows up or is not finite
 ST_PENETRATION = 7  # a released constraint passed through
 ST_GRAZE = 8  # a released gap turns within a step (simulate's inside_step)
 ST_SETTLE = 9  # the mode does not settle
-ST_START = 10  # the start is not all engaged and sticking, or violates the constraints
+ST_START = 10  # the start violates the constraints (simulate says how)
 ST_SINGULAR = 11  # the KKT solve fails at an accepted state
 
 
@@ -947,22 +948,39 @@ def ev_run_one(
     t = 0.0
     y_out[:] = y
     found = np.zeros(want.shape[1], dtype=np.bool_)
-    # the start (_switch.initial_mode): anything but all engaged and sticking, within
-    # the constraints, is left to simulate
+    # the start (_switch.initial_mode): a unilateral constraint open or opening starts
+    # released, friction with a slip velocity starts slipping; a start off the
+    # constraints is left to simulate (which refuses it with the values)
     f0, A0, b0 = constraints(t, y[:n].copy(), p)
     tol_q = tol * (1.0 + np.max(np.abs(y[:n])))
+    F0 = np.empty(m)
     for j in range(m):
-        F = b0[j]
+        F0[j] = b0[j]
         for c in range(n):
-            F += A0[j, c] * y[n + c]
-        if kinds[1, j] == 1 and abs(f0[j]) > tol_q:
-            return t, ST_START, 0, 0
-        if kinds[0, j] == 1 and f0[j] > tol_q:
-            return t, ST_START, 0, 0
-        if abs(F) > tol_q:
-            return t, ST_START, 0, 0
+            F0[j] += A0[j, c] * y[n + c]
+    for j in range(m):
+        if kinds[0, j] == 1 and (f0[j] > tol_q or (abs(f0[j]) <= tol_q and F0[j] > tol_q)):
+            imode[0, j] = 0
+            imode[2, j] = 1 if f0[j] > arm_pos else 0
+    rows = ev_mode(kinds, imode, fmode)[0]
+    nev = 0
+    for a in range(rows.shape[0]):
+        j = rows[a]
+        if kinds[2, j] >= 0 and abs(F0[j]) > tol_q:
+            imode[1, j] = FR_SLIP
+            fmode[0, j] = np.copysign(1.0, F0[j])
+            imode[3, j] = 0
+            ev_mode(kinds, imode, fmode)
+            nev = ev_log(EV_SLIP, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            if nev < 0:
+                return t, ST_EVENTS, 0, 0
+    rows = ev_mode(kinds, imode, fmode)[0]
+    for a in range(rows.shape[0]):
+        j = rows[a]
+        if (kinds[1, j] == 1 and abs(f0[j]) > tol_q) or abs(F0[j]) > tol_q:
+            return t, ST_START, nev, 0
     nev, st = ev_settle(
-        t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, 0
+        t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, nev
     )
     y_out[:] = y
     if st != 0:
@@ -1131,9 +1149,23 @@ def ev_run_one(
             j = wj[ie]
             if kind == EV_CONTACT:
                 return te, ST_CONTACT, nev, steps
+            logged = kind
             if kind == EV_STICK:
-                return te, ST_STICK, nev, steps
-            if kind == EV_LIFT_OFF:
+                # _switch._stick: it sticks, f held where it is, if mu N can hold it;
+                # else it slips on (a reversal when the direction changes)
+                fj = constraints(te, ye[:n].copy(), p)[0][j]
+                fmode[2, j] = fj if kinds[1, j] == 1 else 0.0
+                imode[1, j] = FR_STICK
+                r2, h2, sj2, sk2, sc2 = ev_mode(kinds, imode, fmode)
+                ev_project(te, ye, p, r2, h2, fmode[2])
+                lam2, mu2 = ev_lam(te, ye, p, m, r2, sj2, sk2, sc2)[1:]
+                k = kinds[2, j]
+                if not abs(lam2[j]) <= mu2[j] * fmode[1, j] * lam2[k] * (1.0 + 1e-9):
+                    fmode[0, j] = -np.copysign(1.0, lam2[j])
+                    imode[1, j] = FR_SLIP
+                    imode[3, j] = 0
+                    logged = EV_SLIP
+            elif kind == EV_LIFT_OFF:
                 imode[0, j] = 0
                 imode[2, j] = 0
             else:
@@ -1141,7 +1173,7 @@ def ev_run_one(
                 fmode[0, j] = -np.copysign(1.0, lam_j)
                 imode[1, j] = FR_SLIP
                 imode[3, j] = 0
-            nev = ev_log(kind, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            nev = ev_log(logged, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
             if nev < 0:
                 return te, ST_EVENTS, 0, steps
             nev, st = ev_settle(

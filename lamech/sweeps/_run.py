@@ -29,7 +29,7 @@ in this process, over the cores) when every measure is an event measure or
 numba-compiled when it is installed and the system's loop is in the cache on disk or the
 sweep has at least :data:`COMPILED_CASES` cases (the first compile of a problem costs
 about a minute), else the same loop as Python. A case whose run meets what that loop
-leaves to the simulator (an impact or contact, a stick, a failure: see
+leaves to the simulator (an impact or contact, a failure: see
 :data:`lamech.numeric.EVENT_FALLBACKS`) and every case of any other sweep runs
 :func:`lamech.numeric.simulate`, as before (``engine="simulate"`` for all cases). Both
 give the same event times (to about 1e-14 on the cylinder; the tests hold them to 1e-9).
