@@ -350,6 +350,8 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name, threade
         "11",
         "--workers",
         "2",
+        "--engine",  # worker processes (the compiled loop with events runs in the sweep's)
+        "simulate",
         "--out",
         str(out),
         cwd=tmp_path,
