@@ -646,3 +646,49 @@ def test_thirty_link_chain_without_special_handling():
     assert tr.status == "ok", tr.message
     assert tr.summary()["max_residual"] < 1e-10
     assert tr.energy_error < 1e-9
+
+
+SHAKEN = """
+title = "Block on a floor, shaken"
+[parameters]
+m = 1.0
+g = 9.81
+F = 20.0
+w = 3.0
+[coordinates]
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*y'^2"
+V = "m*g*y"
+[forces]
+y = "F*sin(w*t)"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+"""
+
+
+def test_a_force_that_rises_and_falls_within_a_step_lifts_the_block_off():
+    """A block resting on the floor stands still, so one step may span the force's whole
+    rise and fall: the lift-off where F sin(w t) first exceeds m g is still found (it
+    was missed, status ok), then the flight, the landing and the next lift-off, each
+    against its closed form."""
+    m, g, F, w = 1.0, G, 20.0, 3.0
+    tr = simulate(lamech.loads(SHAKEN), 3.0, samples=301)
+    assert tr.status == "ok", tr.message
+    kinds = [e.kind for e in tr.events]
+    assert kinds == ["lift-off", "contact", "lift-off"]
+    t0 = math.asin(m * g / F) / w
+    assert abs(tr.events[0].t - t0) <= 1e-9
+
+    def y(t):  # the flight from rest at t0 under F sin(w t) - m g
+        return (-F / (m * w**2) * (math.sin(w * t) - math.sin(w * t0))
+                + F / (m * w) * math.cos(w * t0) * (t - t0) - g / 2 * (t - t0) ** 2)
+
+    from scipy.optimize import brentq
+    landing = brentq(y, t0 + 0.5, 2.5, xtol=1e-15)
+    assert abs(tr.events[1].t - landing) <= 1e-9
+    assert abs(tr.events[2].t - (2 * math.pi + math.asin(m * g / F)) / w) <= 1e-9
+    flight = (tr.t > t0) & (tr.t < landing)
+    assert np.max(np.abs(tr.coordinate("y")[flight] - np.vectorize(y)(tr.t[flight]))) <= 1e-9

@@ -184,6 +184,7 @@ class NumericSystem:
     # cache directory: compiled for this process only); "" without jit
     jit_cache: str = ""
     time_dependent: bool = False
+    explicit_time: bool = False  # L, a constraint or a generalized force has t in it
     conservative: bool = True
     generation_seconds: float = 0.0
 
@@ -599,6 +600,7 @@ def compile_system(system: System, jit: bool = False) -> NumericSystem:
         batch_loops=loops,
         pattern=pattern,
         time_dependent=time_dependent,
+        explicit_time=time_dependent or any(sp.sympify(f).has(t_sym) for f in system.forces),
         conservative=conservative,
         generation_seconds=_time.perf_counter() - t0,
     )

@@ -125,6 +125,42 @@ def inside_step(
     return out
 
 
+FORCE_SAMPLES = 4
+"""Interior points of a step at which :func:`force_dips` looks at the force events."""
+
+
+def force_dips(
+    run: Run, dense, t_a: float, t_b: float, g_a: np.ndarray, g_b: np.ndarray
+) -> dict[int, tuple[float, float]]:
+    """Force events (lift-off: lambda_j; slip: mu N - |lambda_j|) that go through zero
+    and back inside one step, which its ends cannot see: {watch index: (t_a, s)}, s the
+    first of :data:`FORCE_SAMPLES` evenly spaced interior points of the step where the
+    event's function is <= 0 while it is > 0 at both ends.
+
+    The step size follows the state's error only, and a multiplier is not part of the
+    state: a block resting on a floor under F sin(w t) has a state that stands still, so
+    a single step may span the whole rise and fall of the force, and the lift-off where
+    F sin(w t) first exceeds m g would never be seen. Asked for only when the system
+    depends on t explicitly (the only way a multiplier can change while the state stands
+    still); it costs FORCE_SAMPLES KKT solves a step there."""
+    watch = run.mode.watch
+    forces = [
+        i
+        for i, (kind, _) in enumerate(watch)
+        if kind in (EventKind.LIFT_OFF, EventKind.SLIP) and g_a[i] > 0.0 and g_b[i] > 0.0
+    ]
+    out: dict[int, tuple[float, float]] = {}
+    if not forces:
+        return out
+    for k in range(1, FORCE_SAMPLES + 1):
+        s = t_a + (t_b - t_a) * k / (FORCE_SAMPLES + 1)
+        g = event_values(run, s, dense()(s))
+        for i in forces:
+            if i not in out and g[i] <= 0.0:
+                out[i] = (t_a, s)
+    return out
+
+
 def locate(
     run: Run,
     dense,

@@ -51,6 +51,7 @@ from ._codegen import NumericSystem
 from ._detect import (
     event_values,
     flip_switch,
+    force_dips,
     inside_step,
     locate,
     locate_switch,
@@ -225,6 +226,8 @@ def _segment(
         if brackets:
             g_new = event_values(run, t_b, yb, acc)  # arming changed them
         crossed = (g_old > 0) & (g_new <= 0)
+        if run.setup.ns.explicit_time and not crossed.any():
+            brackets.update(force_dips(run, dense, t_a, t_b, g_old, g_new))
         for i, (_, hi) in brackets.items():
             crossed[i] = hi < t_b or g_new[i] <= 0  # a dip, or a crossing after the apex
         hit = np.nonzero(crossed)[0]

@@ -25,7 +25,8 @@ parameter is called ``mu``): the coefficient is turned into a parameter before c
 
 How a case runs: by the compiled loop with events (:func:`lamech.numeric.integrate_events`,
 in this process, over the cores) when every measure is an event measure or
-``final:`` of a coordinate or velocity and the method is DOP853 (``engine="auto"``);
+``final:`` of a coordinate or velocity, the method is DOP853 and nothing in the system
+depends on t explicitly (``engine="auto"``);
 numba-compiled when it is installed and the system's loop is in the cache on disk or the
 sweep has at least :data:`COMPILED_CASES` cases (the first compile of a problem costs
 about a minute), else the same loop as Python. A case whose run meets what that loop
@@ -625,7 +626,9 @@ ENGINES = ("auto", "compiled", "python", "simulate")
 def _compiled_measures(plan: _Plan, ns) -> tuple[list, bool] | None:
     """(the events the measures want [(kind, constraint or None)], whether the runs must
     go on to t_end) when the compiled loop can give every measure, else None."""
-    if plan.method != "DOP853" or len(ns.switch_slots):
+    if plan.method != "DOP853" or len(ns.switch_slots) or ns.explicit_time:
+        # the loop does not look inside its steps for a force that rises and falls
+        # (simulate's force_dips), which only a system with t in it can have
         return None
     coords = ns.coordinate_names
     want, to_end = [], False
