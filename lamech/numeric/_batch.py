@@ -142,6 +142,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
         "kkt_solve": ns.kkt_solve,
         "rhs_kernel": ns.rhs_kernel,
         "PROJECTION_ITERATIONS": PROJECTION_ITERATIONS,
+        "PTR": ns.pattern[0],
         "STAGES": _S,
         "prange": range,
     }

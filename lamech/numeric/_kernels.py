@@ -82,7 +82,7 @@ KERNEL_NAMES = (
 """The functions of the ``KERNELS`` part that numba compiles (and the generated
 ``dynamics_sparse``); ``kkt_solve`` is ``kkt_schur`` when ``DIAGONAL``, else
 ``kkt_dense``."""
-BATCH_NAMES = ("batch_solve", "batch_deriv", "batch_project", "batch_run_one")
+BATCH_NAMES = ("batch_solve", "batch_deriv", "batch_project", "dop853_trial", "batch_run_one")
 """The functions of the ``BATCH`` part that numba compiles (and ``batch_run`` in
 parallel, ``batch_run_serial``)."""
 EVENT_NAMES = (
@@ -347,6 +347,36 @@ def batch_project(t, y, p):
     y[n:] = v
 
 
+def dop853_trial(t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew):
+    """One DOP853 step of size h from (t, y) with y' = f there, on a mode's active rows:
+    the stages into K, the solution into ``ynew``; returns SciPy's error norm (< 1:
+    accept). The one step of both loops, the batch's and the one with events."""
+    N = y.shape[0]
+    K[0] = f
+    for s in range(1, STAGES):
+        dy = np.zeros(N)
+        for k in range(s):
+            if A[s, k] != 0.0:
+                dy += A[s, k] * K[k]
+        K[s] = rhs_kernel(t + C[s] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
+    acc = np.zeros(N)
+    for k in range(STAGES):
+        acc += B[k] * K[k]
+    ynew[:] = y + h * acc
+    K[STAGES] = rhs_kernel(t + h, ynew, p, rows, slip_j, slip_k, slip_c)
+    scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
+    err5 = np.zeros(N)
+    err3 = np.zeros(N)
+    for k in range(STAGES + 1):
+        err5 += E5[k] * K[k]
+        err3 += E3[k] * K[k]
+    e5 = np.sum((err5 / scale) ** 2)
+    e3 = np.sum((err3 / scale) ** 2)
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
+
+
 def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
     N = y0.shape[0]
     y = y0.copy()
@@ -354,20 +384,10 @@ def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
     K = np.zeros((STAGES + 1, N))
     f = np.zeros(N)
     batch_deriv(t, y, p, f)
-    # initial step (Hairer's heuristic, as scipy's select_initial_step)
-    scale = atol + np.abs(y) * rtol
-    d0 = np.sqrt(np.mean((y / scale) ** 2))
-    d1 = np.sqrt(np.mean((f / scale) ** 2))
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    y1 = y + h0 * f
-    f1 = np.zeros(N)
-    batch_deriv(t + h0, y1, p, f1)
-    d2 = np.sqrt(np.mean(((f1 - f) / scale) ** 2)) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    h = min(100 * h0, h1, t_end)
+    rows = np.arange(PTR.shape[0] - 1)  # every constraint active
+    none = np.zeros(0, dtype=np.int64)
+    nothing = np.zeros(0)
+    h = ev_first_step(t, y, f, p, rows, none, none, nothing, t_end, np.inf, rtol, atol)
     steps = 0
     ynew = np.zeros(N)
     while t < t_end:
@@ -376,30 +396,9 @@ def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
         h = min(h, t_end - t)
         if h < 10 * np.abs(np.nextafter(t, np.inf) - t):
             return y * np.nan, -1
-        K[0] = f
-        for s in range(1, STAGES):
-            dy = np.zeros(N)
-            for k in range(s):
-                if A[s, k] != 0.0:
-                    dy += A[s, k] * K[k]
-            batch_deriv(t + C[s] * h, y + h * dy, p, K[s])
-        acc = np.zeros(N)
-        for k in range(STAGES):
-            acc += B[k] * K[k]
-        ynew[:] = y + h * acc
-        batch_deriv(t + h, ynew, p, K[STAGES])
-        scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
-        err5 = np.zeros(N)
-        err3 = np.zeros(N)
-        for k in range(STAGES + 1):
-            err5 += E5[k] * K[k]
-            err3 += E3[k] * K[k]
-        e5 = np.sum((err5 / scale) ** 2)
-        e3 = np.sum((err3 / scale) ** 2)
-        if e5 == 0.0 and e3 == 0.0:
-            err = 0.0
-        else:
-            err = abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
+        err = dop853_trial(
+            t, y, f, h, p, rows, none, none, nothing, rtol, atol, A, B, C, E3, E5, K, ynew
+        )
         if not np.isfinite(err):
             return y * np.nan, -1
         if err < 1.0:
@@ -1018,30 +1017,9 @@ def ev_run_one(
                 t_new = t_end
             h = t_new - t
             h_abs = abs(h)
-            K[0] = f
-            for s in range(1, STAGES):
-                dy = np.zeros(N)
-                for k in range(s):
-                    if A[s, k] != 0.0:
-                        dy += A[s, k] * K[k]
-                K[s] = rhs_kernel(t + C[s] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
-            acc = np.zeros(N)
-            for k in range(STAGES):
-                acc += B[k] * K[k]
-            ynew[:] = y + h * acc
-            K[STAGES] = rhs_kernel(t + h, ynew, p, rows, slip_j, slip_k, slip_c)
-            scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
-            err5 = np.zeros(N)
-            err3 = np.zeros(N)
-            for k in range(STAGES + 1):
-                err5 += E5[k] * K[k]
-                err3 += E3[k] * K[k]
-            e5 = np.sum((err5 / scale) ** 2)
-            e3 = np.sum((err3 / scale) ** 2)
-            if e5 == 0.0 and e3 == 0.0:
-                err = 0.0
-            else:
-                err = abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
+            err = dop853_trial(
+                t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew
+            )
             if err < 1.0:
                 factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
                 if rejected:
