@@ -139,6 +139,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
         "accelerations": ns.accelerations,
         "constraints": ns.constraints,
         "dynamics": ns.dynamics,
+        "energy": ns.energy,
         "kkt_solve": ns.kkt_solve,
         "rhs_kernel": ns.rhs_kernel,
         "PROJECTION_ITERATIONS": PROJECTION_ITERATIONS,
@@ -305,7 +306,7 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     known = _EVENT_CACHE.get((id(ns), use))
     if known is not None and known[0] is ns:
         return known[1]
-    names = ("ev_run", "ev_starts")
+    names = ("ev_run", "ev_starts", "ev_segment")
     if use:
         from ._jitcache import compiled_kernels, module_text
 
@@ -316,6 +317,31 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     out = {k: f[k] for k in names}
     out["numba"] = use
     _EVENT_CACHE[(id(ns), use)] = (ns, out)
+    return out
+
+
+_DETAILS = {1: "multiplier", 2: "ratio", 3: "reversal", 4: "initial"}  # the kernels' DT_*
+
+
+def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
+    """The first ``count`` events a loop with events logged (kinds EK, constraints EJ,
+    times ET, states EY, details EX (code, value)) as :class:`~lamech.numeric.Event`."""
+    from ._events import Event, EventKind
+
+    kind_of = {0: EventKind.LIFT_OFF, 1: EventKind.CONTACT, 2: EventKind.SLIP, 3: EventKind.STICK}
+    coords, names, n = ns.coordinate_names, ns.constraint_names, ns.n
+    out = []
+    for e in range(count):
+        y = EY[e]
+        values = {c: float(y[i]) for i, c in enumerate(coords)}
+        values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
+        details: dict = {}
+        code = int(EX[e, 0])
+        if code in (1, 2):
+            details[_DETAILS[code]] = float(EX[e, 1])
+        elif code in (3, 4):
+            details[_DETAILS[code]] = bool(EX[e, 1]) if code == 3 else True
+        out.append(Event(float(ET[e]), kind_of[int(EK[e])], names[EJ[e]], values, **details))
     return out
 
 
@@ -491,8 +517,7 @@ def integrate_events(
     the loop releases the GIL).
     Systems with inputs that switch (step, min, max, clip, piecewise) are refused.
     """
-    from ._events import Event, EventKind
-    from ._options import BLOW_UP, INITIAL_TOLERANCE, PENETRATION
+    from ._options import BLOW_UP, INITIAL_TOLERANCE
 
     if len(ns.switch_slots):
         raise ValueError("integrate_events: inputs that switch are not handled; use simulate")
@@ -524,6 +549,7 @@ def integrate_events(
     EJ = np.zeros((B, max_events), dtype=np.int64)
     ET = np.zeros((B, max_events))
     EY = np.zeros((B, max_events, N))
+    EX = np.zeros((B, max_events, 2))
     YOUT = np.zeros((B, N))
     TOUT = np.zeros(B)
     STATUS = np.zeros(B, dtype=np.int64)
@@ -534,12 +560,12 @@ def integrate_events(
         float(t_end), float(rtol), float(atol), float(np.inf if max_step is None else max_step),
         int(max_steps), *_tableau(), *_dense_tableau(), kinds,
     )  # fmt: skip
-    rest = (arm, arm, BLOW_UP, PENETRATION, INITIAL_TOLERANCE, wanted, bool(to_end))
-    per_run = (Y0, P, IM, FM, EK, EJ, ET, EY, YOUT, TOUT, STATUS, NEV, STEPS)
+    rest = (arm, arm, BLOW_UP, INITIAL_TOLERANCE, INITIAL_TOLERANCE, wanted, bool(to_end))
+    per_run = (Y0, P, IM, FM, EK, EJ, ET, EY, EX, YOUT, TOUT, STATUS, NEV, STEPS)
 
     def part(a: int, b: int) -> None:
-        Y, Pp, I_, F_, K_, J_, T_, EY_, YO, TO, S_, N_, ST = (x[a:b] for x in per_run)
-        run["ev_run"](Y, Pp, *consts, I_, F_, *rest, K_, J_, T_, EY_, YO, TO, S_, N_, ST)
+        Y, Pp, I_, F_, K_, J_, T_, EY_, EX_, YO, TO, S_, N_, ST = (x[a:b] for x in per_run)
+        run["ev_run"](Y, Pp, *consts, I_, F_, *rest, K_, J_, T_, EY_, EX_, YO, TO, S_, N_, ST)
 
     k = 1 if not run["numba"] else max(1, min(int(threads or _cpus()), B))
     # trial states a step rejects may overflow (the Python loop's NumPy warns; numba not)
@@ -552,16 +578,5 @@ def integrate_events(
             cuts = np.linspace(0, B, min(B, 4 * k) + 1).astype(int)
             with ThreadPoolExecutor(k) as pool:
                 list(pool.map(part, cuts[:-1], cuts[1:]))
-    kind_of = {0: EventKind.LIFT_OFF, 1: EventKind.CONTACT, 2: EventKind.SLIP, 3: EventKind.STICK}
-    coords = ns.coordinate_names
-    n = ns.n
-    events = []
-    for b in range(B):
-        out = []
-        for e in range(NEV[b]):
-            y = EY[b, e]
-            values = {c: float(y[i]) for i, c in enumerate(coords)}
-            values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
-            out.append(Event(float(ET[b, e]), kind_of[int(EK[b, e])], names[EJ[b, e]], values))
-        events.append(out)
+    events = [logged_events(ns, EK[b], EJ[b], ET[b], EY[b], EX[b], int(NEV[b])) for b in range(B)]
     return EventBatchResult(TOUT, YOUT, STATUS, events, STEPS)

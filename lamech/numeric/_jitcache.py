@@ -230,6 +230,7 @@ if hasattr(os, "register_at_fork"):  # not on Windows (no fork there)
 _COMPILED = (
     "dynamics",
     "constraints",
+    "energy",
     "gauss_inplace",
     "cholesky_inplace",
     *KERNEL_NAMES,
@@ -246,6 +247,7 @@ _CALLED = (
     "batch_run_serial",
     "ev_run",
     "ev_starts",
+    "ev_segment",
 )
 
 

@@ -65,6 +65,10 @@ def constraints(t, q, p):  # (f, A, b)
     raise NotImplementedError
 
 
+def energy(t, q, v, p):  # (T, V)
+    raise NotImplementedError
+
+
 PTR = IDX = CPTR = CROW = CPOS = np.zeros(1, dtype=np.int64)
 DIAGONAL = False
 prange = range  # numba.prange in the generated module
@@ -99,6 +103,9 @@ EVENT_NAMES = (
     "ev_settle",
     "ev_first_step",
     "ev_all",
+    "ev_sample",
+    "ev_dense_stages",
+    "ev_segment",
     "ev_run_one",
     "ev_restricted",
     "ev_consistent",
@@ -127,6 +134,12 @@ EVENT_CONSTANTS = (
     "ST_SETTLE",
     "ST_START",
     "ST_SINGULAR",
+    "ST_BUDGET",
+    "DT_NONE",
+    "DT_MULTIPLIER",
+    "DT_RATIO",
+    "DT_REVERSAL",
+    "DT_INITIAL",
 )
 """The module constants of the loop with events (event kinds, friction states, statuses)."""
 
@@ -461,6 +474,12 @@ ST_GRAZE = 8  # a released gap turns within a step (simulate's inside_step)
 ST_SETTLE = 9  # the mode does not settle
 ST_START = 10  # the start violates the constraints (simulate says how)
 ST_SINGULAR = 11  # the KKT solve fails at an accepted state
+ST_BUDGET = 12  # ev_segment: its steps done, or its event record nearly full (go on)
+DT_NONE = 0  # an event's detail (Event's optional fields): none
+DT_MULTIPLIER = 1  # the pulling multiplier of a lift-off in settling
+DT_RATIO = 2  # |F| / (mu N) of a slip in settling
+DT_REVERSAL = 3  # a stick that could not hold: the slip went on (1.0 reversed, 0.0 not)
+DT_INITIAL = 4  # a slip at the start
 
 
 def ev_active(j, kinds, imode):
@@ -797,22 +816,26 @@ def ev_brent(
     return xcur
 
 
-def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev):
-    """Record event (kind, j) at (t, y); mark the wanted events it is; the new count, or -1
-    when the record is full."""
+def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, value, nev):
+    """Record event (kind, j) at (t, y) with its detail (``code``: DT_*, ``value``); mark
+    the wanted events it is; the new count, or -1 when the record is full."""
     if nev >= ev_kind.shape[0]:
         return -1
     ev_kind[nev] = kind
     ev_j[nev] = j
     ev_t[nev] = t
     ev_y[nev, :] = y
+    ev_x[nev, 0] = code
+    ev_x[nev, 1] = value
     for w in range(want.shape[1]):
         if want[0, w] == kind and (want[1, w] < 0 or want[1, w] == j):
             found[w] = True
     return nev + 1
 
 
-def ev_settle(t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, nev):
+def ev_settle(
+    t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
+):
     """Make the mode consistent at (t, y), in place (_switch.settle): release the
     unilateral constraint pulling hardest, else let the friction furthest beyond mu N
     slip, logging each; (count, 0) or (count, ST_EVENTS / ST_SETTLE / ST_SINGULAR)."""
@@ -844,7 +867,10 @@ def ev_settle(t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j,
         if jw >= 0:
             imode[0, jw] = 0
             imode[2, jw] = 0
-            nev = ev_log(EV_LIFT_OFF, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            nev = ev_log(
+                EV_LIFT_OFF, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, DT_MULTIPLIER,
+                worst, nev,
+            )  # fmt: skip
             if nev < 0:
                 return 0, ST_EVENTS
             continue
@@ -859,6 +885,7 @@ def ev_settle(t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j,
                     worst = excess
                     jw = j
         if jw >= 0:
+            ratio = abs(lam[jw]) / max(abs(mu[jw] * lam[kinds[2, jw]]), 1e-300)
             f, A, b = constraints(t, y[:n].copy(), p)
             s = b[jw]
             for c in range(n):
@@ -869,7 +896,10 @@ def ev_settle(t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j,
                 fmode[0, jw] = np.copysign(1.0, s)
             imode[1, jw] = FR_SLIP
             imode[3, jw] = 0
-            nev = ev_log(EV_SLIP, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            nev = ev_log(
+                EV_SLIP, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, DT_RATIO, ratio,
+                nev,
+            )  # fmt: skip
             if nev < 0:
                 return 0, ST_EVENTS
             continue
@@ -936,6 +966,7 @@ def ev_run_one(
     ev_j,
     ev_t,
     ev_y,
+    ev_x,
     y_out,
 ):
     """One run from t = 0, every constraint engaged and sticking: (t reached, status
@@ -970,7 +1001,10 @@ def ev_run_one(
             fmode[0, j] = np.copysign(1.0, F0[j])
             imode[3, j] = 0
             ev_mode(kinds, imode, fmode)
-            nev = ev_log(EV_SLIP, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            nev = ev_log(
+                EV_SLIP, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, DT_INITIAL, 0.0,
+                nev,
+            )  # fmt: skip
             if nev < 0:
                 return t, ST_EVENTS, 0, 0
     rows = ev_mode(kinds, imode, fmode)[0]
@@ -979,7 +1013,7 @@ def ev_run_one(
         if (kinds[1, j] == 1 and abs(f0[j]) > tol_q) or abs(F0[j]) > tol_q:
             return t, ST_START, nev, 0
     nev, st = ev_settle(
-        t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, nev
+        t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
     )
     y_out[:] = y
     if st != 0:
@@ -987,10 +1021,130 @@ def ev_run_one(
     if ev_all(found, to_end):
         return t, ST_FOUND, nev, 0
     blow_up = blow * (1.0 + np.max(np.abs(y)))
+    none = np.zeros(0)
+    io = np.zeros(4, dtype=np.int64)
+    fo = np.zeros(2)
+    t, st, nev, steps = ev_segment(
+        t, y, 0.0, t_end, p, rtol, atol, max_step, max_steps, A, B, C, E3, E5, AX, CX, D,
+        kinds, imode, fmode, arm_pos, arm_vel, blow_up, pen, want, found, to_end,
+        ev_kind, ev_j, ev_t, ev_y, ev_x, nev, none, np.zeros((0, N)), np.zeros((0, m)),
+        np.zeros((0, 4)), io, fo, y_out,
+    )  # fmt: skip
+    if st == ST_BUDGET:
+        st = ST_STEP
+    return t, st, nev, steps
+
+
+def ev_sample(t, y, p, m, rows, hrows, slip_j, slip_k, slip_c, offset, k, SY, SL, SR):
+    """Sample k of a simulation at (t, y) (_record.Recorder.record): the state, lambda of
+    the mode's KKT solve, the residuals max |f_h - offset_h| and max |A_r v + b_r|, T and
+    V."""
+    n = y.shape[0] // 2
+    SY[k, :] = y
+    SL[k, :] = ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c)[1]
+    q = y[:n].copy()
+    v = y[n:].copy()
+    rp = 0.0
+    rv = 0.0
+    if rows.shape[0] > 0:
+        f, Ac, b = constraints(t, q, p)
+        for a in range(hrows.shape[0]):
+            rp = max(rp, abs(f[hrows[a]] - offset[hrows[a]]))
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            s = b[j]
+            for c in range(n):
+                s += Ac[j, c] * v[c]
+            rv = max(rv, abs(s))
+    E = energy(t, q, v, p)
+    SR[k, 0] = rp
+    SR[k, 1] = rv
+    SR[k, 2] = E[0]
+    SR[k, 3] = E[1]
+
+
+def ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F):
+    """The step's dense output into F: the 3 more stages of scipy's _dense_output_impl."""
+    N = y.shape[0]
+    for s in range(STAGES + 1, D.shape[1]):
+        dy = np.zeros(N)
+        for k in range(s):
+            if AX[s - STAGES - 1, k] != 0.0:
+                dy += AX[s - STAGES - 1, k] * K[k]
+        K[s] = rhs_kernel(t + CX[s - STAGES - 1] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
+    F[0] = ynew - y
+    F[1] = h * K[0] - F[0]
+    F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])
+    for r in range(D.shape[0]):
+        acc = np.zeros(N)
+        for k in range(D.shape[1]):
+            acc += D[r, k] * K[k]
+        F[3 + r] = h * acc
+
+
+def ev_segment(
+    t,
+    y,
+    h_abs,
+    t_end,
+    p,
+    rtol,
+    atol,
+    max_step,
+    max_steps,
+    A,
+    B,
+    C,
+    E3,
+    E5,
+    AX,
+    CX,
+    D,
+    kinds,
+    imode,
+    fmode,
+    arm_pos,
+    arm_vel,
+    blow_up,
+    pen,
+    want,
+    found,
+    to_end,
+    ev_kind,
+    ev_j,
+    ev_t,
+    ev_y,
+    ev_x,
+    nev,
+    TS,
+    SY,
+    SL,
+    SR,
+    io,
+    fo,
+    y_out,
+):
+    """The loop with events from (t, y) in the mode (imode, fmode), settled: DOP853 steps
+    (the first of size h_abs, or scipy's initial step where h_abs is 0), the projection,
+    the watched events located and lift-off, slip and stick applied; the output times TS
+    from io[0] on sampled into SY, SL, SR (:func:`ev_sample`). Returns (t, status, events
+    logged, steps) with y_out the state at t: at t_end (ST_END); at a located contact,
+    before it is applied (ST_CONTACT, io[1] its constraint); after ``max_steps`` steps,
+    or with the event record nearly full (ST_BUDGET: go on from there with h_abs =
+    fo[0]); ST_FOUND; and for the other statuses the last accepted state, from which
+    the simulator takes over. fo[1]: the largest projection; io[2]: right-hand sides."""
+    N = y.shape[0]
+    n = N // 2
+    m = kinds.shape[1]
+    y = y.copy()
+    y_out[:] = y
     rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
     wk, wj = ev_watch(kinds, imode)
     f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
-    h_abs = ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol)
+    io[2] += 1
+    if h_abs <= 0.0:
+        h_abs = ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol)
+        io[2] += 1
     g_old = ev_values(
         t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
     )
@@ -998,9 +1152,11 @@ def ev_run_one(
     F = np.zeros((7, N))
     ynew = np.zeros(N)
     steps = 0
+    room = 4 * m + 8  # the events one step may log (an event and its settling)
     while t < t_end:
-        if steps >= max_steps:
-            return t, ST_STEP, nev, steps
+        fo[0] = h_abs
+        if steps >= max_steps or nev + room > ev_kind.shape[0]:
+            return t, ST_BUDGET, nev, steps
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         if h_abs > max_step:
             h_abs = max_step
@@ -1020,6 +1176,7 @@ def ev_run_one(
             err = dop853_trial(
                 t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew
             )
+            io[2] += STAGES
             if err < 1.0:
                 factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
                 if rejected:
@@ -1038,21 +1195,9 @@ def ev_run_one(
         yb = ynew.copy()
         ev_project(t_new, yb, p, rows, hrows, fmode[2])
         g_new = ev_values(
-            t_new,
-            yb,
-            p,
-            wk,
-            wj,
-            kinds,
-            imode,
-            fmode,
-            rows,
-            slip_j,
-            slip_k,
-            slip_c,
-            arm_pos,
+            t_new, yb, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos,
             arm_vel,
-        )
+        )  # fmt: skip
         released = False
         for i in range(wk.shape[0]):
             if wk[i] == EV_CONTACT:
@@ -1074,75 +1219,59 @@ def ev_run_one(
         for i in range(wk.shape[0]):
             if g_old[i] > 0.0 and g_new[i] <= 0.0:
                 hit = True
+        k = io[0]
+        dense = hit or (k < TS.shape[0] and TS[k] < t_new)
+        if dense:
+            ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F)
+            io[2] += 3
         if hit:
-            # the step's dense output: 3 more stages (scipy's _dense_output_impl)
-            for s in range(STAGES + 1, D.shape[1]):
-                dy = np.zeros(N)
-                for k in range(s):
-                    if AX[s - STAGES - 1, k] != 0.0:
-                        dy += AX[s - STAGES - 1, k] * K[k]
-                K[s] = rhs_kernel(
-                    t + CX[s - STAGES - 1] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c
-                )
-            F[0] = ynew - y
-            F[1] = h * K[0] - F[0]
-            F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])
-            for r in range(D.shape[0]):
-                acc = np.zeros(N)
-                for k in range(D.shape[1]):
-                    acc += D[r, k] * K[k]
-                F[3 + r] = h * acc
             te = t_new
             ie = -1
             for i in range(wk.shape[0]):
                 if g_old[i] > 0.0 and g_new[i] <= 0.0:
                     r = ev_brent(
-                        i,
-                        t,
-                        t_new,
-                        t,
-                        h,
-                        y,
-                        F,
-                        p,
-                        wk,
-                        wj,
-                        kinds,
-                        imode,
-                        fmode,
-                        rows,
-                        slip_j,
-                        slip_k,
-                        slip_c,
-                        arm_pos,
-                        arm_vel,
-                    )
+                        i, t, t_new, t, h, y, F, p, wk, wj, kinds, imode, fmode, rows, slip_j,
+                        slip_k, slip_c, arm_pos, arm_vel,
+                    )  # fmt: skip
                     if r < te or ie < 0:
                         te = r
                         ie = i
+            # the samples up to the event, on the dense output (Recorder.up_to)
+            while k < TS.shape[0] and TS[k] <= te:
+                ys = ev_dense(TS[k], t, h, y, F)
+                ev_sample(TS[k], ys, p, m, rows, hrows, slip_j, slip_k, slip_c, fmode[2], k,
+                          SY, SL, SR)  # fmt: skip
+                k += 1
+            io[0] = k
             ye = ev_dense(te, t, h, y, F)
             ev_project(te, ye, p, rows, hrows, fmode[2])
             y_out[:] = ye
             kind = wk[ie]
             j = wj[ie]
             if kind == EV_CONTACT:
+                io[1] = j
                 return te, ST_CONTACT, nev, steps
             logged = kind
+            code = DT_NONE
+            value = 0.0
             if kind == EV_STICK:
                 # _switch._stick: it sticks, f held where it is, if mu N can hold it;
                 # else it slips on (a reversal when the direction changes)
+                sigma = fmode[0, j]
                 fj = constraints(te, ye[:n].copy(), p)[0][j]
                 fmode[2, j] = fj if kinds[1, j] == 1 else 0.0
                 imode[1, j] = FR_STICK
                 r2, h2, sj2, sk2, sc2 = ev_mode(kinds, imode, fmode)
                 ev_project(te, ye, p, r2, h2, fmode[2])
                 lam2, mu2 = ev_lam(te, ye, p, m, r2, sj2, sk2, sc2)[1:]
-                k = kinds[2, j]
-                if not abs(lam2[j]) <= mu2[j] * fmode[1, j] * lam2[k] * (1.0 + 1e-9):
+                kn = kinds[2, j]
+                if not abs(lam2[j]) <= mu2[j] * fmode[1, j] * lam2[kn] * (1.0 + 1e-9):
                     fmode[0, j] = -np.copysign(1.0, lam2[j])
                     imode[1, j] = FR_SLIP
                     imode[3, j] = 0
                     logged = EV_SLIP
+                    code = DT_REVERSAL
+                    value = 1.0 if fmode[0, j] != sigma else 0.0
             elif kind == EV_LIFT_OFF:
                 imode[0, j] = 0
                 imode[2, j] = 0
@@ -1151,12 +1280,15 @@ def ev_run_one(
                 fmode[0, j] = -np.copysign(1.0, lam_j)
                 imode[1, j] = FR_SLIP
                 imode[3, j] = 0
-            nev = ev_log(logged, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, nev)
+            nev = ev_log(
+                logged, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, value, nev
+            )
             if nev < 0:
                 return te, ST_EVENTS, 0, steps
             nev, st = ev_settle(
-                te, ye, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, nev
-            )
+                te, ye, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y,
+                ev_x, nev,
+            )  # fmt: skip
             y_out[:] = ye
             if st != 0:
                 return te, st, nev, steps
@@ -1170,6 +1302,7 @@ def ev_run_one(
             h_abs = ev_first_step(
                 t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol
             )
+            io[2] += 2
             g_old = ev_values(
                 t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
             )
@@ -1179,7 +1312,18 @@ def ev_run_one(
             depth = max(pen * (1.0 + np.max(np.abs(yb[:n]))), 10.0 * arm_pos)
             for i in range(wk.shape[0]):
                 if wk[i] == EV_CONTACT and fb[wj[i]] < -depth:
-                    return t_new, ST_PENETRATION, nev, steps
+                    return t, ST_PENETRATION, nev, steps
+        # the samples up to the step's end: on the dense output, at t_new the projected
+        # state (Recorder.up_to)
+        while k < TS.shape[0] and TS[k] <= t_new:
+            ys = yb if TS[k] == t_new else ev_dense(TS[k], t, h, y, F)
+            ev_sample(TS[k], ys, p, m, rows, hrows, slip_j, slip_k, slip_c, fmode[2], k,
+                      SY, SL, SR)  # fmt: skip
+            k += 1
+        io[0] = k
+        moved = np.max(np.abs(yb - ynew))
+        if moved > fo[1]:
+            fo[1] = moved
         armed = False
         for i in range(wk.shape[0]):
             j = wj[i]
@@ -1200,28 +1344,19 @@ def ev_run_one(
                         armed = True
         if armed:
             g_old = ev_values(
-                t_new,
-                yb,
-                p,
-                wk,
-                wj,
-                kinds,
-                imode,
-                fmode,
-                rows,
-                slip_j,
-                slip_k,
-                slip_c,
-                arm_pos,
-                arm_vel,
-            )
+                t_new, yb, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c,
+                arm_pos, arm_vel,
+            )  # fmt: skip
         else:
             g_old = g_new
         t = t_new
         y = yb
+        y_out[:] = y
         f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+        io[2] += 1
         if not np.all(np.isfinite(f)):
             return t, ST_SINGULAR, nev, steps
+    fo[0] = h_abs
     y_out[:] = y
     return t, ST_END, nev, steps
 
@@ -1256,6 +1391,7 @@ def ev_run(
     EJ,
     ET,
     EY,
+    EX,
     YOUT,
     TOUT,
     STATUS,
@@ -1295,6 +1431,7 @@ def ev_run(
             EJ[b],
             ET[b],
             EY[b],
+            EX[b],
             YOUT[b],
         )
         TOUT[b] = t

@@ -14,7 +14,6 @@ __all__ = [
     "DEFAULT_ATOL",
     "INITIAL_TOLERANCE",
     "BLOW_UP",
-    "PENETRATION",
     "METHODS",
     "IMPLICIT",
     "MAX_STEPS",
@@ -31,9 +30,6 @@ INITIAL_TOLERANCE = 1e-10
 """An initial state meets a constraint when |f| and |F| <= this (1 + max |q|)."""
 BLOW_UP = 1e12
 """A run stops as failed when max(|q|, |q'|) exceeds BLOW_UP (1 + its size at the start)."""
-PENETRATION = 1e-6
-"""A run stops as failed when a released unilateral constraint's f is below
--PENETRATION (1 + max |q|) at a step end: a body through a surface, not to be hidden."""
 METHODS = ("DOP853", "RK45", "Radau", "BDF")
 """SciPy's integrators by name (SciPy is imported when a simulation runs, not before)."""
 IMPLICIT = ("Radau", "BDF")

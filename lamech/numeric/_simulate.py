@@ -61,6 +61,7 @@ from ._detect import (
 )
 from ._events import EventKind, Status
 from ._initial import initial_state
+from ._loop import CONTACT, HANDBACK, Loop, loop_for
 from ._options import (
     BLOW_UP,
     DEFAULT_ATOL,
@@ -102,6 +103,7 @@ def simulate(
     progress: Callable[[float], None] | None = None,
     pace: Callable[[Pace], None] | None = None,
     jit: bool = False,
+    engine: str = "auto",
 ) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
 
@@ -140,6 +142,15 @@ def simulate(
     and then integrate 2-3.5 times faster (pendulum, 5- and 20-link chains). Ignored
     when ``system`` is already a :class:`NumericSystem`.
 
+    ``engine``: ``"auto"`` (default) runs DOP853 in the compiled loop with events (the
+    loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside
+    it: :mod:`._loop`) when the system is compiled with numba, else SciPy's integrator
+    driven from Python (``"scipy"``); ``"loop"`` asks for the loop, as Python where numba
+    is not used (the same numbers, slowly). The loop hands the impacts (restitution, the
+    accumulation of bounces) and its failures to the simulator's own steps; it does not
+    run other methods, inputs that switch, or problems with t in them (ValueError for
+    ``"loop"``; ``"auto"`` uses SciPy there).
+
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force
     before are restored after the run.
@@ -149,6 +160,7 @@ def simulate(
     y0 = initial_state(ns, p, initial, q0, qd0)
     times = sample_times(t0, t_end, samples, dt)
     run = Run(Setup.of(ns, p, Options(rtol, atol, max_step or math.inf, method)))
+    loop = loop_for(run, engine, times)
     notes: list[str] = []
     # One BLAS thread for the run, entered once (issue 16: with other work on the 2 cores,
     # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the
@@ -156,11 +168,17 @@ def simulate(
     with one_blas_thread():
         y = initial_mode(run, t0, y0, project_initial, notes)
         watch = Watch(t0, t_end, method, progress, pace)
-        return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes)
+        return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
 
 
 def _integrate(
-    run: Run, rec: Recorder, at: Progress, t_end: float, watch: Watch, notes: list[str]
+    run: Run,
+    rec: Recorder,
+    at: Progress,
+    t_end: float,
+    watch: Watch,
+    notes: list[str],
+    loop: Loop | None = None,
 ) -> Trajectory:
     """Settle the initial mode, then integrate segment by segment (a new integrator after
     each event) until t_end or the last sample; a failure or Ctrl-C ends the run early
@@ -179,7 +197,10 @@ def _integrate(
         blow_up = BLOW_UP * (1.0 + float(np.max(np.abs(at.y), initial=0.0)))
         zeno = _Zeno(at.t, t_end)
         while at.t < t_end and rec.pending:
-            _segment(run, rec, at, t_end, blow_up, zeno, watch)
+            if loop is None or run.mode.accumulating:
+                _segment(run, rec, at, t_end, blow_up, zeno, watch)
+            else:
+                _loop_call(loop, run, rec, at, t_end, blow_up, zeno, watch)
     except _Penetrated as stop:
         status, message = Status.PENETRATED, stop.cause
     except Stop as stop:
@@ -253,6 +274,32 @@ def _segment(
         watch.step(run, t_b, yb, t_b - t_a, at.steps)
     at.t = bound  # finished
     _accumulated(run, at)
+
+
+def _loop_call(
+    loop: Loop,
+    run: Run,
+    rec: Recorder,
+    at: Progress,
+    t_end: float,
+    blow_up: float,
+    zeno: _Zeno,
+    watch: Watch,
+) -> None:
+    """One call of the loop (:mod:`._loop`); a contact it located is applied here, and
+    what it cannot do the simulator does for one segment."""
+    what, detail = loop.advance(rec, at, t_end, blow_up, zeno)
+    if what == CONTACT:
+        j = int(detail)
+        _check_penetration(run, at.t, at.y, met=j)
+        logged = len(run.events)
+        at.y = apply(run, at.t, at.y, EventKind.CONTACT, j)
+        zeno.check(at.t, [(str(e.kind), e.constraint) for e in run.events[logged:]])
+    elif what == HANDBACK:
+        at.y = settle(run, at.t, at.y)  # a mode the loop could not settle: the cause
+        _segment(run, rec, at, t_end, blow_up, zeno, watch)
+    elif detail > 0:
+        watch.step(run, at.t, at.y, detail, at.steps)
 
 
 def _accumulated(run: Run, at: Progress) -> None:

@@ -1,0 +1,164 @@
+"""``simulate`` on the loop with events (:func:`._kernels.ev_segment`): the same DOP853
+loop, projection, event location and mode changes as the sweeps' loop
+(:func:`lamech.numeric.integrate_events`), here with the output times sampled inside it
+(state, lambda from the mode's KKT solve, residuals and energy).
+
+The loop runs in chunks of :data:`CHUNK` steps, so that ``progress``, ``pace`` and Ctrl-C
+are served between them; a chunk resumes exactly where the last stopped (its step size
+carried over). What the loop does not mirror it hands back: at a located contact the
+simulator applies the impact (Newton's law, the Zeno accumulation) and the loop goes on
+after it; while bounces accumulate, and after a step the loop cannot take (a step-size
+collapse, a blow-up, a penetration, a gap that turns within a step, a mode that does not
+settle, a singular KKT matrix), the simulator integrates one segment itself, up to its
+next event, with its own diagnosis of a failure. The conditioning check of the
+simulator's steps (a nearly singular KKT matrix stops the run) is not made in the loop;
+an exactly singular one is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _kernels as K
+from ._batch import _dense_tableau, _event_functions, _kinds, _tableau, logged_events
+from ._codegen import numba_available
+from ._events import EventKind, FrictionState
+from ._options import INITIAL_TOLERANCE
+from ._record import Progress, Recorder, Sample
+from ._run import Run
+
+__all__ = ["Loop", "loop_for", "ENGINES", "CHUNK"]
+
+ENGINES = ("auto", "loop", "scipy")
+"""``simulate``'s engines: ``"loop"`` the loop with events (numba's where the system was
+compiled with jit, else the same code as Python), ``"scipy"`` SciPy's integrators driven
+from Python, ``"auto"`` the loop where it is compiled and can run the problem, else
+SciPy."""
+CHUNK = 2000
+"""Steps per call of the loop (a few ms compiled): progress and Ctrl-C between them."""
+
+_FRICTION = {None: K.FR_NONE, FrictionState.STICK: K.FR_STICK, FrictionState.SLIP: K.FR_SLIP}
+_FRICTION[FrictionState.OFF] = K.FR_OFF
+_STATE = {v: k for k, v in _FRICTION.items()}
+CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
+
+
+def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
+    """The loop for this run, or None where SciPy's integrators run it: ``engine``
+    "scipy"; "auto" unless the system is compiled with numba; a method other than DOP853,
+    inputs that switch (step, min, max), or t in the problem (the simulator samples the
+    force events inside each step there, the loop does not): ValueError for "loop"."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if engine == "scipy":
+        return None
+    ns = run.setup.ns
+    why = None
+    if run.setup.options.method != "DOP853":
+        why = f"method {run.setup.options.method} (the loop is DOP853)"
+    elif len(ns.switch_slots):
+        why = "inputs that switch (step, min, max, clip, piecewise)"
+    elif ns.explicit_time:
+        why = "t in L, a constraint or a force"
+    if why is not None:
+        if engine == "loop":
+            raise ValueError(f"engine 'loop' cannot run this problem: {why}; use 'scipy'")
+        return None
+    compiled = ns.jit and numba_available()
+    if engine == "auto" and not compiled:
+        return None
+    return Loop(run, _event_functions(ns, compiled)["ev_segment"], times)
+
+
+class Loop:
+    """The loop's constants and buffers for one run (:func:`loop_for`)."""
+
+    def __init__(self, run: Run, segment, times: np.ndarray):
+        setup = run.setup
+        n, m = setup.n, setup.m
+        self.run, self.segment = run, segment
+        self.tables = (*_tableau(), *_dense_tableau())
+        self.kinds = _kinds(setup.ns.system)
+        self.times = np.ascontiguousarray(times, dtype=float)
+        S = len(self.times)
+        self.SY, self.SL, self.SR = np.zeros((S, 2 * n)), np.zeros((S, m)), np.zeros((S, 4))
+        cap = 64 + 4 * m + 8
+        self.EK = np.zeros(cap, dtype=np.int64)
+        self.EJ = np.zeros(cap, dtype=np.int64)
+        self.ET, self.EY, self.EX = np.zeros(cap), np.zeros((cap, 2 * n)), np.zeros((cap, 2))
+        self.want, self.found = np.zeros((2, 0), dtype=np.int64), np.zeros(0, dtype=np.bool_)
+        self.h = 0.0  # the step size to go on with (0: the initial step's rule)
+
+    def advance(self, rec: Recorder, at: Progress, t_end: float, blow_up: float, zeno) -> tuple:
+        """One call of the loop from ``at``: the samples, events and mode it reached, ``at``
+        moved there. (what next: CONTINUE, CONTACT (the located contact's constraint in
+        the second entry: apply it), HANDBACK (the simulator takes one segment) or DONE;
+        the last step size)."""
+        run = self.run
+        setup = run.setup
+        opts, n = setup.options, setup.n
+        imode, fmode = mode_arrays(run.mode)
+        io = np.array([rec.next, -1, 0, 0], dtype=np.int64)
+        fo = np.array([self.h, at.max_projection])
+        y_out = np.zeros(2 * n)
+        t, status, nev, steps = self.segment(
+            float(at.t), np.ascontiguousarray(at.y, dtype=float), float(self.h), float(t_end),
+            setup.p, float(opts.rtol), float(opts.atol), float(opts.max_step), CHUNK,
+            *self.tables, self.kinds, imode, fmode, setup.arm_pos, setup.arm_vel,
+            float(blow_up), INITIAL_TOLERANCE, self.want, self.found, True,
+            self.EK, self.EJ, self.ET, self.EY, self.EX, 0,
+            self.times, self.SY, self.SL, self.SR, io, fo, y_out,
+        )  # fmt: skip
+        for k in range(rec.next, int(io[0])):
+            y, r = self.SY[k], self.SR[k]
+            sample = Sample(float(self.times[k]), y[:n].copy(), y[n:].copy(), self.SL[k].copy(),
+                            float(r[0]), float(r[1]), float(r[2]), float(r[3]))  # fmt: skip
+            rec.samples.append(sample)
+        run.evaluations += int(io[2]) + int(io[0]) - rec.next  # a KKT solve a sample
+        rec.next = int(io[0])
+        at.steps += int(steps)
+        at.max_projection = float(fo[1])
+        at.t, at.y = float(t), y_out.copy()
+        events = logged_events(setup.ns, self.EK, self.EJ, self.ET, self.EY, self.EX, int(nev))
+        run.events.extend(events)
+        if any(e.kind == EventKind.SLIP for e in events):
+            run.dissipative = True
+        set_mode(run.mode, imode, fmode)
+        for te in sorted({e.t for e in events}):
+            zeno.check(te, [(str(e.kind), e.constraint) for e in events if e.t == te])
+        self.h = float(fo[0]) if status == K.ST_BUDGET else 0.0
+        if status == K.ST_END:
+            return DONE, float(fo[0])
+        if status == K.ST_BUDGET:
+            return CONTINUE, float(fo[0])
+        if status == K.ST_CONTACT:
+            return CONTACT, int(io[1])
+        return HANDBACK, status
+
+
+def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
+    """The loop's (imode (4, m), fmode (3, m)) of a :class:`._mode.Mode` (see
+    :mod:`._kernels`' loop with events)."""
+    m = mode.kinds.m
+    imode = np.zeros((4, m), dtype=np.int64)
+    imode[0] = mode.engaged
+    imode[1] = [_FRICTION[s] for s in mode.friction]
+    imode[2] = [mode.is_armed(EventKind.CONTACT, j) for j in range(m)]
+    imode[3] = [mode.is_armed(EventKind.STICK, j) for j in range(m)]
+    fmode = np.array([mode.sigma, mode.sN, mode.offset], dtype=float).reshape(3, m)
+    return imode, fmode
+
+
+def set_mode(mode, imode: np.ndarray, fmode: np.ndarray) -> None:
+    """The :class:`._mode.Mode` of the loop's arrays (``accumulating`` kept)."""
+    m = mode.kinds.m
+    mode.engaged = imode[0] == 1
+    mode.friction = [_STATE[int(c)] for c in imode[1]]
+    mode.sigma, mode.sN, mode.offset = (fmode[i].copy() for i in range(3))
+    mode.armed = {}
+    for j in range(m):
+        if not imode[2, j]:
+            mode.armed[(EventKind.CONTACT, j)] = False
+        if not imode[3, j]:
+            mode.armed[(EventKind.STICK, j)] = False
+    mode.rebuild()
