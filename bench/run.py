@@ -30,6 +30,10 @@ B5  symbolic: derivation to the multipliers (equations -> every lambda in closed
     empty SymPy cache; beside them lamech's whole report (load + solve); for the
     four-bar linkage, the rolling disc and the double pendulum (polar and Cartesian);
     runs alone with ``--only B5`` (or ``--only symbolic``).
+B7  ensembles with events (bench/events.py): 1000 balls dropped on a floor (first
+    contact) and 1000 cylinders rolling off the lecture's fixed cylinder (lift-off),
+    lamech's ``integrate_events`` against ``mujoco.rollout``, runs/s at equal accuracy of
+    the event times (true times in closed form and by quadrature).
 
 Results go to stdout (with lamech/peer ratios) and to bench/RESULTS.md (date, CPU,
 versions); B3 also draws bench/work_precision.png.
@@ -1382,7 +1386,7 @@ def bench_startup(repeats: int, lines: list[str]) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~4 minutes)")
-    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "symbolic"],
+    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "B7", "symbolic"],
                     action="append",
                     help="run only these benchmarks (repeatable; symbolic is B5)")
     ap.add_argument("--out", default=None,
@@ -1398,7 +1402,7 @@ def main(argv=None) -> int:
     global PICTURE
     PICTURE = folder / "work_precision.png"
     want = {"B5" if w == "symbolic" else w
-            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5"])}
+            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B7"])}
     lines = ["# lamech benchmark results", "",
              f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
              "shared machine are noisy (±20% and more while other work runs): the runs of "
@@ -1421,6 +1425,9 @@ def main(argv=None) -> int:
                  100 if args.quick else 500, 10.0, lines)
     if "B5" in want:
         bench_b5(60.0 if args.quick else 300.0, lines)
+    if "B7" in want:
+        from .events import bench_b7
+        bench_b7(100 if args.quick else 1000, args.quick, lines, 1 if args.quick else 3)
     Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"\nwrote {args.out}")
     return 0

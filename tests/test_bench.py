@@ -141,3 +141,31 @@ def test_casadi_peer_is_the_same_chain():
     _, _, pos, T = peer.run(y0, 0.5, 1e-12, 1e-14)
     assert np.max(np.abs(pos - ref_pos)) < 1e-8
     assert np.max(np.abs(T - ref_T)) < 1e-7 * np.max(np.abs(ref_T))
+
+
+def test_b7_peers_are_the_ball_and_the_lecture_wheel():
+    """B7: MuJoCo's sphere touches the plane where qpos (the distance B7 reads) is 0;
+    its hinge wheel has the rolling wheel's theta'' = 2 g sin(theta) / (3 (R1 + R2)) and
+    its force sensor reads the normal force N = m g cos(theta) - m (R1 + R2) theta'^2;
+    the true lift-off time by quad is mpmath's; the crossing is exact on a cubic."""
+    mujoco = pytest.importorskip("mujoco", reason="mujoco not installed (extra `bench`)")
+    from bench import events as ev
+    model, data = ev.mujoco_ball("RK4", 1e-3)
+    data.qpos[0] = 0.01
+    mujoco.mj_forward(model, data)
+    assert data.ncon == 0
+    data.qpos[0] = -0.01
+    mujoco.mj_forward(model, data)
+    assert data.ncon == 1 and np.isclose(data.contact[0].dist, -0.01, atol=1e-12)
+    model, data = ev.mujoco_cylinder("RK4", 1e-3)
+    R = ev.R1 + ev.R2
+    data.qpos[0], data.qvel[0] = 0.4, 1.3
+    mujoco.mj_forward(model, data)
+    assert np.isclose(data.qacc[0], 2 * ev.G * np.sin(0.4) / (3 * R), rtol=1e-12)
+    assert np.isclose(data.sensordata[2], ev.G * np.cos(0.4) - R * 1.3**2, rtol=1e-12)
+    assert abs(ev.liftoff_time(0.05) - ev.liftoff_time_mpmath(0.05)) < 1e-13
+    # samples of (0.37 - t)(1 + t^2) dt = 0.1 apart: the cubic finds 0.37 to rounding
+    t = np.arange(8) * 0.1
+    V = ((0.37 - t) * (1 + t**2))[None, :]
+    lin, cub = ev.crossing(V, np.array([4]), np.zeros(1), 0.1)
+    assert abs(cub[0] - 0.37) < 1e-14 and 0.3 < lin[0] < 0.4 and abs(lin[0] - 0.37) > 1e-4
