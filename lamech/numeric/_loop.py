@@ -67,7 +67,9 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     compiled = ns.jit and numba_available()
     if engine == "auto" and not compiled:
         return None
-    return Loop(run, _event_functions(ns, compiled)["ev_segment"], times)
+    loop = Loop(run, _event_functions(ns, compiled)["ev_segment"], times)
+    loop.name = "loop (numba)" if compiled else "loop (Python)"
+    return loop
 
 
 class Loop:
@@ -88,6 +90,7 @@ class Loop:
         self.ET, self.EY, self.EX = np.zeros(cap), np.zeros((cap, 2 * n)), np.zeros((cap, 2))
         self.want, self.found = np.zeros((2, 0), dtype=np.int64), np.zeros(0, dtype=np.bool_)
         self.h = 0.0  # the step size to go on with (0: the initial step's rule)
+        self.name = "loop"
 
     def advance(self, rec: Recorder, at: Progress, t_end: float, blow_up: float, zeno) -> tuple:
         """One call of the loop from ``at``: the samples, events and mode it reached, ``at``

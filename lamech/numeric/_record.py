@@ -85,6 +85,7 @@ def assemble(
     message: str,
     t_end: float,
     at: Progress,
+    engine: str = "",
 ) -> Trajectory:
     """The :class:`Trajectory` of the samples so far; its final time and state are the
     last ones reached (``at``), which may lie after the last sample when the run stopped
@@ -121,6 +122,7 @@ def assemble(
         notes=notes,
         title=ns.system.title,
         kinetic=np.array([s.T for s in out]),
+        engine=engine,
     )
 
 

@@ -212,7 +212,8 @@ def _integrate(
         )
     finally:
         np.seterr(**saved)
-    return assemble(run, rec, notes, status, message, t_end, at)
+    engine = loop.name if loop is not None else f"SciPy {run.setup.options.method}"
+    return assemble(run, rec, notes, status, message, t_end, at, engine)
 
 
 def _segment(

@@ -32,7 +32,9 @@ class Trajectory:
     of the active constraints; ``residual`` their max. ``events`` is the log, a list of
     :class:`Event` (``t``, ``kind``, ``constraint``, ``coordinates`` and the details of
     its kind); ``status`` is a :class:`Status` (equal to "ok", "failed" or "interrupted")
-    with ``message`` saying when, why and what to try.
+    with ``message`` saying when, why and what to try. ``engine``: what integrated it
+    (``"loop (numba)"``, ``"loop (Python)"``: the loop with events; ``"SciPy DOP853"``
+    and the other methods).
     """
 
     coordinates: list[str]
@@ -59,6 +61,7 @@ class Trajectory:
     notes: list = field(default_factory=list)
     title: str = ""
     kinetic: np.ndarray | None = None
+    engine: str = ""
 
     # ----- views ------------------------------------------------------------------
     @property
@@ -146,6 +149,7 @@ class Trajectory:
             "energy_error": self.energy_error,
             "steps": self.steps,
             "evaluations": self.evaluations,
+            "engine": self.engine,
             "samples": int(len(self.t)),
             "status": str(self.status),
             "message": self.message,

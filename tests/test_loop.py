@@ -1,0 +1,152 @@
+"""``simulate`` on the loop with events (engine "loop": the compiled DOP853 loop, run here
+as Python without numba, the same code and numbers) against ``simulate`` on SciPy's
+DOP853 (engine "scipy"), in every contact mode: the same events at the same times, the
+same samples, multipliers, forces and energy; and each against its closed form where
+one exists."""
+
+from __future__ import annotations
+
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import lamech
+from lamech.numeric import compile_system, numba_available, simulate
+
+G = 9.81
+
+BALL = """
+title = "Ball bouncing on a floor"
+[parameters]
+m = 1.0
+g = 9.81
+e = 0.5
+[coordinates]
+y = { initial = 1, velocity = 0 }
+[lagrangian]
+T = "m/2*y'^2"
+V = "m*g*y"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+restitution = "e"
+"""
+
+
+def _example(name: str, old: str = "", new: str = "") -> str:
+    text = (resources.files("lamech") / "examples" / f"{name}.toml").read_text()
+    assert old in text
+    return text.replace(old, new)
+
+
+# (problem text, t_end, simulate's options): every mode the loop mirrors or hands back
+CASES = {
+    # slip then lift-off (the lecture's question), from just off the top
+    "cylinder": (_example("cylinder"), 6.0, {"initial": {"theta1": 0.01}}),
+    # lift-off from the wall, then the top lands on the floor (a contact the simulator
+    # applies, e = 0)
+    "ladder": (_example("ladder"), 3.0, {}),
+    # impacts with restitution and the Zeno accumulation: handed to the simulator
+    "ball": (BALL, 3.0, {}),
+    # a sliding disk on a level floor: slip at the start, then stick
+    "stick": (_example("incline_disk", "alpha = 0.5", "alpha = 0.0"), 1.0,
+              {"qd0": {"s": 2.0, "theta": 0.0}}),
+    # spinning forward on a slope: slips backward, then cannot stick (a reversal)
+    "reversal": (_example("incline_disk", "alpha = 0.5", "alpha = 0.3"), 2.0,
+                 {"params": {"mu": 0.1}, "qd0": {"s": 0.0, "theta": 5.0}}),
+    "pendulum": (_example("pendulum"), 5.0, {}),
+    "four_bar": (_example("four_bar"), 2.0, {}),
+    "knife_edge": (_example("knife_edge"), 2.0, {}),
+    "wedge": (_example("wedge"), 2.0, {}),
+}
+
+
+def _pair(name):
+    text, t_end, kw = CASES[name]
+    ns = compile_system(lamech.loads(text))
+    return (simulate(ns, t_end, engine="scipy", **kw), simulate(ns, t_end, engine="loop", **kw))
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_the_loop_gives_simulates_events_samples_and_forces(name):
+    a, b = _pair(name)
+    assert a.engine == "SciPy DOP853" and b.engine == "loop (Python)"
+    assert a.status == b.status == "ok", (a.message, b.message)
+    assert [(e.kind, e.constraint) for e in a.events] == [(e.kind, e.constraint) for e in b.events]
+    for ea, eb in zip(a.events, b.events):
+        assert abs(ea.t - eb.t) <= 1e-10
+        for detail in ("multiplier", "ratio", "impulse", "restitution", "velocity_before"):
+            x, y = getattr(ea, detail), getattr(eb, detail)
+            assert (x is None) == (y is None), (ea, eb)
+            assert x is None or abs(x - y) <= 1e-9 * (1 + abs(x))
+        assert (ea.reversal, ea.initial, ea.accumulation is None) == \
+               (eb.reversal, eb.initial, eb.accumulation is None)
+    assert np.array_equal(a.t, b.t)
+    assert np.max(np.abs(a.q - b.q)) <= 1e-9 and np.max(np.abs(a.qd - b.qd)) <= 1e-9
+    assert np.array_equal(np.isnan(a.lambdas), np.isnan(b.lambdas))
+    assert np.nanmax(np.abs(a.lambdas - b.lambdas), initial=0.0) <= 1e-9
+    for key in a.forces:
+        assert np.nanmax(np.abs(a.forces[key] - b.forces[key]), initial=0.0) <= 1e-9
+    assert np.max(np.abs(a.energy - b.energy)) <= 1e-9
+    assert np.max(b.residual) <= 1e-9
+    assert a.final_time == b.final_time and np.allclose(a.final_q, b.final_q, atol=1e-9)
+    assert a.energy_conserved == b.energy_conserved
+
+
+def test_the_loops_stick_and_reversal_are_the_closed_forms():
+    _, b = _pair("stick")
+    assert [e.kind for e in b.events] == ["slip", "stick"] and b.events[0].initial
+    assert abs(b.events[1].t - 2.0 / (3 * 0.3 * G)) <= 1e-9  # v0 - mu g t = R w = 2 mu g t
+    _, r = _pair("reversal")
+    assert [e.kind for e in r.events] == ["slip", "slip"]
+    assert r.events[1].reversal is True
+
+
+def test_the_ball_bounces_and_rests_through_the_loop():
+    """The loop hands each impact to the simulator and goes on: the bounce times
+    t1 (1 + 2 e (1 - e^k) / (1 - e)) and the rest from the accumulation time."""
+    _, b = _pair("ball")
+    e, t1 = 0.5, math.sqrt(2 / G)
+    impacts = [ev for ev in b.events if ev.kind == "impact"]
+    for k, ev in enumerate(impacts[:8]):
+        assert abs(ev.t - t1 * (1 + 2 * e * (1 - e**k) / (1 - e))) <= 1e-9
+    assert b.events[-1].kind == "contact"
+    assert abs(b.events[-1].t - t1 * (1 + e) / (1 - e)) <= 1e-6
+    assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
+
+
+def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back():
+    system = lamech.load("pendulum")
+    with pytest.raises(ValueError, match="engine 'loop' cannot run this problem: method Radau"):
+        simulate(system, 1.0, engine="loop", method="Radau")
+    with pytest.raises(ValueError, match="engine must be one of auto, loop, scipy"):
+        simulate(system, 1.0, engine="cvode")
+    tr = simulate(system, 1.0, method="Radau")
+    assert tr.engine == "SciPy Radau" and tr.status == "ok"
+    # without numba the default is SciPy's integrator
+    assert simulate(system, 1.0, samples=3).engine == "SciPy DOP853"
+
+
+def test_progress_is_called_between_the_loops_chunks():
+    seen = []
+    tr = simulate(lamech.load("pendulum"), 1000.0, engine="loop", samples=11, rtol=1e-8,
+                  atol=1e-10, progress=seen.append)
+    assert tr.status == "ok" and tr.steps > 4000
+    assert len(seen) >= tr.steps // 2000 and seen == sorted(seen) and seen[-1] == 1000.0
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_the_compiled_loop_is_the_default_with_jit_and_gives_the_same_numbers():
+    text, t_end, kw = CASES["cylinder"]
+    system = lamech.loads(text)
+    a = simulate(compile_system(system), t_end, **kw)
+    b = simulate(system, t_end, jit=True, **kw)
+    assert a.engine == "SciPy DOP853" and b.engine == "loop (numba)"
+    assert [e.kind for e in a.events] == [e.kind for e in b.events] == ["slip", "lift-off"]
+    assert max(abs(ea.t - eb.t) for ea, eb in zip(a.events, b.events)) <= 1e-10
+    assert np.max(np.abs(a.q - b.q)) <= 1e-10
+    assert np.nanmax(np.abs(a.lambdas - b.lambdas)) <= 1e-9
