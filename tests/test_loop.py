@@ -7,13 +7,15 @@ one exists."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from importlib import resources
 
 import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system, numba_available, simulate
+from lamech.numeric import SimulationError, compile_system, numba_available, simulate
 
 G = 9.81
 
@@ -118,15 +120,19 @@ def test_the_ball_bounces_and_rests_through_the_loop():
     assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
 
 
-def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back():
+def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, monkeypatch):
     system = lamech.load("pendulum")
-    with pytest.raises(ValueError, match="engine 'loop' cannot run this problem: method Radau"):
+    with pytest.raises(SimulationError, match="engine 'loop' cannot run this problem: method "):
         simulate(system, 1.0, engine="loop", method="Radau")
-    with pytest.raises(ValueError, match="engine must be one of auto, loop, scipy"):
+    with pytest.raises(SimulationError, match="engine must be one of auto, loop, scipy"):
         simulate(system, 1.0, engine="cvode")
+    shaken = _example("pendulum", 'V = "', 'V = "sin(t) + ')
+    with pytest.raises(SimulationError, match="t in L, a constraint or a force"):
+        simulate(lamech.loads(shaken), 1.0, engine="loop")
     tr = simulate(system, 1.0, method="Radau")
     assert tr.engine == "SciPy Radau" and tr.status == "ok"
-    # without numba the default is SciPy's integrator
+    # the default where the problem was never compiled: SciPy's integrator
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     assert simulate(system, 1.0, samples=3).engine == "SciPy DOP853"
 
 
@@ -140,13 +146,25 @@ def test_progress_is_called_between_the_loops_chunks():
 
 @pytest.mark.slow
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
-def test_the_compiled_loop_is_the_default_with_jit_and_gives_the_same_numbers():
+def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_path, monkeypatch):
+    """jit=True compiles the problem and its loop and caches them; from then on the
+    default (jit=None) runs the compiled loop, in this process and in a new one."""
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     text, t_end, kw = CASES["cylinder"]
-    system = lamech.loads(text)
-    a = simulate(compile_system(system), t_end, **kw)
-    b = simulate(system, t_end, jit=True, **kw)
+    a = simulate(lamech.loads(text), t_end, **kw)
+    b = simulate(lamech.loads(text), t_end, jit=True, **kw)
     assert a.engine == "SciPy DOP853" and b.engine == "loop (numba)"
     assert [e.kind for e in a.events] == [e.kind for e in b.events] == ["slip", "lift-off"]
     assert max(abs(ea.t - eb.t) for ea, eb in zip(a.events, b.events)) <= 1e-10
     assert np.max(np.abs(a.q - b.q)) <= 1e-10
     assert np.nanmax(np.abs(a.lambdas - b.lambdas)) <= 1e-9
+    assert simulate(lamech.loads(text), t_end, **kw).engine == "loop (numba)"
+    code = (
+        "import sys, lamech\n"
+        "tr = lamech.simulate(lamech.loads(sys.stdin.read()), 6.0, initial={'theta1': 0.01})\n"
+        "print(tr.engine, tr.events[-1].t)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], input=text, capture_output=True,
+                         text=True, timeout=600, check=True)
+    engine, t_lift = out.stdout.rsplit(" ", 1)
+    assert engine == "loop (numba)" and abs(float(t_lift) - b.events[-1].t) <= 1e-12

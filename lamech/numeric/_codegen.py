@@ -352,7 +352,11 @@ def _kernels(
     """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
     numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
     by their compiled versions; the compiled form cached on disk, :mod:`._jitcache`),
-    else NumPy (no batch loops: :mod:`._batch` runs them as Python; state "")."""
+    else NumPy (no batch loops: :mod:`._batch` runs them as Python; state ""). ``jit``
+    None: numba where the system's loop with events is in the cache on disk already (a
+    load, not a compile)."""
+    if jit is None:
+        jit = _loop_is_cached(source, pattern, diagonal)
     if jit and numba_available():
         try:
             from ._jitcache import compiled_kernels, module_text
@@ -368,6 +372,18 @@ def _kernels(
         except Exception:  # pragma: no cover - numba refused the source
             pass
     return (*numpy_kernels(fns["dynamics"], diagonal), (), "")
+
+
+def _loop_is_cached(source: str, pattern, diagonal: bool) -> bool:
+    """Whether numba is installed and the compiled loop of this system's module is in the
+    cache on disk (asked without importing numba: 0.3 s)."""
+    import importlib.util
+
+    if importlib.util.find_spec("numba") is None:
+        return False
+    from ._jitcache import is_cached, module_text
+
+    return is_cached(module_text(source, pattern, diagonal), "ev_segment")
 
 
 def _force_geometry(system: System):
@@ -533,10 +549,12 @@ def _source(system: System, dyn: Dynamics):
     return source, A, force_specs, sw.names()
 
 
-def compile_system(system: System, jit: bool = False) -> NumericSystem:
+def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     """Generate and compile the numeric functions of ``system`` (see the module docstring).
 
-    ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise).
+    ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise);
+    ``jit=None`` uses it where this system's compiled form is in the cache on disk (a
+    load, not a compile: :mod:`._jitcache`), else NumPy.
     """
     import time as _time
 

@@ -23,7 +23,7 @@ from . import _kernels as K
 from ._batch import _dense_tableau, _event_functions, _kinds, _tableau, logged_events
 from ._codegen import numba_available
 from ._events import EventKind, FrictionState
-from ._options import INITIAL_TOLERANCE
+from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
 from ._run import Run
 
@@ -47,9 +47,10 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     """The loop for this run, or None where SciPy's integrators run it: ``engine``
     "scipy"; "auto" unless the system is compiled with numba; a method other than DOP853,
     inputs that switch (step, min, max), or t in the problem (the simulator samples the
-    force events inside each step there, the loop does not): ValueError for "loop"."""
+    force events inside each step there, the loop does not): SimulationError (a
+    ValueError) for "loop"."""
     if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+        raise SimulationError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if engine == "scipy":
         return None
     ns = run.setup.ns
@@ -62,7 +63,9 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
         why = "t in L, a constraint or a force"
     if why is not None:
         if engine == "loop":
-            raise ValueError(f"engine 'loop' cannot run this problem: {why}; use 'scipy'")
+            raise SimulationError(
+                f"engine 'loop' cannot run this problem: {why}; use 'scipy' or 'auto'"
+            )
         return None
     compiled = ns.jit and numba_available()
     if engine == "auto" and not compiled:

@@ -17,7 +17,7 @@ __all__ = ["friction_names", "with_friction_parameters", "numeric_system"]
 
 
 def numeric_system(
-    system: System | NumericSystem, params: dict | None, jit: bool
+    system: System | NumericSystem, params: dict | None, jit: bool | None
 ) -> tuple[NumericSystem, np.ndarray]:
     """(compiled system, parameter vector with ``params`` {name: value} applied); a
     friction coefficient named in ``params`` becomes a parameter first. Raises

@@ -102,7 +102,7 @@ def simulate(
     method: str = "DOP853",
     progress: Callable[[float], None] | None = None,
     pace: Callable[[Pace], None] | None = None,
-    jit: bool = False,
+    jit: bool | None = None,
     engine: str = "auto",
 ) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
@@ -136,11 +136,13 @@ def simulate(
     with no contact located, or a gap that jumps below zero) stops it with
     :attr:`Status.PENETRATED` ("penetrated").
 
-    ``jit``: compile the system's functions with numba, when it is installed. The
-    compiled form is cached on disk (:func:`lamech.numeric.jit_cache_dir`), so only the
-    first run of a problem pays for compiling (3-9 s); later runs load it (about 0.3 s)
-    and then integrate 2-3.5 times faster (pendulum, 5- and 20-link chains). Ignored
-    when ``system`` is already a :class:`NumericSystem`.
+    ``jit``: compile the system's functions and the loop with events with numba, when it
+    is installed. The compiled form is cached on disk
+    (:func:`lamech.numeric.jit_cache_dir`), so only the first run of a problem pays for
+    compiling (about 30 s with the loop); later runs load it (under a second). The
+    default, None, uses numba where the problem's compiled form is in the cache already
+    (an earlier run with ``jit=True``, ``--jit`` or a sweep compiled it), else NumPy.
+    Ignored when ``system`` is already a :class:`NumericSystem`.
 
     ``engine``: ``"auto"`` (default) runs DOP853 in the compiled loop with events (the
     loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside

@@ -59,7 +59,8 @@ def trajectory_text(traj) -> str:
         f"{traj.title}" if traj.title else "simulation",
         f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
         f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
-        f"{s['evaluations']} dynamics evaluations, {s['samples']} samples",
+        f"{s['evaluations']} dynamics evaluations, {s['samples']} samples"
+        + (f" ({s['engine']})" if s.get("engine") else ""),
     ]
     for note in s["notes"]:
         lines.append(f"  note: {note}")
