@@ -16,13 +16,25 @@ from ._project import Metric, project_positions, project_velocities
 __all__ = ["expression_values", "initial_state", "consistent_initial", "initial_residuals"]
 
 
+_VALUES: dict[tuple[int, bytes], tuple] = {}
+"""(id(system), parameter bytes) -> (system, q0, v0): the last starts computed (SymPy's
+subs costs about 1.5 ms a run on the 5-link chain, a third of a short compiled run)."""
+
+
 def expression_values(ns, p: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(q0, v0) from the coordinates' initial expressions at parameters ``p``."""
     system = ns.system
     p = ns.parameters if p is None else p
+    key = (id(system), np.asarray(p, dtype=float).tobytes())
+    known = _VALUES.get(key)
+    if known is not None and known[0] is system:
+        return known[1].copy(), known[2].copy()
     env = {par.symbol: float(val) for par, val in zip(system.parameters, p)}
     q0 = np.array([float(sp.sympify(c.initial).subs(env)) for c in system.coordinates])
     v0 = np.array([float(sp.sympify(c.initial_velocity).subs(env)) for c in system.coordinates])
+    if len(_VALUES) >= 64:
+        _VALUES.clear()
+    _VALUES[key] = (system, q0.copy(), v0.copy())
     return q0, v0
 
 
