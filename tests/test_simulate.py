@@ -508,6 +508,26 @@ def test_cli_initial_and_param(capsys):
     assert "unknown name" in capsys.readouterr().err
 
 
+def test_cli_engine_chooses_the_integrator_and_says_which_ran(capsys):
+    from lamech.cli import main
+    args = ["simulate", "cylinder", "--t-end", "2.6", "--samples", "3",
+            "--initial", "theta1=pi/200", "--param", "mu=0.1", "--json"]
+    runs = {}
+    for engine in ("loop", "scipy"):
+        assert main([*args, "--engine", engine]) == 0
+        runs[engine] = json.loads(capsys.readouterr().out)
+    assert runs["loop"]["engine"] == "loop (Python)" and runs["scipy"]["engine"] == "SciPy DOP853"
+    times = [[e["t"] for e in runs[k]["events"]] for k in ("loop", "scipy")]
+    assert len(times[0]) == len(times[1]) >= 2
+    assert max(abs(a - b) for a, b in zip(*times)) <= 1e-10
+    assert main([*args[:-1], "--engine", "loop", "--method", "Radau"]) == 2
+    err = capsys.readouterr().err
+    assert "engine 'loop' cannot run this problem: method Radau" in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as stop:
+        main([*args[:-1], "--engine", "rk4"])
+    assert stop.value.code == 2 and "invalid choice: 'rk4'" in capsys.readouterr().err
+
+
 SINGULAR = """
 title = "Bead on a circle, pushed across by a drive"
 [parameters]
