@@ -140,6 +140,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
         "constraints": ns.constraints,
         "dynamics": ns.dynamics,
         "energy": ns.energy,
+        "restitution": ns.restitution,
         "kkt_solve": ns.kkt_solve,
         "rhs_kernel": ns.rhs_kernel,
         "PROJECTION_ITERATIONS": PROJECTION_ITERATIONS,
@@ -259,7 +260,7 @@ def integrate_batch(
 
 
 # ----- the loop with events -------------------------------------------------------------
-_EVENT_CODES = {"lift-off": 0, "contact": 1, "impact": 1, "slip": 2, "stick": 3}
+_EVENT_CODES = {"lift-off": 0, "contact": 1, "impact": 4, "slip": 2, "stick": 3}
 FALLBACKS = {
     2: "contact",
     3: "stick",
@@ -273,8 +274,9 @@ FALLBACKS = {
     11: "singular",
 }
 """The statuses of a run the loop with events leaves to :func:`lamech.numeric.simulate`
-(the loop's ``ST_*`` codes; 3, stick, is no longer used): an impact or contact, more
-events than recorded,
+(the loop's ``ST_*`` codes; 3, stick, is no longer used): an impact or contact (with
+``impacts``: only one the loop cannot apply, a singular impact matrix or a gap met below
+the surface), more events than recorded,
 a step-size collapse, a blow-up, a penetration, a gap that turns within a step, a mode
 that does not settle, a start off the constraints, a singular KKT
 solve."""
@@ -321,14 +323,21 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
 
 
 _DETAILS = {1: "multiplier", 2: "ratio", 3: "reversal", 4: "initial"}  # the kernels' DT_*
+_IMPACT_DETAILS = {  # DT_IMPACT, DT_ACCUMULATION, DT_IMPULSE: EX's columns 1, 2, 3
+    5: ("impulse", "velocity_before", "restitution"),
+    6: ("restitution", "accumulation"),
+    7: ("impulse",),
+}
 
 
 def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
     """The first ``count`` events a loop with events logged (kinds EK, constraints EJ,
-    times ET, states EY, details EX (code, value)) as :class:`~lamech.numeric.Event`."""
+    times ET, states EY, details EX (code, then up to 3 values)) as
+    :class:`~lamech.numeric.Event`."""
     from ._events import Event, EventKind
 
     kind_of = {0: EventKind.LIFT_OFF, 1: EventKind.CONTACT, 2: EventKind.SLIP, 3: EventKind.STICK}
+    kind_of[4] = EventKind.IMPACT
     coords, names, n = ns.coordinate_names, ns.constraint_names, ns.n
     out = []
     for e in range(count):
@@ -341,6 +350,9 @@ def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
             details[_DETAILS[code]] = float(EX[e, 1])
         elif code in (3, 4):
             details[_DETAILS[code]] = bool(EX[e, 1]) if code == 3 else True
+        elif code in _IMPACT_DETAILS:
+            for c, name in enumerate(_IMPACT_DETAILS[code]):
+                details[name] = float(EX[e, 1 + c])
         out.append(Event(float(ET[e]), kind_of[int(EK[e])], names[EJ[e]], values, **details))
     return out
 
@@ -482,6 +494,7 @@ def integrate_events(
     max_steps: int = 10_000_000,
     threads: int | None = None,
     jit: bool | None = None,
+    impacts: bool = False,
 ) -> EventBatchResult:
     """Every row of ``y0s`` ((B, 2n), consistent with the constraints) from t = 0 to
     ``t_end`` in the compiled loop with events: the DOP853 loop of :func:`integrate_batch`
@@ -501,8 +514,8 @@ def integrate_events(
     (mass-matrix metric, the mode's rows and held offsets).
 
     Not mirrored here, and left to ``simulate`` (the run stops with that ``status``,
-    ``fallback`` True): impacts and contacts (restitution, engaging), a start off the
-    constraints (simulate refuses it, naming the values),
+    ``fallback`` True): impacts and contacts (status ``"contact"``) unless ``impacts``,
+    a start off the constraints (simulate refuses it, naming the values),
     a released gap that turns within one step, and failures (see :data:`FALLBACKS`).
     The conditioning check and the chattering test of ``simulate`` are not made (a run
     with more than ``max_events`` events falls back).
@@ -516,6 +529,11 @@ def integrate_events(
     cut into slices run in ``threads`` threads (default: the CPUs this process may use;
     the loop releases the GIL).
     Systems with inputs that switch (step, min, max, clip, piecewise) are refused.
+
+    ``impacts=True`` applies impacts and contacts in the loop as ``simulate`` does
+    (Newton's law with restitution, the contact's friction sticking or slipping through
+    the impact, the Zeno accumulation's ``contact`` at its time), events ``"impact"``
+    and ``"contact"`` with their details; ``max_events`` must then hold the bounces.
     """
     from ._options import BLOW_UP, INITIAL_TOLERANCE
 
@@ -542,14 +560,15 @@ def integrate_events(
     IM[:, 0, :] = 1  # engaged
     IM[:, 1, :] = np.where(kinds[2] >= 0, 1, 0)  # friction sticks
     IM[:, 2:, :] = 1  # contact and stick events armed
-    FM = np.zeros((B, 3, m))
+    FM = np.zeros((B, 5, m))
     FM[:, 1, :] = 1.0  # sN
+    FM[:, 3:, :] = np.nan  # no accumulation pending
     arm = max(100.0 * atol, 1e-13)  # Setup.of
     EK = np.zeros((B, max_events), dtype=np.int64)
     EJ = np.zeros((B, max_events), dtype=np.int64)
     ET = np.zeros((B, max_events))
     EY = np.zeros((B, max_events, N))
-    EX = np.zeros((B, max_events, 2))
+    EX = np.zeros((B, max_events, 4))
     YOUT = np.zeros((B, N))
     TOUT = np.zeros(B)
     STATUS = np.zeros(B, dtype=np.int64)
@@ -560,7 +579,8 @@ def integrate_events(
         float(t_end), float(rtol), float(atol), float(np.inf if max_step is None else max_step),
         int(max_steps), *_tableau(), *_dense_tableau(), kinds,
     )  # fmt: skip
-    rest = (arm, arm, BLOW_UP, INITIAL_TOLERANCE, INITIAL_TOLERANCE, wanted, bool(to_end))
+    rest = (arm, arm, BLOW_UP, INITIAL_TOLERANCE, INITIAL_TOLERANCE, wanted, bool(to_end),
+            bool(impacts))  # fmt: skip
     per_run = (Y0, P, IM, FM, EK, EJ, ET, EY, EX, YOUT, TOUT, STATUS, NEV, STEPS)
 
     def part(a: int, b: int) -> None:

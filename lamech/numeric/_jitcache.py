@@ -231,6 +231,7 @@ _COMPILED = (
     "dynamics",
     "constraints",
     "energy",
+    "restitution",
     "gauss_inplace",
     "cholesky_inplace",
     *KERNEL_NAMES,

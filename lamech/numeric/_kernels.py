@@ -69,6 +69,10 @@ def energy(t, q, v, p):  # (T, V)
     raise NotImplementedError
 
 
+def restitution(t, q, p):  # (e,) per constraint
+    raise NotImplementedError
+
+
 PTR = IDX = CPTR = CROW = CPOS = np.zeros(1, dtype=np.int64)
 DIAGONAL = False
 prange = range  # numba.prange in the generated module
@@ -105,6 +109,10 @@ EVENT_NAMES = (
     "ev_all",
     "ev_sample",
     "ev_dense_stages",
+    "ev_impulses",
+    "ev_impact",
+    "ev_bound",
+    "ev_accumulated",
     "ev_segment",
     "ev_run_one",
     "ev_restricted",
@@ -118,6 +126,7 @@ EVENT_CONSTANTS = (
     "EV_CONTACT",
     "EV_SLIP",
     "EV_STICK",
+    "EV_IMPACT",
     "FR_NONE",
     "FR_STICK",
     "FR_SLIP",
@@ -140,6 +149,9 @@ EVENT_CONSTANTS = (
     "DT_RATIO",
     "DT_REVERSAL",
     "DT_INITIAL",
+    "DT_IMPACT",
+    "DT_ACCUMULATION",
+    "DT_IMPULSE",
 )
 """The module constants of the loop with events (event kinds, friction states, statuses)."""
 
@@ -446,25 +458,29 @@ def batch_run_serial(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, 
 
 # The compiled loop with events (lamech.numeric.integrate_events): the loop above with a
 # contact and friction mode, the twin of lamech.numeric.simulate for the events it can
-# apply (lift-off, slip, stick with its re-check and slip reversal; the initial mode and
-# each event's settling), stopping with a fallback status where simulate's rules are not
-# mirrored here (impact and contact, an inside-step graze, too many events, a start off
-# the constraints, a failure), so that the caller runs simulate for that case. The mode
+# apply (lift-off, slip, stick with its re-check and slip reversal, impact and contact
+# with restitution and the Zeno accumulation; the initial mode and each event's
+# settling), stopping with a fallback status where simulate's rules are not mirrored here
+# (a singular impact matrix or a gap met below the surface (ST_CONTACT), an inside-step
+# graze, too many events, a start off the constraints, a failure), so that the caller
+# runs simulate for that case. The mode
 # lives in arrays: ``kinds`` (3, m) int64 rows unilateral, holonomic, normal (-1: not
 # friction); ``imode`` (4, m) int64 rows engaged, friction state (FR_*), contact armed,
-# stick armed; ``fmode`` (3, m) rows sigma (slip sign), sN (sign of a bilateral normal),
-# offset (f held while friction sticks).
+# stick armed; ``fmode`` (5, m) rows sigma (slip sign), sN (sign of a bilateral normal),
+# offset (f held while friction sticks), the accumulation time of a Zeno sequence's
+# contact (NaN: none; Mode.accumulating) and the time of its impact.
 EV_LIFT_OFF = 0
 EV_CONTACT = 1
 EV_SLIP = 2
 EV_STICK = 3
+EV_IMPACT = 4  # a bounce (only logged: the event watched is EV_CONTACT)
 FR_NONE = 0
 FR_STICK = 1
 FR_SLIP = 2
 FR_OFF = 3
 ST_END = 0  # reached t_end
 ST_FOUND = 1  # stopped once every wanted event was found
-ST_CONTACT = 2  # fallbacks: a released contact closes (impact or contact)
+ST_CONTACT = 2  # fallbacks: a contact the loop cannot apply (singular, or met below the gap)
 ST_STICK = 3  # unused: stick is mirrored (the code kept for the status names)
 ST_EVENTS = 4  # more events than the record holds
 ST_STEP = 5  # step size collapsed, or too many steps
@@ -480,6 +496,9 @@ DT_MULTIPLIER = 1  # the pulling multiplier of a lift-off in settling
 DT_RATIO = 2  # |F| / (mu N) of a slip in settling
 DT_REVERSAL = 3  # a stick that could not hold: the slip went on (1.0 reversed, 0.0 not)
 DT_INITIAL = 4  # a slip at the start
+DT_IMPACT = 5  # an impact or contact: impulse, velocity_before, restitution (columns 1-3)
+DT_ACCUMULATION = 6  # a contact at the end of a Zeno sequence: restitution, accumulation
+DT_IMPULSE = 7  # a slip through an impact: its impulse
 
 
 def ev_active(j, kinds, imode):
@@ -848,6 +867,8 @@ def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, va
     ev_y[nev, :] = y
     ev_x[nev, 0] = code
     ev_x[nev, 1] = value
+    for c in range(2, ev_x.shape[1]):
+        ev_x[nev, c] = 0.0
     for w in range(want.shape[1]):
         if want[0, w] == kind and (want[1, w] < 0 or want[1, w] == j):
             found[w] = True
@@ -888,6 +909,7 @@ def ev_settle(
         if jw >= 0:
             imode[0, jw] = 0
             imode[2, jw] = 0
+            fmode[3, jw] = np.nan  # Mode.release
             nev = ev_log(
                 EV_LIFT_OFF, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, DT_MULTIPLIER,
                 worst, nev,
@@ -983,6 +1005,7 @@ def ev_run_one(
     tol,
     want,
     to_end,
+    impacts,
     ev_kind,
     ev_j,
     ev_t,
@@ -991,7 +1014,8 @@ def ev_run_one(
     y_out,
 ):
     """One run from t = 0, every constraint engaged and sticking: (t reached, status
-    ST_*, events logged, steps); y_out the state at t."""
+    ST_*, events logged, steps); y_out the state at t. ``impacts``: apply impacts in
+    the loop (else a located contact stops the run with ST_CONTACT)."""
     N = y0.shape[0]
     n = N // 2
     m = kinds.shape[1]
@@ -1047,7 +1071,7 @@ def ev_run_one(
     fo = np.zeros(2)
     t, st, nev, steps = ev_segment(
         t, y, 0.0, t_end, p, rtol, atol, max_step, max_steps, A, B, C, E3, E5, AX, CX, D,
-        kinds, imode, fmode, arm_pos, arm_vel, blow_up, pen, want, found, to_end,
+        kinds, imode, fmode, arm_pos, arm_vel, blow_up, pen, want, found, to_end, impacts,
         ev_kind, ev_j, ev_t, ev_y, ev_x, nev, none, np.zeros((0, N)), np.zeros((0, m)),
         np.zeros((0, 4)), io, fo, y_out,
     )  # fmt: skip
@@ -1103,6 +1127,239 @@ def ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D
         F[3 + r] = h * acc
 
 
+def ev_impulses(M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, extra, sj2, sc2):
+    """(q'+, impulses (m,): NaN where none) of _switch._impulses' solve: the velocity
+    jump on the active rows, j (its velocity form brought to ``target`` - b_j) and the
+    rows ``extra``; the mode's slips and the friction rows ``sj2`` slipping through the
+    impact on j (signs ``sc2``) take mu times their normal's impulse. NaN where the
+    matrix is singular."""
+    n = M.shape[0]
+    m = A.shape[0]
+    na = rows.shape[0]
+    k = na + 1 + extra.shape[0]
+    R = np.empty(k, dtype=np.int64)
+    for a in range(na):
+        R[a] = rows[a]
+    R[na] = j
+    for a in range(extra.shape[0]):
+        R[na + 1 + a] = extra[a]
+    G = np.empty((k, n))
+    for a in range(k):
+        for c in range(n):
+            G[a, c] = A[R[a], c]
+    for s in range(slip_j.shape[0]):
+        for c in range(n):
+            G[slip_k[s], c] -= mu[slip_j[s]] * slip_c[s] * A[slip_j[s], c]
+    for s in range(sj2.shape[0]):
+        for c in range(n):
+            G[na, c] -= mu[sj2[s]] * sc2[s] * A[sj2[s], c]
+    K = np.zeros((n + k, n + k))
+    x = np.zeros(n + k)
+    for i in range(n):
+        for c in range(n):
+            K[i, c] = M[i, c]
+            x[i] += M[i, c] * v[c]
+    for a in range(k):
+        x[n + a] = -b[R[a]]
+        for c in range(n):
+            K[c, n + a] = -G[a, c]
+            K[n + a, c] = A[R[a], c]
+    x[n + na] = target
+    gauss_inplace(K, x)
+    imp = np.full(m, np.nan)
+    for a in range(k):
+        imp[R[a]] = x[n + a]
+    for s in range(slip_j.shape[0]):
+        imp[slip_j[s]] = -mu[slip_j[s]] * slip_c[s] * x[n + slip_k[s]]
+    for s in range(sj2.shape[0]):
+        imp[sj2[s]] = -mu[sj2[s]] * sc2[s] * x[n + na]
+    return x[:n].copy(), imp
+
+
+def ev_impact(
+    t, y, p, j, kinds, imode, fmode, arm_pos, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y,
+    ev_x, nev,
+):  # fmt: skip
+    """Released unilateral j closes its gap at (t, y) (_switch.impact): the impulse on
+    the active rows and j gives F_j+ = -e F_j-; it bounces (EV_IMPACT, the contact
+    disarmed) or, when e = 0 or the bounce is too small to resolve, engages (EV_CONTACT)
+    with its friction sticking or slipping through the impact; a Zeno sequence (0 < e <
+    1, pressed back onto the surface) logs the bounce, engages, and keeps its
+    accumulation time in fmode[3, j] (the impact's time in fmode[4, j]) for
+    :func:`ev_accumulated`. y's velocities jump in place. (count, 0), or (count,
+    ST_CONTACT) with nothing changed where the simulator must apply it (a singular
+    matrix), or (0, ST_EVENTS)."""
+    n = y.shape[0] // 2
+    m = kinds.shape[1]
+    q = y[:n].copy()
+    v = y[n:].copy()
+    f, A, b = constraints(t, q, p)
+    e = restitution(t, q, p)[j]
+    Fm = b[j]
+    for c in range(n):
+        Fm += A[j, c] * v[c]
+    rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
+    M, rhs, Ad, gam, mu = dynamics(t, q, v, p)
+    qdd = kkt_solve(M, rhs, Ad, gam, mu, rows, slip_j, slip_k, slip_c)[:n].copy()
+    if not np.all(np.isfinite(qdd)):
+        return nev, ST_CONTACT
+    a_gap = gam[j]
+    for c in range(n):
+        a_gap += A[j, c] * qdd[c]
+    a_gap = abs(a_gap)
+    v_small = 2.0 * np.sqrt(2.0 * a_gap * arm_pos) + 10.0 * arm_vel
+    engage = e == 0.0 or e * abs(Fm) <= v_small
+    nf = 0
+    if engage:
+        for i in range(m):
+            if kinds[2, i] == j:
+                nf += 1
+    frows = np.empty(nf, dtype=np.int64)
+    nf = 0
+    if engage:
+        for i in range(m):
+            if kinds[2, i] == j:
+                frows[nf] = i
+                nf += 1
+    target = (0.0 if engage else -e * Fm) - b[j]
+    none_i = np.zeros(0, dtype=np.int64)
+    none_f = np.zeros(0)
+    vp, imp = ev_impulses(
+        M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, frows, none_i, none_f
+    )
+    if not np.all(np.isfinite(vp)):
+        return nev, ST_CONTACT
+    trial = imp.copy()
+    ns2 = 0
+    for a in range(nf):
+        i = frows[a]
+        if abs(imp[i]) > mu[i] * imp[j] * (1.0 + 1e-9):
+            ns2 += 1
+    sj2 = np.empty(ns2, dtype=np.int64)
+    sc2 = np.empty(ns2)
+    stay = np.empty(nf - ns2, dtype=np.int64)
+    ns2 = 0
+    nst = 0
+    for a in range(nf):
+        i = frows[a]
+        if abs(imp[i]) > mu[i] * imp[j] * (1.0 + 1e-9):
+            sj2[ns2] = i
+            sc2[ns2] = -np.copysign(1.0, imp[i])
+            ns2 += 1
+        else:
+            stay[nst] = i
+            nst += 1
+    if ns2 > 0:
+        vp, imp = ev_impulses(
+            M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, stay, sj2, sc2
+        )
+        if not np.all(np.isfinite(vp)):
+            return nev, ST_CONTACT
+    rest = -1.0
+    vb = vp
+    ib = 0.0
+    if engage and 0.0 < e < 1.0:  # _switch._accumulation: the bounces' time to rest
+        M2, rhs2, A2, gam2, mu2 = dynamics(t, q, vp, p)
+        qdd2 = kkt_solve(M2, rhs2, A2, gam2, mu2, rows, slip_j, slip_k, slip_c)[:n].copy()
+        a_n = gam2[j]
+        for c in range(n):
+            a_n += A[j, c] * qdd2[c]
+        if a_n < 0.0:
+            rest = 2.0 * e * abs(Fm) / (-a_n * (1.0 - e))
+            vb, imb = ev_impulses(
+                M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, -e * Fm - b[j], none_i,
+                none_i, none_f,
+            )  # fmt: skip
+            if not np.all(np.isfinite(vb)):
+                return nev, ST_CONTACT
+            ib = imb[j]
+    yb = y.copy()
+    yb[n:] = vb
+    y[n:] = vp
+    if not engage:
+        imode[2, j] = 0
+        nev = ev_log(EV_IMPACT, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+                     DT_IMPACT, imp[j], nev)  # fmt: skip
+        if nev < 0:
+            return 0, ST_EVENTS
+        ev_x[nev - 1, 2] = Fm
+        ev_x[nev - 1, 3] = e
+        return nev, 0
+    if rest >= 0.0:
+        nev = ev_log(EV_IMPACT, j, t, yb, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+                     DT_IMPACT, ib, nev)  # fmt: skip
+        if nev < 0:
+            return 0, ST_EVENTS
+        ev_x[nev - 1, 2] = Fm
+        ev_x[nev - 1, 3] = e
+    # _switch._engage: j engages, its friction sticks (f held where it is), or slips on
+    imode[0, j] = 1
+    ev_mode(kinds, imode, fmode)
+    for a in range(nf):
+        i = frows[a]
+        fmode[2, i] = f[i] if kinds[1, i] == 1 else 0.0
+        imode[1, i] = FR_STICK
+    for s in range(ns2):
+        i = sj2[s]
+        sv = b[i]
+        for c in range(n):
+            sv += A[i, c] * vp[c]
+        if abs(sv) <= arm_vel:
+            fmode[0, i] = -np.copysign(1.0, trial[i])
+        else:
+            fmode[0, i] = np.copysign(1.0, sv)
+        imode[1, i] = FR_SLIP
+        imode[3, i] = 0
+    ev_mode(kinds, imode, fmode)
+    if rest < 0.0:
+        nev = ev_log(EV_CONTACT, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+                     DT_IMPACT, imp[j], nev)  # fmt: skip
+        if nev < 0:
+            return 0, ST_EVENTS
+        ev_x[nev - 1, 2] = Fm
+        ev_x[nev - 1, 3] = e
+    else:
+        fmode[3, j] = t + rest
+        fmode[4, j] = t
+    for s in range(ns2):
+        i = sj2[s]
+        nev = ev_log(EV_SLIP, i, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+                     DT_IMPULSE, imp[i], nev)  # fmt: skip
+        if nev < 0:
+            return 0, ST_EVENTS
+    return nev, 0
+
+
+def ev_bound(t_end, fmode):
+    """The end of the next stretch: t_end, or an earlier accumulation time (the Zeno
+    sequences' contacts to log: _simulate._segment's bound)."""
+    bound = t_end
+    for j in range(fmode.shape[1]):
+        if fmode[3, j] < bound:  # NaN: none
+            bound = fmode[3, j]
+    return bound
+
+
+def ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev):
+    """Log EV_CONTACT for each constraint whose bounces have accumulated by t, in the
+    order of their accumulation times (_simulate._accumulated); the new count, or -1."""
+    n = y.shape[0] // 2
+    while True:
+        jn = -1
+        for j in range(fmode.shape[1]):
+            if fmode[3, j] <= t and (jn < 0 or fmode[3, j] < fmode[3, jn]):
+                jn = j
+        if jn < 0:
+            return nev
+        fmode[3, jn] = np.nan
+        e = restitution(t, y[:n].copy(), p)[jn]
+        nev = ev_log(EV_CONTACT, jn, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+                     DT_ACCUMULATION, e, nev)  # fmt: skip
+        if nev < 0:
+            return -1
+        ev_x[nev - 1, 2] = t - fmode[4, jn]
+
+
 def ev_segment(
     t,
     y,
@@ -1131,6 +1388,7 @@ def ev_segment(
     want,
     found,
     to_end,
+    impacts,
     ev_kind,
     ev_j,
     ev_t,
@@ -1147,13 +1405,17 @@ def ev_segment(
 ):
     """The loop with events from (t, y) in the mode (imode, fmode), settled: DOP853 steps
     (the first of size h_abs, or scipy's initial step where h_abs is 0), the projection,
-    the watched events located and lift-off, slip and stick applied; the output times TS
-    from io[0] on sampled into SY, SL, SR (:func:`ev_sample`). Returns (t, status, events
-    logged, steps) with y_out the state at t: at t_end (ST_END); at a located contact,
-    before it is applied (ST_CONTACT, io[1] its constraint); after ``max_steps`` steps,
+    the watched events located and lift-off, slip, stick and impacts (:func:`ev_impact`)
+    applied, each stretch ending at the next accumulation time of a Zeno sequence, whose
+    contact is logged there (:func:`ev_bound`, :func:`ev_accumulated`); the output times
+    TS from io[0] on sampled into SY, SL, SR (:func:`ev_sample`). Returns (t, status,
+    events logged, steps) with y_out the state at t: at t_end (ST_END); at a located
+    contact the loop cannot apply, before it is applied (ST_CONTACT, io[1] its
+    constraint: the simulator applies it); after ``max_steps`` steps,
     or with the event record nearly full (ST_BUDGET: go on from there with h_abs =
     fo[0]); ST_FOUND; and for the other statuses the last accepted state, from which
-    the simulator takes over. fo[1]: the largest projection; io[2]: right-hand sides."""
+    the simulator takes over. Without ``impacts`` every located contact returns
+    ST_CONTACT. fo[1]: the largest projection; io[2]: right-hand sides."""
     N = y.shape[0]
     n = N // 2
     m = kinds.shape[1]
@@ -1163,8 +1425,17 @@ def ev_segment(
     wk, wj = ev_watch(kinds, imode)
     f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
     io[2] += 1
+    bound = ev_bound(t_end, fmode)
+    if bound <= t < t_end:  # accumulated already (_simulate._segment): a fresh start
+        nev = ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev)
+        if nev < 0:
+            return t, ST_EVENTS, 0, 0
+        if ev_all(found, to_end):
+            return t, ST_FOUND, nev, 0
+        bound = ev_bound(t_end, fmode)
+        h_abs = 0.0
     if h_abs <= 0.0:
-        h_abs = ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol)
+        h_abs = ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol)
         io[2] += 1
     g_old = ev_values(
         t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
@@ -1190,8 +1461,8 @@ def ev_segment(
             if h_abs < min_step:
                 return t, ST_STEP, nev, steps
             t_new = t + h_abs
-            if t_new > t_end:
-                t_new = t_end
+            if t_new > bound:
+                t_new = bound
             h = t_new - t
             h_abs = abs(h)
             err = dop853_trial(
@@ -1269,10 +1540,28 @@ def ev_segment(
             y_out[:] = ye
             kind = wk[ie]
             j = wj[ie]
-            if kind == EV_CONTACT:
-                io[1] = j
-                return te, ST_CONTACT, nev, steps
             logged = kind
+            if kind == EV_CONTACT:
+                # _simulate._check_penetration where the contact is met: a gap that jumped
+                # below zero is the simulator's to report
+                fc = constraints(te, ye[:n].copy(), p)[0]
+                depth = max(pen * (1.0 + np.max(np.abs(ye[:n]))), 10.0 * arm_pos)
+                if fc[j] < -depth:
+                    io[1] = j
+                    return te, ST_CONTACT, nev, steps
+                if not impacts:  # left to the caller (integrate_events' default)
+                    io[1] = j
+                    return te, ST_CONTACT, nev, steps
+                nev, st = ev_impact(
+                    te, ye, p, j, kinds, imode, fmode, arm_pos, arm_vel, want, found, ev_kind,
+                    ev_j, ev_t, ev_y, ev_x, nev,
+                )  # fmt: skip
+                if st == ST_CONTACT:  # not applied: the simulator applies it
+                    io[1] = j
+                    return te, ST_CONTACT, nev, steps
+                if st != 0:
+                    return te, st, nev, steps
+                logged = -1
             code = DT_NONE
             value = 0.0
             if kind == EV_STICK:
@@ -1296,16 +1585,19 @@ def ev_segment(
             elif kind == EV_LIFT_OFF:
                 imode[0, j] = 0
                 imode[2, j] = 0
-            else:
+                fmode[3, j] = np.nan  # Mode.release: a pending accumulation is dropped
+            elif kind == EV_SLIP:
                 lam_j = ev_lam(te, ye, p, m, rows, slip_j, slip_k, slip_c)[1][j]
                 fmode[0, j] = -np.copysign(1.0, lam_j)
                 imode[1, j] = FR_SLIP
                 imode[3, j] = 0
-            nev = ev_log(
-                logged, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, value, nev
-            )
-            if nev < 0:
-                return te, ST_EVENTS, 0, steps
+            if logged >= 0:
+                nev = ev_log(
+                    logged, j, te, ye, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, value,
+                    nev,
+                )  # fmt: skip
+                if nev < 0:
+                    return te, ST_EVENTS, 0, steps
             nev, st = ev_settle(
                 te, ye, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y,
                 ev_x, nev,
@@ -1320,8 +1612,17 @@ def ev_segment(
             rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
             wk, wj = ev_watch(kinds, imode)
             f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+            bound = ev_bound(t_end, fmode)
+            if bound <= t:  # accumulated at the event's time: logged before going on
+                nev = ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y,
+                                     ev_x, nev)  # fmt: skip
+                if nev < 0:
+                    return t, ST_EVENTS, 0, steps
+                if ev_all(found, to_end):
+                    return t, ST_FOUND, nev, steps
+                bound = ev_bound(t_end, fmode)
             h_abs = ev_first_step(
-                t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol
+                t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
             )
             io[2] += 2
             g_old = ev_values(
@@ -1377,6 +1678,19 @@ def ev_segment(
         io[2] += 1
         if not np.all(np.isfinite(f)):
             return t, ST_SINGULAR, nev, steps
+        if t >= bound:  # the bounces accumulated: their contacts logged, a fresh start
+            nev = ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+                                 nev)  # fmt: skip
+            if nev < 0:
+                return t, ST_EVENTS, 0, steps
+            if ev_all(found, to_end):
+                return t, ST_FOUND, nev, steps
+            if t < t_end:
+                bound = ev_bound(t_end, fmode)
+                h_abs = ev_first_step(
+                    t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
+                )
+                io[2] += 1
     fo[0] = h_abs
     y_out[:] = y
     return t, ST_END, nev, steps
@@ -1408,6 +1722,7 @@ def ev_run(
     tol,
     want,
     to_end,
+    impacts,
     EK,
     EJ,
     ET,
@@ -1448,6 +1763,7 @@ def ev_run(
             tol,
             want,
             to_end,
+            impacts,
             EK[b],
             EJ[b],
             ET[b],

@@ -5,12 +5,16 @@ loop, projection, event location and mode changes as the sweeps' loop
 
 The loop runs in chunks of :data:`CHUNK` steps, so that ``progress``, ``pace`` and Ctrl-C
 are served between them; a chunk resumes exactly where the last stopped (its step size
-carried over). What the loop does not mirror it hands back: at a located contact the
-simulator applies the impact (Newton's law, the Zeno accumulation) and the loop goes on
-after it; while bounces accumulate, and after a step the loop cannot take (a step-size
-collapse, a blow-up, a penetration, a gap that turns within a step, a mode that does not
-settle, a singular KKT matrix), the simulator integrates one segment itself, up to its
-next event, with its own diagnosis of a failure. The conditioning check of the
+carried over). Impacts are applied in the loop as the simulator applies them
+(:func:`._switch.impact`: Newton's law with restitution, the engaging contact with its
+friction, the Zeno accumulation, whose ``contact`` the loop logs at the accumulation
+time: the pending ones travel in the mode arrays, :func:`mode_arrays`). What the loop
+does not mirror it hands back: a contact it cannot apply (a singular impact matrix, a
+gap met below the surface) the simulator applies, and the loop goes on after it; after
+a step the loop cannot take (a step-size collapse, a blow-up, a penetration, a gap that
+turns within a step, a mode that does not settle, a singular KKT matrix), the simulator
+integrates one segment itself, up to its next event, with its own diagnosis of a
+failure. The conditioning check of the
 simulator's steps (a nearly singular KKT matrix stops the run) is not made in the loop;
 an exactly singular one is.
 """
@@ -90,7 +94,7 @@ class Loop:
         cap = 64 + 4 * m + 8
         self.EK = np.zeros(cap, dtype=np.int64)
         self.EJ = np.zeros(cap, dtype=np.int64)
-        self.ET, self.EY, self.EX = np.zeros(cap), np.zeros((cap, 2 * n)), np.zeros((cap, 2))
+        self.ET, self.EY, self.EX = np.zeros(cap), np.zeros((cap, 2 * n)), np.zeros((cap, 4))
         self.want, self.found = np.zeros((2, 0), dtype=np.int64), np.zeros(0, dtype=np.bool_)
         self.h = 0.0  # the step size to go on with (0: the initial step's rule)
         self.name = "loop"
@@ -111,7 +115,7 @@ class Loop:
             float(at.t), np.ascontiguousarray(at.y, dtype=float), float(self.h), float(t_end),
             setup.p, float(opts.rtol), float(opts.atol), float(opts.max_step), CHUNK,
             *self.tables, self.kinds, imode, fmode, setup.arm_pos, setup.arm_vel,
-            float(blow_up), INITIAL_TOLERANCE, self.want, self.found, True,
+            float(blow_up), INITIAL_TOLERANCE, self.want, self.found, True, True,
             self.EK, self.EJ, self.ET, self.EY, self.EX, 0,
             self.times, self.SY, self.SL, self.SR, io, fo, y_out,
         )  # fmt: skip
@@ -127,11 +131,14 @@ class Loop:
         at.t, at.y = float(t), y_out.copy()
         events = logged_events(setup.ns, self.EK, self.EJ, self.ET, self.EY, self.EX, int(nev))
         run.events.extend(events)
-        if any(e.kind == EventKind.SLIP for e in events):
+        if any(_dissipative(e) for e in events):
             run.dissipative = True
         set_mode(run.mode, imode, fmode)
-        for te in sorted({e.t for e in events}):
-            zeno.check(te, [(str(e.kind), e.constraint) for e in events if e.t == te])
+        # the chattering test after each event and its settling (_simulate._event); not
+        # after an accumulation's contact (_simulate._accumulated)
+        checked = [e for e in events if e.accumulation is None]
+        for te in sorted({e.t for e in checked}):
+            zeno.check(te, [(str(e.kind), e.constraint) for e in checked if e.t == te])
         self.h = float(fo[0]) if status == K.ST_BUDGET else 0.0
         if status == K.ST_END:
             return DONE, float(fo[0])
@@ -142,25 +149,40 @@ class Loop:
         return HANDBACK, status
 
 
+def _dissipative(event) -> bool:
+    """An event after which energy need not be conserved (_switch: a slip, an impact
+    with e < 1, a contact engaged)."""
+    if event.kind == EventKind.IMPACT:
+        return event.restitution is not None and event.restitution < 1
+    return event.kind in (EventKind.SLIP, EventKind.CONTACT)
+
+
 def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
-    """The loop's (imode (4, m), fmode (3, m)) of a :class:`._mode.Mode` (see
-    :mod:`._kernels`' loop with events)."""
+    """The loop's (imode (4, m), fmode (5, m)) of a :class:`._mode.Mode` (see
+    :mod:`._kernels`' loop with events): fmode's rows 3 and 4 hold ``accumulating``
+    {j: (t_impact, t_acc)} (t_acc, then t_impact; NaN where none)."""
     m = mode.kinds.m
     imode = np.zeros((4, m), dtype=np.int64)
     imode[0] = mode.engaged
     imode[1] = [_FRICTION[s] for s in mode.friction]
     imode[2] = [mode.is_armed(EventKind.CONTACT, j) for j in range(m)]
     imode[3] = [mode.is_armed(EventKind.STICK, j) for j in range(m)]
-    fmode = np.array([mode.sigma, mode.sN, mode.offset], dtype=float).reshape(3, m)
+    fmode = np.full((5, m), np.nan)
+    fmode[0], fmode[1], fmode[2] = mode.sigma, mode.sN, mode.offset
+    for j, (t_impact, t_acc) in mode.accumulating.items():
+        fmode[3, j], fmode[4, j] = t_acc, t_impact
     return imode, fmode
 
 
 def set_mode(mode, imode: np.ndarray, fmode: np.ndarray) -> None:
-    """The :class:`._mode.Mode` of the loop's arrays (``accumulating`` kept)."""
+    """The :class:`._mode.Mode` of the loop's arrays."""
     m = mode.kinds.m
     mode.engaged = imode[0] == 1
     mode.friction = [_STATE[int(c)] for c in imode[1]]
     mode.sigma, mode.sN, mode.offset = (fmode[i].copy() for i in range(3))
+    mode.accumulating = {
+        j: (float(fmode[4, j]), float(fmode[3, j])) for j in range(m) if not np.isnan(fmode[3, j])
+    }
     mode.armed = {}
     for j in range(m):
         if not imode[2, j]:

@@ -199,7 +199,7 @@ def _integrate(
         blow_up = BLOW_UP * (1.0 + float(np.max(np.abs(at.y), initial=0.0)))
         zeno = _Zeno(at.t, t_end)
         while at.t < t_end and rec.pending:
-            if loop is None or run.mode.accumulating:
+            if loop is None:
                 _segment(run, rec, at, t_end, blow_up, zeno, watch)
             else:
                 _loop_call(loop, run, rec, at, t_end, blow_up, zeno, watch)
