@@ -168,3 +168,206 @@ def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_pa
                          text=True, timeout=600, check=True)
     engine, t_lift = out.stdout.rsplit(" ", 1)
     assert engine == "loop (numba)" and abs(float(t_lift) - b.events[-1].t) <= 1e-12
+
+
+# ----- impacts in the loop (issue 14 item 1) ---------------------------------------------
+def _spinning_disk(restitution: str | None = None) -> str:
+    """The incline disk dropped from 5 cm above the slope, spinning (theta' = 20 with mu =
+    0.1 below): it lands with more slip than mu times the normal impulse can stop."""
+    text = _example("incline_disk", 'n     = { initial = "R", velocity = 0 }',
+                    'n     = { initial = "R + 0.05", velocity = 0 }')
+    if restitution is not None:
+        rule = f'unilateral = true\nrestitution = "{restitution}"\n'
+        text = text.replace("unilateral = true\n", rule, 1)
+    return text
+
+
+ZENO_INCLINE = """
+title = "Ball bouncing on a frictionless incline"
+[parameters]
+m = 1.0
+g = 9.81
+e = 0.7
+alpha = 0.3
+[coordinates]
+x = { initial = 0, velocity = 0 }
+y = { initial = 1, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "m*g*y"
+[[constraints]]
+name = "incline"
+f = "y + x*tan(alpha)"
+unilateral = true
+restitution = "e"
+"""
+
+
+def _zeno_problem(name: str) -> str:
+    """tests/test_zeno.py's BALL (e = 0.8) and INCLINE."""
+    return {"ball": BALL.replace("e = 0.5", "e = 0.8"), "incline": ZENO_INCLINE}[name]
+
+
+IMPACT_CASES = {
+    # e = 0.8, 40-odd bounces and the contact at their accumulation time
+    "zeno ball": (lambda: _zeno_problem("ball"), 10.0, {}),
+    # bounces on a frictionless incline, then sliding down it in contact
+    "incline": (lambda: _zeno_problem("incline"), 3.0, {}),
+    # e = 0: the contact engages and its friction slips through the impact
+    "slip through": (_spinning_disk, 1.0, {"params": {"mu": 0.1}, "qd0": {"theta": 20.0}}),
+    # e = 0.5: bounces, then a Zeno sequence whose engaging friction slips through
+    "zeno slip": (lambda: _spinning_disk("0.5"), 1.5,
+                  {"params": {"mu": 0.1}, "qd0": {"theta": 20.0}}),
+}
+
+
+def _counting(monkeypatch):
+    """Count the simulator's own segments and the events it applies (a contact the loop
+    handed back would be one of them)."""
+    from lamech.numeric import _simulate
+
+    calls = {"segment": 0, "apply": 0}
+
+    def counted(name, key):
+        original = getattr(_simulate, name)
+
+        def wrapper(*args, **kwargs):
+            calls[key] += 1
+            return original(*args, **kwargs)
+
+        monkeypatch.setattr(_simulate, name, wrapper)
+
+    counted("_segment", "segment")
+    counted("apply", "apply")
+    return calls
+
+
+def _same_runs(a, b, tol=1e-9):
+    assert a.status == b.status == "ok", (a.message, b.message)
+    assert [(e.kind, e.constraint) for e in a.events] == [(e.kind, e.constraint) for e in b.events]
+    for ea, eb in zip(a.events, b.events):
+        assert abs(ea.t - eb.t) <= 1e-10
+        for detail in ("impulse", "restitution", "velocity_before", "accumulation", "ratio",
+                       "multiplier"):
+            x, y = getattr(ea, detail), getattr(eb, detail)
+            assert (x is None) == (y is None), (detail, ea, eb)
+            assert x is None or abs(x - y) <= tol * (1 + abs(x)), (detail, ea, eb)
+        assert (ea.reversal, ea.initial) == (eb.reversal, eb.initial)
+    assert np.array_equal(a.t, b.t)
+    assert np.max(np.abs(a.q - b.q)) <= tol and np.max(np.abs(a.qd - b.qd)) <= tol
+    assert np.nanmax(np.abs(a.lambdas - b.lambdas), initial=0.0) <= tol
+    assert np.max(np.abs(a.energy - b.energy)) <= tol
+    assert a.final_time == b.final_time and a.energy_conserved == b.energy_conserved
+
+
+@pytest.mark.parametrize("name", sorted(IMPACT_CASES))
+def test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself(name, monkeypatch):
+    """The loop applies each impact as the simulator does (the bounce, the contact with
+    its friction sticking or slipping through the impact, the accumulation's contact at
+    its time): SciPy's events with their details, samples and forces; and no contact is
+    handed to the simulator (no simulator segment runs, no event is applied in Python),
+    except after a gap that turns within one step (small bounces on the incline and of
+    the disk: a simulator segment each, as before)."""
+    make, t_end, kw = IMPACT_CASES[name]
+    ns = compile_system(lamech.loads(make()))
+    a = simulate(ns, t_end, engine="scipy", **kw)
+    calls = _counting(monkeypatch)
+    b = simulate(ns, t_end, engine="loop", **kw)
+    _same_runs(a, b)
+    impacts = [e for e in b.events if e.kind == "impact"]
+    contacts = [e for e in b.events if e.kind == "contact"]
+    assert contacts and contacts[-1].restitution is not None
+    if name in ("incline", "zeno slip"):
+        # the handed-back segments (small bounces whose gap turns within a step) apply what
+        # they meet; the loop applied the rest
+        assert 0 < calls["apply"] == calls["segment"] < len(impacts)
+    else:
+        assert calls == {"segment": 0, "apply": 0}
+    if name.startswith("zeno") or name == "incline":
+        assert impacts and contacts[-1].accumulation is not None
+        assert abs(contacts[-1].t - contacts[-1].accumulation - impacts[-1].t) <= 1e-12
+    if name == "slip through":
+        # Coulomb: the friction impulse is mu times the normal one, against the slip
+        i = next(k for k, e in enumerate(b.events) if e.kind == "slip")
+        slip, hit = b.events[i], b.events[i - 1]
+        assert slip.constraint == "rolling" and slip.t == hit.t
+        assert abs(abs(slip.impulse) - 0.1 * abs(hit.impulse)) <= 1e-12 * abs(hit.impulse)
+
+
+def test_the_zeno_bounces_rest_at_the_accumulation_time_through_the_loop():
+    """The bouncing ball (e = 0.8) on the loop: bounce k at t1 (1 + 2 e (1 - e^k) /
+    (1 - e)), the contact at t1 (1 + e) / (1 - e) (to the accumulation of the bounces
+    too small to resolve), at rest on the floor after it."""
+    ns = compile_system(lamech.loads(_zeno_problem("ball")))
+    b = simulate(ns, 10.0, engine="loop")
+    e, t1 = 0.8, math.sqrt(2 / G)
+    impacts = [ev for ev in b.events if ev.kind == "impact"]
+    for k, ev in enumerate(impacts[:10]):
+        assert abs(ev.t - t1 * (1 + 2 * e * (1 - e**k) / (1 - e))) <= 1e-9
+        assert abs(ev.velocity_before + G * t1 * e**k) <= 1e-8 and ev.restitution == e
+        assert abs(ev.impulse - (1 + e) * G * t1 * e**k) <= 1e-8
+    assert [ev.kind for ev in b.events[-1:]] == ["contact"]
+    assert abs(b.events[-1].t - t1 * (1 + e) / (1 - e)) <= 1e-6
+    assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
+
+
+def test_the_accumulation_round_trips_through_the_loops_mode_arrays():
+    """Mode.accumulating {j: (t_impact, t_acc)} travels in fmode's rows 3 and 4."""
+    from lamech.numeric._loop import mode_arrays, set_mode
+    from lamech.numeric._mode import ConstraintKinds, Mode
+
+    ns = compile_system(lamech.loads(_spinning_disk("0.5")))
+    mode = Mode(ConstraintKinds.of(ns.system))
+    mode.accumulating[0] = (0.25, 0.5)
+    imode, fmode = mode_arrays(mode)
+    assert fmode.shape == (5, 2) and fmode[3, 0] == 0.5 and fmode[4, 0] == 0.25
+    assert np.isnan(fmode[3, 1]) and np.isnan(fmode[4, 1])
+    other = Mode(ConstraintKinds.of(ns.system))
+    set_mode(other, imode, fmode)
+    assert other.accumulating == {0: (0.25, 0.5)}
+    fmode[3, 0] = np.nan  # a release drops it
+    set_mode(other, imode, fmode)
+    assert other.accumulating == {}
+
+
+def test_integrate_events_applies_impacts_in_the_loop_when_asked():
+    """integrate_events(impacts=True) (the sweeps' loop, as Python here) gives simulate's
+    bounces, the accumulation's contact and the slip through an impact; by default a
+    contact still stops the run for simulate (status "contact")."""
+    from lamech.numeric import integrate_events
+
+    for name in ("zeno ball", "slip through"):
+        make, t_end, kw = IMPACT_CASES[name]
+        ns = compile_system(lamech.loads(make()))
+        tr = simulate(ns, t_end, engine="loop", **kw)
+        params = kw.get("params")
+        y0 = np.concatenate((tr.q[0], tr.qd[0]))
+        res = integrate_events(ns, [y0], t_end, params=params, max_events=128,
+                               impacts=True)
+        assert res.status == ["end"]
+        assert [(e.kind, e.constraint) for e in res.events[0]] == \
+               [(e.kind, e.constraint) for e in tr.events]
+        for ea, eb in zip(tr.events, res.events[0]):
+            assert abs(ea.t - eb.t) <= 1e-10
+            for detail in ("impulse", "restitution", "velocity_before", "accumulation"):
+                x, y = getattr(ea, detail), getattr(eb, detail)
+                assert (x is None) == (y is None) and (x is None or abs(x - y) <= 1e-9)
+        first = integrate_events(ns, [y0], t_end, params=params, want=[("impact", None)],
+                                 to_end=False, impacts=True)
+        assert first.status == (["found"] if name == "zeno ball" else ["end"])
+        old = integrate_events(ns, [y0], t_end, params=params)
+        assert old.status == ["contact"] and old.fallback[0]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers(tmp_path, monkeypatch):
+    """jit=True: numba's loop applies the impacts (the Zeno ball, the disk whose friction
+    slips through the landing) and gives the Python loop's numbers."""
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
+    for name in ("zeno ball", "slip through"):
+        make, t_end, kw = IMPACT_CASES[name]
+        a = simulate(compile_system(lamech.loads(make())), t_end, engine="loop", **kw)
+        b = simulate(lamech.loads(make()), t_end, jit=True, **kw)
+        assert a.engine == "loop (Python)" and b.engine == "loop (numba)"
+        _same_runs(a, b, tol=1e-12)
