@@ -148,10 +148,11 @@ def simulate(
     loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside
     it: :mod:`._loop`) when the system is compiled with numba, else SciPy's integrator
     driven from Python (``"scipy"``); ``"loop"`` asks for the loop, as Python where numba
-    is not used (the same numbers, slowly). The loop hands the impacts (restitution, the
-    accumulation of bounces) and its failures to the simulator's own steps; it does not
-    run other methods, inputs that switch, or problems with t in them (ValueError for
-    ``"loop"``; ``"auto"`` uses SciPy there).
+    is not used (the same numbers, slowly). The loop applies lift-off, impacts (with the
+    accumulation of bounces), slip and stick itself, and hands a step it cannot take to
+    the simulator's own steps; it does not run other methods, inputs that switch, or
+    problems with t in them (SimulationError for ``"loop"``; ``"auto"`` uses SciPy
+    there).
 
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force

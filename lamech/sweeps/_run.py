@@ -29,9 +29,10 @@ in this process, over the cores) when every measure is an event measure or
 depends on t explicitly (``engine="auto"``);
 numba-compiled when it is installed and the system's loop is in the cache on disk or the
 sweep has at least :data:`COMPILED_CASES` cases (the first compile of a problem costs
-about a minute), else the same loop as Python. A case whose run meets what that loop
-leaves to the simulator (an impact or contact, a failure: see
-:data:`lamech.numeric.EVENT_FALLBACKS`) and every case of any other sweep runs
+about a minute), else the same loop as Python; impacts are applied in it. A case whose
+run meets what that loop leaves to the simulator (a failure, more than 64 events, an
+impact it cannot apply: see :data:`lamech.numeric.EVENT_FALLBACKS`) and every case of
+any other sweep runs
 :func:`lamech.numeric.simulate`, as before (``engine="simulate"`` for all cases). Both
 give the same event times (to about 1e-14 on the cylinder; the tests hold them to 1e-9).
 
@@ -683,6 +684,8 @@ def _run_compiled(ns, plan: _Plan, cases, todo, record, workers, engine) -> tupl
                 to_end=to_end,
                 threads=threads,
                 jit=jit,
+                impacts=True,  # applied in the loop as simulate applies them
+                max_events=64,  # a bouncing case with more falls back to simulate
             )
         except Exception:  # e.g. an expression out of its domain (the Python loop raises):
             left.extend(chunk)  # simulate runs these cases and says what went wrong
