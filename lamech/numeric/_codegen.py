@@ -347,7 +347,7 @@ def _gather_source(n: int, nonzero: list[tuple[int, int]]) -> str:
 
 
 def _kernels(
-    fns: dict, system: System, diagonal: bool, pattern, source: str, jit: bool, locks: list
+    fns: dict, system: System, diagonal: bool, pattern, source: str, jit: bool | None, locks: list
 ):
     """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
     numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced

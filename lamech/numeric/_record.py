@@ -123,6 +123,7 @@ def assemble(
         title=ns.system.title,
         kinetic=np.array([s.T for s in out]),
         engine=engine,
+        handed_back=run.handed_back,
     )
 
 

@@ -73,7 +73,8 @@ class Accel(NamedTuple):
 class Run:
     """The data of one run: ``mode``, ``metric`` (mass matrix, or Euclidean once M is
     singular), ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic
-    impact happened) and ``events``."""
+    impact happened), ``events`` and ``handed_back`` (the contacts and segments the loop
+    with events left to the simulator's own code)."""
 
     def __init__(self, setup: Setup):
         self.setup = setup
@@ -82,6 +83,7 @@ class Run:
         self.evaluations = 0
         self.dissipative = False
         self.events: list[Event] = []
+        self.handed_back = 0  # what the loop with events left to the simulator (_loop)
 
     def constraints(self, t: float, q: np.ndarray):
         """(f, A, b) at (t, q)."""

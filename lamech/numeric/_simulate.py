@@ -293,6 +293,8 @@ def _loop_call(
     """One call of the loop (:mod:`._loop`); a contact it located is applied here, and
     what it cannot do the simulator does for one segment."""
     what, detail = loop.advance(rec, at, t_end, blow_up, zeno)
+    if what in (CONTACT, HANDBACK):
+        run.handed_back += 1
     if what == CONTACT:
         j = int(detail)
         _check_penetration(run, at.t, at.y, met=j)

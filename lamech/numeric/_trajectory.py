@@ -34,7 +34,8 @@ class Trajectory:
     its kind); ``status`` is a :class:`Status` (equal to "ok", "failed" or "interrupted")
     with ``message`` saying when, why and what to try. ``engine``: what integrated it
     (``"loop (numba)"``, ``"loop (Python)"``: the loop with events; ``"SciPy DOP853"``
-    and the other methods).
+    and the other methods); ``handed_back``: the contacts and segments the loop left to the
+    simulator's own code (a step it could not take, an impact it could not apply).
     """
 
     coordinates: list[str]
@@ -62,6 +63,7 @@ class Trajectory:
     title: str = ""
     kinetic: np.ndarray | None = None
     engine: str = ""
+    handed_back: int = 0
 
     # ----- views ------------------------------------------------------------------
     @property
@@ -150,6 +152,7 @@ class Trajectory:
             "steps": self.steps,
             "evaluations": self.evaluations,
             "engine": self.engine,
+            "handed_back": self.handed_back,
             "samples": int(len(self.t)),
             "status": str(self.status),
             "message": self.message,
