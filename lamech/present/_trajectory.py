@@ -60,7 +60,8 @@ def trajectory_text(traj) -> str:
         f"  status: {s['status']}" + (f" ({s['message']})" if s["message"] else ""),
         f"  t = 0 .. {s['final_time']:.6g} of {s['t_end']:.6g}; {s['steps']} steps, "
         f"{s['evaluations']} dynamics evaluations, {s['samples']} samples"
-        + (f" ({s['engine']})" if s.get("engine") else ""),
+        + (f"; engine: {s['engine']}" if s.get("engine") else "")
+        + (f", {s['handed_back']} handed to SciPy's" if s.get("handed_back") else ""),
     ]
     for note in s["notes"]:
         lines.append(f"  note: {note}")
