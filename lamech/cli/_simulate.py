@@ -138,7 +138,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="compile the dynamics and the integration loop with numba. The first run of a "
         "problem compiles them (about 30 s) and caches the result in $LAMECH_CACHE_DIR, "
         "else $XDG_CACHE_HOME/lamech, else ~/.cache/lamech; later runs of it load them "
-        "(under a second) and use them without --jit, about 10 times faster (the same "
+        "(under a second) and use them without --jit, 6-30 times faster (the same "
         "numbers to rounding). Without numba this does nothing",
     )
     s.add_argument(

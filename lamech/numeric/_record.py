@@ -128,35 +128,50 @@ def assemble(
 
 
 def _forces(run: Run, out: list[Sample]) -> dict[str, np.ndarray]:
-    """The Cartesian constraint forces "<constraint>:<direction>" by virtual work."""
+    """The Cartesian constraint forces "<constraint>:<direction>" by virtual work: at each
+    sample, F with J^T F = lambda_j A_j (least squares), along each direction the partial
+    velocities J can represent; the least squares of all samples at once
+    (:func:`_least_squares`)."""
     ns, p = run.setup.ns, run.setup.p
     forces = {
         f"{ns.constraint_names[j]}:{d}": np.full(len(out), np.nan)
         for j, dirs in ns.force_specs
         for d in dirs
     }
-    if not ns.force_specs:
+    if not ns.force_specs or not out:
         return forces
-    for r, s in enumerate(out):
-        _, A, _ = ns.constraints(s.t, s.q, p)
-        jac = ns.force_jacobians(s.t, s.q, p)
-        for (j, dirs), (J, D) in zip(ns.force_specs, jac):
-            if np.isfinite(s.lam[j]):
-                for d, value in _components(J, D, dirs, s.lam[j] * A[j]):
-                    forces[f"{ns.constraint_names[j]}:{d}"][r] = value
+    A_at = [ns.constraints(s.t, s.q, p)[1] for s in out]
+    jac_at = [ns.force_jacobians(s.t, s.q, p) for s in out]
+    for k, (j, dirs) in enumerate(ns.force_specs):
+        lam = np.array([s.lam[j] for s in out])
+        rows = np.nonzero(np.isfinite(lam))[0]
+        if not len(rows):
+            continue
+        J = np.array([jac_at[r][k][0] for r in rows], dtype=float)  # (R, dim, n)
+        D = np.array([jac_at[r][k][1] for r in rows], dtype=float)  # (R, directions, dim)
+        Q = lam[rows, None] * np.array([A_at[r][j] for r in rows], dtype=float)
+        F, rank = _least_squares(np.swapaxes(J, 1, 2), Q)
+        for i, d in enumerate(dirs):
+            dvec = D[:, i, :]
+            norm = np.linalg.norm(dvec, axis=1)
+            ok = norm != 0
+            for r in np.nonzero(ok & (rank < J.shape[1]))[0]:
+                # a rank-deficient J: only the directions it can represent
+                c, *_ = np.linalg.lstsq(J[r], dvec[r], rcond=None)
+                ok[r] = np.linalg.norm(J[r] @ c - dvec[r]) <= 1e-8 * (1 + norm[r])
+            value = np.einsum("rd,rd->r", F, dvec) / np.where(ok, norm, 1.0)
+            forces[f"{ns.constraint_names[j]}:{d}"][rows[ok]] = value[ok]
     return forces
 
 
-def _components(J, D, dirs, Q):
-    """(direction, component) of the Cartesian force F with J^T F = Q (least squares)
-    along each direction of D the partial velocities J can represent."""
-    F, _, rank, _ = np.linalg.lstsq(J.T, Q, rcond=None)
-    for d, dvec in zip(dirs, D):
-        norm = float(np.linalg.norm(dvec))
-        if norm == 0:
-            continue
-        if rank < J.shape[0]:
-            c, *_ = np.linalg.lstsq(J, dvec, rcond=None)
-            if np.linalg.norm(J @ c - dvec) > 1e-8 * (1 + norm):
-                continue
-        yield d, float(F @ dvec) / norm
+def _least_squares(M: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The minimum-norm least-squares x of M[r] x = b[r] for a stack M (R, a, c), with
+    numpy.linalg.lstsq's cut-off (singular values below eps max(a, c) times the largest
+    count as zero), and each one's rank: by one stacked SVD, since lstsq solves one
+    system a call (1001 samples of the cylinder's two forces: 23 ms of lstsq, half a
+    compiled run)."""
+    U, S, Vt = np.linalg.svd(M, full_matrices=False)
+    keep = S > np.finfo(float).eps * max(M.shape[1:]) * S[:, :1]
+    inverse = np.where(keep, 1.0 / np.where(keep, S, 1.0), 0.0)
+    x = np.einsum("rkc,rk,rak,ra->rc", Vt, inverse, U, b)
+    return x, keep.sum(axis=1)
