@@ -577,7 +577,7 @@ def integrate_events(
     run = _event_functions(ns, jit)
     consts = (
         float(t_end), float(rtol), float(atol), float(np.inf if max_step is None else max_step),
-        int(max_steps), *_tableau(), *_dense_tableau(), kinds,
+        int(max_steps), (*_tableau(), *_dense_tableau()), kinds,
     )  # fmt: skip
     rest = (arm, arm, BLOW_UP, INITIAL_TOLERANCE, INITIAL_TOLERANCE, wanted, bool(to_end),
             bool(impacts))  # fmt: skip

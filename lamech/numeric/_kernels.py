@@ -987,14 +987,7 @@ def ev_run_one(
     atol,
     max_step,
     max_steps,
-    A,
-    B,
-    C,
-    E3,
-    E5,
-    AX,
-    CX,
-    D,
+    tab,
     kinds,
     imode,
     fmode,
@@ -1070,7 +1063,7 @@ def ev_run_one(
     io = np.zeros(4, dtype=np.int64)
     fo = np.zeros(2)
     t, st, nev, steps = ev_segment(
-        t, y, 0.0, t_end, p, rtol, atol, max_step, max_steps, A, B, C, E3, E5, AX, CX, D,
+        t, y, 0.0, t_end, p, rtol, atol, max_step, max_steps, tab,
         kinds, imode, fmode, arm_pos, arm_vel, blow_up, pen, want, found, to_end, impacts,
         ev_kind, ev_j, ev_t, ev_y, ev_x, nev, none, np.zeros((0, N)), np.zeros((0, m)),
         np.zeros((0, 4)), io, fo, y_out,
@@ -1370,14 +1363,7 @@ def ev_segment(
     atol,
     max_step,
     max_steps,
-    A,
-    B,
-    C,
-    E3,
-    E5,
-    AX,
-    CX,
-    D,
+    tab,
     kinds,
     imode,
     fmode,
@@ -1415,7 +1401,9 @@ def ev_segment(
     or with the event record nearly full (ST_BUDGET: go on from there with h_abs =
     fo[0]); ST_FOUND; and for the other statuses the last accepted state, from which
     the simulator takes over. Without ``impacts`` every located contact returns
-    ST_CONTACT. fo[1]: the largest projection; io[2]: right-hand sides."""
+    ST_CONTACT. fo[1]: the largest projection; io[2]: right-hand sides. ``tab``: DOP853's
+    tables (A, B, C, E3, E5, then the dense output's A_EXTRA, C_EXTRA, D: _batch)."""
+    A, B, C, E3, E5, AX, CX, D = tab
     N = y.shape[0]
     n = N // 2
     m = kinds.shape[1]
@@ -1704,14 +1692,7 @@ def ev_run(
     atol,
     max_step,
     max_steps,
-    A,
-    B,
-    C,
-    E3,
-    E5,
-    AX,
-    CX,
-    D,
+    tab,
     kinds,
     IM,
     FM,
@@ -1745,14 +1726,7 @@ def ev_run(
             atol,
             max_step,
             max_steps,
-            A,
-            B,
-            C,
-            E3,
-            E5,
-            AX,
-            CX,
-            D,
+            tab,
             kinds,
             IM[b],
             FM[b],

@@ -114,7 +114,7 @@ class Loop:
         t, status, nev, steps = self.segment(
             float(at.t), np.ascontiguousarray(at.y, dtype=float), float(self.h), float(t_end),
             setup.p, float(opts.rtol), float(opts.atol), float(opts.max_step), CHUNK,
-            *self.tables, self.kinds, imode, fmode, setup.arm_pos, setup.arm_vel,
+            self.tables, self.kinds, imode, fmode, setup.arm_pos, setup.arm_vel,
             float(blow_up), INITIAL_TOLERANCE, self.want, self.found, True, True,
             self.EK, self.EJ, self.ET, self.EY, self.EX, 0,
             self.times, self.SY, self.SL, self.SR, io, fo, y_out,
