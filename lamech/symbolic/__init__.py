@@ -7,7 +7,7 @@ pure function of a :class:`~lamech.model.System`; the sign convention is stated 
 :mod:`lamech.model`.
 """
 
-from ._budget import SIMPLIFY_SECONDS, count_ops, simplification_bound
+from ._budget import count_ops
 from ._conditions import (
     Root,
     Verdict,
@@ -22,11 +22,11 @@ from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._modes import Equilibrium, Linear, Mode, Modes, check_modes, modes
 from ._multipliers import multipliers
+from ._normal import DEFAULT_BUDGET, Work, work_budget
 from ._reduce import (
     CLOSED_FORM_LIMIT,
     KKT_OPS,
     READABLE_OPS,
-    SYMBOLIC_SECONDS,
     ClosedForms,
     Reduction,
     closed_forms,
@@ -50,9 +50,9 @@ __all__ = [
     "CLOSED_FORM_LIMIT",
     "KKT_OPS",
     "READABLE_OPS",
-    "SYMBOLIC_SECONDS",
-    "SIMPLIFY_SECONDS",
-    "simplification_bound",
+    "DEFAULT_BUDGET",
+    "Work",
+    "work_budget",
     "count_ops",
     "Integrals",
     "integrals",

@@ -21,8 +21,9 @@ import sympy as sp
 
 from ..expr import to_text
 from ..model import System
-from ._budget import count_ops, within
+from ._budget import count_ops
 from ._integrals import Shell
+from ._normal import normal
 from ._student import has_big_integer, student
 
 __all__ = [
@@ -187,7 +188,7 @@ def _factor_solutions(num: sp.Expr, x: sp.Symbol) -> list[tuple[sp.Expr, sp.Expr
         if poly.degree() not in (1, 2) or any(c.has(x) for c in poly.all_coeffs()):
             continue
         for r in sp.roots(poly, multiple=True) or []:
-            out.append((lhs, student(sp.simplify(r))))
+            out.append((lhs, student(normal(r))))
         if out:
             return out
     return out
@@ -329,13 +330,10 @@ def _at_start(system: System, expr: sp.Expr) -> tuple[sp.Expr, float | None]:
 
 
 def tidy_light(expr: sp.Expr) -> sp.Expr:
-    """A cheap simplification for conditions (bounded by size)."""
+    """A cheap simplification for conditions (bounded by size and counted work)."""
     if count_ops(expr) > 200:
         return expr
-    try:
-        return within(sp.simplify, expr, fallback=expr)
-    except (TypeError, ValueError, RecursionError, NotImplementedError):
-        return expr
+    return student(normal(expr))
 
 
 def _at_least_zero(expr: sp.Expr) -> str:

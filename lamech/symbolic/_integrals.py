@@ -23,8 +23,8 @@ import sympy as sp
 
 from ..expr import switch_form
 from ..model import Coordinate
-from ._budget import within
 from ._derive import Dynamics
+from ._normal import normal
 from ._reduce import ClosedForms, Reduction, tidy
 
 __all__ = ["Integrals", "integrals", "Shell", "energy_shell"]
@@ -149,7 +149,7 @@ def _quadratic_energy(dyn: Dynamics, red: Reduction, qd: list) -> sp.Expr | None
     n = len(qd)
 
     def entry(e: sp.Expr) -> sp.Expr:
-        return e if e.is_Number or e.is_Symbol else sp.factor_terms(sp.trigsimp(e))
+        return e if e.is_Number or e.is_Symbol else sp.factor_terms(normal(e))
 
     def quadratic() -> sp.Expr:
         terms = []
@@ -161,11 +161,7 @@ def _quadratic_energy(dyn: Dynamics, red: Reduction, qd: list) -> sp.Expr | None
                     terms.append(w * entry(m) * qd[i] * qd[j])
         return sp.factor_terms(sp.Add(*terms))
 
-    try:
-        short = within(quadratic, fallback=None)
-    except (TypeError, ValueError, RecursionError, NotImplementedError):
-        return None
-    return None if short is None else short + system.V
+    return quadratic() + system.V
 
 
 def _coordinate_jacobian(system, red: Reduction) -> sp.Matrix:

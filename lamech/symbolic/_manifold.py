@@ -19,7 +19,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..model import System, time_derivative
-from ._budget import count_ops, within
+from ._budget import count_ops
 from ._student import student
 
 __all__ = ["manifold_simplifier"]
@@ -109,7 +109,7 @@ class _Manifold:
         expr = sp.sympify(expr)
         if expr.is_Atom or not (self.radicals or self.orders) or count_ops(expr) > MAX_OPS:
             return expr
-        return within(self._on_manifold, expr, fallback=expr)
+        return self._on_manifold(expr)
 
     def _on_manifold(self, expr: sp.Expr) -> sp.Expr:
         try:

@@ -17,7 +17,6 @@ constraints not eliminated. Simplification is bounded by expression size
 from __future__ import annotations
 
 import random
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,9 +29,10 @@ except ImportError:  # pragma: no cover - SymPy 1.12
     from sympy.matrices.common import NonInvertibleMatrixError
 
 from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_derivative
-from ._budget import count_ops, within
+from ._budget import count_ops
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier
+from ._normal import is_zero, labelled, normal
 from ._student import outer_signs, student
 
 __all__ = [
@@ -44,7 +44,6 @@ __all__ = [
     "CLOSED_FORM_LIMIT",
     "SIMPLIFY_OPS",
     "READABLE_OPS",
-    "SYMBOLIC_SECONDS",
 ]
 
 CLOSED_FORM_LIMIT = 8
@@ -58,51 +57,39 @@ READABLE_OPS = 1500
 """Closed forms larger than this (after simplification) are delivered, not printed."""
 MAX_OPS = 6000
 """Expressions larger than this are left as they are."""
-SYMBOLIC_SECONDS = 5.0
-"""Time bound of one closed-form solve (the elimination, then simplification while
-time is left): past it, only M, h, A, gamma and numeric multipliers are given."""
+ELIMINATION_OPS = 100_000
+"""The most operations the entries of an elimination (:func:`_solve_bounded`) may add up
+to before it gives up: closed forms past it would be read by no one, and the count,
+unlike a clock, gives the same answer on every machine."""
 
 
-def tidy(expr: sp.Expr) -> sp.Expr:
-    """Simplify within a size budget: full ``simplify`` for small expressions, a cheap
-    ``cancel``/``trigsimp`` pass for medium ones, nothing for large ones; and within
-    :data:`SIMPLIFY_SECONDS` (:func:`within`): past it, ``expr`` as it is."""
+class _TooLarge(Exception):
+    """The elimination's entries passed :data:`ELIMINATION_OPS`."""
+
+
+def tidy(expr: sp.Expr, velocities: tuple = (), angles: tuple = ()) -> sp.Expr:
+    """The shortest readable form of ``expr`` (:func:`._normal.normal`: a normal form
+    modulo sin^2 + cos^2 = 1, cancelled, factored where short; in chains also written in
+    the differences of consecutive ``angles``), then a student's last touches
+    (:func:`._student.student`). Bounded by counted work: past the solve's budget or
+    :data:`MAX_OPS`, ``expr`` as it is."""
     expr = sp.sympify(expr)
     if expr.is_Number or expr.is_Symbol:
         return expr
-    return within(_tidy, expr, fallback=expr)
-
-
-def _tidy(expr: sp.Expr) -> sp.Expr:
-    ops = count_ops(expr)
-    if ops > MAX_OPS:
+    if count_ops(expr) > MAX_OPS:
         return expr
-    if ops > SIMPLIFY_OPS:
-        try:
-            return sp.together(sp.expand_trig(expr)) if ops < 2 * SIMPLIFY_OPS else expr
-        except (TypeError, ValueError, RecursionError):
-            return expr
-    try:
-        out = sp.simplify(sp.factor_terms(expr))
-        trig = sp.trigsimp(out)
-        if count_ops(trig) < count_ops(out):
-            out = trig
-        return student(out if count_ops(out) <= ops else expr)
-    except (TypeError, ValueError, RecursionError, NotImplementedError):
-        return expr
+    out = normal(expr, velocities=tuple(velocities), angles=tuple(angles))
+    return student(out)
 
 
 def present(expr: sp.Expr, velocities: list[sp.Symbol]) -> sp.Expr:
     """Group a result by powers of the velocities with factored coefficients
-    (m g cos th - m (R1 + R2) th'^2 rather than m (g cos th - R1 th'^2 - R2 th'^2))."""
-    present_v = [v for v in velocities if expr.has(v)]
+    (m g cos th - m (R1 + R2) th'^2 rather than m (g cos th - R1 th'^2 - R2 th'^2)),
+    where that is no longer (:func:`._normal.normal`)."""
+    present_v = tuple(v for v in velocities if expr.has(v))
     if not present_v or count_ops(expr) > SIMPLIFY_OPS:
         return expr
-    try:
-        grouped = sp.collect(sp.expand(expr), present_v, func=sp.factor)
-    except (TypeError, ValueError, sp.PolynomialError):
-        return expr
-    return outer_signs(grouped if count_ops(grouped) <= count_ops(expr) + 4 else expr)
+    return outer_signs(normal(expr, velocities=present_v))
 
 
 @dataclass(frozen=True)
@@ -268,7 +255,7 @@ class ClosedForms:
     Every one is delivered whatever its size; ``sizes`` gives the operation count of
     each multiplier (by name) and acceleration (by symbol) longer than
     :data:`READABLE_OPS`: reports summarise those instead of printing them. ``skipped``
-    says why there are none at all (the time bound, :data:`SYMBOLIC_SECONDS`).
+    says why there are none at all.
     """
 
     accelerations: dict  # Symbol (independent acceleration) -> Expr
@@ -290,20 +277,15 @@ class ClosedForms:
         return {k: v for k, v in self.multipliers.items() if k not in self.sizes}
 
 
-class _OutOfTime(Exception):
-    """The symbolic solve passed its time bound."""
-
-
-def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) -> ClosedForms:
+def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     """Solve the substituted KKT system symbolically (bounded; see module docstring).
 
     Small systems (at most :data:`CLOSED_FORM_LIMIT` unknowns and :data:`KKT_OPS`
     operations) are solved with simplification on the way; larger ones by elimination
     pivoted at a generic numeric point, simplified only where short, so every multiplier
-    is delivered. The whole is bounded by ``seconds`` (:data:`SYMBOLIC_SECONDS`).
+    is delivered, raw where the work budget (:func:`._normal.work_budget`) runs out: the
+    multipliers are tidied first, then the accelerations.
     """
-    started = time.perf_counter()
-    deadline = started + (SYMBOLIC_SECONDS if seconds is None else seconds)
     system = dyn.system
     rest = [j for j, c in enumerate(system.constraints) if c.name not in red.eliminated_constraints]
     unknowns = [c.acceleration for c in red.independent] + system.multipliers
@@ -338,23 +320,23 @@ def closed_forms(dyn: Dynamics, red: Reduction, seconds: float | None = None) ->
             sol = _solve_linear(K, rhs)
         else:
             probe = _probe(system, red, K.free_symbols | rhs.free_symbols)
-            sol = _solve_bounded(K, rhs, probe, deadline)
+            sol = _solve_bounded(K, rhs, probe)
     except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):
         return ClosedForms(
             {}, {}, "the substituted KKT matrix is singular symbolically", singular=True
         )
-    except _OutOfTime as late:
-        return ClosedForms({}, {}, str(late))
+    except _TooLarge as large:
+        return ClosedForms({}, {}, str(large))
     nacc = len(red.independent)
     angles = angles_of(system, red)
-    out = []
-    for i, s in enumerate(sol):
+    out = list(sol)
+    # the multipliers first: they are what a solve is for
+    for i in list(range(nacc, len(sol))) + list(range(nacc)):
         if projected is not None and i < nacc:
-            out.append(projected[i])
+            out[i] = projected[i]
             continue
-        if time.perf_counter() < deadline:
-            s = on_manifold(_tidy_angles(s, angles))
-        out.append(s)
+        with labelled("multipliers" if i >= nacc else "reduced equations"):
+            out[i] = on_manifold(_tidy_angles(sol[i], angles))
     return _closed(system, red, out, on_manifold)
 
 
@@ -381,10 +363,6 @@ def _closed(system: System, red: Reduction, out: list, on_manifold: Any) -> Clos
     return ClosedForms(acc, lam, manifold=on_manifold, sizes=sizes)
 
 
-ANGLE_OPS = 800
-"""Expressions up to this size get the angle-difference rewriting of :func:`angle_tidy`."""
-
-
 def angles_of(system: System, red: Reduction) -> list[sp.Symbol]:
     """The independent coordinates that enter the reduced Lagrangian only through sin and
     cos (angles), in order."""
@@ -399,39 +377,6 @@ def angles_of(system: System, red: Reduction) -> list[sp.Symbol]:
         if not stripped.has(x):
             out.append(x)
     return out
-
-
-def angle_tidy(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
-    """Simplify a result in two or more angles as one does a chain's by hand: in the first
-    angle and the differences of consecutive ones (theta2 = theta1 - Delta), expanded,
-    cancelled and trig-simplified, then written back; kept only when shorter. The double
-    pendulum's tension denominator m1 + m2 sin^2 theta1 - 2 m2 sin theta1 sin theta2
-    cos(theta1 - theta2) + m2 sin^2 theta2 becomes m1 + m2 sin^2(theta1 - theta2).
-    Bounded by :data:`ANGLE_OPS` and at most four angles."""
-    expr = sp.sympify(expr)
-    inside = set().union(*(f.free_symbols for f in expr.atoms(sp.sin, sp.cos, sp.tan)))
-    used = [a for a in angles if a in inside]
-    if len(used) < 2 or len(used) > 4:
-        return expr
-    ops = count_ops(expr)
-    if ops > ANGLE_OPS:
-        return expr
-    deltas = [sp.Dummy(f"delta{k}") for k in range(len(used) - 1)]
-    to_delta = {used[k]: used[0] - sum(deltas[:k], sp.Integer(0)) for k in range(1, len(used))}
-    back = {deltas[k]: used[k] - used[k + 1] for k in range(len(deltas))}
-
-    def rewrite() -> sp.Expr:
-        try:
-            e = sp.expand_trig(expr.xreplace(to_delta))
-            return sp.factor(sp.trigsimp(sp.cancel(e)))
-        except (TypeError, ValueError, RecursionError, NotImplementedError, sp.PolynomialError):
-            return expr
-
-    e = within(rewrite, fallback=expr)
-    if e is expr:
-        return expr
-    e = e.xreplace(back)
-    return e if count_ops(e) < ops else expr
 
 
 def _solve_projected(dyn: Dynamics, red: Reduction) -> list[sp.Expr]:
@@ -505,10 +450,9 @@ def _has_radical(expr: sp.Expr) -> bool:
 
 
 def _tidy_angles(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
-    """:func:`angle_tidy` where it shortens ``expr`` (then no ``simplify``, which costs
-    seconds on a chain's trigonometric rational functions), else :func:`tidy`."""
-    shorter = angle_tidy(expr, angles)
-    return student(shorter) if shorter is not expr else tidy(expr)
+    """:func:`tidy`, also trying the differences of consecutive ``angles`` (a chain's
+    m1 + m2 sin^2(theta1 - theta2))."""
+    return tidy(expr, angles=tuple(angles))
 
 
 def _probe(system: System, red: Reduction, symbols: set) -> dict:
@@ -529,13 +473,13 @@ def _probe(system: System, red: Reduction, symbols: set) -> dict:
     return env
 
 
-def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -> list[sp.Expr]:
+def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
     """Gauss-Jordan elimination of K x = rhs with the pivots chosen by partial pivoting
     on K evaluated at ``probe`` (a generic point): a symbolic pivot that is zero
     identically (sin^2 + cos^2 - 1 in disguise) is never chosen, and no zero test on
-    large expressions is needed. Entries are cancelled while short. Checks the time
-    bound after each column (:class:`_OutOfTime`); SymPy's ``LUsolve``, which
-    ``LagrangesMethod.solve_multipliers`` uses, does the same elimination unbounded."""
+    large expressions is needed. Entries are brought to normal form while short (its work
+    counted against the budget); SymPy's ``LUsolve``, which
+    ``LagrangesMethod.solve_multipliers`` uses, does the same elimination."""
     n = K.rows
     rows = [list(K.row(i)) + [rhs[i]] for i in range(n)]
     symbols = sorted(probe, key=str)
@@ -546,12 +490,8 @@ def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -
     if not np.all(np.isfinite(N)):
         raise ValueError("the KKT system is not finite at the probe point")
     scale = max(1.0, float(np.abs(N[:, :n]).max()))
+    spent = 0
     for col in range(n):
-        if time.perf_counter() > deadline:
-            raise _OutOfTime(
-                f"closed forms not found within the time bound (eliminated {col} of "
-                f"{n} unknowns; the bound is {SYMBOLIC_SECONDS:g} s)"
-            )
         piv = col + int(np.argmax(np.abs(N[col:, col])))
         if abs(N[piv, col]) <= 1e-10 * scale:
             raise NonInvertibleMatrixError("singular at a generic point")
@@ -562,11 +502,6 @@ def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -
         for r in range(n):
             if r == col or rows[r][col] == 0:
                 continue
-            if time.perf_counter() > deadline:
-                raise _OutOfTime(
-                    f"closed forms not found within the time bound (eliminated {col} of "
-                    f"{n} unknowns; the bound is {SYMBOLIC_SECONDS:g} s)"
-                )
             factor = rows[r][col] / p
             rows[r] = [
                 rows[r][j]
@@ -575,17 +510,24 @@ def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict, deadline: float) -
                 for j in range(n + 1)
             ]
             rows[r][col] = sp.Integer(0)
+            spent += sum(count_ops(e) for e in rows[r])
+            if spent > ELIMINATION_OPS:
+                raise _TooLarge(
+                    f"closed forms not attempted past {ELIMINATION_OPS} operations of "
+                    f"elimination (eliminated {col} of {n} unknowns)"
+                )
             N[r] -= N[r, col] / N[col, col] * N[col]
     return [_pre(rows[i][n] / rows[i][i]) for i in range(n)]
 
 
 def _pre(e: sp.Expr) -> sp.Expr:
-    """``cancel`` while short and free of nested radicals (cancelling over nested
-    square roots, a chain eliminated in Cartesian coordinates, costs minutes)."""
+    """The normal form (:func:`._normal.normal`) while short and free of nested radicals
+    (cancelling over nested square roots, a chain eliminated in Cartesian coordinates,
+    swells); bounded by counted work."""
     e = sp.sympify(e)
-    if count_ops(e) >= SIMPLIFY_OPS or _nested_radical(e):
+    if e.is_Atom or count_ops(e) >= SIMPLIFY_OPS or _nested_radical(e):
         return e
-    return within(sp.cancel, e, fallback=e)
+    return normal(e, pretty=False)
 
 
 def _nested_radical(e: sp.Expr) -> bool:
@@ -599,9 +541,10 @@ def _solve_linear(K: sp.Matrix, rhs: sp.Matrix) -> list[sp.Expr]:
     if n == 0:
         return []
     if n <= 3:
-        det = sp.cancel(K.det(method="berkowitz"))
-        if det == 0:
+        det = K.det(method="berkowitz")
+        if is_zero(det):
             raise NonInvertibleMatrixError("singular")
+        det = _pre(det)
         adj = K.adjugate(method="berkowitz")
-        return list((adj * rhs).applyfunc(lambda e: sp.cancel(e / det)))
+        return list((adj * rhs).applyfunc(lambda e: _pre(e / det)))
     return list(K.LUsolve(rhs).applyfunc(_pre))

@@ -4,13 +4,13 @@ frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import sympy as sp
 
 from ..model import System, circle_chart, holding_at_start, initial_values, open_at_start
-from ._budget import count_ops, within
+from ._budget import count_ops
 from ._conditions import (
     Root,
     Verdict,
@@ -23,6 +23,7 @@ from ._conditions import (
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
+from ._normal import labelled, normal, work_budget
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
 
 __all__ = ["Solution", "solve"]
@@ -52,6 +53,8 @@ class Solution:
     slipping: dict = field(default_factory=dict)  # friction constraint -> Verdict
     readable_equations: tuple = ()  # the equations as a student would simplify them
     closes: dict = field(default_factory=dict)  # contact open at the start -> [Root] (f = 0)
+    work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_normal.Work)
+    untidied: tuple[str, ...] = ()  # results shown as derived: the budget ran out
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -135,21 +138,48 @@ class Solution:
         )
 
 
-def solve(system: System) -> Solution:
+def solve(system: System, *, budget: int | None = None) -> Solution:
     """Derive equations, multipliers, integrals, vanishing/slip points and forces.
+
+    ``budget`` bounds the work of simplification, in units counted by the normal forms
+    (:mod:`lamech.symbolic._normal`; :data:`~lamech.symbolic.DEFAULT_BUDGET` by default),
+    never in time: the same system and budget give the same results, written the same
+    way, on any machine and in any thread. The multipliers straight from the KKT solve
+    are always delivered; tidying goes to the multipliers first, then the conditions,
+    the energy shell, the forces and the equations, while the budget lasts. What was
+    left as derived is listed in ``untidied`` and in a note.
 
     A unilateral contact open at the start (f > 0) has lambda = 0 until it closes: the
     closed forms, the energy shell, the lift-off and slip points and the forces are
     those of the constraints that hold at the start, and for the open contact the
     points where it would close (f = 0) on that shell. The Euler-Lagrange equations
     shown keep every multiplier."""
+    if budget is not None and (
+        isinstance(budget, bool) or not isinstance(budget, int) or budget <= 0
+    ):
+        raise ValueError(f"budget must be a positive whole number of work units, got {budget!r}")
+    with work_budget(budget) as work:
+        sol = _solve(system)
+    untidied = tuple(dict.fromkeys(work.untidied))
+    notes = sol.notes
+    if untidied:
+        notes += (
+            f"the simplification budget ({work.limit} work units) ran out: "
+            f"{', '.join(untidied)} shown as derived, not tidied; a larger budget "
+            f"(budget={2 * work.limit}) tidies them",
+        )
+    return replace(sol, work=(work.used, work.limit), untidied=untidied, notes=notes)
+
+
+def _solve(system: System) -> Solution:
     dyn = dynamics(system)
     opened = open_at_start(system)
     holding = holding_at_start(system)
     dyn_h = dynamics(holding) if holding is not system else dyn
     red = eliminate(holding)
     forms = closed_forms(dyn_h, red)
-    ints = integrals(dyn_h, red)
+    with labelled("energy"):
+        ints = integrals(dyn_h, red)
     notes = list(system.notes) + list(red.notes)
     proposal = circle_chart(system)
     if proposal is not None:
@@ -183,7 +213,8 @@ def solve(system: System) -> Solution:
     if forms.skipped:
         shell, why = None, "closed forms were skipped"
     else:
-        shell, why = energy_shell(dyn_h, red, ints, forms)
+        with labelled("energy shell"):
+            shell, why = energy_shell(dyn_h, red, ints, forms)
     if opened:
         listed = ", ".join(f"`{k}` (f = {v:.6g})" for k, v in opened.items())
         off = [c.name for c in system.constraints if c not in holding.constraints]
@@ -197,26 +228,32 @@ def solve(system: System) -> Solution:
     slips: dict[str, list[Root]] = {}
     closes: dict[str, list[Root]] = {}
     undecided: set[str] = set()  # open contacts whose closing the shell cannot follow
-    for c in system.constraints:
-        if c.name in opened:
-            vanishes[c.name] = []
-            found = closing_points(holding, shell, c.expr, red) if shell else None
-            closes[c.name] = found or []
-            if found is None:
-                undecided.add(c.name)
-            continue
-        if c.unilateral:
-            vanishes[c.name] = vanishing_points(holding, shell, c.name) if shell else []
-        if c.friction is not None:
-            slips[c.name] = slip_points(holding, shell, c.name) if shell else []
+    with labelled("conditions"):
+        for c in system.constraints:
+            if c.name in opened:
+                vanishes[c.name] = []
+                found = closing_points(holding, shell, c.expr, red) if shell else None
+                closes[c.name] = found or []
+                if found is None:
+                    undecided.add(c.name)
+                continue
+            if c.unilateral:
+                vanishes[c.name] = vanishing_points(holding, shell, c.name) if shell else []
+            if c.friction is not None:
+                slips[c.name] = slip_points(holding, shell, c.name) if shell else []
     if shell:
         for name, reason in shell.omitted.items():
             notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
-    lets_go, slipping = _verdicts(
-        system, forms, initial, opened, vanishes, slips, closes, undecided, None if shell else why
-    )
-    gen = generalized_forces(dyn_h, red, forms.multipliers, forms.manifold)
-    cart = cartesian_forces(dyn_h, red, forms.multipliers)
+    with labelled("conditions"):
+        lets_go, slipping = _verdicts(
+            system, forms, initial, opened, vanishes, slips, closes, undecided,
+            None if shell else why,
+        )
+    with labelled("forces"):
+        gen = generalized_forces(dyn_h, red, forms.multipliers, forms.manifold)
+        cart = cartesian_forces(dyn_h, red, forms.multipliers)
+    with labelled("equations"):
+        equations = tuple(readable(e, system) for e in dyn.equations)
     return Solution(
         system,
         dyn,
@@ -233,7 +270,7 @@ def solve(system: System) -> Solution:
         tuple(notes),
         lets_go,
         slipping,
-        tuple(readable(e, system) for e in dyn.equations),
+        equations,
         closes,
     )
 
@@ -247,14 +284,7 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
     if ops > 4 * SIMPLIFY_OPS:
         return equation
     try:
-        new = within(
-            lambda: sp.collect(
-                sp.expand(equation),
-                system.qdd + system.multipliers,
-                func=_coefficient,
-            ),
-            fallback=equation,
-        )
+        new = sp.collect(sp.expand(equation), system.qdd + system.multipliers, func=_coefficient)
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return equation
     return new if count_ops(new) <= 0.75 * ops else equation
@@ -268,7 +298,7 @@ def _coefficient(c: sp.Expr) -> sp.Expr:
     when it is a symbol or a function of one (``trigsimp`` gives it back)."""
     if c.is_Atom or (c.is_Function and all(a.is_Atom for a in c.args)):
         return c
-    return sp.factor_terms(sp.trigsimp(c))
+    return sp.factor_terms(normal(c))
 
 
 def _verdicts(

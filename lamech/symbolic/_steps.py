@@ -18,7 +18,6 @@ gives the closed forms only.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +25,6 @@ import sympy as sp
 
 from ..expr import ExpressionError, parse
 from ..model import System, contact_partial_velocities, holding_at_start
-from ._budget import simplification_bound, within
 from ._derive import dynamics
 from ._reduce import READABLE_OPS, SIMPLIFY_OPS, _probe, tidy
 
@@ -43,18 +41,13 @@ one costs seconds on a linkage's trigonometric terms and rarely shortens it much
 TIDY_LINES = 80
 """At most this many lines are simplified (the first ones, in the order of the steps);
 a count, not a time, so that the same problem prints the same steps on any machine."""
-LINE_SECONDS = 0.5
-"""The time bound of one line's simplification (a safety: short lines take ms)."""
-STEPS_SECONDS = 20.0
-"""A last safety: past this much simplifying in all, lines print as derived."""
 
 
 class _Simplifier:
-    """:func:`tidy` for short lines (the first :data:`TIDY_LINES`), each within
-    :data:`LINE_SECONDS`; else ``factor_terms`` (cheap, bounded)."""
+    """:func:`tidy` for short lines (the first :data:`TIDY_LINES`; its work is counted
+    against the solve's budget); else ``factor_terms`` (cheap, bounded by size)."""
 
-    def __init__(self, seconds: float = STEPS_SECONDS):
-        self.deadline = time.perf_counter() + seconds
+    def __init__(self) -> None:
         self.left = TIDY_LINES
 
     def __call__(self, expr):
@@ -62,13 +55,12 @@ class _Simplifier:
         if expr.is_Atom:
             return expr
         ops = sp.count_ops(expr)
-        if ops <= TIDY_OPS and self.left > 0 and time.perf_counter() < self.deadline:
+        if ops <= TIDY_OPS and self.left > 0:
             self.left -= 1
-            with simplification_bound(LINE_SECONDS):
-                return tidy(expr)
+            return tidy(expr)
         if ops > 4 * TIDY_OPS:
             return expr
-        return within(sp.factor_terms, expr, fallback=expr)
+        return sp.factor_terms(expr)
 
 
 @dataclass(frozen=True)
@@ -337,7 +329,7 @@ def _by_hand(sol, dyn_h, simp) -> list[Line] | None:
         return None
     rows.sort()
     try:
-        found = within(lambda: sp.solve([eqs[i] for i in rows], lams, dict=True), fallback=None)
+        found = sp.solve([eqs[i] for i in rows], lams, dict=True)
     except (NotImplementedError, ValueError, TypeError):
         return None
     if found is None or len(found) != 1:

@@ -1,0 +1,736 @@
+"""Normal forms of closed forms, by polynomial algebra, bounded by counted work.
+
+What the symbolic layer manipulates is narrow: rational functions of sines and cosines
+of the angles, of the other coordinates, velocities and parameters (and now and then a
+square root). :func:`normal` brings such an expression to a normal form in SymPy's
+sparse polynomial rings (``sympy.polys.rings``), where arithmetic is one to two orders
+of magnitude faster than on ``Expr`` trees and its results are canonical:
+
+* every ``sin(k1 x1 + k2 x2 + c)``, ``cos(...)`` with rational ``k`` is expanded by the
+  addition formulas into polynomials in ``s_u = sin u`` and ``c_u = cos u`` of one base
+  angle ``u = x / d`` per symbol (``d`` the common denominator of its coefficients);
+  ``tan``, ``cot``, ``sec``, ``csc`` become quotients of those;
+* ``s_u**2 + c_u**2 - 1`` is its own Groebner basis, so reducing modulo it
+  (``s_u**2 -> 1 - c_u**2``) gives a normal form of every polynomial in which zero is
+  zero; a square root ``r = sqrt(b)`` of a polynomial joins the ideal as ``r**2 - b``;
+* a quotient is kept as a numerator over a product of denominator factors (each reduced
+  and made primitive), so sums need no gcd, and a factor is cancelled where it divides
+  the numerator exactly.
+
+The work is counted, never timed: every product charges ``len(a) * len(b)`` units to
+the :class:`Work` in force (:func:`work_budget`), every sum ``len(a) + len(b)``, a
+division ``len(num) * len(f)``. A call that would exceed the budget, or make one
+polynomial larger than :data:`TERMS`, gives its input back unchanged
+(:class:`OverBudget` inside). The same input therefore gives the same bytes on any
+machine, loaded or idle, in any thread, under any hash seed: generators are ordered by
+SymPy's ``default_sort_key``, never by a set's iteration order.
+
+SymPy's ``simplify``/``trigsimp`` are a search (their outcome depends on time limits,
+cache contents and set order); ``cancel`` over ``Expr`` treats ``sin`` and ``cos`` as
+unrelated, so ``(sin(x)**2 + cos(x)**2 - 1)**2`` survives it. Nothing in SymPy brings a
+trigonometric rational function to a normal form modulo the circle's ideal with a
+bound on work, hence this module.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import functools
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from math import lcm
+
+import sympy as sp
+from sympy.core.sorting import default_sort_key
+from sympy.polys.domains import QQ
+from sympy.polys.rings import PolyElement, PolyRing
+
+__all__ = [
+    "Work",
+    "OverBudget",
+    "work_budget",
+    "current_work",
+    "normal",
+    "is_zero",
+    "Rational",
+    "to_rational",
+    "DEFAULT_BUDGET",
+    "TERMS",
+]
+
+DEFAULT_BUDGET = 20_000_000
+"""Default work of one solve, in units (a product of polynomials of a and b terms costs
+a * b units). The lecture's cylinder takes about 10^4, the rolling disc and the heavy top
+about 10^6; past the budget results are delivered as derived (untidied)."""
+
+TERMS = 4000
+"""No polynomial built by one normal form may have more terms than this; past it the
+expression is given back unchanged (a bound per call, beside the solve's budget)."""
+
+FACTOR_TERMS = 40
+"""Polynomials up to this many terms are factored for printing (multivariate
+factorisation is exact but its cost grows fast with size)."""
+
+
+class OverBudget(Exception):
+    """The work budget (or the per-call bound :data:`TERMS`) would be exceeded."""
+
+
+@dataclass
+class Work:
+    """A budget of work units, charged by the normal forms computed under it, and the
+    list of results left as derived because it ran out (``untidied``)."""
+
+    limit: int = DEFAULT_BUDGET
+    used: int = 0
+    untidied: list = field(default_factory=list)
+
+    def charge(self, units: int) -> None:
+        self.used += units
+        if self.used > self.limit:
+            raise OverBudget(f"work budget of {self.limit} units spent")
+
+    @property
+    def left(self) -> int:
+        return max(self.limit - self.used, 0)
+
+    @property
+    def exhausted(self) -> bool:
+        return self.used >= self.limit
+
+
+_WORK: contextvars.ContextVar[Work | None] = contextvars.ContextVar("lamech_work", default=None)
+_LABEL: contextvars.ContextVar[str] = contextvars.ContextVar("lamech_work_label", default="")
+
+
+@contextlib.contextmanager
+def work_budget(units: int | Work | None = None) -> Iterator[Work]:
+    """Count the normal forms inside the block against ``units`` (a fresh :class:`Work`
+    of that many units, :data:`DEFAULT_BUDGET` by default, or a given one). Context
+    variables carry it, so it holds in the thread (or task) that opened it."""
+    if isinstance(units, Work):
+        work = units
+    else:
+        limit = DEFAULT_BUDGET if units is None else int(units)
+        if limit <= 0:
+            raise ValueError(f"budget must be a positive number of work units, got {units!r}")
+        work = Work(limit)
+    token = _WORK.set(work)
+    try:
+        yield work
+    finally:
+        _WORK.reset(token)
+
+
+@contextlib.contextmanager
+def labelled(label: str) -> Iterator[None]:
+    """Name the results computed in the block (``"multipliers"``, ``"forces"``) for the
+    list of what was left untidied when the budget ran out."""
+    token = _LABEL.set(label)
+    try:
+        yield
+    finally:
+        _LABEL.reset(token)
+
+
+def current_work() -> Work | None:
+    return _WORK.get()
+
+
+def _charge(units: int) -> None:
+    work = _WORK.get()
+    if work is not None:
+        work.charge(units)
+
+
+# ----- generators ---------------------------------------------------------------------
+
+_TRIG = (sp.sin, sp.cos, sp.tan, sp.cot, sp.sec, sp.csc)
+
+
+def _linear_angle(arg: sp.Expr) -> tuple[dict, sp.Expr] | None:
+    """``arg`` as {symbol: rational coefficient} plus a constant, or None."""
+    coeffs: dict = {}
+    const = sp.Integer(0)
+    for term in sp.Add.make_args(sp.expand(arg)):
+        if term.is_number:
+            const += term
+            continue
+        c, rest = term.as_coeff_Mul()
+        if rest.is_Symbol and c.is_Rational:
+            coeffs[rest] = coeffs.get(rest, sp.Integer(0)) + c
+        else:
+            return None
+    return {k: v for k, v in coeffs.items() if v != 0}, const
+
+
+class _Space:
+    """The polynomial ring of one set of expressions: a generator for each symbol met
+    outside trigonometry, ``c_u, s_u`` for each base angle ``u``, one for each square
+    root and one for each other function; the relations that reduce them."""
+
+    def __init__(self, exprs: list[sp.Expr], shifts: dict | None = None):
+        self.shifts = shifts or {}
+        self.denoms: dict = {}  # angle symbol -> common denominator d (u = x/d)
+        self.opaque_angles: set = set()  # trig arguments not linear in symbols
+        self.symbols: set = set()
+        self.roots: set = set()  # Pow(base, 1/2) with a non-constant or rational base
+        self.others: set = set()
+        for e in exprs:
+            self._scan(e)
+        angles = sorted(self.denoms, key=default_sort_key)
+        opaque = sorted(self.opaque_angles, key=default_sort_key)
+        self.angle_keys = [("x", a) for a in angles] + [("o", a) for a in opaque]
+        names = []
+        self.expr_of: list[sp.Expr] = []
+        # roots first (highest in lex order), then sines, cosines, the rest
+        for r in sorted(self.roots, key=default_sort_key):
+            names.append(f"r{len(names)}")
+            self.expr_of.append(r)
+        self.s_index: dict = {}
+        self.c_index: dict = {}
+        for key in self.angle_keys:
+            u = self._angle_expr(key)
+            self.s_index[key] = len(names)
+            names.append(f"s{len(names)}")
+            self.expr_of.append(sp.sin(u))
+        for key in self.angle_keys:
+            u = self._angle_expr(key)
+            self.c_index[key] = len(names)
+            names.append(f"c{len(names)}")
+            self.expr_of.append(sp.cos(u))
+        self.sym_index: dict = {}
+        for s in sorted(self.symbols, key=default_sort_key):
+            self.sym_index[s] = len(names)
+            names.append(f"x{len(names)}")
+            self.expr_of.append(s)
+        self.other_index: dict = {}
+        for o in sorted(self.others, key=default_sort_key):
+            self.other_index[o] = len(names)
+            names.append(f"y{len(names)}")
+            self.expr_of.append(o)
+        if not names:
+            names = ["z"]
+            self.expr_of.append(sp.Dummy("z"))
+        self.ring = PolyRing(names, QQ)
+        self.gens = self.ring.gens
+        self.root_index = {r: i for i, r in enumerate(sorted(self.roots, key=default_sort_key))}
+        self.root_rel: dict[int, PolyElement] = {}
+        self._trig_cache: dict = {}
+        # each root's square, in the ring (bases hold no roots of their own: see _scan)
+        for r, i in self.root_index.items():
+            num, den = self.convert(r.base)
+            if den:
+                raise OverBudget("a square root of a quotient")  # pragma: no cover
+            self.root_rel[i] = num
+
+    # -- scanning --
+    def _scan(self, e: sp.Expr) -> None:
+        if e.is_Symbol:
+            self.symbols.add(e)
+            return
+        if e.is_Number or e in (sp.pi, sp.E):
+            if e in (sp.pi, sp.E):
+                self.others.add(e)
+            return
+        if e.is_Add or e.is_Mul:
+            for a in e.args:
+                self._scan(a)
+            return
+        if e.is_Pow:
+            base, ex = e.args
+            if ex.is_Integer:
+                self._scan(base)
+                return
+            if ex.is_Rational and ex.q == 2 and _polynomial_base(base):
+                self.roots.add(sp.sqrt(base))
+                self._scan(base)
+                return
+            self.others.add(e)
+            return
+        if isinstance(e, _TRIG):
+            arg = e.args[0]
+            lin = _linear_angle(arg)
+            if lin is None:
+                self.opaque_angles.add(arg)
+                return
+            coeffs, _ = lin
+            for x, k in coeffs.items():
+                self.denoms[x] = lcm(self.denoms.get(x, 1), int(k.q))
+            return
+        if e is sp.I:
+            self.others.add(e)
+            return
+        self.others.add(e)
+
+    def _angle_expr(self, key) -> sp.Expr:
+        kind, a = key
+        return a / self.denoms[a] if kind == "x" else a
+
+    # -- conversion --
+    def convert(self, e: sp.Expr) -> tuple[PolyElement, dict]:
+        """``e`` as (numerator, {denominator factor: exponent})."""
+        R = self.ring
+        if e.is_Rational:
+            return R(QQ(int(e.p), int(e.q))), {}
+        if e.is_Float:
+            r = sp.Rational(str(e))
+            return R(QQ(int(r.p), int(r.q))), {}
+        if e.is_Symbol:
+            return self.gens[self.sym_index[e]], {}
+        if e.is_Add:
+            acc = (R.zero, {})
+            for a in e.args:
+                acc = _add(self, acc, self.convert(a))
+            return acc
+        if e.is_Mul:
+            acc = (R.one, {})
+            for a in e.args:
+                acc = _mul(self, acc, self.convert(a))
+            return acc
+        if e.is_Pow:
+            base, ex = e.args
+            if ex.is_Integer:
+                b = self.convert(base)
+                n = int(ex)
+                out = _power(self, b, abs(n))
+                return _invert(self, out) if n < 0 else out
+            if ex.is_Rational and ex.q == 2 and sp.sqrt(base) in self.root_index:
+                r = self.gens[self.root_index[sp.sqrt(base)]]
+                out = _power(self, (r, {}), abs(int(ex.p)))
+                out = (self.reduce(out[0]), out[1])
+                return _invert(self, out) if ex < 0 else out
+        if isinstance(e, _TRIG):
+            return self._trig(e)
+        if e in self.other_index:
+            return self.gens[self.other_index[e]], {}
+        raise OverBudget(f"no generator for {e}")  # pragma: no cover - scanned first
+
+    def _trig(self, e: sp.Expr) -> tuple[PolyElement, dict]:
+        arg = e.args[0]
+        lin = _linear_angle(arg)
+        if lin is None:
+            key = ("o", arg)
+            s, c = self.gens[self.s_index[key]], self.gens[self.c_index[key]]
+        else:
+            coeffs, const = lin
+            s, c = self.ring.zero, self.ring.one  # sin 0, cos 0
+            for x in sorted(coeffs, key=default_sort_key):
+                n = int(coeffs[x] * self.denoms[x])
+                sn, cn = self._multiple(("x", x), n)
+                s, c = (
+                    self.reduce(s * cn + c * sn),
+                    self.reduce(c * cn - s * sn),
+                )
+                _charge(4 * max(len(s), 1))
+            if const != 0:
+                sk, ck = self.convert(sp.sin(const)), self.convert(sp.cos(const))
+                if sk[1] or ck[1]:
+                    raise OverBudget("a trigonometric constant with a denominator")
+                s, c = (
+                    self.reduce(s * ck[0] + c * sk[0]),
+                    self.reduce(c * ck[0] - s * sk[0]),
+                )
+        f = e.func
+        if f is sp.sin:
+            return s, {}
+        if f is sp.cos:
+            return c, {}
+        if f is sp.tan:
+            return _mul(self, (s, {}), _invert(self, (c, {})))
+        if f is sp.cot:
+            return _mul(self, (c, {}), _invert(self, (s, {})))
+        if f is sp.sec:
+            return _invert(self, (c, {}))
+        return _invert(self, (s, {}))  # csc
+
+    def _multiple(self, key, n: int) -> tuple[PolyElement, PolyElement]:
+        """(sin(n u), cos(n u)) in the ring."""
+        if (key, n) in self._trig_cache:
+            return self._trig_cache[(key, n)]
+        s1, c1 = self.gens[self.s_index[key]], self.gens[self.c_index[key]]
+        if n < 0:
+            s, c = self._multiple(key, -n)
+            out = (-s, c)
+        elif n == 0:
+            out = (self.ring.zero, self.ring.one)
+        elif n == 1:
+            out = (s1, c1)
+        else:
+            s, c = self._multiple(key, n - 1)
+            out = (self.reduce(s * c1 + c * s1), self.reduce(c * c1 - s * s1))
+        self._trig_cache[(key, n)] = out
+        return out
+
+    # -- the ideal --
+    def reduce(self, p: PolyElement, towards: str = "cos") -> PolyElement:
+        """The normal form of ``p`` modulo s^2 + c^2 - 1 (each angle) and r^2 - b (each
+        root): with ``towards="cos"`` no sine above the first power, with ``"sin"`` no
+        cosine above it."""
+        if len(p) > TERMS:
+            raise OverBudget(f"a polynomial of more than {TERMS} terms")
+        rules = []
+        for i, b in self.root_rel.items():
+            rules.append((i, b))
+        one = self.ring.one
+        for key in self.angle_keys:
+            si, ci = self.s_index[key], self.c_index[key]
+            if towards == "cos":
+                rules.append((si, one - self.gens[ci] ** 2))
+            else:
+                rules.append((ci, one - self.gens[si] ** 2))
+        for i, sq in rules:
+            if not any(m[i] >= 2 for m in p):
+                continue
+            out = self.ring.zero
+            powers = [one]
+            for m, coeff in p.items():
+                k = m[i]
+                if k < 2:
+                    out += self.ring({m: coeff})
+                    continue
+                while len(powers) <= k // 2:
+                    powers.append(powers[-1] * sq)
+                m2 = list(m)
+                m2[i] = k % 2
+                term = self.ring({tuple(m2): coeff}) * powers[k // 2]
+                out += term
+                _charge(len(term))
+            p = out
+            if len(p) > TERMS:
+                raise OverBudget(f"a polynomial of more than {TERMS} terms")
+        return p
+
+    def to_expr(self, p: PolyElement) -> sp.Expr:
+        return p.as_expr(*self.expr_of)
+
+
+def _polynomial_base(base: sp.Expr) -> bool:
+    """A square root's base that is a polynomial with no roots of its own (sqrt(l^2 -
+    x^2), sqrt(2)): it joins the ideal. Others stay opaque generators."""
+    for p in base.atoms(sp.Pow):
+        if not p.exp.is_Integer or p.exp < 0:
+            return False
+    return not base.has(*_TRIG)
+
+
+# ----- arithmetic on (numerator, denominator factors) -----------------------------------
+
+
+def _add(space: _Space, a: tuple, b: tuple) -> tuple:
+    na, da = a
+    nb, db = b
+    if not na:
+        return b
+    if not nb:
+        return a
+    den = dict(da)
+    for f, k in db.items():
+        den[f] = max(den.get(f, 0), k)
+    ma = _den_product(space, den, da)
+    mb = _den_product(space, den, db)
+    _charge(len(na) * len(ma) + len(nb) * len(mb))
+    num = space.reduce(na * ma + nb * mb)
+    _check(num)
+    return num, den
+
+
+def _den_product(space: _Space, full: dict, part: dict) -> PolyElement:
+    out = space.ring.one
+    for f, k in full.items():
+        extra = k - part.get(f, 0)
+        if extra:
+            _charge(len(out) * len(f) * extra)
+            out = out * f**extra
+            _check(out)
+    return out
+
+
+def _mul(space: _Space, a: tuple, b: tuple) -> tuple:
+    na, da = a
+    nb, db = b
+    if not na or not nb:
+        return space.ring.zero, {}
+    _charge(len(na) * len(nb))
+    if len(na) * len(nb) > 20 * TERMS:
+        raise OverBudget("a product too large")
+    num = space.reduce(na * nb)
+    _check(num)
+    den = dict(da)
+    for f, k in db.items():
+        den[f] = den.get(f, 0) + k
+    return _cancel(space, num, den)
+
+
+def _power(space: _Space, a: tuple, n: int) -> tuple:
+    out = (space.ring.one, {})
+    for _ in range(n):
+        out = _mul(space, out, a)
+    return out
+
+
+def _invert(space: _Space, a: tuple) -> tuple:
+    """1 / a: the numerator's factors join the denominator (each reduced, primitive,
+    with a positive leading coefficient); the old denominator becomes the numerator."""
+    num, den = a
+    if not num:
+        raise ZeroDivisionError("division by an expression that is identically zero")
+    R = space.ring
+    new_num = R.one
+    for f, k in den.items():
+        _charge(len(new_num) * len(f) * k)
+        new_num = space.reduce(new_num * f**k)
+        _check(new_num)
+    new_den: dict = {}
+    content, prim = num.primitive()
+    if prim.LC < 0:
+        content, prim = -content, -prim
+    new_num = new_num.quo_ground(content) if content != 1 else new_num
+    if prim != R.one:
+        for f, k in _split_monomial(space, prim).items():
+            new_den[f] = new_den.get(f, 0) + k
+    return _cancel(space, new_num, new_den)
+
+
+def _split_monomial(space: _Space, p: PolyElement) -> dict:
+    """A denominator factor as {factor: exponent}: a monomial split into its generators
+    (x^2 s -> {x: 2, s: 1}), anything else kept whole."""
+    if len(p) == 1:
+        (m, _), = p.items()
+        return {space.gens[i]: k for i, k in enumerate(m) if k}
+    return {p: 1}
+
+
+def _check(p: PolyElement) -> None:
+    if len(p) > TERMS:
+        raise OverBudget(f"a polynomial of more than {TERMS} terms")
+
+
+def _cancel(space: _Space, num: PolyElement, den: dict) -> tuple:
+    """Cancel every denominator factor that divides the numerator exactly; a sine over
+    a power of it is cancelled through s^2 = 1 - c^2."""
+    if not num:
+        return num, {}
+    if not den:
+        return num, den
+    out = dict(den)
+    for f in sorted(out, key=_poly_key):
+        k = out[f]
+        while k and num:
+            _charge(len(num) * len(f))
+            q, r = num.div(f)
+            if r:
+                break
+            num, k = q, k - 1
+        if k and len(f) == 1 and f in space.gens:
+            i = space.gens.index(f)
+            key = next((a for a, j in space.s_index.items() if j == i), None)
+            if key is not None:  # num / s = num s / (1 - c^2)
+                c = space.gens[space.c_index[key]]
+                one = space.ring.one
+                while k:
+                    trial = space.reduce(num * f)
+                    _charge(len(trial) * 2)
+                    q1, r1 = trial.div(one - c)
+                    if r1:
+                        break
+                    q2, r2 = q1.div(one + c)
+                    if r2:
+                        break
+                    num, k = q2, k - 1
+        if k:
+            out[f] = k
+        else:
+            del out[f]
+    return num, out
+
+
+def _poly_key(p: PolyElement) -> tuple:
+    return (len(p), sorted(p.items()))
+
+
+# ----- the public face -------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Rational:
+    """An expression in normal form: numerator over denominator factors, in ``space``."""
+
+    space: _Space
+    num: PolyElement
+    den: tuple  # ((factor, exponent), ...) in a canonical order
+
+    @property
+    def is_zero(self) -> bool:
+        return not self.num
+
+    def as_expr(self) -> sp.Expr:
+        sp_ = self.space
+        num = sp_.to_expr(self.num)
+        den = sp.Mul(*[sp_.to_expr(f) ** k for f, k in self.den])
+        return num / den
+
+
+def to_rational(expr: sp.Expr, shifts: dict | None = None) -> Rational:
+    """``expr`` in normal form (raises :class:`OverBudget` past the bounds and
+    ``ZeroDivisionError`` for a division by an expression identically zero)."""
+    expr = sp.sympify(expr)
+    if shifts:
+        expr = expr.xreplace(shifts)
+    space = _Space([expr])
+    num, den = space.convert(expr)
+    return Rational(space, num, tuple(sorted(den.items(), key=lambda fk: _poly_key(fk[0]))))
+
+
+def is_zero(expr: sp.Expr) -> bool | None:
+    """Whether ``expr`` is identically zero (on every circle s^2 + c^2 = 1); None when
+    the bounds do not allow the normal form to decide."""
+    try:
+        return to_rational(expr).is_zero
+    except OverBudget:
+        return None
+
+
+def normal(
+    expr: sp.Expr,
+    *,
+    velocities: tuple = (),
+    angles: tuple = (),
+    pretty: bool = True,
+) -> sp.Expr:
+    """The shortest readable form of ``expr`` found by the normal form: the numerator
+    expanded, factored (when short) or collected by powers of ``velocities`` with
+    factored coefficients, over the factored denominator; written with cosines (sines
+    reduced to the first power) or with sines, whichever is shorter; in chains also in
+    the differences of consecutive ``angles``. ``expr`` itself when it is already
+    the shortest, or when the work budget (:func:`work_budget`) or :data:`TERMS` does
+    not allow the normal form. Deterministic: the same input gives the same output.
+    With ``pretty=False`` (intermediates of an elimination) only the expanded numerator
+    over the denominator factors is tried, with cosines."""
+    expr = sp.sympify(expr)
+    if expr.is_Atom:
+        return expr
+    try:
+        return _normal(expr, tuple(velocities), tuple(angles), pretty)
+    except OverBudget:
+        work = _WORK.get()
+        if work is not None and work.exhausted:
+            work.untidied.append(_LABEL.get() or "result")
+        return expr
+
+
+def _normal(expr: sp.Expr, velocities: tuple, angles: tuple, pretty: bool = True) -> sp.Expr:
+    from ._budget import count_ops
+
+    best, best_ops = expr, count_ops(expr)
+    shift_sets: list[dict] = [{}]
+    used = [a for a in angles if any(a in f.free_symbols for f in expr.atoms(*_TRIG))]
+    if len(used) >= 2 and pretty:
+        deltas = {}
+        # theta_k = theta_1 + delta_k (delta_k printed back as theta_k - theta_1 ...)
+        for k in range(1, len(used)):
+            d = sp.Dummy(f"delta{k}")
+            deltas[used[k]] = (d, used[k] - used[k - 1])
+        shift = {}
+        acc = used[0]
+        for k in range(1, len(used)):
+            d, _ = deltas[used[k]]
+            acc = acc + d
+            shift[used[k]] = acc
+        back = {d: diff for d, diff in deltas.values()}
+        shift_sets.append({"to": shift, "back": back})
+    for shifts in shift_sets:
+        to = shifts.get("to") if shifts else None
+        e = expr.xreplace(to) if to else expr
+        space = _Space([e])
+        num, den = space.convert(e)
+        if not num:
+            return sp.Integer(0)
+        if not pretty:
+            cand = space.to_expr(num) / sp.Mul(
+                *[space.to_expr(f) ** k for f, k in sorted(den.items(), key=lambda fk: _poly_key(fk[0]))]
+            )
+            return cand if count_ops(cand) < best_ops else best
+        for towards in ("cos", "sin"):
+            n2 = space.reduce(num, towards) if towards == "sin" else num
+            for cand in _presentations(space, n2, den, velocities, towards):
+                if to:
+                    cand = cand.xreplace(shifts["back"])
+                ops = count_ops(cand)
+                if ops < best_ops:
+                    best, best_ops = cand, ops
+    return best
+
+
+def _presentations(space: _Space, num: PolyElement, den: dict, velocities: tuple, towards):
+    """Printed forms of num / den: the numerator expanded, factored when short (each
+    factor collected by the velocities' powers), and collected by those powers with
+    factored coefficients."""
+    vel_idx = tuple(space.sym_index[v] for v in velocities if v in space.sym_index)
+    dens = []
+    for f, k in sorted(den.items(), key=lambda fk: _poly_key(fk[0])):
+        g = space.reduce(f, towards) if towards == "sin" else f
+        dens.append(_factored(space, g, vel_idx) ** k)
+    D = sp.Mul(*dens)
+    content, prim = num.primitive()
+    if prim and prim.LC < 0:
+        content, prim = -content, -prim
+    c = sp.Rational(int(content.numerator), int(content.denominator))
+    yield c * space.to_expr(prim) / D
+    if len(prim) <= FACTOR_TERMS:
+        yield c * _factored(space, prim, vel_idx) / D
+    if vel_idx and len(prim) > 1:
+        yield c * _collected(space, prim, vel_idx) / D
+
+
+def _collected(space: _Space, p: PolyElement, vel_idx: tuple) -> sp.Expr:
+    """``p`` grouped by the powers of the velocities (generators ``vel_idx``), each
+    coefficient factored when short: m g cos(th) - m (R1 + R2) th'^2."""
+    groups: dict = {}
+    for m, coeff in p.items():
+        key = tuple(m[i] for i in vel_idx)
+        m2 = list(m)
+        for i in vel_idx:
+            m2[i] = 0
+        groups.setdefault(key, []).append((tuple(m2), coeff))
+    if len(groups) == 1:
+        return _factored(space, p)
+    terms = []
+    for key in sorted(groups, reverse=True):
+        coeff = space.ring(dict(groups[key]))
+        vpart = sp.Mul(*[space.expr_of[i] ** k for i, k in zip(vel_idx, key)])
+        terms.append(vpart * _factored(space, coeff))
+    return sp.Add(*terms)
+
+
+def _factored(space: _Space, p: PolyElement, vel_idx: tuple = ()) -> sp.Expr:
+    """``p`` as a product of its irreducible factors (when short), each collected by the
+    velocities (``vel_idx``) where that is shorter; else expanded."""
+    if len(p) <= 1 or len(p) > FACTOR_TERMS:
+        return space.to_expr(p)
+    _charge(len(p) ** 3)
+    coeff, factors = _factor_list(p)
+    out = sp.Rational(int(coeff.numerator), int(coeff.denominator))
+    for f, k in factors:
+        e = space.to_expr(f)
+        if vel_idx and len(f) > 2 and any(m[i] for m in f for i in vel_idx):
+            grouped = _collected(space, f, vel_idx)
+            if _ops(grouped) <= _ops(e):
+                e = grouped
+        out *= e**k
+    return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _factor_list(p: PolyElement) -> tuple:
+    """``p.factor_list()``, remembered: the rings of :class:`_Space` are SymPy's cached
+    rings of positional generator names, so the same polynomial recurs across calls, and
+    its factors do not depend on what the generators stand for."""
+    return p.factor_list()
+
+
+def _ops(e: sp.Expr) -> int:
+    from ._budget import count_ops
+
+    return count_ops(e)
