@@ -39,14 +39,44 @@ def _count(expr: Any) -> int:
     return int(sp.count_ops(expr))
 
 
+EXACT_NODES = 3000
+"""Expressions of up to this many nodes are counted by ``sympy.count_ops``; larger ones
+by their number of nodes (about the same; ``count_ops`` costs seconds on a closed form
+of a million operations, which is only ever compared with a bound)."""
+
+
 def count_ops(expr: Any) -> int:
-    """``sympy.count_ops(expr)``, remembered: a solve asks it of the same long closed
-    forms again and again (to decide what is simplified and what is printed), and on an
-    expression of 15,000 operations one count takes tens of milliseconds."""
+    """``sympy.count_ops(expr)`` for expressions of up to :data:`EXACT_NODES` nodes, their
+    node count beyond; remembered: a solve asks it of the same long closed forms again
+    and again (to decide what is simplified and what is printed)."""
     expr = sp.sympify(expr)
     if expr.is_Atom:
         return 0
-    try:
-        return _count(expr)
-    except TypeError:  # unhashable (a matrix): count it afresh
+    if not isinstance(expr, sp.Basic):  # a matrix
         return int(sp.count_ops(expr))
+    try:
+        return _count_or_nodes(expr)
+    except TypeError:  # unhashable: count it afresh
+        return int(sp.count_ops(expr))
+
+
+@functools.lru_cache(maxsize=4096)
+def _count_or_nodes(expr: Any) -> int:
+    nodes = 0
+    stack = [expr]
+    while stack:
+        e = stack.pop()
+        nodes += 1
+        if nodes > EXACT_NODES:
+            return nodes + _nodes(stack)
+        stack.extend(e.args)
+    return _count(expr)
+
+
+def _nodes(stack: list) -> int:
+    n = 0
+    while stack:
+        e = stack.pop()
+        n += 1
+        stack.extend(e.args)
+    return n

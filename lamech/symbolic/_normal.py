@@ -138,10 +138,31 @@ def current_work() -> Work | None:
     return _WORK.get()
 
 
+CALL_WORK = 400_000
+"""The most work one normal form (or one linear solve) may take, beside the solve's
+budget: an expression past it is given back as it is, at a bounded cost."""
+
+_CALL: contextvars.ContextVar[list | None] = contextvars.ContextVar("lamech_call", default=None)
+
+
 def _charge(units: int) -> None:
+    call = _CALL.get()
+    if call is not None:
+        call[0] += units
+        if call[0] > call[1]:
+            raise OverBudget(f"more than {call[1]} units of work in one normal form")
     work = _WORK.get()
     if work is not None:
         work.charge(units)
+
+
+@contextlib.contextmanager
+def _one_call(limit: int) -> Iterator[None]:
+    token = _CALL.set([0, limit])
+    try:
+        yield
+    finally:
+        _CALL.reset(token)
 
 
 # ----- generators ---------------------------------------------------------------------
@@ -173,15 +194,16 @@ class _Space:
     def __init__(self, exprs: list[sp.Expr], shifts: dict | None = None):
         self.shifts = shifts or {}
         self.denoms: dict = {}  # angle symbol -> common denominator d (u = x/d)
+        self.forms: set = set()  # the linear parts of trig arguments, as sorted tuples
         self.opaque_angles: set = set()  # trig arguments not linear in symbols
         self.symbols: set = set()
         self.roots: set = set()  # Pow(base, 1/2) with a non-constant or rational base
         self.others: set = set()
         for e in exprs:
             self._scan(e)
-        angles = sorted(self.denoms, key=default_sort_key)
+        self.basis, self.in_basis = _angle_basis(self.forms, self.denoms)
         opaque = sorted(self.opaque_angles, key=default_sort_key)
-        self.angle_keys = [("x", a) for a in angles] + [("o", a) for a in opaque]
+        self.angle_keys = [("x", b) for b in self.basis] + [("o", a) for a in opaque]
         names = []
         self.expr_of: list[sp.Expr] = []
         # roots first (highest in lex order), then sines, cosines, the rest
@@ -258,6 +280,8 @@ class _Space:
             coeffs, _ = lin
             for x, k in coeffs.items():
                 self.denoms[x] = lcm(self.denoms.get(x, 1), int(k.q))
+            if coeffs:
+                self.forms.add(_form_key(coeffs))
             return
         if e is sp.I:
             self.others.add(e)
@@ -266,7 +290,7 @@ class _Space:
 
     def _angle_expr(self, key) -> sp.Expr:
         kind, a = key
-        return a / self.denoms[a] if kind == "x" else a
+        return sp.Add(*[k * x for x, k in a]) if kind == "x" else a
 
     # -- conversion --
     def convert(self, e: sp.Expr) -> tuple[PolyElement, dict]:
@@ -316,9 +340,8 @@ class _Space:
         else:
             coeffs, const = lin
             s, c = self.ring.zero, self.ring.one  # sin 0, cos 0
-            for x in sorted(coeffs, key=default_sort_key):
-                n = int(coeffs[x] * self.denoms[x])
-                sn, cn = self._multiple(("x", x), n)
+            for b, n in self.in_basis(coeffs):
+                sn, cn = self._multiple(("x", b), n)
                 s, c = (
                     self.reduce(s * cn + c * sn),
                     self.reduce(c * cn - s * sn),
@@ -404,6 +427,58 @@ class _Space:
 
     def to_expr(self, p: PolyElement) -> sp.Expr:
         return p.as_expr(*self.expr_of)
+
+
+def _form_key(coeffs: dict) -> tuple:
+    return tuple(sorted(coeffs.items(), key=lambda xk: default_sort_key(xk[0])))
+
+
+def _angle_basis(forms: set, denoms: dict):
+    """The base angles: the simplest linearly independent trigonometric arguments, when
+    every argument is an integer combination of them (SymPy's relative joint angles q1,
+    q1 + q2, q1 + q2 + q3 are three base angles, so cos(q1 + q2 + q3) is one generator,
+    not a product of three sums); else one angle x/d per symbol (d the common
+    denominator of its coefficients). Returns (basis, in_basis) with ``in_basis(coeffs)``
+    the [(base form, integer multiple)] of an argument's linear part."""
+    symbols = sorted(denoms, key=default_sort_key)
+    fallback = [((x, sp.Rational(1, denoms[x])),) for x in symbols]
+
+    def per_symbol(coeffs: dict) -> list:
+        return [(((x, sp.Rational(1, denoms[x])),), int(coeffs[x] * denoms[x]))
+                for x in sorted(coeffs, key=default_sort_key)]
+
+    def row(form) -> list:
+        d = dict(form)
+        return [d.get(x, 0) for x in symbols]
+
+    # each form up to sign, simplest first
+    normal_forms = set()
+    for f in forms:
+        sign = -1 if f[0][1] < 0 else 1
+        normal_forms.add(tuple((x, sign * k) for x, k in f))
+    cands = sorted(normal_forms, key=lambda f: (len(f), default_sort_key(sp.Tuple(*map(sp.Tuple, f)))))
+    basis: list = []
+    for f in cands:
+        trial = sp.Matrix([row(b) for b in basis + [f]])
+        if trial.rank() == len(basis) + 1:
+            basis.append(f)
+        if len(basis) == len(symbols):
+            break
+    if not basis:
+        return fallback, per_symbol
+    B = sp.Matrix([row(b) for b in basis])
+    gram_inv = (B * B.T).inv()
+    table = {}
+    for f in forms:
+        c = sp.Matrix([row(f)]) * B.T * gram_inv
+        if any(not v.is_Integer for v in c) or sp.Matrix([row(f)]) != c * B:
+            return fallback, per_symbol
+        table[f] = [(basis[i], int(v)) for i, v in enumerate(c) if v != 0]
+
+    def in_basis(coeffs: dict) -> list:
+        return table[_form_key(coeffs)]
+
+    return basis, in_basis
 
 
 def _polynomial_base(base: sp.Expr) -> bool:
@@ -575,6 +650,11 @@ class Rational:
 def to_rational(expr: sp.Expr, shifts: dict | None = None) -> Rational:
     """``expr`` in normal form (raises :class:`OverBudget` past the bounds and
     ``ZeroDivisionError`` for a division by an expression identically zero)."""
+    with _one_call(CALL_WORK):
+        return _to_rational(expr, shifts)
+
+
+def _to_rational(expr: sp.Expr, shifts: dict | None = None) -> Rational:
     expr = sp.sympify(expr)
     if shifts:
         expr = expr.xreplace(shifts)
@@ -612,7 +692,8 @@ def normal(
     if expr.is_Atom:
         return expr
     try:
-        return _normal(expr, tuple(velocities), tuple(angles), pretty)
+        with _one_call(CALL_WORK):
+            return _normal(expr, tuple(velocities), tuple(angles), pretty)
     except OverBudget:
         work = _WORK.get()
         if work is not None and work.exhausted:
@@ -648,9 +729,8 @@ def _normal(expr: sp.Expr, velocities: tuple, angles: tuple, pretty: bool = True
         if not num:
             return sp.Integer(0)
         if not pretty:
-            cand = space.to_expr(num) / sp.Mul(
-                *[space.to_expr(f) ** k for f, k in sorted(den.items(), key=lambda fk: _poly_key(fk[0]))]
-            )
+            dens = sorted(den.items(), key=lambda fk: _poly_key(fk[0]))
+            cand = space.to_expr(num) / sp.Mul(*[space.to_expr(f) ** k for f, k in dens])
             return cand if count_ops(cand) < best_ops else best
         for towards in ("cos", "sin"):
             n2 = space.reduce(num, towards) if towards == "sin" else num
@@ -734,3 +814,68 @@ def _ops(e: sp.Expr) -> int:
     from ._budget import count_ops
 
     return count_ops(e)
+
+
+# ----- linear systems in the ring -------------------------------------------------------
+
+
+def solve_linear(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
+    """x with K x = rhs, by Gauss-Jordan elimination in one polynomial ring (every entry
+    a numerator over denominator factors, reduced modulo the circles' ideal), the pivots
+    chosen by partial pivoting on K evaluated at ``probe`` (a generic point, so a pivot
+    that is zero identically is never chosen). Each result is the expanded numerator
+    over its denominator factors. Raises :class:`OverBudget` past the work budget or
+    :data:`TERMS`, ``ZeroDivisionError`` when K is singular at the probe."""
+    n = K.rows
+    if n == 0:
+        return []
+    with _one_call(10 * CALL_WORK):
+        return _solve_linear(K, rhs, probe)
+
+
+def _solve_linear(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
+    import numpy as np
+
+    n = K.rows
+    entries = list(K) + list(rhs)
+    space = _Space(entries)
+    rows = [
+        [space.convert(K[i, j]) for j in range(n)] + [space.convert(rhs[i])] for i in range(n)
+    ]
+    symbols = sorted(probe, key=default_sort_key)
+    f = sp.lambdify(symbols, K, modules=["numpy"])
+    with np.errstate(all="ignore"):
+        N = np.array(f(*[probe[s] for s in symbols]), dtype=complex)
+    if not np.all(np.isfinite(N)):
+        raise ZeroDivisionError("the system is not finite at the probe point")
+    scale = max(1.0, float(np.abs(N).max()))
+    zero = (space.ring.zero, {})
+    for col in range(n):
+        piv = col + int(np.argmax(np.abs(N[col:, col])))
+        if abs(N[piv, col]) <= 1e-10 * scale or not rows[piv][col][0]:
+            raise ZeroDivisionError("singular at a generic point")
+        if piv != col:
+            rows[col], rows[piv] = rows[piv], rows[col]
+            N[[col, piv]] = N[[piv, col]]
+        inv = _invert(space, rows[col][col])
+        rows[col] = [_mul(space, e, inv) if e[0] else e for e in rows[col]]
+        rows[col][col] = (space.ring.one, {})
+        N[col] = N[col] / N[col, col]
+        for r in range(n):
+            if r == col or not rows[r][col][0]:
+                continue
+            factor = rows[r][col]
+            neg = (-factor[0], factor[1])
+            rows[r] = [
+                rows[r][j] if j == col or not rows[col][j][0]
+                else _add(space, rows[r][j], _mul(space, neg, rows[col][j]))
+                for j in range(n + 1)
+            ]
+            rows[r][col] = zero
+            N[r] -= N[r, col] * N[col]
+    out = []
+    for i in range(n):
+        num, den = rows[i][n]
+        dens = sorted(den.items(), key=lambda fk: _poly_key(fk[0]))
+        out.append(space.to_expr(num) / sp.Mul(*[space.to_expr(f) ** k for f, k in dens]))
+    return out

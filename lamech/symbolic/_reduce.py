@@ -32,7 +32,7 @@ from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_
 from ._budget import count_ops
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier
-from ._normal import is_zero, labelled, normal
+from ._normal import OverBudget, is_zero, labelled, normal, solve_linear
 from ._student import outer_signs, student
 
 __all__ = [
@@ -76,7 +76,7 @@ def tidy(expr: sp.Expr, velocities: tuple = (), angles: tuple = ()) -> sp.Expr:
     expr = sp.sympify(expr)
     if expr.is_Number or expr.is_Symbol:
         return expr
-    if count_ops(expr) > MAX_OPS:
+    if count_ops(expr) > READABLE_OPS:
         return expr
     out = normal(expr, velocities=tuple(velocities), angles=tuple(angles))
     return student(out)
@@ -315,12 +315,18 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
             if lams is not None:
                 return _closed(system, red, projected + lams, on_manifold)
         if small:
-            K = K.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
-            rhs = rhs.applyfunc(lambda e: _pre(on_manifold.radicals_replaced(e)))
-            sol = _solve_linear(K, rhs)
-        else:
-            probe = _probe(system, red, K.free_symbols | rhs.free_symbols)
-            sol = _solve_bounded(K, rhs, probe)
+            K = K.applyfunc(on_manifold.radicals_replaced)
+            rhs = rhs.applyfunc(on_manifold.radicals_replaced)
+        probe = _probe(system, red, K.free_symbols | rhs.free_symbols)
+        try:
+            sol = solve_linear(K, rhs, probe)  # in the polynomial ring: fast, exact
+        except OverBudget:
+            if len(unknowns) > CLOSED_FORM_LIMIT:
+                return ClosedForms(
+                    {}, {}, f"{len(unknowns)} unknowns: closed forms past the bounds of the "
+                    "normal forms (a larger budget may reach them)"
+                )
+            sol = _solve_bounded(K, rhs, probe)  # beyond the ring's bounds: as SymPy does
     except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):
         return ClosedForms(
             {}, {}, "the substituted KKT matrix is singular symbolically", singular=True
@@ -510,7 +516,7 @@ def _solve_bounded(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
                 for j in range(n + 1)
             ]
             rows[r][col] = sp.Integer(0)
-            spent += sum(count_ops(e) for e in rows[r])
+            spent += sum(count_ops(e) for e in rows[r]) if n > CLOSED_FORM_LIMIT else 0
             if spent > ELIMINATION_OPS:
                 raise _TooLarge(
                     f"closed forms not attempted past {ELIMINATION_OPS} operations of "
