@@ -183,7 +183,12 @@ def _linear_angle(arg: sp.Expr) -> tuple[dict, sp.Expr] | None:
             coeffs[rest] = coeffs.get(rest, sp.Integer(0)) + c
         else:
             return None
-    return {k: v for k, v in coeffs.items() if v != 0}, const
+    coeffs = {k: v for k, v in coeffs.items() if v != 0}
+    if not coeffs:
+        return None  # a number: sin(1) is a generator of its own (an opaque angle)
+    if const != 0 and (sp.sin(const).has(*_TRIG) or sp.cos(const).has(*_TRIG)):
+        return None  # sin(x + 1): an opaque angle too
+    return coeffs, const
 
 
 class _Space:
@@ -456,7 +461,9 @@ def _angle_basis(forms: set, denoms: dict):
     for f in forms:
         sign = -1 if f[0][1] < 0 else 1
         normal_forms.add(tuple((x, sign * k) for x, k in f))
-    cands = sorted(normal_forms, key=lambda f: (len(f), default_sort_key(sp.Tuple(*map(sp.Tuple, f)))))
+    cands = sorted(
+        normal_forms, key=lambda f: (len(f), default_sort_key(sp.Tuple(*map(sp.Tuple, f))))
+    )
     basis: list = []
     for f in cands:
         trial = sp.Matrix([row(b) for b in basis + [f]])

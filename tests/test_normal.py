@@ -1,0 +1,179 @@
+"""The symbolic path's normal forms (lamech.symbolic._normal): exact zero recognition
+modulo sin^2 + cos^2 = 1, bounded by counted work (never by a clock), and the same
+bytes on every run, in any thread and under any hash seed."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import lamech
+from lamech.symbolic import work_budget
+from lamech.symbolic._normal import is_zero, normal, to_rational
+
+HERE = Path(__file__).parent
+th, ph, q1, q2, q3, x = sp.symbols("theta phi q1 q2 q3 x")
+m, g, m1, m2 = sp.symbols("m g m1 m2", positive=True)
+
+
+def _equal(a: sp.Expr, b: sp.Expr, symbols, seed: int = 3) -> bool:
+    rng = np.random.default_rng(seed)
+    fa, fb = sp.lambdify(symbols, a), sp.lambdify(symbols, b)
+    for vals in rng.uniform(0.2, 1.3, size=(8, len(symbols))):
+        if not np.isclose(complex(fa(*vals)), complex(fb(*vals)), rtol=1e-10, atol=1e-12):
+            return False
+    return True
+
+
+def test_the_ladders_floor_trigonometry_is_four():
+    """The issue's example: 2,623 characters of a ladder's multiplier reduced to m g
+    sized terms; its core is the number 4."""
+    e = (-3 * (-3 * sp.cos(ph) ** 2 - 1) * sp.sin(ph) ** 2 - 9 * sp.sin(ph) ** 2
+         * sp.cos(ph) ** 2 + 3 * sp.cos(ph) ** 2 + 1)
+    assert normal(e) == 4
+
+
+def test_a_factor_that_is_identically_zero_never_reaches_the_output():
+    e = m * g * sp.cos(th) + (sp.sin(th) ** 2 + sp.cos(th) ** 2 - 1) ** 2 * m * x
+    assert normal(e) == m * g * sp.cos(th)
+
+
+@pytest.mark.parametrize("zero", [
+    sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2),
+    sp.cos(2 * th) - 1 + 2 * sp.sin(th) ** 2,
+    sp.tan(th) * sp.cos(th) - sp.sin(th),
+    sp.sin(th / 2) ** 2 - (1 - sp.cos(th)) / 2,
+    sp.sqrt(1 - x**2) ** 2 + x**2 - 1,
+    sp.cos(q1 + q2 + q3) - sp.cos(q1 + q2) * sp.cos(q3) + sp.sin(q1 + q2) * sp.sin(q3),
+])
+def test_identities_are_recognised_as_zero(zero):
+    assert is_zero(zero) is True
+
+
+def test_a_nonzero_expression_is_not_zero():
+    assert is_zero(sp.sin(th) ** 2 + sp.cos(th) ** 2) is False
+    assert is_zero(sp.cos(q1 + q2) - sp.cos(q1) * sp.cos(q2)) is False
+
+
+def test_a_division_by_an_identically_zero_expression_is_refused():
+    with pytest.raises(ZeroDivisionError):
+        to_rational(1 / (sp.sin(x) ** 2 + sp.cos(x) ** 2 - 1))
+
+
+def test_a_chain_is_written_in_angle_differences():
+    d = (m1 + m2 * sp.sin(q1) ** 2 - 2 * m2 * sp.sin(q1) * sp.sin(q2) * sp.cos(q1 - q2)
+         + m2 * sp.sin(q2) ** 2)
+    out = normal(d, angles=(q1, q2))
+    assert _equal(out, d, [q1, q2, m1, m2])
+    assert sp.count_ops(out) <= sp.count_ops(m1 + m2 * sp.sin(q1 - q2) ** 2)
+
+
+def test_past_the_budget_the_expression_comes_back_as_it_was_and_is_listed():
+    e = sp.expand((sp.sin(th) + sp.cos(ph) + x) ** 4) * (sp.sin(th) ** 2 + sp.cos(th) ** 2)
+    with work_budget(50) as work:
+        assert normal(e) is e
+    assert work.exhausted and work.untidied
+    with work_budget(10**8) as work:
+        assert normal(e) is not e
+    assert not work.untidied
+
+
+def test_the_budget_must_be_positive():
+    with pytest.raises(ValueError, match="positive"):
+        with work_budget(0):
+            pass
+    with pytest.raises(ValueError, match="budget"):
+        lamech.solve(lamech.load("pendulum"), budget=-1)
+
+
+def test_a_small_budget_gives_the_same_multipliers_less_tidy_and_says_so():
+    """The double pendulum with almost no work allowed: the same functions (equal at
+    random states), whatever their written form, and a note naming what is untidied."""
+    text = lamech.load("double_pendulum")
+    full = lamech.solve(text)
+    cut = lamech.solve(text, budget=200)
+    assert cut.untidied and any("budget" in n for n in cut.notes)
+    assert not full.untidied
+    S = full.symbols
+    names = ["theta1", "theta2", "theta1'", "theta2'"]
+    rng = np.random.default_rng(5)
+    for values in rng.uniform(-2, 2, size=(3, 4)):
+        env = {**full.system.parameter_values, full.system.t: 0}
+        env.update({S[n]: v for n, v in zip(names, values)})
+        for k in full.multipliers:
+            a = float(full.multipliers[k].xreplace(env))
+            b = float(cut.multipliers[k].xreplace(env))
+            assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
+
+
+def test_the_same_text_in_another_thread():
+    """No clock, no signal: a solve in a worker thread is bounded and prints the same."""
+    p = lamech.load("cylinder")
+    here = lamech.to_text(lamech.solve(p))
+    out: list = []
+    t = threading.Thread(target=lambda: out.append(lamech.to_text(lamech.solve(p))))
+    t.start()
+    t.join(120)
+    assert out == [here]
+
+
+def _solve_text(name: str, seed: str, busy: int = 0) -> str:
+    env = dict(os.environ, PYTHONHASHSEED=seed)
+    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(busy)]
+    try:
+        return subprocess.run(
+            [sys.executable, "-m", "lamech", "solve", name, "--json"], env=env,
+            capture_output=True, text=True, timeout=600, check=True,
+        ).stdout
+    finally:
+        for b in burners:
+            b.kill()
+            b.wait()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["double_pendulum", "rolling_sphere"])
+def test_the_same_bytes_on_an_idle_and_a_busy_machine_under_any_hash_seed(name):
+    """Issue 30: the same file gives byte-identical JSON in two processes with different
+    hash seeds, one of them beside two busy processes."""
+    a = _solve_text(name, "0")
+    b = _solve_text(name, "12345", busy=2)
+    assert a == b
+
+
+@pytest.mark.slow
+def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy():
+    """SymPy's documented four-bar (relative joint angles) used to run past 10 minutes;
+    now it is bounded, and its multipliers equal SymPy's LagrangesMethod's at the start."""
+    from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols
+
+    problem = lamech.load(HERE / "problems" / "four_bar_sympy.toml")
+    sol = lamech.solve(problem)
+    assert sol.multipliers and set(sol.multipliers) == {"loopx", "loopy"}
+    # SymPy's own route on the same Lagrangian and constraints
+    S = sol.symbols
+    qs = dynamicsymbols("q1:4")
+    sub = {S[f"q{i + 1}"]: q for i, q in enumerate(qs)}
+    sub.update({S[f"q{i + 1}'"]: q.diff() for i, q in enumerate(qs)})
+    L = problem.L.xreplace(sub)
+    cons = [c.expr.xreplace(sub) for c in problem.constraints]
+    lm = LagrangesMethod(L, qs, hol_coneqs=cons)
+    lm.form_lagranges_equations()
+    lam = lm.solve_multipliers()
+    env = {**problem.parameter_values}
+    state = {q: float(sp.sympify(c.initial).xreplace(env)) for q, c in zip(qs, problem.coordinates)}
+    state.update({q.diff(): 0.0 for q in qs})
+    mine = {S[f"q{i + 1}"]: state[q] for i, q in enumerate(qs)}
+    mine.update({S[f"q{i + 1}'"]: 0.0 for i in range(3)})
+    for k, name in enumerate(["loopx", "loopy"]):
+        theirs = float(lam[lm.lam_vec[k]].xreplace({**env, **state}).evalf())
+        ours = float(sol.multipliers[name].xreplace({**env, **mine, problem.t: 0}).evalf())
+        # SymPy's constraint is l1 + ... = 0 with its own multiplier sign convention
+        assert abs(abs(ours) - abs(theirs)) <= 1e-8 * (1 + abs(theirs))
