@@ -235,7 +235,7 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         points, reason = _solve(
             [e.xreplace(fixed) for e in eqs], [x for x in u if x not in fixed], system
         )
-        points = [({**p, **fixed}, cond) for p, cond in points]
+        points = [({x: {**p, **fixed}[x] for x in u}, cond) for p, cond in points]
         if free:
             shown = ", ".join(f"{x} = {to_text(v)}" for x, v in fixed.items())
             free_note = (
@@ -292,7 +292,7 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
                 "a continuum of equilibria (free: " + ", ".join(free) + "); give a point with --at"
             )
         point = {x: _principal(tidy(sol[x]), x, system) for x in u}
-        key = _numeric_point(point, system)
+        key = _numeric_point(point, system, u)
         if key is not None and any(np.allclose(key, s, atol=1e-9) for s in seen):
             continue
         if key is not None:
@@ -414,11 +414,14 @@ def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
     return sp.expand(value - 2 * sp.pi * turns) if turns else value
 
 
-def _numeric_point(point: dict, system: System) -> np.ndarray | None:
+def _numeric_point(point: dict, system: System, order) -> np.ndarray | None:
+    """The values of ``point`` {coordinate symbol: value} at the parameter values, in the
+    order of the symbols ``order`` (by name, never by the dict's order: a free
+    coordinate is added to a solved point last)."""
     try:
         vals = [
-            complex(sp.N(sp.sympify(sp.sympify(v).xreplace(system.parameter_values))))
-            for v in point.values()
+            complex(sp.N(sp.sympify(sp.sympify(point[x]).xreplace(system.parameter_values))))
+            for x in order
         ]
     except (TypeError, ValueError):
         return None
@@ -450,7 +453,7 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
     speeds = speeds or {}
     at_point = {**point, **{v: speeds.get(v, 0) for v in ud}}
     num = {**pv, system.t: 0.0}
-    uval = _numeric_point(point, system)
+    uval = _numeric_point(point, system, u)
     if uval is None or np.abs(uval.imag).max(initial=0) > 1e-9 * (1 + np.abs(uval).max()):
         return Equilibrium(
             {str(x): v for x, v in point.items()},
