@@ -93,3 +93,46 @@ def test_cli_modes_of_the_cart_pendulum_at_the_inverted_position(tmp_path, capsy
     out = capsys.readouterr().out
     assert "Equilibrium 2: X = 0, theta = pi" in out
     assert "at the values: X = 0, r = 1, theta = 3.14159" in out
+
+
+# ----- item 3: a parameter's name as a value; a report without matplotlib ----------------
+@pytest.mark.parametrize(
+    "command, by_name, by_number",
+    [
+        (["simulate", "pendulum", "--t-end", "0.2", "--samples", "3"], "theta=theta0",
+         "theta=0.5"),
+        (["solve", "pendulum"], "theta=l", "theta=1"),
+    ],
+)
+def test_a_parameters_name_as_an_initial_value_is_its_value(command, by_name, by_number, capsys):
+    assert main([*command, "--initial", by_name]) == 0
+    named = capsys.readouterr()
+    assert main([*command, "--initial", by_number]) == 0
+    numbered = capsys.readouterr()
+    assert "Traceback" not in named.err and named.out == numbered.out
+
+
+def test_a_parameters_name_as_a_point_of_modes_is_its_value(tmp_path, capsys):
+    path = tmp_path / "cart.toml"
+    path.write_text(_cart_pendulum(2.0, 1.0, 1.0), encoding="utf-8")
+    assert main(["modes", str(path), "--at", "X=M", "--at", "theta=l"]) == 0
+    named = capsys.readouterr()
+    assert main(["modes", str(path), "--at", "X=2", "--at", "theta=1"]) == 0
+    assert named.out == capsys.readouterr().out and "Traceback" not in named.err
+    assert main(["modes", str(path), "--at", "X=0", "--at", "theta=M*x"]) == 2
+    assert "--at theta=M*x" in capsys.readouterr().err
+
+
+def test_the_report_without_matplotlib_is_written_and_says_it_has_no_plots(
+    tmp_path, monkeypatch, capsys
+):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib fails
+    out = tmp_path / "report.html"
+    assert main(["report", "pendulum", "-o", str(out), "--t-end", "0.2"]) == 0
+    err = capsys.readouterr().err
+    assert "no plot or animation: they need matplotlib" in err
+    page = out.read_text(encoding="utf-8")
+    assert "no plot and no animation: they need matplotlib" in page
+    assert "data:image/png" not in page and "final state" in page
