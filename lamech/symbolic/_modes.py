@@ -170,14 +170,20 @@ class Modes:
         }
 
 
-def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Modes:
+def modes(problem: Solution | System | str, at: dict[str, float] | None = None) -> Modes:
     """Equilibria, stability and normal modes of a system or its solution (see the
-    module docstring). ``at`` ({independent coordinate: value}) linearises about that
-    configuration at rest instead of searching for equilibria (a note says when it is
-    not one)."""
+    module docstring; ``problem`` also a file's path or an example's name, as
+    :func:`~lamech.symbolic.solve` takes it). ``at`` ({independent coordinate: value},
+    finite numbers) linearises about that configuration at rest instead of searching for
+    equilibria (a note says when it is not one)."""
+    from ..problem import as_system
     from ._solution import solve
 
-    sol = problem if isinstance(problem, Solution) else solve(problem)
+    if at is not None:
+        at = _checked_point(at)
+    if not isinstance(problem, Solution):
+        problem = solve(as_system(problem, "modes", "problem"))
+    sol = problem
     system, red, forms = sol.system, sol.reduction, sol.closed
     u = [c.symbol for c in red.independent]
     names = tuple(c.name for c in red.independent)
@@ -247,6 +253,29 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds))
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None, free_note)
+
+
+def _checked_point(at) -> dict[str, float]:
+    """``at`` as {name: float}: a mapping of finite real numbers, else TypeError or
+    ValueError naming the entry."""
+    import math
+    from collections.abc import Mapping
+
+    if not isinstance(at, Mapping):
+        raise TypeError(
+            f"modes: at must be a dict {{coordinate: value}} (e.g. {{'theta': 0.1}}); "
+            f"got {type(at).__name__}"
+        )
+    out = {}
+    for name, value in at.items():
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"modes: at[{name!r}] must be a real number, got {value!r}") from None
+        if not math.isfinite(x):
+            raise ValueError(f"modes: at[{name!r}] must be a finite number, got {x}")
+        out[str(name)] = x
+    return out
 
 
 def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:

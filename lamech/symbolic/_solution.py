@@ -135,14 +135,21 @@ class Solution:
         )
 
 
-def solve(system: System) -> Solution:
+def solve(system: System | str) -> Solution:
     """Derive equations, multipliers, integrals, vanishing/slip points and forces.
 
     A unilateral contact open at the start (f > 0) has lambda = 0 until it closes: the
     closed forms, the energy shell, the lift-off and slip points and the forces are
     those of the constraints that hold at the start, and for the open contact the
     points where it would close (f = 0) on that shell. The Euler-Lagrange equations
-    shown keep every multiplier."""
+    shown keep every multiplier.
+
+    ``system``: a System, or a problem file's path or a bundled example's name
+    (``solve("pendulum")`` is ``solve(lamech.load("pendulum"))``); another type is a
+    TypeError."""
+    from ..problem import as_system
+
+    system = as_system(system, "solve")
     dyn = dynamics(system)
     opened = open_at_start(system)
     holding = holding_at_start(system)

@@ -132,7 +132,12 @@ class Derivation:
 
 
 def steps(sol) -> Derivation:
-    """The derivation of ``sol`` (a :class:`~lamech.symbolic.Solution`) in steps."""
+    """The derivation of ``sol`` (a :class:`~lamech.symbolic.Solution`; a System, file
+    or example name is solved first) in steps."""
+    from ._solution import Solution, solve
+
+    if not isinstance(sol, Solution):
+        sol = solve(sol)
     system = sol.system
     holding = holding_at_start(system)
     dyn = sol.dynamics
