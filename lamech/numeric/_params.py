@@ -82,17 +82,18 @@ def _check_values(system: System, params: dict) -> None:
 
 
 def _check_signs(ns: NumericSystem, params: dict, p: np.ndarray) -> None:
-    """Each parameter (those computed from the overridden ones too) with the sign its
-    symbol declares, which the derivation assumed (sqrt(R^2) = R), and finite: checked
-    on a compiled system (a sweep's cases) where the System's checks are not run again."""
+    """Each parameter (those computed from the overridden ones too) finite and not of
+    the other sign than its symbol declares, which the derivation assumed
+    (sqrt(R^2) = R): checked on a compiled system (a sweep's cases), where the System's
+    own checks are not run again. Zero, the boundary, is let through here (a sweep's
+    level floor, alpha = 0, is right: the tests check it against its closed form)."""
     for i, par in enumerate(ns.system.parameters):
         x = float(p[i])
         sym = par.symbol
         if par.name == "mu" or par.name.startswith("mu:"):  # a friction coefficient, >= 0
             wrong = not x >= 0
         else:
-            wrong = (sym.is_positive and not x > 0) or (sym.is_negative and not x < 0)
-            wrong = wrong or (sym.is_nonnegative and not x >= 0)
+            wrong = (sym.is_nonnegative and x < 0) or (sym.is_nonpositive and x > 0)
         wrong = wrong or not np.isfinite(x)
         if not wrong:
             continue
