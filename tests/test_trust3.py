@@ -228,3 +228,36 @@ def test_a_sweeps_single_measure_may_be_a_string():
     assert one[0]["status"] == listed[0]["status"] == "ok"
     with pytest.raises(TypeError, match="sweep: params must be a dict"):
         lamech.sweep("cylinder", [("mu", 0.5)], "liftoff", **kw)
+
+
+# ----- item 6: messages that mislead ------------------------------------------------------
+def test_a_typo_in_a_bodys_position_is_the_only_problem_reported(tmp_path, capsys):
+    path = tmp_path / "typo.toml"
+    path.write_text(
+        'title = "typo"\n[parameters]\nm = 1.0\ng = 9.81\nl = 1.0\n[coordinates]\n'
+        "theta = { initial = 0.3, velocity = 0 }\n"
+        '[[bodies]]\nname = "bob"\nmass = "m"\nposition = ["l*sin(theta)", "-l*cos(thta)"]\n'
+        '[gravity]\nacceleration = "g"\n',
+        encoding="utf-8",
+    )
+    assert main(["solve", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown name `thta`" in err and ":11:" in err
+    assert "no [[bodies]]" not in err and "missing" not in err
+
+
+def _corrections(derivation) -> list[str]:
+    from lamech.symbolic import CORRECTION
+
+    return [n for s in derivation.steps for n in s.notes if n.startswith(CORRECTION)]
+
+
+def test_the_lecture_corrections_are_in_the_lectures_problems_only():
+    assert len(_corrections(lamech.steps(lamech.solve("pendulum")))) == 2
+    # the lecture's pendulum with other numbers is still the lecture's
+    other = lamech.model.with_values(lamech.load("pendulum"), parameters={"l": 2.0})
+    assert len(_corrections(lamech.steps(lamech.solve(other)))) == 2
+    # a disk rolling with friction down an incline, a free cart's pendulum: not the notes'
+    assert _corrections(lamech.steps(lamech.solve("incline_disk"))) == []
+    cart = lamech.loads(_cart_pendulum(2.0, 1.0, 1.0))
+    assert _corrections(lamech.steps(lamech.solve(cart))) == []
