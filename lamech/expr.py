@@ -453,6 +453,7 @@ class _Builder:
             else:
                 if value == 0:
                     raise self.fail("division by zero", owner)
+                self._nonzero_divisor(value, operand)
                 self._combined_powers(out, value, -1, owner)
                 out = out / value
             self._check_built(out, owner, (left, value))
@@ -463,6 +464,8 @@ class _Builder:
             self._numbers_to_power(base, exponent, node)
             if base == 0 and exponent.is_negative:
                 raise self.fail("division by zero (0 to a negative power)", node)
+            if exponent.is_negative:
+                self._nonzero_divisor(base, node.left if isinstance(node, ast.BinOp) else node)
         if base == sp.E:
             self._exponential(exponent, node)
         try:
@@ -576,6 +579,19 @@ class _Builder:
         if start is None or end is None or end <= start:
             return ""
         return self.text[self.column_of(start) - 1 : self.column_of(end - 1)].strip()
+
+    def _nonzero_divisor(self, value: sp.Expr, node: ast.AST) -> None:
+        """Refuse a divisor that is zero whatever its names' values
+        (``1/(sin(x)^2 + cos(x)^2 - 1)``): the quotient is undefined everywhere."""
+        if identically_zero(value):
+            shown = self.segment(node) or _plain(value)
+            raise self.fail(
+                f"division by zero: `{_short(shown)}` is 0 whatever the values of "
+                f"{', '.join(sorted(map(str, value.free_symbols)))} (checked at "
+                f"{ZERO_TEST_POINTS} random values, to 30 digits), so the quotient is "
+                "undefined everywhere",
+                node,
+            )
 
     def _check_built(self, out: sp.Expr, node: ast.AST, operands: tuple = ()) -> None:
         """Bound what SymPy made of an operation on ``operands``: exact numbers by their
@@ -817,6 +833,42 @@ class _Builder:
             "and/or are not allowed here: they join conditions, only inside piecewise(...)",
             node,
         )
+
+
+ZERO_TEST_POINTS = 4
+"""The seeded random points at which :func:`identically_zero` evaluates an expression."""
+
+
+def identically_zero(e: sp.Expr) -> bool:
+    """Whether ``e``, an expression of names, is zero at each of :data:`ZERO_TEST_POINTS`
+    seeded random values of them (each in [0.3, 2] with the sign its symbol allows),
+    evaluated to 30 digits: the zero test by evaluation of the design notes, for a
+    divisor. An analytic expression zero at random points is zero everywhere; one with
+    a switch (step, min, max, clip, piecewise, a table) may be zero on a region only and
+    is never called zero here, nor one that is not a finite number at a point."""
+    import random
+
+    names = sorted(e.free_symbols, key=str)
+    if not names or e.has(sp.Piecewise, sp.Min, sp.Max, sp.Heaviside, Table):
+        return False
+    rng = random.Random(28)
+    for _ in range(ZERO_TEST_POINTS):
+        env = {}
+        for s in names:
+            x = sp.Rational(rng.randint(300, 2000), 1000)
+            negative = s.is_nonpositive or (not s.is_nonnegative and rng.random() < 0.5)
+            env[s] = -x if negative else x
+        try:
+            value = complex(e.evalf(30, subs=env))
+            terms = e.args if e.is_Add else (e,)
+            scale = max(abs(complex(a.evalf(30, subs=env))) for a in terms)
+        except _SYMPY_FAILURES:
+            return False
+        if not (math.isfinite(abs(value)) and math.isfinite(scale)):
+            return False
+        if abs(value) > 1e-20 * max(1.0, scale):
+            return False
+    return True
 
 
 def _power_digits(base: sp.Rational, exponent: sp.Expr) -> tuple[float, float]:

@@ -261,3 +261,32 @@ def test_the_lecture_corrections_are_in_the_lectures_problems_only():
     assert _corrections(lamech.steps(lamech.solve("incline_disk"))) == []
     cart = lamech.loads(_cart_pendulum(2.0, 1.0, 1.0))
     assert _corrections(lamech.steps(lamech.solve(cart))) == []
+
+
+@pytest.mark.parametrize(
+    "divisor", ["sin(x)^2 + cos(x)^2 - 1", "cosh(x)^2 - sinh(x)^2 - 1", "(1 + tan(x)^2)*cos(x)^2 - 1"]
+)
+def test_a_division_by_an_expression_identically_zero_is_refused_with_its_line(divisor):
+    text = (
+        'title = "zero"\n[parameters]\nm = 1.0\n[coordinates]\n'
+        "x = { initial = 0.3, velocity = 0 }\n[lagrangian]\n"
+        f'T = "m/2*x\'^2"\nV = "m*x^2/({divisor})"\n'
+    )
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.loads(text)
+    message = str(err.value)
+    assert ":8:" in message and "lagrangian.V" in message
+    assert f"division by zero: `{divisor}` is 0 whatever the values of x" in message
+    # a divisor that only looks alike is accepted, and one zero at one point too
+    for fine in ("sin(x)^2 + cos(x)^2", "sin(x)^2 + cos(x)^2 - 1 + x", "sin(x)"):
+        lamech.loads(text.replace(divisor, fine))
+
+
+def test_a_power_of_an_identically_zero_base_to_a_negative_exponent_is_refused():
+    from lamech.expr import ExpressionError, parse
+
+    import sympy as sp
+
+    x = sp.Symbol("x", real=True)
+    with pytest.raises(ExpressionError, match=r"`sin\(x\)\^2 \+ cos\(x\)\^2 - 1` is 0"):
+        parse("(sin(x)^2 + cos(x)^2 - 1)^(-2)", {"x": x}, "test")
