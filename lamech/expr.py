@@ -85,6 +85,27 @@ class ExpressionError(ValueError):
         self.column = column
 
 
+_VELOCITY_SPELLINGS = (
+    re.compile(r"^(?P<c>.+?)_?(?:dot|d|t|prime)$"),  # theta_dot, thetadot, theta_d, theta_t
+    re.compile(r"^d_?(?P<c>.+?)(?:_?dt)?$"),  # dtheta, d_theta, dthetadt
+)
+
+
+def _velocity_hint(key: str, names) -> str | None:
+    """For a name that spells a coordinate's velocity another way (``theta_dot``,
+    ``dtheta``, ``thetadot``; ``theta.`` is asked as ``theta_dot``): how lamech writes
+    it, where that coordinate's velocity is a name here (else None: a parameter's
+    ``dt`` is not a velocity)."""
+    for pattern in _VELOCITY_SPELLINGS:
+        match = pattern.match(key)
+        if match is None:
+            continue
+        base = match.group("c")
+        if base + "'" in names:
+            return f"a velocity is written with a prime: `{base}'` (the rate of {base})"
+    return None
+
+
 def _atan2(y, x):
     return sp.atan2(y, x)
 
@@ -366,7 +387,11 @@ class _Builder:
             allowed = "velocities" if kind == "'" else "accelerations"
             raise self.fail(f"`{key}`: {allowed} are not allowed in {self.what}", node)
         known = sorted(n for n in self.names if not n.endswith("'") and "." not in n)
-        raise self.fail(f"unknown name `{key}`; known: " + (", ".join(known) or "(none)"), node)
+        hint = _velocity_hint(key, self.names)
+        raise self.fail(
+            f"unknown name `{key}`; " + (hint or "known: " + (", ".join(known) or "(none)")),
+            node,
+        )
 
     def _Attribute(self, node: ast.Attribute) -> sp.Expr:
         """``body.wx``: a dotted name, looked up whole in ``names`` (a body's angular
@@ -374,6 +399,10 @@ class _Builder:
         body = node.value.id if isinstance(node.value, ast.Name) else None
         part = node.attr.removesuffix(_VEL_SUFFIX)
         spinning = sorted({n.partition(".")[0] for n in self.names if "." in n})
+        if body is not None and body not in spinning:
+            hint = _velocity_hint(f"{body}_{part}", self.names)
+            if hint:
+                raise self.fail(f"`{body}.{part}`: {hint}", node)
         if body is None or part not in ANGULAR_VELOCITY:
             if body in spinning:
                 raise self.fail(
@@ -1009,6 +1038,10 @@ def parse(
             tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
         col = column_of((exc.offset or 1) - 1) if (exc.lineno or 1) == 1 else None
+        dotted = re.search(r"\b([A-Za-z_]\w*)\.(?![\w.])", text)  # theta. (Newton's dot)
+        hint = _velocity_hint(dotted.group(1) + "_dot", names) if dotted else None
+        if hint:
+            raise ExpressionError(f"syntax error at `{dotted.group(0)}`: {hint}", text, col) from None
         raise ExpressionError(f"syntax error: {exc.msg}", text, col) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression too complex to parse", text) from None

@@ -12,6 +12,8 @@ import pytest
 import lamech
 from lamech.cli import main
 
+PENDULUM_TEXT = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
+
 
 def _cart_pendulum(M: float, m: float, l: float, free_first: bool = True) -> str:
     """A pendulum (bob m on a rod of length l, ``l - r = 0`` as a user writes it) hanging
@@ -290,3 +292,33 @@ def test_a_power_of_an_identically_zero_base_to_a_negative_exponent_is_refused()
     x = sp.Symbol("x", real=True)
     with pytest.raises(ExpressionError, match=r"`sin\(x\)\^2 \+ cos\(x\)\^2 - 1` is 0"):
         parse("(sin(x)^2 + cos(x)^2 - 1)^(-2)", {"x": x}, "test")
+
+
+# ----- item 5: a word where a user needs one ----------------------------------------------
+@pytest.mark.parametrize(
+    "written, shown",
+    [("theta_dot", "unknown name `theta_dot`"), ("dtheta", "unknown name `dtheta`"),
+     ("thetadot", "unknown name `thetadot`"), ("theta.", "syntax error at `theta.`"),
+     ("theta.dot", "`theta.dot`")],
+)
+def test_a_velocity_written_another_way_is_answered_with_the_prime(written, shown):
+    text = PENDULUM_TEXT.replace("r^2*theta'^2", f"r^2*{written}^2")
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.loads(text)
+    message = str(err.value)
+    assert shown in message and "a velocity is written with a prime: `theta'`" in message
+    assert "lagrangian.T" in message
+
+
+def test_a_released_pendulum_through_its_pivot_says_the_polar_chart_is_singular():
+    # upside down at rest, the string slack: the bob falls freely through the pivot,
+    # reached after sqrt(2 l / g); there theta's inertia m r^2 vanishes
+    tr = lamech.simulate(lamech.load("pendulum"), 3.0, initial={"theta": 3.14159265},
+                         engine="scipy")
+    assert tr.status == "failed"
+    assert "`theta` has no inertia there: its mass matrix entry m*r^2 vanishes as r -> 0" in (
+        tr.message
+    )
+    assert "the pole of the polar" in tr.message and "Cartesian coordinates" in tr.message
+    assert "dependent constraints" not in tr.message
+    assert tr.final_time == pytest.approx(math.sqrt(2 * 1.0 / 9.81), abs=1e-4)

@@ -269,7 +269,7 @@ def _segment(
             return
         _check_penetration(run, t_b, yb)
         rec.up_to(t_b, dense, yb)
-        _check_conditioning(acc, t_b, at.steps)
+        _check_conditioning(run, acc, t_b, yb, at.steps)
         if not run.mode.all_armed():
             update_arming(run, t_b, yb)
         g_old = event_values(run, t_b, yb, acc)
@@ -481,12 +481,19 @@ def _check_growth(y: np.ndarray, t: float, blow_up: float) -> None:
         )
 
 
-def _check_conditioning(acc: Accel, t: float, steps: int) -> None:
-    """Every 8th step: stop where the KKT matrix is nearly singular."""
+def _check_conditioning(run: Run, acc: Accel, t: float, y: np.ndarray, steps: int) -> None:
+    """Every 8th step: stop where the KKT matrix is nearly singular (saying so where the
+    cause is the pole of polar coordinates, :meth:`Run.pole`)."""
     if steps % 8 != 1:
         return
     cond = np.linalg.cond(acc.K)
     if cond > 1e13:
+        pole = run.pole(t, y[: run.setup.n])
+        if pole:
+            raise Stop(
+                f"the KKT matrix is nearly singular at t = {t:.12g} (condition number "
+                f"{cond:.3g}): {pole}"
+            )
         raise Stop(
             f"the KKT matrix is nearly singular at t = {t:.12g} "
             f"(condition number {cond:.3g}): a singular "
