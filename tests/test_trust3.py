@@ -322,3 +322,39 @@ def test_a_released_pendulum_through_its_pivot_says_the_polar_chart_is_singular(
     assert "the pole of the polar" in tr.message and "Cartesian coordinates" in tr.message
     assert "dependent constraints" not in tr.message
     assert tr.final_time == pytest.approx(math.sqrt(2 * 1.0 / 9.81), abs=1e-4)
+
+
+def _degree_warnings(notes) -> list[str]:
+    return [n for n in notes if "If " in n and "degrees were meant" in n]
+
+
+def test_an_angle_of_whole_degrees_written_as_radians_is_said_once(capsys):
+    disk = lamech.problem.example_path("incline_disk").read_text(encoding="utf-8")
+    system = lamech.loads(disk.replace("alpha = 0.5", "alpha = 30"))
+    said = _degree_warnings(system.notes)
+    assert len(said) == 1 and said[0].startswith("parameter `alpha` is 30, an angle in ")
+    assert said[0].endswith(
+        "where angles are in radians: 30 rad is 4.77 turns. If 30 degrees were meant, write "
+        "30*pi/180 (= 0.523599)"
+    )
+    assert main(["solve", "pendulum", "--initial", "theta=45"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("If 45 degrees were meant, write 45*pi/180 (= 0.785398)") == 1
+    run = lamech.simulate("pendulum", 0.1, samples=3, initial={"theta": 45})
+    assert len(_degree_warnings(run.notes)) == 1 and "`theta` is 45" in run.notes[0]
+    # radians, a frequency in cos(w t), and new values that are radians: nothing said
+    assert _degree_warnings(lamech.simulate("pendulum", 0.1, samples=3).notes) == []
+    shaken = lamech.problem.example_path("moving_support").read_text(encoding="utf-8")
+    assert _degree_warnings(lamech.loads(shaken.replace("w = 3.0", "w = 30")).notes) == []
+    again = lamech.model.with_values(system, parameters={"alpha": 0.5})
+    assert _degree_warnings(again.notes) == []
+
+
+def test_friction_on_a_bilateral_normal_is_said_to_mean_little():
+    text = lamech.problem.example_path("cylinder").read_text(encoding="utf-8")
+    bilateral = lamech.loads(text.replace("unilateral = true\n", "", 1))
+    notes = [n for n in bilateral.notes if "bilateral" in n]
+    assert len(notes) == 1
+    assert notes[0].startswith("friction `rolling` takes its normal force from `contact`")
+    assert "unilateral = true" in notes[0]
+    assert not any("bilateral" in n for n in lamech.load("cylinder").notes)

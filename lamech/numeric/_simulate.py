@@ -164,7 +164,7 @@ def simulate(
     times = sample_times(t0, t_end, samples, dt)
     run = Run(Setup.of(ns, p, Options(rtol, atol, max_step or math.inf, method)))
     loop = loop_for(run, engine, times)
-    notes: list[str] = []
+    notes: list[str] = _degree_notes(ns, p, y0)
     # One BLAS thread for the run, entered once (issue 16: with other work on the 2 cores,
     # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the
     # measurements are in ._threads).
@@ -172,6 +172,20 @@ def simulate(
         y = initial_mode(run, t0, y0, project_initial, notes)
         watch = Watch(t0, t_end, method, progress, pace)
         return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
+
+
+def _degree_notes(ns: NumericSystem, p: np.ndarray, y0: np.ndarray) -> list[str]:
+    """The run's angles that look like degrees (:func:`lamech.model.degree_hints`) at
+    its own parameters and start, those the system's notes do not say already."""
+    from ..model._hints import degree_hints
+
+    system = ns.system
+    found = degree_hints(
+        system,
+        initial={c: float(y0[i]) for i, c in enumerate(ns.coordinate_names)},
+        parameters={par.name: float(p[i]) for i, par in enumerate(system.parameters)},
+    )
+    return [h for h in found if h not in system.notes]
 
 
 def _integrate(
