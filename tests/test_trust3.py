@@ -358,3 +358,18 @@ def test_friction_on_a_bilateral_normal_is_said_to_mean_little():
     assert notes[0].startswith("friction `rolling` takes its normal force from `contact`")
     assert "unilateral = true" in notes[0]
     assert not any("bilateral" in n for n in lamech.load("cylinder").notes)
+
+
+def test_a_force_named_on_one_of_the_two_bodies_it_joins_says_which_to_name():
+    text = lamech.problem.example_path("moving_support").read_text(encoding="utf-8")
+    one = lamech.solve(lamech.loads(text.replace('body = ["bob", "cart"]', 'body = "bob"')))
+    assert one.forces["string"]["residual"] != 0
+    said = [n for n in one.notes if n.startswith("`string` joins")]
+    assert said == [
+        "`string` joins `bob` and `cart` (it moves both): its force named on `bob` alone "
+        "leaves a residual, and its components are not the force; name both, body = "
+        '["bob", "cart"] (the force on the second is the opposite), and the residual is 0'
+    ]
+    both = lamech.solve(lamech.loads(text))
+    assert both.forces["string"]["residual"] == 0
+    assert not any("residual" in n for n in both.notes)

@@ -21,7 +21,7 @@ from ._conditions import (
     vanishing_points,
 )
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
-from ._forces import cartesian_forces, generalized_forces
+from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
 
@@ -224,6 +224,7 @@ def solve(system: System | str) -> Solution:
     )
     gen = generalized_forces(dyn_h, red, forms.multipliers, forms.manifold)
     cart = cartesian_forces(dyn_h, red, forms.multipliers)
+    notes += residual_notes(dyn_h, red, cart)  # a residual: which bodies to name
     return Solution(
         system,
         dyn,
