@@ -1040,8 +1040,9 @@ def parse(
         col = column_of((exc.offset or 1) - 1) if (exc.lineno or 1) == 1 else None
         dotted = re.search(r"\b([A-Za-z_]\w*)\.(?![\w.])", text)  # theta. (Newton's dot)
         hint = _velocity_hint(dotted.group(1) + "_dot", names) if dotted else None
-        if hint:
-            raise ExpressionError(f"syntax error at `{dotted.group(0)}`: {hint}", text, col) from None
+        if hint and dotted is not None:
+            message = f"syntax error at `{dotted.group(0)}`: {hint}"
+            raise ExpressionError(message, text, col) from None
         raise ExpressionError(f"syntax error: {exc.msg}", text, col) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression too complex to parse", text) from None

@@ -15,13 +15,16 @@ from lamech.cli import main
 PENDULUM_TEXT = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
 
 
-def _cart_pendulum(M: float, m: float, l: float, free_first: bool = True) -> str:
+CART_T = ("M/2*X'^2 + m/2*((X' + r'*sin(theta) + r*cos(theta)*theta')^2"
+          " + (r*sin(theta)*theta' - r'*cos(theta))^2)")  # fmt: skip
+
+
+def _cart_pendulum(M: float, m: float, length: float, free_first: bool = True) -> str:
     """A pendulum (bob m on a rod of length l, ``l - r = 0`` as a user writes it) hanging
     from a cart M that slides freely on a horizontal rail; theta from the downward
     vertical."""
-    cart = 'X     = { initial = 0, velocity = 0 }\n'
-    rest = ('r     = { initial = "l", velocity = 0 }\n'
-            'theta = { initial = 0.3, velocity = 0 }\n')
+    cart = "X     = { initial = 0, velocity = 0 }\n"
+    rest = 'r     = { initial = "l", velocity = 0 }\ntheta = { initial = 0.3, velocity = 0 }\n'
     coords = cart + rest if free_first else rest + cart
     return f"""
 title = "Pendulum on a free cart"
@@ -30,12 +33,12 @@ title = "Pendulum on a free cart"
 M = {M}
 m = {m}
 g = 9.81
-l = {l}
+l = {length}
 
 [coordinates]
 {coords}
 [lagrangian]
-T = "M/2*X'^2 + m/2*((X' + r'*sin(theta) + r*cos(theta)*theta')^2 + (r*sin(theta)*theta' - r'*cos(theta))^2)"
+T = "{CART_T}"
 V = "-m*g*r*cos(theta)"
 
 [[constraints]]
@@ -54,11 +57,11 @@ f = "l - r"
 # lambda = dL/dr = m g cos(theta): +m g hanging, -m g inverted.
 
 
-@pytest.mark.parametrize("M, m, l, free_first", [(3.0, 0.5, 0.7, True), (2.0, 1.0, 1.0, False)])
-def test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted(M, m, l, free_first):
+@pytest.mark.parametrize("M, m, L, free_first", [(3.0, 0.5, 0.7, True), (2.0, 1.0, 1.0, False)])
+def test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted(M, m, L, free_first):
     g = 9.81
-    md = lamech.modes(lamech.loads(_cart_pendulum(M, m, l, free_first)))
-    rate2 = g * (M + m) / (M * l)
+    md = lamech.modes(lamech.loads(_cart_pendulum(M, m, L, free_first)))
+    rate2 = g * (M + m) / (M * L)
     by_theta = {}
     for e in md.equilibria:
         assert e.exists and e.holds
@@ -81,7 +84,7 @@ def test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted(M, m, l, free_f
     assert inverted.multipliers["rod"] == pytest.approx(-m * g, rel=1e-12)
     # the mode's shape: the momentum (M + m) dX' + m l dtheta' = 0 kept zero
     shape = next(mo for mo in hanging.modes if mo.frequency).shape
-    assert shape["X"] / shape["theta"] == pytest.approx(-m * l / (M + m), rel=1e-12)
+    assert shape["X"] / shape["theta"] == pytest.approx(-m * L / (M + m), rel=1e-12)
 
 
 def test_cli_modes_of_the_cart_pendulum_at_the_inverted_position(tmp_path, capsys):
@@ -101,8 +104,7 @@ def test_cli_modes_of_the_cart_pendulum_at_the_inverted_position(tmp_path, capsy
 @pytest.mark.parametrize(
     "command, by_name, by_number",
     [
-        (["simulate", "pendulum", "--t-end", "0.2", "--samples", "3"], "theta=theta0",
-         "theta=0.5"),
+        (["simulate", "pendulum", "--t-end", "0.2", "--samples", "3"], "theta=theta0", "theta=0.5"),
         (["solve", "pendulum"], "theta=l", "theta=1"),
     ],
 )
@@ -266,7 +268,8 @@ def test_the_lecture_corrections_are_in_the_lectures_problems_only():
 
 
 @pytest.mark.parametrize(
-    "divisor", ["sin(x)^2 + cos(x)^2 - 1", "cosh(x)^2 - sinh(x)^2 - 1", "(1 + tan(x)^2)*cos(x)^2 - 1"]
+    "divisor",
+    ["sin(x)^2 + cos(x)^2 - 1", "cosh(x)^2 - sinh(x)^2 - 1", "(1 + tan(x)^2)*cos(x)^2 - 1"],
 )
 def test_a_division_by_an_expression_identically_zero_is_refused_with_its_line(divisor):
     text = (
@@ -285,9 +288,9 @@ def test_a_division_by_an_expression_identically_zero_is_refused_with_its_line(d
 
 
 def test_a_power_of_an_identically_zero_base_to_a_negative_exponent_is_refused():
-    from lamech.expr import ExpressionError, parse
-
     import sympy as sp
+
+    from lamech.expr import ExpressionError, parse
 
     x = sp.Symbol("x", real=True)
     with pytest.raises(ExpressionError, match=r"`sin\(x\)\^2 \+ cos\(x\)\^2 - 1` is 0"):
@@ -297,9 +300,13 @@ def test_a_power_of_an_identically_zero_base_to_a_negative_exponent_is_refused()
 # ----- item 5: a word where a user needs one ----------------------------------------------
 @pytest.mark.parametrize(
     "written, shown",
-    [("theta_dot", "unknown name `theta_dot`"), ("dtheta", "unknown name `dtheta`"),
-     ("thetadot", "unknown name `thetadot`"), ("theta.", "syntax error at `theta.`"),
-     ("theta.dot", "`theta.dot`")],
+    [
+        ("theta_dot", "unknown name `theta_dot`"),
+        ("dtheta", "unknown name `dtheta`"),
+        ("thetadot", "unknown name `thetadot`"),
+        ("theta.", "syntax error at `theta.`"),
+        ("theta.dot", "`theta.dot`"),
+    ],
 )
 def test_a_velocity_written_another_way_is_answered_with_the_prime(written, shown):
     text = PENDULUM_TEXT.replace("r^2*theta'^2", f"r^2*{written}^2")
@@ -313,8 +320,9 @@ def test_a_velocity_written_another_way_is_answered_with_the_prime(written, show
 def test_a_released_pendulum_through_its_pivot_says_the_polar_chart_is_singular():
     # upside down at rest, the string slack: the bob falls freely through the pivot,
     # reached after sqrt(2 l / g); there theta's inertia m r^2 vanishes
-    tr = lamech.simulate(lamech.load("pendulum"), 3.0, initial={"theta": 3.14159265},
-                         engine="scipy")
+    tr = lamech.simulate(
+        lamech.load("pendulum"), 3.0, initial={"theta": 3.14159265}, engine="scipy"
+    )
     assert tr.status == "failed"
     assert "`theta` has no inertia there: its mass matrix entry m*r^2 vanishes as r -> 0" in (
         tr.message

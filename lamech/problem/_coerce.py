@@ -20,15 +20,15 @@ def as_system(problem, function: str, argument: str = "system") -> System:
     if isinstance(problem, System):
         return problem
     if isinstance(problem, (str, os.PathLike)):
-        text = os.fspath(problem)
-        if isinstance(text, str) and "\n" in text:
+        text = str(os.fspath(problem))
+        if "\n" in text:
             raise ValueError(
                 f"{function}({argument}=...): this text looks like a problem file's contents; "
                 "pass lamech.loads(text), or the file's path"
             )
         from ._loader import load
 
-        return load(problem)
+        return load(text)
     raise TypeError(
         f"{function}: {argument} must be a lamech.System (lamech.load('pendulum'), "
         "lamech.loads(text), lamech.from_dict(d)), a problem file's path or a bundled "
