@@ -60,9 +60,7 @@ def _check_finite(params: dict) -> None:
         try:
             x = float(value)
         except (TypeError, ValueError):
-            raise SimulationError(
-                f"params[{name!r}] must be a number, got {value!r}"
-            ) from None
+            raise SimulationError(f"params[{name!r}] must be a number, got {value!r}") from None
         if not np.isfinite(x):
             raise SimulationError(f"params[{name!r}] must be a finite number, got {x}")
 
