@@ -85,6 +85,27 @@ class ExpressionError(ValueError):
         self.column = column
 
 
+_VELOCITY_SPELLINGS = (
+    re.compile(r"^(?P<c>.+?)_?(?:dot|d|t|prime)$"),  # theta_dot, thetadot, theta_d, theta_t
+    re.compile(r"^d_?(?P<c>.+?)(?:_?dt)?$"),  # dtheta, d_theta, dthetadt
+)
+
+
+def _velocity_hint(key: str, names) -> str | None:
+    """For a name that spells a coordinate's velocity another way (``theta_dot``,
+    ``dtheta``, ``thetadot``; ``theta.`` is asked as ``theta_dot``): how lamech writes
+    it, where that coordinate's velocity is a name here (else None: a parameter's
+    ``dt`` is not a velocity)."""
+    for pattern in _VELOCITY_SPELLINGS:
+        match = pattern.match(key)
+        if match is None:
+            continue
+        base = match.group("c")
+        if base + "'" in names:
+            return f"a velocity is written with a prime: `{base}'` (the rate of {base})"
+    return None
+
+
 def _atan2(y, x):
     return sp.atan2(y, x)
 
@@ -366,7 +387,11 @@ class _Builder:
             allowed = "velocities" if kind == "'" else "accelerations"
             raise self.fail(f"`{key}`: {allowed} are not allowed in {self.what}", node)
         known = sorted(n for n in self.names if not n.endswith("'") and "." not in n)
-        raise self.fail(f"unknown name `{key}`; known: " + (", ".join(known) or "(none)"), node)
+        hint = _velocity_hint(key, self.names)
+        raise self.fail(
+            f"unknown name `{key}`; " + (hint or "known: " + (", ".join(known) or "(none)")),
+            node,
+        )
 
     def _Attribute(self, node: ast.Attribute) -> sp.Expr:
         """``body.wx``: a dotted name, looked up whole in ``names`` (a body's angular
@@ -374,6 +399,10 @@ class _Builder:
         body = node.value.id if isinstance(node.value, ast.Name) else None
         part = node.attr.removesuffix(_VEL_SUFFIX)
         spinning = sorted({n.partition(".")[0] for n in self.names if "." in n})
+        if body is not None and body not in spinning:
+            hint = _velocity_hint(f"{body}_{part}", self.names)
+            if hint:
+                raise self.fail(f"`{body}.{part}`: {hint}", node)
         if body is None or part not in ANGULAR_VELOCITY:
             if body in spinning:
                 raise self.fail(
@@ -453,6 +482,7 @@ class _Builder:
             else:
                 if value == 0:
                     raise self.fail("division by zero", owner)
+                self._nonzero_divisor(value, operand)
                 self._combined_powers(out, value, -1, owner)
                 out = out / value
             self._check_built(out, owner, (left, value))
@@ -463,6 +493,8 @@ class _Builder:
             self._numbers_to_power(base, exponent, node)
             if base == 0 and exponent.is_negative:
                 raise self.fail("division by zero (0 to a negative power)", node)
+            if exponent.is_negative:
+                self._nonzero_divisor(base, node.left if isinstance(node, ast.BinOp) else node)
         if base == sp.E:
             self._exponential(exponent, node)
         try:
@@ -576,6 +608,19 @@ class _Builder:
         if start is None or end is None or end <= start:
             return ""
         return self.text[self.column_of(start) - 1 : self.column_of(end - 1)].strip()
+
+    def _nonzero_divisor(self, value: sp.Expr, node: ast.AST) -> None:
+        """Refuse a divisor that is zero whatever its names' values
+        (``1/(sin(x)^2 + cos(x)^2 - 1)``): the quotient is undefined everywhere."""
+        if identically_zero(value):
+            shown = self.segment(node) or _plain(value)
+            raise self.fail(
+                f"division by zero: `{_short(shown)}` is 0 whatever the values of "
+                f"{', '.join(sorted(map(str, value.free_symbols)))} (checked at "
+                f"{ZERO_TEST_POINTS} random values, to 30 digits), so the quotient is "
+                "undefined everywhere",
+                node,
+            )
 
     def _check_built(self, out: sp.Expr, node: ast.AST, operands: tuple = ()) -> None:
         """Bound what SymPy made of an operation on ``operands``: exact numbers by their
@@ -819,6 +864,42 @@ class _Builder:
         )
 
 
+ZERO_TEST_POINTS = 4
+"""The seeded random points at which :func:`identically_zero` evaluates an expression."""
+
+
+def identically_zero(e: sp.Expr) -> bool:
+    """Whether ``e``, an expression of names, is zero at each of :data:`ZERO_TEST_POINTS`
+    seeded random values of them (each in [0.3, 2] with the sign its symbol allows),
+    evaluated to 30 digits: the zero test by evaluation of the design notes, for a
+    divisor. An analytic expression zero at random points is zero everywhere; one with
+    a switch (step, min, max, clip, piecewise, a table) may be zero on a region only and
+    is never called zero here, nor one that is not a finite number at a point."""
+    import random
+
+    names = sorted(e.free_symbols, key=str)
+    if not names or e.has(sp.Piecewise, sp.Min, sp.Max, sp.Heaviside, Table):
+        return False
+    rng = random.Random(28)
+    for _ in range(ZERO_TEST_POINTS):
+        env = {}
+        for s in names:
+            x = sp.Rational(rng.randint(300, 2000), 1000)
+            negative = s.is_nonpositive or (not s.is_nonnegative and rng.random() < 0.5)
+            env[s] = -x if negative else x
+        try:
+            value = complex(e.evalf(30, subs=env))
+            terms = e.args if e.is_Add else (e,)
+            scale = max(abs(complex(a.evalf(30, subs=env))) for a in terms)
+        except _SYMPY_FAILURES:
+            return False
+        if not (math.isfinite(abs(value)) and math.isfinite(scale)):
+            return False
+        if abs(value) > 1e-20 * max(1.0, scale):
+            return False
+    return True
+
+
 def _power_digits(base: sp.Rational, exponent: sp.Expr) -> tuple[float, float]:
     """(digits of the exact base^exponent, digits of the integer whose root SymPy takes
     for it): |e| log10(s) and, for e = a/b not whole, (|e| + b) log10(s), where s is the
@@ -957,6 +1038,11 @@ def parse(
             tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
         col = column_of((exc.offset or 1) - 1) if (exc.lineno or 1) == 1 else None
+        dotted = re.search(r"\b([A-Za-z_]\w*)\.(?![\w.])", text)  # theta. (Newton's dot)
+        hint = _velocity_hint(dotted.group(1) + "_dot", names) if dotted else None
+        if hint and dotted is not None:
+            message = f"syntax error at `{dotted.group(0)}`: {hint}"
+            raise ExpressionError(message, text, col) from None
         raise ExpressionError(f"syntax error: {exc.msg}", text, col) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression too complex to parse", text) from None

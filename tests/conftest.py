@@ -1,5 +1,12 @@
-"""Test-wide setup: compiled systems are cached in this run's temporary folder, never in
-the user's ~/.cache, so a clean machine (CI) and a developer's one behave the same."""
+"""Test-wide setup: compiled systems are cached in this run's temporary folders, never in
+the user's ~/.cache, so a clean machine (CI) and a developer's one behave the same.
+
+A test never sees a compiled form another test left in a cache: ``simulate``'s default
+(``jit=None``, ``engine="auto"``) runs numba's loop where the problem's compiled form is
+cached, so a shared cache made a test's engine depend on which tests ran before it on
+the same worker (issue 28 item 1). Each test has a folder of its own; only the tests
+marked ``slow`` (the ones that compile with numba, and ask for their engine) share one
+per run, so a system one of them compiled is loaded by the others."""
 
 from __future__ import annotations
 
@@ -9,15 +16,34 @@ import shutil
 import pytest
 
 
-@pytest.fixture(scope="session", autouse=True)
-def lamech_cache_dir(tmp_path_factory):
-    """``LAMECH_CACHE_DIR`` for the test process and the processes it starts: one folder
-    per run, shared by pytest-xdist's workers (the parent of a worker's base folder),
-    so a system compiled in one test is loaded from the cache in the others."""
+@pytest.fixture(scope="session")
+def shared_cache_dir(tmp_path_factory):
+    """One folder per run, shared by pytest-xdist's workers (the parent of a worker's
+    base folder): the compiled forms of the slow tests."""
     base = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
         base = base.parent
-    path = base / "lamech-cache"
+    return base / "lamech-cache"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def fixtures_cache_dir(tmp_path_factory):
+    """``LAMECH_CACHE_DIR`` for the session's and modules' fixtures, which run before
+    any test's own: a folder of this worker's (each test then has its own, below)."""
+    path = tmp_path_factory.mktemp("lamech-cache-fixtures")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("LAMECH_CACHE_DIR", str(path))
+        yield path
+
+
+@pytest.fixture(autouse=True)
+def lamech_cache_dir(request, tmp_path_factory, shared_cache_dir):
+    """``LAMECH_CACHE_DIR`` for the test and the processes it starts: a new folder for
+    each test, the run's shared one for a test marked ``slow``."""
+    if request.node.get_closest_marker("slow") is not None:
+        path = shared_cache_dir
+    else:
+        path = tmp_path_factory.mktemp("lamech-cache")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("LAMECH_CACHE_DIR", str(path))
         yield path

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import Status, compile_system, simulate
+from lamech.numeric import Status, compile_system, numba_available, simulate
 
 G = 9.81
 
@@ -229,15 +229,19 @@ def test_a_floor_that_jumps_through_the_ball_stops_the_run_as_penetrated():
     assert Status.PENETRATED.meaning.startswith("the run stopped where a body had passed")
 
 
-def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetrated():
+def _drift(t, f, A, b):
+    """b (df/dt) off by 5."""
+    return f, A, b + 5.0
+
+
+@pytest.mark.parametrize("engine", ["scipy", "loop"])  # the loop as Python (no numba)
+def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetrated(engine):
     # b (df/dt) off by 5: Newton's law on F = y' + 5 sends the ball down through the
     # floor (y'+ = -e (y'- + 5) - 5); the second impact is met at the disarmed contact's
     # threshold, and from there the gap never crosses zero again: only the check of the
     # state at the step's end sees the ball below the floor, and stops the run there
-    def drift(t, f, A, b):
-        return f, A, b + 5.0
-
-    tr = simulate(_with_floor(drift), 2.0, samples=201)
+    tr = simulate(_with_floor(_drift), 2.0, samples=201, engine=engine)
+    assert tr.engine == {"scipy": "SciPy DOP853", "loop": "loop (Python)"}[engine]
     assert tr.status == "penetrated", tr.message
     assert "no contact was located" in tr.message and "`floor`" in tr.message
     assert [ev.kind for ev in tr.events] == ["impact", "impact"]
@@ -245,3 +249,27 @@ def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetr
     assert tr.final_time == tr.events[-1].t
     assert tr.final_q[0] >= -1e-9  # the last state on the allowed side
     assert tr.coordinate("y").min() >= -1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_a_compiled_system_with_a_function_replaced_runs_the_replacement(tmp_path, monkeypatch):
+    # issue 28 item 1: with the ball's compiled form in the cache, the default engine ran
+    # numba's loop, built from the generated source, and never called the replaced
+    # constraint function: the ball bounced ("ok") where its own functions pass through
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
+    ns = compile_system(lamech.loads(BALL), jit=True)
+    assert ns.jit and not ns.replaced
+    exact = ns.constraints
+
+    def constraints(t, q, p):
+        f, A, b = exact(t, q, p)
+        return _drift(t, np.array(f, dtype=float), A, np.array(b, dtype=float))
+
+    changed = dataclasses.replace(ns, constraints=constraints)
+    assert changed.replaced
+    auto = simulate(changed, 2.0, samples=201)
+    loop = simulate(changed, 2.0, samples=201, engine="loop")
+    assert (auto.engine, loop.engine) == ("SciPy DOP853", "loop (Python)")
+    assert auto.status == loop.status == "penetrated", (auto.message, loop.message)
+    assert simulate(ns, 2.0, samples=201).engine == "loop (numba)"  # the unchanged one

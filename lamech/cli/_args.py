@@ -56,14 +56,19 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
     """{name: value} from NAME=VALUE pairs; each VALUE a number or an expression of the
     problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
     evaluated at ``env`` (default: the file's parameter values)."""
+    import sympy as sp
+
     from ..expr import ExpressionError, parse
 
     names = {p.name: p.symbol for p in system.parameters}
     env = system.parameter_values if env is None else env
+    env = {k: sp.Float(v) if isinstance(v, float) else v for k, v in env.items()}
     out = {}
     for name, text in pairs:
         try:
-            value = float(parse(text, names, f"{option} {name}").xreplace(env).evalf())
+            # a parameter's name alone (theta=theta0) is replaced by a number: sympify
+            # makes it a SymPy number again
+            value = float(sp.sympify(parse(text, names, f"{option} {name}").xreplace(env)))
         except ExpressionError as exc:
             raise ValueError(f"{option} {name}={text}: {exc.message}") from None
         except TypeError:

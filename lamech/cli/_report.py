@@ -80,9 +80,13 @@ def _source(problem: str) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import matplotlib
-
-    matplotlib.use("Agg")
+    try:
+        import matplotlib
+    except ImportError:
+        plots = False  # the page says it has no plots (present._page), and so does the end
+    else:
+        plots = True
+        matplotlib.use("Agg")
     from ..model import ModelError, with_values
     from ..numeric import SimulationError, simulate
     from ..present import report_page
@@ -134,4 +138,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     size = out.stat().st_size
     print(f"wrote {out} ({size / 1e6:.2f} MB)")
+    if traj is not None and not plots:
+        print("lamech: the page has no plot or animation: they need matplotlib "
+              "(pip install matplotlib)", file=sys.stderr)  # fmt: skip
     return 0

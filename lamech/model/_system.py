@@ -307,6 +307,12 @@ class System:
         ModelError.check(_rules.system_issues(self))
         if self.chart is not None:
             self._place_chart()
+        # the warnings about these values (a 30 that is meant in degrees), said once:
+        # those about a system's earlier values (dataclasses.replace) are dropped
+        from ._hints import hints, is_hint
+
+        kept = [n for n in self.notes if not is_hint(n)]
+        object.__setattr__(self, "notes", tuple(dict.fromkeys(kept + hints(self))))
 
     def _place_chart(self) -> None:
         """Give the chart's coordinates the initial values that reproduce this system's

@@ -234,7 +234,7 @@ def integrate_batch(
     P = np.ascontiguousarray(P.reshape(Y0.shape[0], len(ns.parameter_names)))
     key = id(ns)
     if key not in _CACHE or _CACHE[key][0] is not ns:
-        loops = ns.batch_loops or _python_loops(ns)
+        loops = (ns.batch_loops if not ns.replaced else ()) or _python_loops(ns)
         _CACHE[key] = (ns, loops)
     _, (run_parallel, run_serial) = _CACHE[key]
     # A batch smaller than the thread count runs serially (issue 16): one trajectory
@@ -303,8 +303,9 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     """{"ev_run", "ev_starts", "numba"}: numba's when ``jit`` (default:
     ``ns.jit``) and numba is installed (the system's compiled module, :mod:`._jitcache`,
     loaded without warming up the kernels: the loop's machine code holds them), else the
-    same functions as Python."""
-    use = bool(ns.jit if jit is None else jit) and numba_available()
+    same functions as Python (also where one of ``ns``' functions was replaced: the
+    compiled module would not run the replacement, :attr:`NumericSystem.replaced`)."""
+    use = bool(ns.jit if jit is None else jit) and numba_available() and not ns.replaced
     known = _EVENT_CACHE.get((id(ns), use))
     if known is not None and known[0] is ns:
         return known[1]

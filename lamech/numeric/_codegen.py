@@ -187,6 +187,23 @@ class NumericSystem:
     explicit_time: bool = False  # L, a constraint or a generalized force has t in it
     conservative: bool = True
     generation_seconds: float = 0.0
+    # the functions as compile_system made them (see ``replaced``)
+    generated: tuple = ()
+
+    @property
+    def replaced(self) -> bool:
+        """Whether a function was replaced after :func:`compile_system` made this system
+        (``dataclasses.replace(ns, constraints=...)``): the compiled loops (the loop with
+        events, the batch loops), built from ``source``, would not run the replacement,
+        so they are not used for it (its own functions run, as Python)."""
+        now = self._own_functions()
+        return len(now) != len(self.generated) or any(
+            a is not b for a, b in zip(now, self.generated)
+        )
+
+    def _own_functions(self) -> tuple:
+        return (self.dynamics, self.constraints, self.energy, self.restitution,
+                self.rhs_kernel, self.accelerations, self.kkt_solve)  # fmt: skip
 
     @property
     def n(self) -> int:
@@ -593,7 +610,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     time_dependent = bool(system.L.has(t_sym) or any(c.expr.has(t_sym) for c in system.constraints))
     conservative = all(sp.sympify(x) == 0 for x in (system.forces or ()))
     params = np.array([p.numeric for p in system.parameters] + locks, dtype=float)
-    return NumericSystem(
+    ns = NumericSystem(
         system=system,
         dyn=dyn,
         coordinate_names=[c.name for c in system.coordinates],
@@ -622,3 +639,5 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
         conservative=conservative,
         generation_seconds=_time.perf_counter() - t0,
     )
+    ns.generated = ns._own_functions()
+    return ns

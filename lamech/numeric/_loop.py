@@ -49,10 +49,11 @@ CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
 
 def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     """The loop for this run, or None where SciPy's integrators run it: ``engine``
-    "scipy"; "auto" unless the system is compiled with numba; a method other than DOP853,
-    inputs that switch (step, min, max), or t in the problem (the simulator samples the
-    force events inside each step there, the loop does not): SimulationError (a
-    ValueError) for "loop"."""
+    "scipy"; "auto" unless the system is compiled with numba (and none of its functions
+    replaced since: :attr:`NumericSystem.replaced`; "loop" runs it as Python); a method
+    other than DOP853, inputs that switch (step, min, max), or t in the problem (the
+    simulator samples the force events inside each step there, the loop does not):
+    SimulationError (a ValueError) for "loop"."""
     if engine not in ENGINES:
         raise SimulationError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if engine == "scipy":
@@ -71,7 +72,7 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
                 f"engine 'loop' cannot run this problem: {why}; use 'scipy' or 'auto'"
             )
         return None
-    compiled = ns.jit and numba_available()
+    compiled = ns.jit and numba_available() and not ns.replaced
     if engine == "auto" and not compiled:
         return None
     loop = Loop(run, _event_functions(ns, compiled)["ev_segment"], times)

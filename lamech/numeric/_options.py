@@ -17,6 +17,7 @@ __all__ = [
     "METHODS",
     "IMPLICIT",
     "MAX_STEPS",
+    "MAX_SAMPLES",
     "SimulationError",
     "Stop",
     "Options",
@@ -38,6 +39,11 @@ are held down by stability rather than accuracy."""
 MAX_STEPS = 10**8
 """The most steps a ``max_step`` may force on one run: (t_end - t0) / max_step above it
 (a day or more at a typical millisecond a step) is refused before the run."""
+
+
+MAX_SAMPLES = 10_000_000
+"""The most output times one run keeps (about 80 MB a column; ``lamech simulate``'s
+bound too): more is refused before the run, never a run that fills the memory."""
 
 
 class SimulationError(ValueError):
@@ -112,6 +118,13 @@ def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "D
         )
     if dt is not None and (bad(dt) or dt <= 0):
         raise SimulationError(f"dt must be a positive number (got {dt})")
+    count = samples if samples is not None else ((t_end - t0) / dt + 1 if dt is not None else 0)
+    if count > MAX_SAMPLES:
+        what = f"samples={samples}" if samples is not None else f"dt={dt} gives {count:.3g} samples"
+        raise SimulationError(
+            f"{what}: more output times than lamech keeps in one run ({MAX_SAMPLES:.0e}, "
+            "about 80 MB a column); give fewer samples or a larger dt"
+        )
     if method not in METHODS:
         raise SimulationError(f"unknown method {method!r}; one of {', '.join(METHODS)}")
 

@@ -4,7 +4,7 @@ system and its parameter vector."""
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import sympy as sp
@@ -17,12 +17,26 @@ __all__ = ["friction_names", "with_friction_parameters", "numeric_system"]
 
 
 def numeric_system(
-    system: System | NumericSystem, params: dict | None, jit: bool | None
+    system: System | NumericSystem | str, params: dict | None, jit: bool | None
 ) -> tuple[NumericSystem, np.ndarray]:
     """(compiled system, parameter vector with ``params`` {name: value} applied); a
-    friction coefficient named in ``params`` becomes a parameter first. Raises
-    :class:`SimulationError` for unknown names and values that are not numbers."""
+    friction coefficient named in ``params`` becomes a parameter first. ``system`` may
+    also be a problem file's path or an example's name (:func:`lamech.problem.as_system`).
+    Raises :class:`SimulationError` for unknown names, values that are not finite
+    numbers, and values the problem's own checks refuse (a parameter's sign, which the
+    derivation assumed; a mass, a restitution out of range): those of
+    :func:`lamech.model.with_values`, which ``--param`` applies."""
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(
+            f"simulate: params must be a dict {{name: value}}; got {type(params).__name__}"
+        )
+    if not isinstance(system, NumericSystem):
+        from ..problem import as_system
+
+        system = as_system(system, "simulate")
+    _check_finite(params or {})
     if params and not isinstance(system, NumericSystem):
+        _check_values(system, params)
         extra = [k for k in params if k not in {par.name for par in system.parameters}]
         if extra:
             try:
@@ -31,11 +45,64 @@ def numeric_system(
                 raise SimulationError(str(exc)) from None
     ns = system if isinstance(system, NumericSystem) else compile_system(system, jit=jit)
     try:
-        return ns, ns.parameter_vector(params)
+        p = ns.parameter_vector(params)
     except KeyError as exc:
         raise SimulationError(str(exc.args[0])) from None
     except (TypeError, ValueError) as exc:
         raise SimulationError(f"parameter values must be numbers: {exc}") from None
+    if params:
+        _check_signs(ns, params, p)
+    return ns, p
+
+
+def _check_finite(params: dict) -> None:
+    for name, value in params.items():
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise SimulationError(f"params[{name!r}] must be a number, got {value!r}") from None
+        if not np.isfinite(x):
+            raise SimulationError(f"params[{name!r}] must be a finite number, got {x}")
+
+
+def _check_values(system: System, params: dict) -> None:
+    """The file's checks at these values (:func:`lamech.model.with_values`), as
+    ``--param`` makes them."""
+    from ..model import with_values
+
+    own = {k: float(v) for k, v in params.items() if k in {p.name for p in system.parameters}}
+    if not own:
+        return
+    try:
+        with_values(system, parameters=own)
+    except ValueError as exc:  # ModelError too
+        raise SimulationError(f"params: {exc}") from None
+
+
+def _check_signs(ns: NumericSystem, params: dict, p: np.ndarray) -> None:
+    """Each parameter (those computed from the overridden ones too) finite and not of
+    the other sign than its symbol declares, which the derivation assumed
+    (sqrt(R^2) = R): checked on a compiled system (a sweep's cases), where the System's
+    own checks are not run again. Zero, the boundary, is let through here (a sweep's
+    level floor, alpha = 0, is right: the tests check it against its closed form)."""
+    for i, par in enumerate(ns.system.parameters):
+        x = float(p[i])
+        sym = par.symbol
+        if par.name == "mu" or par.name.startswith("mu:"):  # a friction coefficient, >= 0
+            wrong = not x >= 0
+        else:
+            wrong = (sym.is_nonnegative and x < 0) or (sym.is_nonpositive and x > 0)
+        wrong = wrong or not np.isfinite(x)
+        if not wrong:
+            continue
+        given = par.name if par.name in params else None
+        why = f"params[{given!r}] = {x:g}" if given else f"`{par.name}` = {x:g} (from params)"
+        if par.name == "mu" or par.name.startswith("mu:"):
+            raise SimulationError(f"{why}: a coefficient of friction is >= 0")
+        raise SimulationError(
+            f"{why}: `{par.name}` is {par.numeric:g} in the file and its sign is part of the "
+            "derivation; another sign needs the file changed"
+        )
 
 
 def friction_names(system: System) -> dict[str, str]:

@@ -130,6 +130,43 @@ class Run:
             )
         return sol
 
+    def pole(self, t: float, q: np.ndarray) -> str:
+        """Where the mass matrix loses rank because a coordinate's inertia vanishes with
+        another coordinate (m r^2 as r -> 0: the pole of a polar or spherical chart,
+        where the angle is undefined): a sentence saying so ("" elsewhere)."""
+        from ..expr import to_text
+
+        ns, n = self.setup.ns, self.setup.n
+        try:
+            M = np.asarray(ns.dynamics(t, q, np.zeros(n), self.setup.p)[0], dtype=float)
+            w, V = np.linalg.eigh(0.5 * (M + M.T))
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            return ""
+        big = float(np.abs(w).max(initial=0.0))
+        if not np.all(np.isfinite(w)) or big == 0 or w[0] > 1e-9 * big:
+            return ""
+        k = int(np.argmax(np.abs(V[:, 0])))
+        inertia = ns.dyn.M[k, k]
+        q0 = ns.initial_state(self.setup.p)[0]
+        near = [
+            (c.name, float(q[i]))
+            for i, c in enumerate(ns.system.coordinates)
+            if i != k
+            and c.symbol in inertia.free_symbols
+            and abs(q[i]) <= 1e-3 * (1.0 + abs(q0[i]))
+        ]
+        if not near:
+            return ""
+        name, value = near[0]
+        angle = ns.coordinate_names[k]
+        return (
+            f"`{angle}` has no inertia there: its mass matrix entry {to_text(inertia)} "
+            f"vanishes as {name} -> 0 ({name} = {value:.3g}), the pole of the polar (or "
+            f"spherical) coordinates, where `{angle}` is undefined: the motion passes "
+            f"through the origin of {name}. To follow it through, write the problem in "
+            "Cartesian coordinates; or start it so that it misses the pole"
+        )
+
     def _singular(self, t: float, M: np.ndarray, A: np.ndarray) -> str:
         """Why the KKT matrix is singular at t, naming the coordinate without inertia
         (and the massless bodies it moves) when that is the cause."""

@@ -164,7 +164,7 @@ def simulate(
     times = sample_times(t0, t_end, samples, dt)
     run = Run(Setup.of(ns, p, Options(rtol, atol, max_step or math.inf, method)))
     loop = loop_for(run, engine, times)
-    notes: list[str] = []
+    notes: list[str] = _degree_notes(ns, p, y0)
     # One BLAS thread for the run, entered once (issue 16: with other work on the 2 cores,
     # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the
     # measurements are in ._threads).
@@ -172,6 +172,20 @@ def simulate(
         y = initial_mode(run, t0, y0, project_initial, notes)
         watch = Watch(t0, t_end, method, progress, pace)
         return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
+
+
+def _degree_notes(ns: NumericSystem, p: np.ndarray, y0: np.ndarray) -> list[str]:
+    """The run's angles that look like degrees (:func:`lamech.model.degree_hints`) at
+    its own parameters and start, those the system's notes do not say already."""
+    from ..model._hints import degree_hints
+
+    system = ns.system
+    found = degree_hints(
+        system,
+        initial={c: float(y0[i]) for i, c in enumerate(ns.coordinate_names)},
+        parameters={par.name: float(p[i]) for i, par in enumerate(system.parameters)},
+    )
+    return [h for h in found if h not in system.notes]
 
 
 def _integrate(
@@ -269,7 +283,7 @@ def _segment(
             return
         _check_penetration(run, t_b, yb)
         rec.up_to(t_b, dense, yb)
-        _check_conditioning(acc, t_b, at.steps)
+        _check_conditioning(run, acc, t_b, yb, at.steps)
         if not run.mode.all_armed():
             update_arming(run, t_b, yb)
         g_old = event_values(run, t_b, yb, acc)
@@ -481,12 +495,19 @@ def _check_growth(y: np.ndarray, t: float, blow_up: float) -> None:
         )
 
 
-def _check_conditioning(acc: Accel, t: float, steps: int) -> None:
-    """Every 8th step: stop where the KKT matrix is nearly singular."""
+def _check_conditioning(run: Run, acc: Accel, t: float, y: np.ndarray, steps: int) -> None:
+    """Every 8th step: stop where the KKT matrix is nearly singular (saying so where the
+    cause is the pole of polar coordinates, :meth:`Run.pole`)."""
     if steps % 8 != 1:
         return
     cond = np.linalg.cond(acc.K)
     if cond > 1e13:
+        pole = run.pole(t, y[: run.setup.n])
+        if pole:
+            raise Stop(
+                f"the KKT matrix is nearly singular at t = {t:.12g} (condition number "
+                f"{cond:.3g}): {pole}"
+            )
         raise Stop(
             f"the KKT matrix is nearly singular at t = {t:.12g} "
             f"(condition number {cond:.3g}): a singular "

@@ -130,6 +130,14 @@ def _simulation_html(traj, system, params) -> tuple[str, list[str]]:
     from ._trajectory import trajectory_text
 
     parts, notes = [], []
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError as exc:
+        notes.append(
+            f"no plot and no animation: they need matplotlib ({exc}); pip install matplotlib"
+        )
+        parts.append(f"<pre>{html.escape(trajectory_text(traj))}</pre>")
+        return "\n".join(parts), notes
     with tempfile.TemporaryDirectory(prefix="lamech-report-") as tmp:
         png = Path(tmp) / "forces.png"
         plot_trajectory(traj, png)

@@ -172,13 +172,14 @@ def to_text(sol) -> str:
             lines.append(f"  {c.name}: {lhs} = {_t(c.expr)} = 0{tag}")
     if sol.reduced_equations:
         lines += ["", "Reduced equations of motion"]
-        for c, e in zip(sol.reduction.independent, sol.reduced_equations):
+        for c in sol.reduction.independent:  # by coordinate (some may have none)
+            a = sol.closed.accelerations.get(c.acceleration)
+            if a is None:
+                continue
             if c.acceleration in sol.closed.sizes:
-                lines.append(
-                    f"  {_t(c.acceleration)} = {_shown(sol.closed.accelerations[c.acceleration])}"
-                )
+                lines.append(f"  {_t(c.acceleration)} = {_shown(a)}")
             else:
-                lines.append(f"  {_t(e)} = 0")
+                lines.append(f"  {_t(c.acceleration - a)} = 0")
     if sol.multipliers:
         lines += ["", "Multipliers (on the constraint manifold)"]
         lines += [

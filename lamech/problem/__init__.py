@@ -26,6 +26,7 @@ __all__ = [
     "ProblemFileError",
     "Issue",
     "chain_toml",
+    "as_system",
 ]
 
 _LAZY = {
@@ -35,6 +36,7 @@ _LAZY = {
     "ProblemFileError": "_loader",
     "Issue": "_loader",
     "chain_toml": "_generated",
+    "as_system": "_coerce",
 }
 
 
@@ -48,5 +50,6 @@ def __getattr__(name: str) -> Any:
 
 
 if TYPE_CHECKING:
+    from ._coerce import as_system
     from ._generated import chain_toml
     from ._loader import Issue, ProblemFileError, from_dict, load, loads

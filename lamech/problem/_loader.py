@@ -1123,6 +1123,8 @@ class _Loader:
                 T = sum((a for a in sp.Add.make_args(poly) if a.has(*qd)), sp.Integer(0))
                 return T, sp.expand(T - L)
             if "T" not in table:
+                if not bodies and self.data.get("bodies"):
+                    return sp.Integer(0), sp.Integer(0)  # the bodies' problems are said
                 if not bodies:
                     self.problem(
                         "lagrangian",
@@ -1142,6 +1144,8 @@ class _Loader:
             if T is None or V is None:
                 return sp.Integer(0), sp.Integer(0)
             return T, V
+        if not bodies and self.data.get("bodies"):
+            return sp.Integer(0), sp.Integer(0)  # bodies given, with problems said above
         if not bodies:
             self.problem(
                 "lagrangian",

@@ -435,7 +435,8 @@ def run_sweep(
     problem : System, or a problem file path or bundled example name
     params : {name: "A:B:N" | "a,b" | sequence of floats}; the grid is their product,
         the last name varying fastest.
-    measures : measure texts (``liftoff``, ``slip``, ``max:lambda:<c>``, ``final:<x>``, ...)
+    measures : measure texts (``liftoff``, ``slip``, ``max:lambda:<c>``, ``final:<x>``, ...),
+        or one as a string
     t_end : end time of every simulation (start at t = 0).
     initial : {coordinate or ``x'``: value} set for every case; the other coordinates
         (velocities) are moved to meet the constraints (holding these).
@@ -451,9 +452,16 @@ def run_sweep(
         ``"python"`` (the same loop as Python), ``"simulate"`` (every case by simulate).
     """
     from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, check_options
-    from ..problem import load
+    from ..problem import as_system
 
-    system = problem if isinstance(problem, System) else load(problem)
+    system = as_system(problem, "sweep", "problem")
+    if isinstance(measures, str):
+        measures = [measures]  # one measure, not its letters
+    if not isinstance(params, Mapping):
+        raise TypeError(
+            "sweep: params must be a dict {name: values} (e.g. {'mu': '0.1:0.5:5'}); "
+            f"got {type(params).__name__}"
+        )
     try:
         check_options(
             t_end,

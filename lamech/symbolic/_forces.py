@@ -19,7 +19,7 @@ from ..model import System, contact_partial_velocities
 from ._derive import Dynamics
 from ._reduce import Reduction, angles_of, tidy
 
-__all__ = ["generalized_forces", "cartesian_forces"]
+__all__ = ["generalized_forces", "cartesian_forces", "residual_notes"]
 
 
 TIDY_PRODUCT_OPS = 150
@@ -190,3 +190,66 @@ def _in_range(B: sp.Matrix, d: sp.Matrix, system: System, red: Reduction) -> boo
         if np.linalg.norm(b @ coef - v) > 1e-8 * (1 + np.linalg.norm(v)):
             return False
     return True
+
+
+def residual_notes(dyn: Dynamics, red: Reduction, forces: dict) -> list[str]:
+    """What to do about a residual: a constraint's force named on one body whose
+    residual is not zero, where naming the two bodies it joins leaves none (a string
+    between a bob and a cart named on the bob alone), says which bodies to name; any
+    other nonzero residual says that the named point cannot carry the force. Checked
+    numerically at probe states (a residual of 1e-9 |Q| or less is zero)."""
+    import dataclasses
+
+    system = dyn.system
+    envs = _probe_states(system, red)
+    out = []
+    for j, c in enumerate(system.constraints):
+        spec = c.force
+        residual = forces.get(c.name, {}).get("residual")
+        if spec is None or residual is None or residual == 0:
+            continue
+        if _residual_at(dyn, red, j, spec, envs) <= 1e-9:
+            continue
+        first = spec.bodies[0]
+        if len(spec.bodies) == 1:
+            pairs = [
+                dataclasses.replace(spec, bodies=(first, b.name))
+                for b in system.bodies
+                if b.name != first
+            ]
+            fits = [s.bodies[1] for s in pairs if _residual_at(dyn, red, j, s, envs) <= 1e-9]
+            if fits:
+                out.append(
+                    f"`{c.name}` joins `{first}` and `{fits[0]}` (it moves both): its force "
+                    f"named on `{first}` alone leaves a residual, and its components are not "
+                    f'the force; name both, body = ["{first}", "{fits[0]}"] (the force on '
+                    "the second is the opposite), and the residual is 0"
+                )
+                continue
+        out.append(
+            f"`{c.name}`: the named point of `{first}` cannot carry the constraint's force "
+            "(the residual is not 0), so its components are not the force; name the body "
+            "(or the two bodies the constraint joins) and the point where it acts"
+        )
+    return out
+
+
+def _residual_at(dyn: Dynamics, red: Reduction, j: int, spec, envs: list[dict]) -> float:
+    """max over ``envs`` of |Q - J^T F| / |Q| for the least-squares F (lambda = 1), with
+    the force acting as ``spec`` says (inf where it cannot be evaluated)."""
+    system = dyn.system
+    try:
+        J = contact_partial_velocities(system, spec).applyfunc(red.apply)
+    except (ValueError, KeyError, TypeError):
+        return float("inf")
+    Q = dyn.A[j, :].T.applyfunc(red.apply)
+    worst = 0.0
+    for env in envs:
+        Jn, Qn = _numeric(J, env), _numeric(Q, env)
+        if Jn is None or Qn is None:
+            return float("inf")
+        Qn = Qn.reshape(-1)
+        F, *_ = np.linalg.lstsq(Jn.T, Qn, rcond=None)
+        scale = max(float(np.linalg.norm(Qn)), 1e-300)
+        worst = max(worst, float(np.linalg.norm(Qn - Jn.T @ F)) / scale)
+    return worst

@@ -170,14 +170,20 @@ class Modes:
         }
 
 
-def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Modes:
+def modes(problem: Solution | System | str, at: dict[str, float] | None = None) -> Modes:
     """Equilibria, stability and normal modes of a system or its solution (see the
-    module docstring). ``at`` ({independent coordinate: value}) linearises about that
-    configuration at rest instead of searching for equilibria (a note says when it is
-    not one)."""
+    module docstring; ``problem`` also a file's path or an example's name, as
+    :func:`~lamech.symbolic.solve` takes it). ``at`` ({independent coordinate: value},
+    finite numbers) linearises about that configuration at rest instead of searching for
+    equilibria (a note says when it is not one)."""
+    from ..problem import as_system
     from ._solution import solve
 
-    sol = problem if isinstance(problem, Solution) else solve(problem)
+    if at is not None:
+        at = _checked_point(at)
+    if not isinstance(problem, Solution):
+        problem = solve(as_system(problem, "modes", "problem"))
+    sol = problem
     system, red, forms = sol.system, sol.reduction, sol.closed
     u = [c.symbol for c in red.independent]
     names = tuple(c.name for c in red.independent)
@@ -235,7 +241,7 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         points, reason = _solve(
             [e.xreplace(fixed) for e in eqs], [x for x in u if x not in fixed], system
         )
-        points = [({**p, **fixed}, cond) for p, cond in points]
+        points = [({x: {**p, **fixed}[x] for x in u}, cond) for p, cond in points]
         if free:
             shown = ", ".join(f"{x} = {to_text(v)}" for x, v in fixed.items())
             free_note = (
@@ -247,6 +253,29 @@ def modes(problem: Solution | System, at: dict[str, float] | None = None) -> Mod
         out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds))
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None, free_note)
+
+
+def _checked_point(at) -> dict[str, float]:
+    """``at`` as {name: float}: a mapping of finite real numbers, else TypeError or
+    ValueError naming the entry."""
+    import math
+    from collections.abc import Mapping
+
+    if not isinstance(at, Mapping):
+        raise TypeError(
+            f"modes: at must be a dict {{coordinate: value}} (e.g. {{'theta': 0.1}}); "
+            f"got {type(at).__name__}"
+        )
+    out = {}
+    for name, value in at.items():
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"modes: at[{name!r}] must be a real number, got {value!r}") from None
+        if not math.isfinite(x):
+            raise ValueError(f"modes: at[{name!r}] must be a finite number, got {x}")
+        out[str(name)] = x
+    return out
 
 
 def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
@@ -292,7 +321,7 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
                 "a continuum of equilibria (free: " + ", ".join(free) + "); give a point with --at"
             )
         point = {x: _principal(tidy(sol[x]), x, system) for x in u}
-        key = _numeric_point(point, system)
+        key = _numeric_point(point, system, u)
         if key is not None and any(np.allclose(key, s, atol=1e-9) for s in seen):
             continue
         if key is not None:
@@ -414,11 +443,14 @@ def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
     return sp.expand(value - 2 * sp.pi * turns) if turns else value
 
 
-def _numeric_point(point: dict, system: System) -> np.ndarray | None:
+def _numeric_point(point: dict, system: System, order) -> np.ndarray | None:
+    """The values of ``point`` {coordinate symbol: value} at the parameter values, in the
+    order of the symbols ``order`` (by name, never by the dict's order: a free
+    coordinate is added to a solved point last)."""
     try:
         vals = [
-            complex(sp.N(sp.sympify(sp.sympify(v).xreplace(system.parameter_values))))
-            for v in point.values()
+            complex(sp.N(sp.sympify(sp.sympify(point[x]).xreplace(system.parameter_values))))
+            for x in order
         ]
     except (TypeError, ValueError):
         return None
@@ -450,7 +482,7 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
     speeds = speeds or {}
     at_point = {**point, **{v: speeds.get(v, 0) for v in ud}}
     num = {**pv, system.t: 0.0}
-    uval = _numeric_point(point, system)
+    uval = _numeric_point(point, system, u)
     if uval is None or np.abs(uval.imag).max(initial=0) > 1e-9 * (1 + np.abs(uval).max()):
         return Equilibrium(
             {str(x): v for x, v in point.items()},

@@ -67,6 +67,10 @@ def multipliers(system: System | Dynamics) -> dict[str, sp.Expr]:
         The KKT matrix is singular (dependent constraints, or a motion the constraints
         allow that has no inertia).
     """
+    if not isinstance(system, (Dynamics, System)):
+        from ..problem import as_system
+
+        system = as_system(system, "multipliers")
     dyn = system if isinstance(system, Dynamics) else dynamics(holding_at_start(system))
     sys_ = dyn.system
     n, m = len(sys_.q), len(sys_.constraints)

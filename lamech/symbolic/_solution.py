@@ -21,7 +21,7 @@ from ._conditions import (
     vanishing_points,
 )
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
-from ._forces import cartesian_forces, generalized_forces
+from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._normal import labelled, normal, work_budget
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
@@ -138,7 +138,7 @@ class Solution:
         )
 
 
-def solve(system: System, *, budget: int | None = None) -> Solution:
+def solve(system: System | str, *, budget: int | None = None) -> Solution:
     """Derive equations, multipliers, integrals, vanishing/slip points and forces.
 
     ``budget`` bounds the work of simplification, in units counted by the normal forms
@@ -153,7 +153,14 @@ def solve(system: System, *, budget: int | None = None) -> Solution:
     closed forms, the energy shell, the lift-off and slip points and the forces are
     those of the constraints that hold at the start, and for the open contact the
     points where it would close (f = 0) on that shell. The Euler-Lagrange equations
-    shown keep every multiplier."""
+    shown keep every multiplier.
+
+    ``system``: a System, or a problem file's path or a bundled example's name
+    (``solve("pendulum")`` is ``solve(lamech.load("pendulum"))``); another type is a
+    TypeError."""
+    from ..problem import as_system
+
+    system = as_system(system, "solve")
     if budget is not None and (
         isinstance(budget, bool) or not isinstance(budget, int) or budget <= 0
     ):
@@ -252,6 +259,7 @@ def _solve(system: System) -> Solution:
     with labelled("forces"):
         gen = generalized_forces(dyn_h, red, forms.multipliers, forms.manifold)
         cart = cartesian_forces(dyn_h, red, forms.multipliers)
+        notes += residual_notes(dyn_h, red, cart)  # a residual: which bodies to name
     with labelled("equations"):
         equations = tuple(readable(e, system) for e in dyn.equations)
     return Solution(

@@ -8,7 +8,8 @@ the remaining accelerations, from the equations that hold them, as a student wou
 then in closed form); the energy integral with its constant from the initial state;
 each multiplier on the energy shell; where a contact lets go or slips; and the
 generalized and Cartesian forces with the virtual-work step. Where a step is one the
-lecture notes get wrong, the correction is stated beside it.
+lecture notes get wrong, the correction is stated beside it, in the lecture's own problems
+(:func:`is_lecture`).
 
 Nothing here formats: the lines hold SymPy expressions and :class:`Term` labels
 (``lamech.present`` writes them as text or LaTeX). Every simplification is bounded in
@@ -18,6 +19,7 @@ gives the closed forms only.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,6 +105,29 @@ class Step:
 
 CORRECTION = "correction to the lecture notes: "
 
+LECTURE_EXAMPLES = ("pendulum", "cylinder")
+"""The bundled examples that are the lecture's own problems: only their steps carry the
+corrections to the lecture notes (:data:`CORRECTION`); another problem's reader is not
+following the notes."""
+
+
+def is_lecture(system: System) -> bool:
+    """Whether ``system`` is one of the lecture's problems (:data:`LECTURE_EXAMPLES`),
+    whatever its parameter values: the same Lagrangian and constraints, symbol for
+    symbol."""
+    return _form(system) in _lecture_forms()
+
+
+def _form(system: System) -> tuple:
+    return (sp.srepr(system.L), tuple((c.name, sp.srepr(c.expr)) for c in system.constraints))
+
+
+@functools.cache
+def _lecture_forms() -> frozenset:
+    from ..problem import load
+
+    return frozenset(_form(load(name)) for name in LECTURE_EXAMPLES)
+
 
 @dataclass(frozen=True)
 class Derivation:
@@ -124,7 +149,12 @@ class Derivation:
 
 
 def steps(sol) -> Derivation:
-    """The derivation of ``sol`` (a :class:`~lamech.symbolic.Solution`) in steps."""
+    """The derivation of ``sol`` (a :class:`~lamech.symbolic.Solution`; a System, file
+    or example name is solved first) in steps."""
+    from ._solution import Solution, solve
+
+    if not isinstance(sol, Solution):
+        sol = solve(sol)
     system = sol.system
     holding = holding_at_start(system)
     dyn = sol.dynamics
@@ -207,11 +237,14 @@ def _equations(sol) -> Step:
     notes = [
         "d/dt dL/dq' - dL/dq - sum_j lambda_j df_j/dq = Q for each coordinate q: the "
         "generalized constraint force of constraint j is Q^(j) = lambda_j df_j/dq",
-        CORRECTION + "the first variational integral is written with + d/dt dL/dq'; the "
-        "sign is -, as in the equations here",
-        CORRECTION + "some lines label d/dt dL/dr' as dL/dr; each line above names what it "
-        "is, and the boxed equations of the notes are right",
     ]
+    if is_lecture(system):
+        notes += [
+            CORRECTION + "the first variational integral is written with + d/dt dL/dq'; "
+            "the sign is -, as in the equations here",
+            CORRECTION + "some lines label d/dt dL/dr' as dL/dr; each line above names what "
+            "it is, and the boxed equations of the notes are right",
+        ]
     return Step("Euler-Lagrange equations with multipliers", lines, tuple(notes))
 
 
@@ -463,6 +496,7 @@ def _generalized(sol) -> Step:
 def _cartesian(sol, dyn, simp) -> Step:
     system = sol.system
     red = sol.reduction
+    lecture = is_lecture(system)
     lines: list[Line] = []
     notes = [
         "virtual work: a displacement dq that breaks constraint j lets its force work, "
@@ -490,7 +524,7 @@ def _cartesian(sol, dyn, simp) -> Step:
             else:
                 notes.append(f"`{k}` along {d}: undetermined (P's motion cannot do work along it)")
         bodies = [system.body(b) for b in spec.bodies]
-        if c.friction is not None and any(b.angle is not None for b in bodies):
+        if c.friction is not None and any(b.angle is not None for b in bodies) and lecture:
             notes.append(
                 CORRECTION + f"`{k}` acts on the material point of a turning body, which "
                 "moves with the body's rotation; the lecture's cylinder converts the "
