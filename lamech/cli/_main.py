@@ -17,6 +17,29 @@ from ._sweep import add_parser as add_sweep
 DEFAULT_PROBLEM = "cylinder"
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of work units, got {text!r}")
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number of work units, got {value}")
+    return value
+
+
+def _budget(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--budget",
+        type=_positive_int,
+        default=None,
+        metavar="UNITS",
+        help="the work allowed for simplifying the closed forms, counted (not timed), "
+        "so the same file prints the same on any machine (default: 20000000; the "
+        "multipliers are always given, tidied first; what the budget did not reach is "
+        "printed as derived and listed in the notes)",
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="lamech",
@@ -48,6 +71,7 @@ def _parser() -> argparse.ArgumentParser:
         "coordinates move to meet the constraints. Repeatable",
     )
     _angles(s)
+    _budget(s)
     s.add_argument(
         "--steps",
         action="store_true",
@@ -159,7 +183,7 @@ def _dispatch(args: argparse.Namespace) -> int:
             system = _overridden(system, args.param, getattr(args, "initial", []))
         if getattr(args, "angles", False):
             system = _in_angles(system)
-        solution = solve(system)
+        solution = solve(system, budget=getattr(args, "budget", None))
         if command == "modes":
             from ..present import modes_latex, modes_text
             from ..symbolic import modes
