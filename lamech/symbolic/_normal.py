@@ -196,8 +196,7 @@ class _Space:
     outside trigonometry, ``c_u, s_u`` for each base angle ``u``, one for each square
     root and one for each other function; the relations that reduce them."""
 
-    def __init__(self, exprs: list[sp.Expr], shifts: dict | None = None):
-        self.shifts = shifts or {}
+    def __init__(self, exprs: list[sp.Expr], per_symbol: bool = False):
         self.denoms: dict = {}  # angle symbol -> common denominator d (u = x/d)
         self.forms: set = set()  # the linear parts of trig arguments, as sorted tuples
         self.opaque_angles: set = set()  # trig arguments not linear in symbols
@@ -206,7 +205,7 @@ class _Space:
         self.others: set = set()
         for e in exprs:
             self._scan(e)
-        self.basis, self.in_basis = _angle_basis(self.forms, self.denoms)
+        self.basis, self.in_basis = _angle_basis(self.forms, self.denoms, per_symbol)
         opaque = sorted(self.opaque_angles, key=default_sort_key)
         self.angle_keys = [("x", b) for b in self.basis] + [("o", a) for a in opaque]
         names = []
@@ -438,7 +437,7 @@ def _form_key(coeffs: dict) -> tuple:
     return tuple(sorted(coeffs.items(), key=lambda xk: default_sort_key(xk[0])))
 
 
-def _angle_basis(forms: set, denoms: dict):
+def _angle_basis(forms: set, denoms: dict, per_symbol_only: bool = False):
     """The base angles: the simplest linearly independent trigonometric arguments, when
     every argument is an integer combination of them (SymPy's relative joint angles q1,
     q1 + q2, q1 + q2 + q3 are three base angles, so cos(q1 + q2 + q3) is one generator,
@@ -456,6 +455,8 @@ def _angle_basis(forms: set, denoms: dict):
         d = dict(form)
         return [d.get(x, 0) for x in symbols]
 
+    if per_symbol_only:
+        return fallback, per_symbol
     # each form up to sign, simplest first
     normal_forms = set()
     for f in forms:
@@ -699,8 +700,7 @@ def normal(
     if expr.is_Atom:
         return expr
     try:
-        with _one_call(CALL_WORK):
-            return _normal(expr, tuple(velocities), tuple(angles), pretty)
+        return _normal(expr, tuple(velocities), tuple(angles), pretty)
     except OverBudget:
         work = _WORK.get()
         if work is not None and work.exhausted:
@@ -729,24 +729,46 @@ def _normal(expr: sp.Expr, velocities: tuple, angles: tuple, pretty: bool = True
         back = {d: diff for d, diff in deltas.values()}
         shift_sets.append({"to": shift, "back": back})
     for shifts in shift_sets:
-        to = shifts.get("to") if shifts else None
-        e = expr.xreplace(to) if to else expr
-        space = _Space([e])
-        num, den = space.convert(e)
-        if not num:
-            return sp.Integer(0)
-        if not pretty:
-            dens = sorted(den.items(), key=lambda fk: _poly_key(fk[0]))
-            cand = space.to_expr(num) / sp.Mul(*[space.to_expr(f) ** k for f, k in dens])
-            return cand if count_ops(cand) < best_ops else best
-        for towards in ("cos", "sin"):
-            n2 = space.reduce(num, towards) if towards == "sin" else num
-            for cand in _presentations(space, n2, den, velocities, towards):
-                if to:
-                    cand = cand.xreplace(shifts["back"])
-                ops = count_ops(cand)
-                if ops < best_ops:
-                    best, best_ops = cand, ops
+        try:
+            with _one_call(CALL_WORK):
+                found = _best_of(expr, shifts, velocities, pretty, best_ops)
+        except OverBudget:
+            work = _WORK.get()
+            if work is not None and work.exhausted:
+                raise
+            continue  # this writing is past the per-call bound; the others may not be
+        if found is not None:
+            best, best_ops = found
+            if best == 0:
+                return best
+    return best
+
+
+def _best_of(expr: sp.Expr, shifts: dict, velocities: tuple, pretty: bool, best_ops: int):
+    """(form, operations) of the shortest presentation of ``expr`` written with the
+    angle ``shifts`` (none: as it is), when shorter than ``best_ops``; else None."""
+    from ._budget import count_ops
+
+    to = shifts.get("to") if shifts else None
+    e = expr.xreplace(to) if to else expr
+    space = _Space([e], per_symbol=bool(to))  # shifted: the first angle and differences
+    num, den = space.convert(e)
+    if not num:
+        return sp.Integer(0), 0
+    best = None
+    if not pretty:
+        dens = sorted(den.items(), key=lambda fk: _poly_key(fk[0]))
+        cand = space.to_expr(num) / sp.Mul(*[space.to_expr(f) ** k for f, k in dens])
+        ops = count_ops(cand)
+        return (cand, ops) if ops < best_ops else None
+    for towards in ("cos", "sin"):
+        n2 = space.reduce(num, towards) if towards == "sin" else num
+        for cand in _presentations(space, n2, den, velocities, towards):
+            if to:
+                cand = cand.xreplace(shifts["back"])
+            ops = count_ops(cand)
+            if ops < best_ops:
+                best, best_ops = (cand, ops), ops
     return best
 
 
