@@ -89,7 +89,20 @@ def present(expr: sp.Expr, velocities: list[sp.Symbol]) -> sp.Expr:
     present_v = tuple(v for v in velocities if expr.has(v))
     if not present_v or count_ops(expr) > SIMPLIFY_OPS:
         return expr
-    return outer_signs(normal(expr, velocities=present_v))
+    out = normal(expr, velocities=present_v)
+    if count_ops(out) <= GROUP_OPS:
+        # a textbook groups by the velocities even at a few more operations
+        try:
+            grouped = sp.collect(sp.expand(out), list(present_v), func=sp.factor)
+        except (TypeError, ValueError, sp.PolynomialError):
+            grouped = out
+        if count_ops(grouped) <= count_ops(out) + 4:
+            out = grouped
+    return outer_signs(out)
+
+
+GROUP_OPS = 60
+"""Results up to this size are grouped by the velocities' powers (:func:`present`)."""
 
 
 @dataclass(frozen=True)
