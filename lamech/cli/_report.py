@@ -16,6 +16,7 @@ from ._args import (
     refuse_overwriting_input,
     shown_name,
 )
+from ._files import add_data_dir
 
 __all__ = ["add_parser", "run"]
 
@@ -38,6 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default="cylinder",
         help="a .toml problem file or a bundled example name (default: cylinder)",
     )
+    add_data_dir(s)
     s.add_argument(
         "-o",
         "--out",
@@ -92,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     name = shown_name(args.problem)
     try:
         refuse_overwriting_input(args.problem, {"--out": args.out})
-        system = load(args.problem)
+        system = load(args.problem, data_dir=args.data_dir)
         params = evaluate_assignments(args.param, system, "--param") if args.param else {}
         if params:
             system = with_values(system, parameters=params)

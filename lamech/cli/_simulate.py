@@ -19,6 +19,7 @@ from ._args import (
     samples,
     shown_name,
 )
+from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
@@ -37,6 +38,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "signal's number). Chattering contacts stop the run as failed.",
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
+    add_data_dir(s)
     s.add_argument(
         "--t-end",
         type=positive_float,
@@ -251,7 +253,7 @@ def _run(args, phase: list[str]) -> int:
     from ..symbolic import DegenerateConstraintsError
 
     try:
-        system = load(args.problem)
+        system = load(args.problem, data_dir=args.data_dir)
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2

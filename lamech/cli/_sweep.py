@@ -9,6 +9,7 @@ import math
 import sys
 
 from ._args import add_tolerance_options, positive_float, positive_int, shown_name
+from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
@@ -27,6 +28,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "worker processes.",
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
+    add_data_dir(s)
     s.add_argument(
         "--param",
         action="append",
@@ -127,7 +129,7 @@ def run(args) -> int:
 
 def _run(args) -> int:
     from ..present import plot_sweep
-    from ..problem import ProblemFileError
+    from ..problem import ProblemFileError, load
     from ..sweeps import SweepError, parse_assignment, run_sweep
     from ..symbolic import DegenerateConstraintsError
     from ._args import refuse_overwriting_input
@@ -154,7 +156,7 @@ def _run(args) -> int:
                 ) from None
         with noting(stopped_by):
             result = run_sweep(
-                args.problem,
+                load(args.problem, data_dir=args.data_dir) if args.data_dir else args.problem,
                 params,
                 args.measure or ["liftoff"],
                 t_end=args.t_end,
