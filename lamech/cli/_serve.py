@@ -74,9 +74,33 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
-def _refuse(status: int, message: str, headers: dict | None = None):
+def _json_response():
+    """Starlette's JSONResponse, written in ASCII (``\\u`` escapes): whatever the text of
+    an answer, it encodes."""
     from starlette.responses import JSONResponse
 
+    class AsciiJSON(JSONResponse):
+        def render(self, content: Any) -> bytes:
+            try:
+                return json.dumps(content, ensure_ascii=True, allow_nan=False).encode("ascii")
+            except ValueError:  # a NaN or infinity: null, as JSON has no such number
+                return json.dumps(_finite(content), ensure_ascii=True).encode("ascii")
+
+    return AsciiJSON
+
+
+def _finite(data: Any) -> Any:
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: _finite(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [_finite(v) for v in data]
+    return data
+
+
+def _refuse(status: int, message: str, headers: dict | None = None):
+    JSONResponse = _json_response()
     body = {"ok": False, "errors": [{"line": None, "where": "", "message": message, "text": None}]}
     return JSONResponse(body, status, headers=headers)
 
@@ -102,7 +126,7 @@ def _surrogate(data: Any, depth: int = 0) -> str | None:
     for k, v in items:
         found = _surrogate(k, depth) or _surrogate(v, depth + 1)
         if found:
-            return found if not isinstance(k, str) else f"{found} of `{k}`"
+            return found
     return None
 
 
@@ -195,13 +219,14 @@ def make_app(
     from starlette.applications import Starlette
     from starlette.middleware import Middleware
     from starlette.requests import Request
-    from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse
+    from starlette.responses import HTMLResponse, PlainTextResponse
     from starlette.routing import Route
 
     from ..problem import example_names, example_path, example_title
     from ._guard import LOOPBACK, Guard
     from ._workers import Busy, Lane, Runner
 
+    JSONResponse = _json_response()
     token = token or secrets.token_urlsafe(32)
     runner = Runner(Lane(slots, queue), Lane(CHECK_SLOTS, CHECK_QUEUE))
     jobs: dict[str, dict] = {}

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 import multiprocessing as mp
+import os
 import time
 from collections import deque
 from typing import Any
@@ -153,6 +154,11 @@ def _sweep(conn, text: str, options: dict) -> dict:
 
 
 def _child(conn, kind: str, text: str, options: dict) -> None:
+    if kind != "check":
+        try:  # slow work yields the processor to the checks one types
+            os.nice(10)
+        except (AttributeError, OSError):  # pragma: no cover - no nice here
+            pass
     try:
         if kind == "sweep":
             conn.send(("done", _sweep(conn, text, options)))
