@@ -141,6 +141,23 @@ def test_the_page_in_headless_chromium(chromium):
         assert "55.15" in report.locator("tr", has_text="contact lets go").first.inner_text()
         ARTEFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTEFACTS / "serve-cylinder.png"))
+        # issue 28 item 4: a partial start completed on the constraints (theta2 solved
+        # for), and the status gives what the run did: slipped at 33.5°, left at 52.6°
+        # (the closed form's pure-rolling 55.15° is not what happened)
+        page.fill("#initial", "theta1=0.01")
+        page.click("#simulate")
+        page.wait_for_function(
+            "document.getElementById('status').textContent.startsWith('done')",
+            timeout=120_000,
+        )
+        said = page.inner_text("#status")
+        assert "simulated: rolling slip at t = " in said, said
+        slip, lift = said.split("rolling slip")[1], said.split("contact lift-off")[1]
+        assert "theta1 = 33.4" in slip.split(";")[0] or "theta1 = 33.5" in slip.split(";")[0]
+        assert "theta1 = 52.6" in lift.split(";")[0], said
+        assert "55.15" not in said
+        assert "theta1 = 0.01, theta2 = 0.03" in said.split("from")[1]  # (R1+R2)/R2 theta1
+        page.screenshot(path=str(ARTEFACTS / "serve-simulated.png"))
         # a sweep over mu with its progress bar, then its table
         page.fill("#sweep_params", "mu=0.2,0.3,0.4")
         page.fill("#sweep_measures", "slip")
