@@ -4,9 +4,7 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from ._args import (
@@ -85,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
+    from .._outputs import check_output, write_output
     from ..model import ModelError, with_values
     from ..numeric import SimulationError, simulate
     from ..present import report_page
@@ -94,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
     name = shown_name(args.problem)
     try:
         refuse_overwriting_input(args.problem, {"--out": args.out})
+        check_output(args.out, (".html", ".htm"), "--out")
         system = load(args.problem, data_dir=args.data_dir)
         params = evaluate_assignments(args.param, system, "--param") if args.param else {}
         if params:
@@ -121,17 +121,9 @@ def run(args: argparse.Namespace) -> int:
             note = f"no simulation: {exc}"
     page = report_page(sol, derivation, _source(args.problem), traj, None, note)
     out = Path(args.out)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        # written beside the target and renamed: a page is never left half-written
-        fd, tmp = tempfile.mkstemp(prefix=".lamech-", suffix=".html", dir=out.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(page)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 is for secrets, not a report
-        os.replace(tmp, out)
-    except OSError as exc:
+    try:  # beside the target and renamed: a page is never left half-written
+        write_output(out, page, (".html", ".htm"))
+    except (OSError, ValueError) as exc:
         print(f"lamech: cannot write {shown_name(str(out))}: {exc}", file=sys.stderr)
         return 2
     size = out.stat().st_size

@@ -132,7 +132,9 @@ def _run(args) -> int:
     from ..problem import ProblemFileError, load
     from ..sweeps import SweepError, parse_assignment, run_sweep
     from ..symbolic import DegenerateConstraintsError
+    from .._outputs import OutputError, check_output
     from ._args import refuse_overwriting_input
+    from ._simulate import PLOT_FORMATS
 
     stopped_by: list[BaseException] = []
     try:
@@ -140,6 +142,12 @@ def _run(args) -> int:
         if len(params) != len(args.param):
             raise SweepError("a parameter is given twice: " + ", ".join(args.param))
         initial = dict(parse_assignment(p, "--initial") for p in args.initial)
+        if args.out == "-":
+            args.out = None  # the table on standard output, as without --out
+        if args.out:
+            check_output(args.out, (".csv", ".parquet"), "--out", stdout=True)
+        if args.plot:
+            check_output(args.plot, PLOT_FORMATS, "--plot")
         if args.resume and not args.out:
             raise SweepError("--resume needs --out (the table to resume)")
         try:
@@ -175,7 +183,7 @@ def _run(args) -> int:
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
-    except (SweepError, DegenerateConstraintsError) as exc:
+    except (SweepError, DegenerateConstraintsError, OutputError) as exc:
         print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
@@ -227,7 +235,7 @@ def _run(args) -> int:
         except SweepError as exc:
             print(f"lamech: --plot: {exc}", file=sys.stderr)
             return 2
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
         print(f"  wrote {shown_name(args.plot)}", file=out)
