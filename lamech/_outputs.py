@@ -76,7 +76,7 @@ def check_output(
         )
     if p.suffix.lower() not in formats:
         raise OutputError(
-            f"{flag} {shown}: the format follows the suffix; give a file ending in "
+            f"{flag} {shown}: the format follows the suffix; use a name ending in "
             + ", ".join(formats)
             + (" (or - for standard output)" if stdout else "")
         )

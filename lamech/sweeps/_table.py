@@ -274,7 +274,7 @@ class Table:
             return
         self.journal.parent.mkdir(parents=True, exist_ok=True)
         assert self.record is not None
-        _write_atomically(self.record, json.dumps(self.spec, indent=1) + "\n")
+        write_output(self.record, json.dumps(self.spec, indent=1) + "\n", (".json",))
         self._fh = open(self.journal, "w", newline="", encoding="utf-8")
         self._writer = csv.writer(self._fh, lineterminator="\n")
         self._writer.writerow(self.columns)
