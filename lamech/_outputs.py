@@ -103,7 +103,9 @@ def atomic_output(
     check_output(target, kinds, flag)
     folder = target.parent
     folder.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=f".part{target.suffix}")
+    fd, name = tempfile.mkstemp(
+        dir=folder, prefix=f".{target.name}.", suffix=f".part{target.suffix}"
+    )
     os.close(fd)
     tmp = Path(name)
     try:

@@ -84,8 +84,8 @@ def test_clip_with_lo_above_hi_is_refused_at_its_line():
     "extra, start",
     [
         ('[[scenery]]\nname = "ring"\ncircle = { center = [0, 0], radius = "-1" }', "circle"),
-        ('[[bodies]]\nname = "ball"\nmass = "m"\nposition = ["x", "0"]\nshape = { circle = "-0.5" }',
-         "shape"),
+        ('[[bodies]]\nname = "ball"\nmass = "m"\nposition = ["x", "0"]\n'
+         'shape = { circle = "-0.5" }', "shape"),
     ],
 )
 def test_a_negative_radius_is_refused_at_its_line(extra, start):

@@ -57,8 +57,9 @@ class Guard:
     def _token_ok(self, headers: dict[bytes, bytes], query: bytes) -> bool:
         auth = headers.get(b"authorization", b"")
         scheme, _, given = auth.partition(b" ")
-        if scheme.lower() in (b"token", b"bearer") and hmac.compare_digest(given.strip(), self.token):
-            return True
+        if scheme.lower() in (b"token", b"bearer"):
+            if hmac.compare_digest(given.strip(), self.token):
+                return True
         values = parse_qs(query.decode("latin-1"), errors="replace").get("token", [])
         return any(hmac.compare_digest(v.encode("utf-8", "replace"), self.token) for v in values)
 
@@ -105,10 +106,8 @@ class Guard:
             return
         status, message = refused
         if scope.get("path", "").startswith("/api/"):
-            body = json.dumps(
-                {"ok": False, "errors": [{"line": None, "where": "", "message": message, "text": None}]},
-                ensure_ascii=True,
-            ).encode()
+            error = {"line": None, "where": "", "message": message, "text": None}
+            body = json.dumps({"ok": False, "errors": [error]}, ensure_ascii=True).encode()
             kind = b"application/json"
         else:
             body, kind = (message + "\n").encode("utf-8"), b"text/plain; charset=utf-8"

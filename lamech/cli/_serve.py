@@ -122,7 +122,11 @@ def _surrogate(data: Any, depth: int = 0) -> str | None:
                 line = data.count("\n", 0, i) + 1
                 return f"a lone surrogate U+{ord(ch):04X} at line {line}"
         return None
-    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    items: Any = ()
+    if isinstance(data, dict):
+        items = data.items()
+    elif isinstance(data, list):
+        items = enumerate(data)
     for k, v in items:
         found = _surrogate(k, depth) or _surrogate(v, depth + 1)
         if found:
@@ -248,7 +252,7 @@ def make_app(
     async def home(request: Request) -> HTMLResponse:
         return HTMLResponse(PAGE.read_text(encoding="utf-8"))
 
-    async def examples(request: Request) -> JSONResponse:
+    async def examples(request: Request) -> Any:
         return JSONResponse([{"name": n, "title": example_title(n)} for n in example_names()])
 
     async def example(request: Request) -> Any:
@@ -367,7 +371,7 @@ def make_app(
             Route("/api/run", solve, methods=["POST"]),
         ],
         middleware=[
-            Middleware(Guard, token=token, names=(*LOOPBACK, host), port=port),  # type: ignore[arg-type]
+            Middleware(Guard, token=token, names=(*LOOPBACK, host), port=port),
         ],
     )
     app.state.token = token

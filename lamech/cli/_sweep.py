@@ -128,11 +128,11 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
+    from .._outputs import OutputError, check_output
     from ..present import plot_sweep
     from ..problem import ProblemFileError, load
     from ..sweeps import SweepError, parse_assignment, run_sweep
     from ..symbolic import DegenerateConstraintsError
-    from .._outputs import OutputError, check_output
     from ._args import refuse_overwriting_input
     from ._simulate import PLOT_FORMATS
 
