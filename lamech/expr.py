@@ -147,6 +147,9 @@ _ARITY: dict[str, int | None] = {
     for name in FUNCTIONS
 }
 """How many arguments each function takes (None: two or more)."""
+MAX_MINMAX_ARGS = 64
+"""The most arguments of one ``min`` or ``max``: SymPy compares every pair of them on
+building, a cost that grows faster than the square of their count."""
 INPUTS = ("step", "min", "max", "clip", "piecewise")
 """The functions with a jump or a kink: inputs that switch (a torque until t = 2, a
 one-sided spring). :func:`lamech.simulate` locates where they switch (an event), never
@@ -769,9 +772,21 @@ class _Builder:
                 f"`{name}` takes {arity} argument{'s' if arity > 1 else ''}, got {len(node.args)}",
                 node,
             )
+        if name in ("min", "max") and len(node.args) > MAX_MINMAX_ARGS:
+            raise self.fail(
+                f"`{name}` of {len(node.args)} arguments: at most {MAX_MINMAX_ARGS} (SymPy "
+                "compares every pair of them); give fewer, or tabulate the input",
+                node,
+            )
         if name == "piecewise":
             return self._piecewise(node)
         args = [self.build(a) for a in node.args]
+        if name == "clip" and (args[1] - args[2]).is_positive:
+            raise self.fail(
+                f"clip(x, lo, hi) needs lo <= hi; got lo = {_plain(args[1])} > hi = "
+                f"{_plain(args[2])}: swap them",
+                node,
+            )
         if name == "log" and args[0] == 0:
             raise self.fail("log(0) is undefined", node)
         for arg, arg_node in zip(args, node.args):
@@ -1435,11 +1450,17 @@ def switch_form(expr: sp.Expr, branch) -> sp.Expr:
         if isinstance(e, sp.Heaviside):
             return branch(args[0])
         if isinstance(e, (sp.Min, sp.Max)):
-            out = args[0]
-            for a in args[1:]:
-                b = branch(out - a)  # 1 where out >= a
-                out = out * b + a * (1 - b) if isinstance(e, sp.Max) else a * b + out * (1 - b)
-            return out
+            # in pairs, a balanced tree: its depth grows as log2 of the count, never a
+            # chain as deep as the arguments are many (SymPy recurses through depth)
+            big = isinstance(e, sp.Max)
+            while len(args) > 1:
+                paired = []
+                for k in range(0, len(args) - 1, 2):
+                    a, c = args[k], args[k + 1]
+                    b = branch(a - c)  # 1 where a >= c
+                    paired.append(a * b + c * (1 - b) if big else c * b + a * (1 - b))
+                args = paired + args[len(args) - len(args) % 2:]
+            return args[0]
         return e.func(*args)
 
     return walk(expr)

@@ -9,6 +9,7 @@ import os
 import sys
 
 from ._args import add_assignments, evaluate_assignments
+from ._files import add_data_dir
 from ._report import add_parser as add_report
 from ._serve import add_parser as add_serve
 from ._simulate import add_parser as add_simulate  # light: argparse only
@@ -72,6 +73,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     _angles(s)
     _budget(s)
+    add_data_dir(s)
     s.add_argument(
         "--steps",
         action="store_true",
@@ -101,6 +103,7 @@ def _parser() -> argparse.ArgumentParser:
         "pendulum's",
     )
     _angles(md)
+    add_data_dir(md)
     _formats(md)
     sub.add_parser("examples", help="list the bundled example problems")
     add_simulate(sub)
@@ -178,7 +181,7 @@ def _dispatch(args: argparse.Namespace) -> int:
 
     problem = getattr(args, "problem", DEFAULT_PROBLEM)
     try:
-        system = load(problem)
+        system = load(problem, data_dir=getattr(args, "data_dir", None))
         if getattr(args, "param", None) or getattr(args, "initial", None):
             system = _overridden(system, args.param, getattr(args, "initial", []))
         if getattr(args, "angles", False):

@@ -4,9 +4,7 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from ._args import (
@@ -16,6 +14,7 @@ from ._args import (
     refuse_overwriting_input,
     shown_name,
 )
+from ._files import add_data_dir
 
 __all__ = ["add_parser", "run"]
 
@@ -38,6 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default="cylinder",
         help="a .toml problem file or a bundled example name (default: cylinder)",
     )
+    add_data_dir(s)
     s.add_argument(
         "-o",
         "--out",
@@ -87,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         plots = True
         matplotlib.use("Agg")
+    from .._outputs import check_output, write_output
     from ..model import ModelError, with_values
     from ..numeric import SimulationError, simulate
     from ..present import report_page
@@ -96,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
     name = shown_name(args.problem)
     try:
         refuse_overwriting_input(args.problem, {"--out": args.out})
-        system = load(args.problem)
+        check_output(args.out, (".html", ".htm"), "--out")
+        system = load(args.problem, data_dir=args.data_dir)
         params = evaluate_assignments(args.param, system, "--param") if args.param else {}
         if params:
             system = with_values(system, parameters=params)
@@ -123,17 +125,9 @@ def run(args: argparse.Namespace) -> int:
             note = f"no simulation: {exc}"
     page = report_page(sol, derivation, _source(args.problem), traj, None, note)
     out = Path(args.out)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        # written beside the target and renamed: a page is never left half-written
-        fd, tmp = tempfile.mkstemp(prefix=".lamech-", suffix=".html", dir=out.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(page)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 is for secrets, not a report
-        os.replace(tmp, out)
-    except OSError as exc:
+    try:  # beside the target and renamed: a page is never left half-written
+        write_output(out, page, (".html", ".htm"))
+    except (OSError, ValueError) as exc:
         print(f"lamech: cannot write {shown_name(str(out))}: {exc}", file=sys.stderr)
         return 2
     size = out.stat().st_size

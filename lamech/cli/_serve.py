@@ -2,21 +2,26 @@
 simulate it, the report shown beside the editor.
 
 Built on Starlette (routing, requests, JSON) and served by uvicorn: no HTTP is written
-here. Loopback only by default. Every piece of work on user text (loading, solving,
-simulating, drawing) runs in a child process with a time bound (``--timeout``): SymPy
-cannot be interrupted inside a server thread, but a process can be killed, and a
-hostile expression then costs one process, not the server. Requests over
-:data:`MAX_BODY` bytes are refused before they are read. User text is only ever parsed
-by lamech's own expression parser (never ``eval``); errors come back as the CLI says
-them, with their line in the file.
+here. Safe to leave running, as Jupyter's server is: loopback only by default, a token
+(random unless ``--token`` gives one, printed in the URL at start), the Host and Origin
+checked and work taken as JSON only (:mod:`lamech.cli._guard`). Every piece of work on
+user text runs in a child process bounded by ``--timeout``, in a few slots with a
+bounded queue (503 and ``Retry-After`` when full), killed when its client goes away;
+checks have their own slots, so a check is answered while slow solves run; SIGINT and
+SIGTERM end every child and stop the server within seconds (:mod:`lamech.cli._workers`).
+Requests over :data:`MAX_BODY` bytes are refused before they are read; every malformed
+request is a 4xx with a message. User text is only ever parsed by lamech's own
+expression parser (never ``eval``), and names no files (it has no folder).
 """
 
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
+import asyncio
+import json
+import math
+import secrets
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -26,7 +31,17 @@ __all__ = ["add_parser", "run", "make_app"]
 MAX_BODY = 1_000_000
 """The largest request body accepted (bytes): the loader's limit for a problem file."""
 DEFAULT_TIMEOUT = 60.0
+CHECK_TIMEOUT = 10.0
+"""The most seconds a check (load and validate, as one types) may take."""
 MAX_T_END = 1000.0
+MAX_CASES = 10_000
+"""The largest sweep the page runs (a terminal's `lamech sweep` has no such bound)."""
+SLOTS, QUEUE = 2, 4
+"""Solves, simulations and sweeps at once, and how many more may wait."""
+CHECK_SLOTS, CHECK_QUEUE = 1, 8
+RETRY_AFTER = 5
+SWEEP_IDLE = 30.0
+"""A sweep whose page has not asked for it in this many seconds is cancelled."""
 PAGE = Path(__file__).resolve().parent.parent / "present" / "app.html"
 
 
@@ -38,11 +53,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Serve a local page (Starlette on uvicorn) to edit a problem file with "
         "live checking (errors at their line), pick a bundled example, and solve or "
         "simulate it, the report page shown beside the editor. Listens on the loopback "
-        "interface only unless --host says otherwise. Each request's work runs in a child "
+        "interface only unless --host says otherwise, and answers only requests that "
+        "carry its token (open the URL it prints). Each request's work runs in a child "
         "process bounded by --timeout.",
     )
     s.add_argument("--host", default="127.0.0.1", help="interface (default %(default)s)")
     s.add_argument("--port", type=int, default=8765, help="port (default %(default)s)")
+    s.add_argument(
+        "--token",
+        default=None,
+        help="the token a request must carry (Authorization: token TEXT, or ?token=TEXT "
+        "in the URL); default: a random one, printed in the URL at start",
+    )
     s.add_argument(
         "--timeout",
         type=float,
@@ -52,262 +74,203 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
-# ----- the work, in a child process ----------------------------------------------------
-def _errors(exc: BaseException) -> list[dict]:
-    problems = getattr(exc, "problems", None)
-    if problems:
-        return [
-            {"line": p.line, "where": p.where, "message": p.message, "text": p.text}
-            for p in problems
-        ]
-    return [{"line": None, "where": "", "message": str(exc), "text": None}]
+def _json_response():
+    """Starlette's JSONResponse, written in ASCII (``\\u`` escapes): whatever the text of
+    an answer, it encodes."""
+    from starlette.responses import JSONResponse
 
-
-def _work(kind: str, text: str, options: dict) -> dict:
-    """Check, or solve (and simulate) the problem ``text``: a JSON-able answer."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from ..model import ModelError
-    from ..numeric import SimulationError, simulate
-    from ..present import report_page
-    from ..problem import ProblemFileError, loads
-    from ..symbolic import DegenerateConstraintsError, solve, steps
-
-    try:
-        system = loads(text, name="problem.toml")
-        if kind == "check":
-            return {"ok": True, "title": system.title}
-        sol = solve(system)
-        derivation = steps(sol)
-    except (ProblemFileError, DegenerateConstraintsError, ModelError, ValueError) as exc:
-        return {"ok": False, "errors": _errors(exc)}
-    traj, note = None, ""
-    if options.get("simulate"):
-        try:
-            traj = simulate(system, float(options["t_end"]))
-        except SimulationError as exc:
-            note = f"no simulation: {exc}"
-    lift = [
-        {
-            "constraint": k,
-            "coordinate": r[0].coordinate,
-            "value": r[0].value,
-            "degrees": r[0].degrees,
-        }
-        for k, r in sol.vanishes.items()
-        if r
-    ]
-    return {
-        "ok": True,
-        "title": system.title,
-        "page": report_page(sol, derivation, text, traj, None, note),
-        "lets_go": lift,
-        "status": None if traj is None else traj.status,
-    }
-
-
-MAX_CASES = 10_000
-"""The largest sweep the page runs (a terminal's `lamech sweep` has no such bound)."""
-
-
-def _sweep(conn, text: str, options: dict) -> dict:
-    """Run a sweep in this (child) process, sending ("progress", done, total) as cases
-    finish: the table and the plot as HTML."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from ..present import sweep_html
-    from ..problem import ProblemFileError, loads
-    from ..sweeps import SweepError, run_sweep
-
-    try:
-        system = loads(text, name="problem.toml")
-        run = run_sweep(
-            system,
-            options["params"],
-            options["measures"],
-            t_end=options["t_end"],
-            workers=1,  # this process is the worker: a daemon process has no children
-            samples=201,
-            progress=lambda done, total: conn.send(("progress", done, total)),
-        )
-    except (ProblemFileError, SweepError, ValueError) as exc:
-        return {"ok": False, "errors": _errors(exc)}
-    return {"ok": True, "html": sweep_html(run), "counts": run.counts}
-
-
-def _child(conn, kind: str, text: str, options: dict) -> None:
-    try:
-        if kind == "sweep":
-            conn.send(("done", _sweep(conn, text, options)))
-            return
-        conn.send(_work(kind, text, options))
-    except BaseException as exc:  # noqa: BLE001 - whatever it is, say it, not a hang
-        conn.send({"ok": False, "errors": _errors(RuntimeError(f"internal error: {exc!r}"))})
-    finally:
-        conn.close()
-
-
-class Runner:
-    """Runs :func:`_work` in child processes (from a fork server with lamech loaded), at
-    most ``slots`` at once, each killed past ``timeout`` seconds."""
-
-    def __init__(self, timeout: float, slots: int = 2):
-        self.timeout = timeout
-        self.slots = threading.BoundedSemaphore(slots)
-        self.ctx: Any
-        try:
-            self.ctx = mp.get_context("forkserver")
-            self.ctx.set_forkserver_preload(["lamech.cli._serve", "lamech.symbolic"])
-        except ValueError:  # pragma: no cover - no fork server on this platform
-            self.ctx = mp.get_context("spawn")
-
-    def sweep(self, text: str, options: dict, job: dict) -> None:
-        """Run a sweep, ``job`` updated as it goes (``done``, ``total``), then with the
-        answer (``finished``); bounded by ten times the timeout."""
-        bound = 10 * self.timeout
-        with self.slots:
-            here, there = self.ctx.Pipe(duplex=False)
-            proc = self.ctx.Process(
-                target=_child, args=(there, "sweep", text, options), daemon=True
-            )
-            started = time.perf_counter()
-            proc.start()
-            there.close()
-            answer = None
+    class AsciiJSON(JSONResponse):
+        def render(self, content: Any) -> bytes:
             try:
-                while answer is None:
-                    left = bound - (time.perf_counter() - started)
-                    if left <= 0 or not here.poll(left):
-                        answer = {
-                            "ok": False,
-                            "errors": _errors(
-                                TimeoutError(
-                                    f"the sweep was stopped after {bound:g} s (ten times the "
-                                    "server's --timeout); run it with `lamech sweep` in a "
-                                    "terminal, which has no bound and can resume"
-                                )
-                            ),
-                        }
-                        break
-                    try:
-                        msg = here.recv()
-                    except EOFError:
-                        answer = {"ok": False, "errors": _errors(RuntimeError("the sweep died"))}
-                        break
-                    if isinstance(msg, tuple) and msg[0] == "progress":
-                        job["done"], job["total"] = msg[1], msg[2]
-                    elif isinstance(msg, tuple) and msg[0] == "done":
-                        answer = msg[1]
-                    else:  # an internal error reported by _child
-                        answer = msg
-            finally:
-                if proc.is_alive():
-                    proc.kill()
-                proc.join(5)
-                here.close()
-            answer["seconds"] = round(time.perf_counter() - started, 3)
-            job.update(answer)
-            job["finished"] = True
+                return json.dumps(content, ensure_ascii=True, allow_nan=False).encode("ascii")
+            except ValueError:  # a NaN or infinity: null, as JSON has no such number
+                return json.dumps(_finite(content), ensure_ascii=True).encode("ascii")
 
-    def __call__(self, kind: str, text: str, options: dict) -> dict:
-        with self.slots:
-            here, there = self.ctx.Pipe(duplex=False)
-            proc = self.ctx.Process(target=_child, args=(there, kind, text, options), daemon=True)
-            started = time.perf_counter()
-            proc.start()
-            there.close()
-            try:
-                if here.poll(self.timeout):
-                    try:
-                        answer = here.recv()
-                    except EOFError:
-                        answer = None
-                else:
-                    answer = {
-                        "ok": False,
-                        "errors": _errors(
-                            TimeoutError(
-                                f"stopped after {self.timeout:g} s (the server's --timeout): "
-                                "the problem is too large or an expression too hard to "
-                                "simplify; try `lamech solve` in a terminal"
-                            )
-                        ),
-                    }
-            finally:
-                if proc.is_alive():
-                    proc.kill()
-                proc.join(5)
-                here.close()
-            if answer is None:
-                answer = {
-                    "ok": False,
-                    "errors": _errors(RuntimeError("the worker ended without an answer")),
-                }
-            answer["seconds"] = round(time.perf_counter() - started, 3)
-            return answer
+    return AsciiJSON
+
+
+def _finite(data: Any) -> Any:
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: _finite(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [_finite(v) for v in data]
+    return data
+
+
+def _refuse(status: int, message: str, headers: dict | None = None):
+    JSONResponse = _json_response()
+    body = {"ok": False, "errors": [{"line": None, "where": "", "message": message, "text": None}]}
+    return JSONResponse(body, status, headers=headers)
+
+
+def _busy():
+    return _refuse(
+        503,
+        f"the server is busy (all its slots taken and {QUEUE} requests waiting); "
+        f"try again in {RETRY_AFTER} s",
+        {"Retry-After": str(RETRY_AFTER)},
+    )
+
+
+def _surrogate(data: Any, depth: int = 0) -> str | None:
+    """Where ``data`` holds a lone surrogate (not Unicode text), or None."""
+    if isinstance(data, str):
+        for i, ch in enumerate(data):
+            if "\ud800" <= ch <= "\udfff":
+                line = data.count("\n", 0, i) + 1
+                return f"a lone surrogate U+{ord(ch):04X} at line {line}"
+        return None
+    items: Any = ()
+    if isinstance(data, dict):
+        items = data.items()
+    elif isinstance(data, list):
+        items = enumerate(data)
+    for k, v in items:
+        found = _surrogate(k, depth) or _surrogate(v, depth + 1)
+        if found:
+            return found
+    return None
+
+
+async def _body(request) -> tuple[dict | None, Any]:
+    """The request's JSON object, or (None, a 4xx response saying what is wrong)."""
+    size = request.headers.get("content-length")
+    if size is None or not size.isdigit():
+        return None, _refuse(411, "a request needs a Content-Length")
+    if int(size) > MAX_BODY:
+        return None, _refuse(413, f"the problem is over {MAX_BODY // 1000} kB")
+    raw = await request.body()
+    if len(raw) > MAX_BODY:
+        return None, _refuse(413, f"the problem is over {MAX_BODY // 1000} kB")
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        return None, _refuse(400, "the request is not UTF-8 text")
+    except RecursionError:
+        return None, _refuse(400, "the request is not JSON this server takes: nested too deeply")
+    except ValueError:
+        return None, _refuse(400, "the request is not JSON")
+    if not isinstance(data, dict) or not isinstance(data.get("text"), str):
+        return None, _refuse(400, 'the request needs "text": the problem file')
+    try:
+        found = _surrogate(data)
+    except RecursionError:
+        return None, _refuse(400, "the request is not JSON this server takes: nested too deeply")
+    if found:
+        return None, _refuse(400, f"the request holds {found}: not Unicode text; remove it")
+    return data, None
+
+
+def _initial(value: Any) -> dict[str, float] | str:
+    """The page's partial initial state {name or name': number}, or what is wrong."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict) or len(value) > 1000:
+        return 'initial must be an object {"theta1": 0.01, "theta1\'": 0}'
+    out = {}
+    for k, v in value.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            return f"initial `{k}` must be a finite number"
+        out[k] = float(v)
+    return out
+
+
+def _grid_size(params: dict) -> int:
+    size = 1
+    for name, v in params.items():
+        if isinstance(v, str) and v.count(":") == 2:
+            n = v.rsplit(":", 1)[1].strip()
+            if not n.isdigit() or len(n) > 6:
+                raise ValueError(f"{name}: A:B:N needs a whole number N, got {n[:20]!r}")
+            size *= int(n)
+        elif isinstance(v, str):
+            size *= len(v.split(","))
+        elif isinstance(v, list):
+            size *= len(v)
+        else:
+            raise ValueError(f'{name}: give "A:B:N", "a,b,c" or a list of numbers')
+    return size
+
+
+def _gone_when_disconnected(request) -> tuple[asyncio.Event, asyncio.Task]:
+    """An event set when the client of ``request`` (its body read) goes away."""
+    gone = asyncio.Event()
+
+    async def listen() -> None:
+        while True:
+            message = await request.receive()
+            if message["type"] == "http.disconnect":
+                gone.set()
+                return
+
+    return gone, asyncio.ensure_future(listen())
 
 
 # ----- the web app ----------------------------------------------------------------------
-def make_app(timeout: float = DEFAULT_TIMEOUT):
-    """The Starlette application (also what the tests drive)."""
+def make_app(
+    timeout: float = DEFAULT_TIMEOUT,
+    token: str | None = None,
+    port: int | None = None,
+    host: str = "127.0.0.1",
+    slots: int = SLOTS,
+    queue: int = QUEUE,
+):
+    """The Starlette application (also what the tests drive). ``token``: the one
+    requests must carry (default: random, in ``app.state.token``); ``port``/``host``:
+    where it listens (the Host header must name it; ``port`` None: any port)."""
     from starlette.applications import Starlette
-    from starlette.concurrency import run_in_threadpool
+    from starlette.middleware import Middleware
     from starlette.requests import Request
-    from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse
+    from starlette.responses import HTMLResponse, PlainTextResponse
     from starlette.routing import Route
 
     from ..problem import example_names, example_path, example_title
+    from ._guard import LOOPBACK, Guard
+    from ._workers import Busy, Lane, Runner
 
-    runner = Runner(timeout)
+    JSONResponse = _json_response()
+    token = token or secrets.token_urlsafe(32)
+    runner = Runner(Lane(slots, queue), Lane(CHECK_SLOTS, CHECK_QUEUE))
+    jobs: dict[str, dict] = {}
+    controls: dict[str, tuple[asyncio.Event, list[float]]] = {}  # job: (cancel, [seen])
+    tasks: set[asyncio.Task] = set()
 
-    def refuse(status: int, message: str) -> JSONResponse:
-        return JSONResponse({"ok": False, "errors": _errors(ValueError(message))}, status)
-
-    async def body(request: Request) -> tuple[dict | None, JSONResponse | None]:
-        size = request.headers.get("content-length")
-        if size is None or not size.isdigit():
-            return None, refuse(411, "a request needs a Content-Length")
-        if int(size) > MAX_BODY:
-            return None, refuse(413, f"the problem is over {MAX_BODY // 1000} kB")
-        raw = await request.body()
-        if len(raw) > MAX_BODY:
-            return None, refuse(413, f"the problem is over {MAX_BODY // 1000} kB")
+    async def work(request: Request, kind: str, text: str, options: dict) -> Any:
+        lane = runner.checks if kind == "check" else runner.work
+        bound = min(timeout, CHECK_TIMEOUT) if kind == "check" else timeout
+        gone, listener = _gone_when_disconnected(request)
         try:
-            import json
-
-            data = json.loads(raw)
-        except ValueError:
-            return None, refuse(400, "the request is not JSON")
-        if not isinstance(data, dict) or not isinstance(data.get("text"), str):
-            return None, refuse(400, 'the request needs "text": the problem file')
-        return data, None
+            answer = await runner.run(lane, kind, text, options, gone, bound)
+        except Busy:
+            return _busy()
+        finally:
+            listener.cancel()
+        return JSONResponse(answer)
 
     async def home(request: Request) -> HTMLResponse:
         return HTMLResponse(PAGE.read_text(encoding="utf-8"))
 
-    async def examples(request: Request) -> JSONResponse:
+    async def examples(request: Request) -> Any:
         return JSONResponse([{"name": n, "title": example_title(n)} for n in example_names()])
 
     async def example(request: Request) -> Any:
         name = request.path_params["name"]
         if name not in example_names():
-            return PlainTextResponse(f"no bundled example {name!r}", 404)
+            return PlainTextResponse(f"no bundled example {name[:100]!r}", 404)
         return PlainTextResponse(example_path(name).read_text(encoding="utf-8"))
 
-    async def check(request: Request) -> JSONResponse:
-        data, bad = await body(request)
-        if bad is not None:
+    async def check(request: Request) -> Any:
+        data, bad = await _body(request)
+        if data is None:
             return bad
-        assert data is not None
-        return JSONResponse(await run_in_threadpool(runner, "check", data["text"], {}))
+        return await work(request, "check", data["text"], {})
 
-    async def solve(request: Request) -> JSONResponse:
-        data, bad = await body(request)
-        if bad is not None:
+    async def solve(request: Request) -> Any:
+        data, bad = await _body(request)
+        if data is None:
             return bad
-        assert data is not None
         simulate = bool(data.get("simulate"))
         t_end = data.get("t_end", 3.0)
         if simulate and (
@@ -315,81 +278,105 @@ def make_app(timeout: float = DEFAULT_TIMEOUT):
             or not isinstance(t_end, (int, float))
             or not 0 < t_end <= MAX_T_END
         ):
-            return refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
-        options = {"simulate": simulate, "t_end": float(t_end) if simulate else None}
-        return JSONResponse(await run_in_threadpool(runner, "run", data["text"], options))
+            return _refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
+        initial = _initial(data.get("initial"))
+        if isinstance(initial, str):
+            return _refuse(400, initial)
+        options = {
+            "simulate": simulate,
+            "t_end": float(t_end) if simulate else None,
+            "initial": initial,
+        }
+        return await work(request, "run", data["text"], options)
 
-    jobs: dict[str, dict] = {}
-
-    def grid_size(params: dict) -> int:
-        size = 1
-        for name, v in params.items():
-            if isinstance(v, str) and v.count(":") == 2:
-                n = v.rsplit(":", 1)[1].strip()
-                if not n.isdigit():
-                    raise ValueError(f"{name}: A:B:N needs a whole number N, got {n!r}")
-                size *= int(n)
-            elif isinstance(v, str):
-                size *= len(v.split(","))
-            elif isinstance(v, list):
-                size *= len(v)
-            else:
-                raise ValueError(f'{name}: give "A:B:N", "a,b,c" or a list of numbers')
-        return size
-
-    async def sweep(request: Request) -> JSONResponse:
-        data, bad = await body(request)
-        if bad is not None:
+    async def sweep(request: Request) -> Any:
+        data, bad = await _body(request)
+        if data is None:
             return bad
-        assert data is not None
         params, measures, t_end = data.get("params"), data.get("measures"), data.get("t_end")
         if not isinstance(params, dict) or not params:
-            return refuse(400, 'a sweep needs "params": {name: "A:B:N" or "a,b,c"}')
+            return _refuse(400, 'a sweep needs "params": {name: "A:B:N" or "a,b,c"}')
         if not isinstance(measures, list) or not all(isinstance(m, str) for m in measures):
-            return refuse(400, 'a sweep needs "measures": a list such as ["liftoff"]')
+            return _refuse(400, 'a sweep needs "measures": a list such as ["liftoff"]')
         if isinstance(t_end, bool) or not isinstance(t_end, (int, float)):
-            return refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
+            return _refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
         if not 0 < t_end <= MAX_T_END:
-            return refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
+            return _refuse(400, f"t_end must be a number in (0, {MAX_T_END:g}] seconds")
         try:
-            size = grid_size(params)
+            size = _grid_size(params)
         except ValueError as exc:
-            return refuse(400, str(exc))
+            return _refuse(400, str(exc))
         if size > MAX_CASES:
-            return refuse(
+            return _refuse(
                 400, f"{size} cases: the page runs at most {MAX_CASES}; use `lamech sweep`"
             )
-        import uuid
-
-        key = uuid.uuid4().hex
-        job = {"done": 0, "total": size, "finished": False}
+        if runner.work.full() or runner.stopping:
+            return _busy()
+        key = secrets.token_hex(16)
+        job: dict[str, Any] = {"done": 0, "total": size, "finished": False, "queued": True}
         finished = [k for k, j in jobs.items() if j.get("finished")]
         for old in finished[: max(0, len(finished) - 50)]:  # keep the last 50 answers
             del jobs[old]
+            controls.pop(old, None)
         jobs[key] = job
+        cancel, seen = asyncio.Event(), [time.monotonic()]
+        controls[key] = (cancel, seen)
         options = {"params": params, "measures": measures, "t_end": float(t_end)}
-        threading.Thread(
-            target=runner.sweep, args=(data["text"], options, job), daemon=True
-        ).start()
+
+        async def go() -> None:
+            watchdog = asyncio.ensure_future(abandoned(cancel, seen, job))
+            try:
+                answer = await runner.run(
+                    runner.work, "sweep", data["text"], options, cancel, 10 * timeout, job
+                )
+            except Busy:
+                answer = {"ok": False, "errors": [{"line": None, "where": "", "text": None,
+                          "message": "the server is busy or stopping; try again"}]}
+            finally:
+                watchdog.cancel()
+            job.update(answer)
+            job["finished"] = True
+
+        task = asyncio.ensure_future(go())
+        tasks.add(task)
+        task.add_done_callback(tasks.discard)
         return JSONResponse({"ok": True, "job": key, "total": size})
 
-    async def sweep_status(request: Request) -> JSONResponse:
-        job = jobs.get(request.path_params["job"])
+    async def abandoned(cancel: asyncio.Event, seen: list[float], job: dict) -> None:
+        while not job["finished"]:
+            await asyncio.sleep(1.0)
+            if time.monotonic() - seen[0] > SWEEP_IDLE:
+                cancel.set()  # its page has gone: end its process
+                return
+
+    async def sweep_status(request: Request) -> Any:
+        key = request.path_params["job"]
+        job = jobs.get(key)
         if job is None:
-            return refuse(404, "no such sweep")
+            return _refuse(404, "no such sweep")
+        if request.method == "DELETE":
+            controls[key][0].set()
+            return JSONResponse({"ok": True, "cancelled": not job["finished"]})
+        controls[key][1][0] = time.monotonic()
         return JSONResponse(job)
 
-    return Starlette(
+    app = Starlette(
         routes=[
             Route("/api/sweep", sweep, methods=["POST"]),
-            Route("/api/sweep/{job}", sweep_status),
+            Route("/api/sweep/{job}", sweep_status, methods=["GET", "DELETE"]),
             Route("/", home),
             Route("/api/examples", examples),
             Route("/api/examples/{name}", example),
             Route("/api/check", check, methods=["POST"]),
             Route("/api/run", solve, methods=["POST"]),
-        ]
+        ],
+        middleware=[
+            Middleware(Guard, token=token, names=(*LOOPBACK, host), port=port),
+        ],
     )
+    app.state.token = token
+    app.state.runner = runner
+    return app
 
 
 def run(args: argparse.Namespace) -> int:
@@ -405,12 +392,34 @@ def run(args: argparse.Namespace) -> int:
     if not args.timeout > 0:
         print("lamech: --timeout must be positive", file=sys.stderr)
         return 2
+    if args.token is not None and not args.token.strip():
+        print("lamech: --token must not be empty (leave it out for a random one)", file=sys.stderr)
+        return 2
     if args.host not in ("127.0.0.1", "localhost", "::1"):
         print(
-            f"lamech: warning: serving on {args.host}: anyone who can reach it can run "
-            "problems on this machine",
+            f"lamech: warning: serving on {args.host}: anyone who can reach it and has the "
+            "token can run problems on this machine",
             file=sys.stderr,
         )
-    print(f"lamech: serving on http://{args.host}:{args.port}/ (Ctrl-C stops)", file=sys.stderr)
-    uvicorn.run(make_app(args.timeout), host=args.host, port=args.port, log_level="warning")
+    token = args.token or secrets.token_urlsafe(32)
+    app = make_app(args.timeout, token=token, port=args.port, host=args.host)
+    runner = app.state.runner
+
+    class Server(uvicorn.Server):
+        def handle_exit(self, sig, frame) -> None:  # SIGINT, SIGTERM: end every child now
+            runner.stop()
+            super().handle_exit(sig, frame)
+
+    from ._guard import bracketed
+
+    config = uvicorn.Config(
+        app, host=args.host, port=args.port, log_level="warning", timeout_graceful_shutdown=2
+    )
+    print(
+        f"lamech: serving on http://{bracketed(args.host)}:{args.port}/?token={token} "
+        "(Ctrl-C stops)",
+        file=sys.stderr,
+        flush=True,
+    )
+    Server(config).run()
     return 0

@@ -7,7 +7,6 @@ import argparse
 import dataclasses
 import json
 import sys
-from pathlib import Path
 
 from ._args import (
     add_tolerance_options,
@@ -19,6 +18,7 @@ from ._args import (
     samples,
     shown_name,
 )
+from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
@@ -37,6 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "signal's number). Chattering contacts stop the run as failed.",
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
+    add_data_dir(s)
     s.add_argument(
         "--t-end",
         type=positive_float,
@@ -188,6 +189,20 @@ def _check_output_size(args, coordinates: int) -> None:
         )
 
 
+def _check_outputs(args) -> None:
+    """OutputError (a ValueError) for an output that is not a regular file or whose
+    suffix is not its format, before anything runs."""
+    from .._outputs import check_output
+    from ..present._animate import FORMATS as ANIMATION_FORMATS
+
+    if args.out:
+        check_output(args.out, (".csv",), "--out", stdout=True)
+    if args.plot:
+        check_output(args.plot, PLOT_FORMATS, "--plot")
+    if args.animate:
+        check_output(args.animate, ANIMATION_FORMATS, "--animate")
+
+
 def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
     """Initial values along the chosen mode, the default end time, and a line saying so
     (ValueError with what to do when there is no such mode)."""
@@ -251,7 +266,7 @@ def _run(args, phase: list[str]) -> int:
     from ..symbolic import DegenerateConstraintsError
 
     try:
-        system = load(args.problem)
+        system = load(args.problem, data_dir=args.data_dir)
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
@@ -269,6 +284,7 @@ def _run(args, phase: list[str]) -> int:
         refuse_overwriting_input(
             args.problem, {"--out": args.out, "--plot": args.plot, "--animate": args.animate}
         )
+        _check_outputs(args)
         released = None
         if args.mode is not None:
             start, t_mode, released = _mode_start(system, params, args)
@@ -326,13 +342,15 @@ def _run(args, phase: list[str]) -> int:
         return 2
     from ..present import to_text, trajectory_csv
 
-    for target in (args.out, args.plot, args.animate):
-        if target:  # outputs go where asked: out/traj.csv makes out/
-            Path(target).parent.mkdir(parents=True, exist_ok=True)
+    to_stdout = args.out == "-"  # the table on stdout, the summary beside it on stderr
     if args.out:
         try:
-            trajectory_csv(traj, args.out)
-        except OSError as exc:
+            if to_stdout:
+                sys.stdout.write(trajectory_csv(traj) or "")
+                sys.stdout.flush()
+            else:
+                trajectory_csv(traj, args.out)
+        except (OSError, ValueError) as exc:
             print(f"lamech: cannot write {args.out}: {exc}", file=sys.stderr)
             return 2
     if args.plot:
@@ -345,7 +363,7 @@ def _run(args, phase: list[str]) -> int:
                 f"lamech: --plot needs matplotlib ({exc}); pip install matplotlib", file=sys.stderr
             )
             return 2
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
     if args.animate:
@@ -372,18 +390,22 @@ def _run(args, phase: list[str]) -> int:
         except OSError as exc:
             print(f"lamech: cannot write {args.animate}: {exc}", file=sys.stderr)
             return 2
+    summary = sys.stderr if to_stdout else sys.stdout
     if args.json:
-        print(json.dumps(traj.summary(), indent=2, ensure_ascii=False, default=_json_default))
+        print(
+            json.dumps(traj.summary(), indent=2, ensure_ascii=False, default=_json_default),
+            file=summary,
+        )
     else:
         if released:
-            print(released)
-        print(to_text(traj), end="")
-        if args.out:
-            print(f"  wrote {shown_name(args.out)}")
+            print(released, file=summary)
+        print(to_text(traj), end="", file=summary)
+        if args.out and not to_stdout:
+            print(f"  wrote {shown_name(args.out)}", file=summary)
         if args.plot:
-            print(f"  wrote {shown_name(args.plot)}")
+            print(f"  wrote {shown_name(args.plot)}", file=summary)
         if args.animate:
-            print(f"  wrote {shown_name(args.animate)}")
+            print(f"  wrote {shown_name(args.animate)}", file=summary)
     if traj.status == "interrupted":
         stop = stopped_by[0] if stopped_by else KeyboardInterrupt()
         kept = f"; the trajectory up to there is in {args.out}" if args.out else ""

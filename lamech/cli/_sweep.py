@@ -9,6 +9,7 @@ import math
 import sys
 
 from ._args import add_tolerance_options, positive_float, positive_int, shown_name
+from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
 
 __all__ = ["add_parser", "run"]
@@ -27,6 +28,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "worker processes.",
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
+    add_data_dir(s)
     s.add_argument(
         "--param",
         action="append",
@@ -126,11 +128,13 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
+    from .._outputs import OutputError, check_output
     from ..present import plot_sweep
-    from ..problem import ProblemFileError
+    from ..problem import ProblemFileError, load
     from ..sweeps import SweepError, parse_assignment, run_sweep
     from ..symbolic import DegenerateConstraintsError
     from ._args import refuse_overwriting_input
+    from ._simulate import PLOT_FORMATS
 
     stopped_by: list[BaseException] = []
     try:
@@ -138,6 +142,12 @@ def _run(args) -> int:
         if len(params) != len(args.param):
             raise SweepError("a parameter is given twice: " + ", ".join(args.param))
         initial = dict(parse_assignment(p, "--initial") for p in args.initial)
+        if args.out == "-":
+            args.out = None  # the table on standard output, as without --out
+        if args.out:
+            check_output(args.out, (".csv", ".parquet"), "--out", stdout=True)
+        if args.plot:
+            check_output(args.plot, PLOT_FORMATS, "--plot")
         if args.resume and not args.out:
             raise SweepError("--resume needs --out (the table to resume)")
         try:
@@ -154,7 +164,7 @@ def _run(args) -> int:
                 ) from None
         with noting(stopped_by):
             result = run_sweep(
-                args.problem,
+                load(args.problem, data_dir=args.data_dir) if args.data_dir else args.problem,
                 params,
                 args.measure or ["liftoff"],
                 t_end=args.t_end,
@@ -173,7 +183,7 @@ def _run(args) -> int:
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
         return 2
-    except (SweepError, DegenerateConstraintsError) as exc:
+    except (SweepError, DegenerateConstraintsError, OutputError) as exc:
         print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
@@ -225,7 +235,7 @@ def _run(args) -> int:
         except SweepError as exc:
             print(f"lamech: --plot: {exc}", file=sys.stderr)
             return 2
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             print(f"lamech: cannot write {args.plot}: {exc}", file=sys.stderr)
             return 2
         print(f"  wrote {shown_name(args.plot)}", file=out)

@@ -859,6 +859,44 @@ def _structure_issues(s: System, scope: _Scope) -> Issues:
 _ZERO = {"mass": "0 for a massless body", "inertia": "0 for no rotational inertia"}
 
 
+def _impossible_inertia(b: Body, at_parameters) -> str | None:
+    """What no rigid body has in ``b``'s inertia at the parameter values: a tensor that is
+    not positive semidefinite, or principal moments that break the triangle inequality
+    (each at most the sum of the other two: I1 + I2 >= I3, equal for a flat plate)."""
+    import numpy as np
+
+    i = b.inertia
+    if not isinstance(i, tuple) or len(i) != 3:
+        return None
+    if all(not isinstance(x, tuple) for x in i):
+        rows = [[i[k] if k == j else 0 for j in range(3)] for k in range(3)]
+        given = "principal moments"
+    elif _is_matrix3(i):
+        rows = [list(r) for r in i]
+        given = "inertia tensor"
+    else:
+        return None
+    values = [[at_parameters(x) if _is_expr(x) else 0.0 for x in r] for r in rows]
+    if any(v is None or not math.isfinite(v) for r in values for v in r):
+        return None
+    tensor = np.array(values, dtype=float)
+    moments = np.sort(np.linalg.eigvalsh(0.5 * (tensor + tensor.T)))
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(moments))))
+    shown = ", ".join(f"{m:.6g}" for m in moments)
+    if moments[0] < -tol:
+        return (
+            f"the {given} is not positive definite (principal moments {shown}): no body "
+            "has a negative moment of inertia"
+        )
+    if moments[2] > moments[0] + moments[1] + tol:
+        return (
+            f"principal moments {shown}: no body has them (the triangle inequality: the "
+            f"largest, {moments[2]:.6g}, is at most the sum of the other two, "
+            f"{moments[0] + moments[1]:.6g}, equal for a flat plate)"
+        )
+    return None
+
+
 def _value_issues(s: System, scope: _Scope) -> Issues:
     """Masses and inertias >= 0 (a massless pulley, rod or attachment point is an
     idealisation the KKT system allows when the constraints give its motion to something
@@ -880,15 +918,34 @@ def _value_issues(s: System, scope: _Scope) -> Issues:
 
     for i, b in enumerate(s.bodies):
         where = f"bodies[{i + 1}] `{b.name}`"
+        negative = False
         for label, expr in [("mass", b.mass)] + [("inertia", x) for x in inertia_diagonal(b)]:
             if expr is None:
                 continue
             v = at_parameters(expr)
             if v is not None and not (math.isfinite(v) and v >= 0):
+                negative = True
                 out.append(
                     (
                         f"{where} {label}",
                         f"must be >= 0 ({_ZERO[label]}), got {v:g}",
+                    )
+                )
+        problem = None if negative else _impossible_inertia(b, at_parameters)
+        if problem:
+            out.append((f"{where} inertia", problem))
+        if b.shape and len(b.shape) > 1 and b.shape[1] is not None and b.shape[0] == "circle":
+            r = at_parameters(b.shape[1])
+            if r is not None and not (math.isfinite(r) and r >= 0):
+                out.append((f"{where} shape", f"a circle's radius must be >= 0, got {r:g}"))
+    for i, g in enumerate(s.scenery):
+        if g.radius is not None:
+            r = at_parameters(g.radius)
+            if r is not None and not (math.isfinite(r) and r >= 0):
+                out.append(
+                    (
+                        f"scenery[{i + 1}] `{g.name}` {g.kind.value}",
+                        f"a circle's radius must be >= 0, got {r:g}",
                     )
                 )
     for i, c in enumerate(s.constraints):

@@ -27,6 +27,8 @@ from typing import cast
 import numpy as np
 import sympy as sp
 
+from .._outputs import atomic_output, write_output
+
 __all__ = ["animate", "Scene", "FORMATS"]
 
 FORMATS = (".gif", ".mp4", ".html")
@@ -378,16 +380,16 @@ def animate(
         return []
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / rate, blit=False)
-    if suffix == ".gif":
-        anim.save(str(path), writer=animation.PillowWriter(fps=fps_arg), dpi=dpi)
-    elif suffix == ".mp4":
-        anim.save(str(path), writer=animation.FFMpegWriter(fps=fps_arg), dpi=dpi)
+    if suffix in (".gif", ".mp4"):  # a temporary file renamed when complete
+        writer = (animation.PillowWriter if suffix == ".gif" else animation.FFMpegWriter)
+        with atomic_output(path, FORMATS, "--animate") as tmp:
+            anim.save(str(tmp), writer=writer(fps=fps_arg), dpi=dpi)
     else:
         with matplotlib.rc_context(
             {"animation.frame_format": "jpeg", "animation.embed_limit": 200.0}
         ):
             page = anim.to_jshtml(fps=fps_arg, default_mode="once")
-        path.write_text(offline_page(page), encoding="utf-8")
+        write_output(path, offline_page(page), FORMATS, "--animate")
     return path
 
 

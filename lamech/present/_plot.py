@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._outputs import write_output
+
 __all__ = ["plot_trajectory"]
 
 _EVENT_COLOURS = {
@@ -69,4 +71,4 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     if traj.status != "ok":
         fig.text(0.01, 0.005, f"{traj.status}: {traj.message}"[:160], fontsize=7, color="red")
     fig.tight_layout()
-    fig.savefig(str(path), dpi=120)
+    write_output(path, lambda tmp: fig.savefig(str(tmp), dpi=120), flag="--plot")

@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 
+from .._outputs import write_output
 from ..sweeps import SweepError, SweepRun
 
 __all__ = ["plot_sweep"]
@@ -93,7 +94,7 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
         title += "   grey: no such event" + ("; red hatched: run failed" if failed.any() else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110), flag="--plot")
 
 
 def _edges(x: np.ndarray) -> np.ndarray:

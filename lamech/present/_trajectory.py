@@ -8,6 +8,8 @@ import io
 import math
 from pathlib import Path
 
+from .._outputs import write_output
+
 __all__ = ["trajectory_text", "trajectory_csv"]
 
 
@@ -22,7 +24,8 @@ def _g(x) -> str:
 
 
 def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
-    """Write the CSV of ``traj.columns()`` to ``path``; return the text when None."""
+    """Write the CSV of ``traj.columns()`` to ``path`` (a .csv file, by
+    :func:`lamech._outputs.write_output`); return the text when None."""
     cols = traj.columns()
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -32,24 +35,8 @@ def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
     text = buf.getvalue()
     if path is None:
         return text
-    _write_atomically(Path(path), text)
+    write_output(path, text, (".csv",))
     return None
-
-
-def _write_atomically(path: Path, text: str) -> None:
-    """Write to a temporary file beside ``path``, then rename it over ``path``: a full
-    disk or a kill leaves the old file or none, never a table cut mid-number."""
-    import os
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".part")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def trajectory_text(traj) -> str:

@@ -199,21 +199,45 @@ MAX_TABLE_ROWS = 2000
 """Rows of a tabulated input (each row is a switch the generated code evaluates)."""
 
 
-def _read_table(source: str, spec: dict) -> tuple[list[float], list[float]] | str:
+def _inside(path: Path, folders: tuple[Path, ...]) -> bool:
+    """Whether ``path``, symlinks followed, lies in one of ``folders``."""
+    try:
+        real = path.resolve()
+    except (OSError, RuntimeError):  # a symlink loop
+        return False
+    return any(real.is_relative_to(f) for f in folders)
+
+
+def _read_table(
+    folders: tuple[Path, ...] | None, spec: dict
+) -> tuple[list[float], list[float]] | str:
     """(times, values) of an ``[inputs]`` table, or what is wrong with it. The file is
-    found beside the problem file; at most 1 MB of it is read."""
+    named relative to the problem file and must lie, symlinks followed, in one of
+    ``folders`` (the problem file's, and ``--data-dir``'s); at most 1 MB of it is read.
+    Nothing of a file that is not a table of numbers is ever quoted, and a path outside
+    the folders is refused before it is looked at (whether it exists is not told)."""
     import csv
     import io
 
     file = spec["csv"]
-    if not isinstance(file, str) or not file:
+    if not isinstance(file, str) or not file or "\0" in file:
         return "csv must be a file name"
-    base = Path(source).parent if source and not source.startswith("<") else Path.cwd()
-    path = base / file
+    if not folders:
+        return (
+            "a problem given as text (not loaded from a file) names no files; save it "
+            "as a .toml file beside its table and load that"
+        )
+    path = folders[0] / file
+    if not _inside(path, folders):
+        return (
+            f"`{printable(file)}` is outside the problem file's folder (symlinks "
+            "followed); put the table beside the problem file, or name the folder that "
+            "holds it with --data-dir DIR"
+        )
     try:
         if not path.is_file():
             return (
-                f"no such file `{printable(str(path))}` (a csv path is relative to the "
+                f"no such file `{printable(file)}` (a csv path is relative to the "
                 "problem file)"
             )
         with path.open("rb") as fh:
@@ -221,12 +245,26 @@ def _read_table(source: str, spec: dict) -> tuple[list[float], list[float]] | st
         if len(raw) > MAX_BYTES:
             return f"`{printable(file)}` is too large (over 1 MB)"
         rows = list(csv.reader(io.StringIO(raw.decode("utf-8-sig"))))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        return f"cannot read `{printable(file)}`: {exc}"
+    except OSError as exc:
+        return f"cannot read `{printable(file)}`: {exc.strerror or 'error'}"
+    except (UnicodeDecodeError, csv.Error):
+        return (
+            f"`{printable(file)}` is not a table of numbers (not UTF-8 CSV text); give a "
+            "CSV file: a header row of names, then rows of numbers"
+        )
     rows = [r for r in rows if any(c.strip() for c in r)]
     if len(rows) < 3:
         return f"`{printable(file)}` needs a header row and two or more rows of numbers"
     header = [c.strip() for c in rows[0]]
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header) or not all(_number(c) for c in row):
+            # not a table: nothing of it is quoted (it may be anything, a .env file)
+            return (
+                f"`{printable(file)}` is not a table of numbers: row {line}: not "
+                f"{_COUNT.get(len(header), len(header))} numbers (as many as the header's "
+                "names); give a "
+                "CSV file: a header row of names, then rows of numbers"
+            )
     time_name = spec.get("time", header[0])
     column = spec.get("column")
     if column is None:
@@ -263,8 +301,22 @@ def _read_table(source: str, spec: dict) -> tuple[list[float], list[float]] | st
     return times, values
 
 
-def load(path: str | Path) -> System:
+_COUNT = {1: "one", 2: "two", 3: "three", 4: "four"}
+
+
+def _number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def load(path: str | Path, data_dir: str | Path | None = None) -> System:
     """Load a problem file, or a bundled example by name (``"cylinder"``).
+
+    A file the problem names (an ``[inputs]`` table) must lie, symlinks followed, in the
+    problem file's folder or in ``data_dir``.
 
     Raises
     ------
@@ -302,11 +354,20 @@ def load(path: str | Path) -> System:
         text = raw.decode("utf-8-sig")  # a byte-order mark is not part of the TOML
     except (OSError, UnicodeDecodeError) as exc:
         raise ProblemFileError(str(path), [Issue("", f"cannot read the file: {exc}")]) from None
-    return loads(text.replace("\r\n", "\n"), name=str(path))
+    folders = [p.resolve().parent]
+    if data_dir is not None:
+        folders.append(Path(data_dir).resolve())
+    return _parse(text.replace("\r\n", "\n"), str(path), tuple(folders))
 
 
 def loads(text: str, name: str = "<string>") -> System:
-    """Load a problem from TOML text; ``name`` is used in error messages."""
+    """Load a problem from TOML text; ``name`` is used in error messages. A problem
+    given as text has no folder: it may name no files (an ``[inputs]`` table is refused;
+    save it as a file and :func:`load` that)."""
+    return _parse(text, name, None)
+
+
+def _parse(text: str, name: str, folders: tuple[Path, ...] | None) -> System:
     if len(text) > MAX_BYTES:
         raise ProblemFileError(name, [Issue("", "file too large (over 1 MB)")])
     text = text.removeprefix("\ufeff")
@@ -348,7 +409,7 @@ def loads(text: str, name: str = "<string>") -> System:
         raise ProblemFileError(
             name, [Issue("", "TOML nested too deeply (arrays or tables inside each other)")]
         ) from None
-    return from_dict(data, name=name, text=text)
+    return _Loader(data, name, text, folders).build()
 
 
 _LONG_NUMBER = re.compile(r"[0-9_]{1000,}")
@@ -369,9 +430,12 @@ class _Loader:
     checks them (:mod:`lamech.model`), and each issue it finds is reported here with the
     file's line."""
 
-    def __init__(self, data: Any, name: str, text: str | None):
+    def __init__(
+        self, data: Any, name: str, text: str | None, folders: tuple[Path, ...] | None = None
+    ):
         self.data = data
         self.source = name
+        self.folders = folders  # where named files may be; None: no files
         self.lines = _Lines(text)
         self.problems: list[Issue] = []
         self.t = sp.Symbol("t", real=True)
@@ -700,7 +764,7 @@ class _Loader:
             if extra:
                 self.problem(where, f"unknown key `{extra[0]}`; known: csv, column, time", loc)
                 continue
-            read = _read_table(self.source, spec)
+            read = _read_table(self.folders, spec)
             if isinstance(read, str):
                 self.problem(where, read, loc)
                 read = ([0.0, 1.0], [0.0, 0.0])  # a stand-in: its uses are no further error

@@ -23,6 +23,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from .._outputs import write_output
 from ._parse import SweepError
 
 __all__ = ["Table", "format_value", "STATUSES"]
@@ -273,7 +274,7 @@ class Table:
             return
         self.journal.parent.mkdir(parents=True, exist_ok=True)
         assert self.record is not None
-        _write_atomically(self.record, json.dumps(self.spec, indent=1) + "\n")
+        write_output(self.record, json.dumps(self.spec, indent=1) + "\n", (".json",))
         self._fh = open(self.journal, "w", newline="", encoding="utf-8")
         self._writer = csv.writer(self._fh, lineterminator="\n")
         self._writer.writerow(self.columns)
@@ -299,7 +300,8 @@ class Table:
         if self.parquet:
             import pandas as pd
 
-            pd.DataFrame(rows, columns=self.columns).to_parquet(self.path, index=False)
+            frame = pd.DataFrame(rows, columns=self.columns)
+            write_output(self.path, lambda tmp: frame.to_parquet(tmp, index=False), (".parquet",))
             assert self.journal is not None  # set from path, which is not None
             self.journal.unlink(missing_ok=True)
             return
@@ -308,19 +310,7 @@ class Table:
         w.writerow(self.columns)
         for row in rows:
             w.writerow([format_value(row[c]) for c in self.columns])
-        _write_atomically(self.path, out.getvalue())
-
-
-def _write_atomically(path: Path, text: str) -> None:
-    """``text`` to ``path`` by a temporary file beside it and a rename: the old file or
-    the new one, never half of one."""
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+        write_output(self.path, out.getvalue(), (".csv",))
 
 
 _MEND = ": mend or delete that line, or run without --resume to start a new table"

@@ -1,0 +1,334 @@
+"""The work behind ``lamech serve``: each piece (check, solve, simulate, sweep) runs in a
+child process from a fork server, bounded in time, in a :class:`Lane` of a few slots
+and a bounded queue (full: :class:`Busy`, the server's 503), and ended, its process
+killed, when its client goes away or the server stops.
+
+SymPy cannot be interrupted inside a server thread, but a process can be killed: a
+hostile expression costs one process, never the server.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import multiprocessing as mp
+import os
+import time
+from collections import deque
+from typing import Any
+
+__all__ = ["Busy", "Lane", "Runner", "errors"]
+
+
+class Busy(Exception):
+    """A lane's slots are taken and its queue is full (the server's 503)."""
+
+
+def errors(exc: BaseException) -> list[dict]:
+    """An exception as the page shows it: its issues with their lines, or one message."""
+    problems = getattr(exc, "problems", None)
+    if problems:
+        return [
+            {"line": p.line, "where": p.where, "message": p.message, "text": p.text}
+            for p in problems
+        ]
+    return [{"line": None, "where": "", "message": str(exc), "text": None}]
+
+
+def _failed(message: str) -> dict:
+    return {"ok": False, "errors": errors(RuntimeError(message))}
+
+
+# ----- the work, in a child process ----------------------------------------------------
+def _number(x: Any) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _events(traj, angles: set[str]) -> list[dict]:
+    """The simulated event log as JSON: time, kind, constraint, and the coordinates (an
+    angle also in degrees)."""
+    out = []
+    for e in traj.events:
+        coords = {k: _number(v) for k, v in e.coordinates.items() if not k.endswith("'")}
+        out.append(
+            {
+                "t": _number(e.t),
+                "kind": str(e.kind),
+                "constraint": e.constraint,
+                "coordinates": coords,
+                "degrees": {
+                    k: None if v is None else math.degrees(v)
+                    for k, v in coords.items()
+                    if k in angles
+                },
+            }
+        )
+    return out
+
+
+def _work(kind: str, text: str, options: dict) -> dict:
+    """Check, or solve (and simulate) the problem ``text``: a JSON-able answer. With
+    ``options["initial"]`` ({coordinate or ``x'``: value}) the simulation starts there,
+    the coordinates not named moved onto the constraints (the library's completion of a
+    partial initial state, :func:`lamech.simulate`'s ``initial``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from ..model import ModelError
+    from ..numeric import SimulationError, simulate
+    from ..present import report_page
+    from ..problem import ProblemFileError, loads
+    from ..symbolic import DegenerateConstraintsError, is_angle, solve, steps
+
+    try:
+        system = loads(text, name="problem.toml")  # text: no folder, so it names no files
+        if kind == "check":
+            return {"ok": True, "title": system.title}
+        sol = solve(system)
+        derivation = steps(sol)
+    except (ProblemFileError, DegenerateConstraintsError, ModelError, ValueError) as exc:
+        return {"ok": False, "errors": errors(exc)}
+    traj, note = None, ""
+    initial = options.get("initial") or None
+    if options.get("simulate"):
+        try:
+            traj = simulate(system, float(options["t_end"]), initial=initial)
+        except (SimulationError, ValueError, KeyError) as exc:
+            if initial:  # the user's start: say it as an error at the start field
+                return {"ok": False, "errors": errors(ValueError(f"initial state: {exc}"))}
+            note = f"no simulation: {exc}"
+    lift = [
+        {
+            "constraint": k,
+            "coordinate": r[0].coordinate,
+            "value": r[0].value,
+            "degrees": r[0].degrees,
+        }
+        for k, r in sol.vanishes.items()
+        if r
+    ]
+    answer: dict[str, Any] = {
+        "ok": True,
+        "title": system.title,
+        "page": report_page(sol, derivation, text, traj, None, note),
+        "lets_go": lift,
+        "status": None if traj is None else str(traj.status),
+        "note": note,
+    }
+    if traj is not None:
+        angles = {c.name for c in system.coordinates if is_angle(system, c.symbol)}
+        answer["message"] = traj.message
+        answer["events"] = _events(traj, angles)
+        answer["start"] = {
+            **{n: _number(v) for n, v in zip(traj.coordinates, traj.q[0])},
+            **{n + "'": _number(v) for n, v in zip(traj.coordinates, traj.qd[0])},
+        }
+    return answer
+
+
+def _sweep(conn, text: str, options: dict) -> dict:
+    """Run a sweep in this (child) process, sending ("progress", done, total) as cases
+    finish: the table and the plot as HTML."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from ..present import sweep_html
+    from ..problem import ProblemFileError, loads
+    from ..sweeps import SweepError, run_sweep
+
+    try:
+        system = loads(text, name="problem.toml")
+        run = run_sweep(
+            system,
+            options["params"],
+            options["measures"],
+            t_end=options["t_end"],
+            workers=1,  # this process is the worker: a daemon process has no children
+            samples=201,
+            progress=lambda done, total: conn.send(("progress", done, total)),
+        )
+    except (ProblemFileError, SweepError, ValueError) as exc:
+        return {"ok": False, "errors": errors(exc)}
+    return {"ok": True, "html": sweep_html(run), "counts": run.counts}
+
+
+def _child(conn, kind: str, text: str, options: dict) -> None:
+    if kind != "check":
+        try:  # slow work yields the processor to the checks one types
+            os.nice(10)
+        except (AttributeError, OSError):  # pragma: no cover - no nice here
+            pass
+    try:
+        if kind == "sweep":
+            conn.send(("done", _sweep(conn, text, options)))
+            return
+        conn.send(("done", _work(kind, text, options)))
+    except BaseException as exc:  # noqa: BLE001 - whatever it is, say it, not a hang
+        conn.send(("done", _failed(f"internal error: {type(exc).__name__}: {exc}")))
+    finally:
+        conn.close()
+
+
+# ----- slots, queue, processes -----------------------------------------------------------
+class Lane:
+    """At most ``slots`` pieces of work at once and ``queue`` waiting in order; one more
+    is :class:`Busy`. A waiter that is cancelled (its client gone) leaves the queue."""
+
+    def __init__(self, slots: int, queue: int):
+        self.slots, self.queue = slots, queue
+        self.running = 0
+        self.waiting: deque[asyncio.Future] = deque()
+
+    def full(self) -> bool:
+        return self.running >= self.slots and len(self.waiting) >= self.queue
+
+    async def acquire(self) -> None:
+        if self.running < self.slots and not self.waiting:
+            self.running += 1
+            return
+        if len(self.waiting) >= self.queue:
+            raise Busy
+        fut = asyncio.get_running_loop().create_future()
+        self.waiting.append(fut)
+        try:
+            await fut  # release() hands its slot over
+        except asyncio.CancelledError:
+            if fut.done() and not fut.cancelled():
+                self.release()  # handed over, but no longer wanted
+            elif fut in self.waiting:
+                self.waiting.remove(fut)
+            raise
+
+    def release(self) -> None:
+        while self.waiting:
+            fut = self.waiting.popleft()
+            if not fut.done():
+                fut.set_result(None)
+                return
+        self.running -= 1
+
+
+async def _first(aw, gone: asyncio.Event, timeout: float | None) -> str:
+    """Wait for ``aw``, ``gone`` or ``timeout``: "done", "gone" or "timeout"."""
+    task = asyncio.ensure_future(aw)
+    watch = asyncio.ensure_future(gone.wait())
+    done, _ = await asyncio.wait(
+        {task, watch},
+        timeout=None if timeout is None else max(timeout, 0.0),
+        return_when=asyncio.FIRST_COMPLETED,
+    )
+    for t in (task, watch):
+        if t not in done:
+            t.cancel()
+    if task in done:
+        task.result()
+        return "done"
+    return "gone" if watch in done else "timeout"
+
+
+class Runner:
+    """Runs the work in child processes (a fork server with lamech loaded): ``work`` for
+    solves, simulations and sweeps, ``checks`` for the checks as one types (their own
+    slots, so a check is answered while slow work runs). Every live process is known,
+    so :meth:`stop` ends them all at once."""
+
+    def __init__(self, work: Lane, checks: Lane):
+        self.work, self.checks = work, checks
+        self.live: set = set()
+        self.stopping = False
+        self.ctx: Any
+        try:
+            self.ctx = mp.get_context("forkserver")
+            self.ctx.set_forkserver_preload(["lamech.cli._workers", "lamech.symbolic"])
+        except ValueError:  # pragma: no cover - no fork server on this platform
+            self.ctx = mp.get_context("spawn")
+
+    def stop(self) -> None:
+        """End every child process now (the server is stopping)."""
+        self.stopping = True
+        for proc in list(self.live):
+            try:
+                proc.kill()
+            except (OSError, ValueError, AttributeError):  # pragma: no cover - ended
+                pass
+
+    async def run(
+        self,
+        lane: Lane,
+        kind: str,
+        text: str,
+        options: dict,
+        gone: asyncio.Event,
+        bound: float,
+        job: dict | None = None,
+    ) -> dict:
+        """The answer of ``kind`` on ``text``; :class:`Busy` when ``lane`` is full.
+        Waits in the lane's queue, then runs in a child process killed past ``bound``
+        seconds, or as soon as ``gone`` is set (the client went away). ``job``, if given,
+        is updated with a sweep's progress."""
+        if self.stopping:
+            raise Busy
+        started = time.perf_counter()
+        if await _first(lane.acquire(), gone, None) != "done":
+            return {**_failed("cancelled: the client went away"), "cancelled": True}
+        try:
+            if job is not None:
+                job["queued"] = False
+            answer = await self._child(kind, text, options, gone, bound, job)
+        finally:
+            lane.release()
+        answer["seconds"] = round(time.perf_counter() - started, 3)
+        return answer
+
+    async def _child(self, kind, text, options, gone, bound, job) -> dict:
+        loop = asyncio.get_running_loop()
+        here, there = self.ctx.Pipe(duplex=False)
+        proc = self.ctx.Process(target=_child, args=(there, kind, text, options), daemon=True)
+        await asyncio.to_thread(proc.start)
+        there.close()
+        self.live.add(proc)
+        if self.stopping:
+            proc.kill()
+        deadline = loop.time() + bound
+        ready = asyncio.Event()
+        loop.add_reader(here.fileno(), ready.set)
+        try:
+            while True:
+                ready.clear()
+                if not here.poll():
+                    why = await _first(ready.wait(), gone, deadline - loop.time())
+                    if why == "gone":
+                        return {**_failed("cancelled: the client went away"), "cancelled": True}
+                    if why == "timeout":
+                        return _failed(_too_long(kind, bound))
+                try:
+                    msg = await asyncio.to_thread(here.recv)
+                except (EOFError, OSError):
+                    if self.stopping:
+                        return _failed("stopped: the server is shutting down")
+                    return _failed("the worker ended without an answer")
+                if msg[0] == "progress":
+                    if job is not None:
+                        job["done"], job["total"] = msg[1], msg[2]
+                    continue
+                return msg[1]
+        finally:
+            loop.remove_reader(here.fileno())
+            if proc.is_alive():
+                proc.kill()
+            await asyncio.to_thread(proc.join, 5)
+            here.close()
+            self.live.discard(proc)
+
+
+def _too_long(kind: str, bound: float) -> str:
+    if kind == "sweep":
+        return (
+            f"the sweep was stopped after {bound:g} s (ten times the server's --timeout); "
+            "run it with `lamech sweep` in a terminal, which has no bound and can resume"
+        )
+    return (
+        f"stopped after {bound:g} s (the server's --timeout): the problem is too large "
+        "or an expression too hard to simplify; try `lamech solve` in a terminal"
+    )
