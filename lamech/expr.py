@@ -1459,7 +1459,7 @@ def switch_form(expr: sp.Expr, branch) -> sp.Expr:
                     a, c = args[k], args[k + 1]
                     b = branch(a - c)  # 1 where a >= c
                     paired.append(a * b + c * (1 - b) if big else c * b + a * (1 - b))
-                args = paired + args[len(args) - len(args) % 2:]
+                args = paired + args[len(args) - len(args) % 2 :]
             return args[0]
         return e.func(*args)
 

@@ -22,7 +22,9 @@ def _positive_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number of work units, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number of work units, got {text!r}"
+        ) from None
     if value <= 0:
         raise argparse.ArgumentTypeError(f"expected a positive number of work units, got {value}")
     return value

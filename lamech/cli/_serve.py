@@ -330,8 +330,17 @@ def make_app(
                     runner.work, "sweep", data["text"], options, cancel, 10 * timeout, job
                 )
             except Busy:
-                answer = {"ok": False, "errors": [{"line": None, "where": "", "text": None,
-                          "message": "the server is busy or stopping; try again"}]}
+                answer = {
+                    "ok": False,
+                    "errors": [
+                        {
+                            "line": None,
+                            "where": "",
+                            "text": None,
+                            "message": "the server is busy or stopping; try again",
+                        }
+                    ],
+                }
             finally:
                 watchdog.cancel()
             job.update(answer)

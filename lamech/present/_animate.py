@@ -381,7 +381,7 @@ def animate(
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / rate, blit=False)
     if suffix in (".gif", ".mp4"):  # a temporary file renamed when complete
-        writer = (animation.PillowWriter if suffix == ".gif" else animation.FFMpegWriter)
+        writer = animation.PillowWriter if suffix == ".gif" else animation.FFMpegWriter
         with atomic_output(path, FORMATS, "--animate") as tmp:
             anim.save(str(tmp), writer=writer(fps=fps_arg), dpi=dpi)
     else:

@@ -236,10 +236,7 @@ def _read_table(
         )
     try:
         if not path.is_file():
-            return (
-                f"no such file `{printable(file)}` (a csv path is relative to the "
-                "problem file)"
-            )
+            return f"no such file `{printable(file)}` (a csv path is relative to the problem file)"
         with path.open("rb") as fh:
             raw = fh.read(MAX_BYTES + 1)
         if len(raw) > MAX_BYTES:

@@ -208,7 +208,7 @@ class _Space:
         self.basis, self.in_basis = _angle_basis(self.forms, self.denoms, per_symbol)
         opaque = sorted(self.opaque_angles, key=default_sort_key)
         self.angle_keys = [("x", b) for b in self.basis] + [("o", a) for a in opaque]
-        names = []
+        names: list[str] = []
         self.expr_of: list[sp.Expr] = []
         # roots first (highest in lex order), then sines, cosines, the rest
         for r in sorted(self.roots, key=default_sort_key):
@@ -308,7 +308,7 @@ class _Space:
         if e.is_Symbol:
             return self.gens[self.sym_index[e]], {}
         if e.is_Add:
-            acc = (R.zero, {})
+            acc: tuple = (R.zero, {})
             for a in e.args:
                 acc = _add(self, acc, self.convert(a))
             return acc
@@ -448,8 +448,10 @@ def _angle_basis(forms: set, denoms: dict, per_symbol_only: bool = False):
     fallback = [((x, sp.Rational(1, denoms[x])),) for x in symbols]
 
     def per_symbol(coeffs: dict) -> list:
-        return [(((x, sp.Rational(1, denoms[x])),), int(coeffs[x] * denoms[x]))
-                for x in sorted(coeffs, key=default_sort_key)]
+        return [
+            (((x, sp.Rational(1, denoms[x])),), int(coeffs[x] * denoms[x]))
+            for x in sorted(coeffs, key=default_sort_key)
+        ]
 
     def row(form) -> list:
         d = dict(form)
@@ -547,7 +549,7 @@ def _mul(space: _Space, a: tuple, b: tuple) -> tuple:
 
 
 def _power(space: _Space, a: tuple, n: int) -> tuple:
-    out = (space.ring.one, {})
+    out: tuple = (space.ring.one, {})
     for _ in range(n):
         out = _mul(space, out, a)
     return out
@@ -580,7 +582,7 @@ def _split_monomial(space: _Space, p: PolyElement) -> dict:
     """A denominator factor as {factor: exponent}: a monomial split into its generators
     (x^2 s -> {x: 2, s: 1}), anything else kept whole."""
     if len(p) == 1:
-        (m, _), = p.items()
+        ((m, _),) = p.items()
         return {space.gens[i]: k for i, k in enumerate(m) if k}
     return {p: 1}
 
@@ -868,9 +870,7 @@ def _solve_linear(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
     n = K.rows
     entries = list(K) + list(rhs)
     space = _Space(entries)
-    rows = [
-        [space.convert(K[i, j]) for j in range(n)] + [space.convert(rhs[i])] for i in range(n)
-    ]
+    rows = [[space.convert(K[i, j]) for j in range(n)] + [space.convert(rhs[i])] for i in range(n)]
     symbols = sorted(probe, key=default_sort_key)
     f = sp.lambdify(symbols, K, modules=["numpy"])
     with np.errstate(all="ignore"):
@@ -878,7 +878,7 @@ def _solve_linear(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
     if not np.all(np.isfinite(N)):
         raise ZeroDivisionError("the system is not finite at the probe point")
     scale = max(1.0, float(np.abs(N).max()))
-    zero = (space.ring.zero, {})
+    zero: tuple = (space.ring.zero, {})
     for col in range(n):
         piv = col + int(np.argmax(np.abs(N[col:, col])))
         if abs(N[piv, col]) <= 1e-10 * scale or not rows[piv][col][0]:
@@ -896,7 +896,8 @@ def _solve_linear(K: sp.Matrix, rhs: sp.Matrix, probe: dict) -> list[sp.Expr]:
             factor = rows[r][col]
             neg = (-factor[0], factor[1])
             rows[r] = [
-                rows[r][j] if j == col or not rows[col][j][0]
+                rows[r][j]
+                if j == col or not rows[col][j][0]
                 else _add(space, rows[r][j], _mul(space, neg, rows[col][j]))
                 for j in range(n + 1)
             ]

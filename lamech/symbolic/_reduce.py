@@ -336,8 +336,10 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
         except OverBudget:
             if len(unknowns) > CLOSED_FORM_LIMIT:
                 return ClosedForms(
-                    {}, {}, f"{len(unknowns)} unknowns: closed forms past the bounds of the "
-                    "normal forms (a larger budget may reach them)"
+                    {},
+                    {},
+                    f"{len(unknowns)} unknowns: closed forms past the bounds of the "
+                    "normal forms (a larger budget may reach them)",
                 )
             sol = _solve_bounded(K, rhs, probe)  # beyond the ring's bounds: as SymPy does
     except (ValueError, ZeroDivisionError, NonInvertibleMatrixError):

@@ -253,7 +253,14 @@ def _solve(system: System) -> Solution:
             notes.append(f"lambda_{name} on the energy shell omitted: {reason}")
     with labelled("conditions"):
         lets_go, slipping = _verdicts(
-            system, forms, initial, opened, vanishes, slips, closes, undecided,
+            system,
+            forms,
+            initial,
+            opened,
+            vanishes,
+            slips,
+            closes,
+            undecided,
             None if shell else why,
         )
     with labelled("forces"):
