@@ -30,6 +30,9 @@ B5  symbolic: derivation to the multipliers (equations -> every lambda in closed
     empty SymPy cache; beside them lamech's whole report (load + solve); for the
     four-bar linkage, the rolling disc and the double pendulum (polar and Cartesian);
     runs alone with ``--only B5`` (or ``--only symbolic``).
+B9  whole process (bench/solve.py): `lamech solve FILE` against a SymPy script
+    (LagrangesMethod + solve_multipliers) on the same problem, CPU time of each child
+    process, interleaved, beside `python -c "import sympy"`.
 B7  ensembles with events (bench/events.py): 1000 balls dropped on a floor (first
     contact) and 1000 cylinders rolling off the lecture's fixed cylinder (lift-off),
     lamech's ``integrate_events`` against ``mujoco.rollout``, runs/s at equal accuracy of
@@ -1387,7 +1390,8 @@ def bench_startup(repeats: int, lines: list[str]) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~4 minutes)")
-    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "B7", "symbolic"],
+    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "B7", "B9",
+                                       "symbolic", "solve"],
                     action="append",
                     help="run only these benchmarks (repeatable; symbolic is B5)")
     ap.add_argument("--out", default=None,
@@ -1402,8 +1406,8 @@ def main(argv=None) -> int:
     args.out = args.out or str(folder / "RESULTS.md")
     global PICTURE
     PICTURE = folder / "work_precision.png"
-    want = {"B5" if w == "symbolic" else w
-            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B7"])}
+    want = {{"symbolic": "B5", "solve": "B9"}.get(w, w)
+            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B7", "B9"])}
     lines = ["# lamech benchmark results", "",
              f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
              "shared machine are noisy (±20% and more while other work runs): the runs of "
@@ -1426,6 +1430,10 @@ def main(argv=None) -> int:
                  100 if args.quick else 500, 10.0, lines)
     if "B5" in want:
         bench_b5(60.0 if args.quick else 300.0, lines)
+    if "B9" in want:
+        from .solve import bench_solve
+
+        bench_solve(lines, 1 if args.quick else 3, 60.0 if args.quick else 300.0, args.quick)
     if "B7" in want:
         from .events import bench_b7
         bench_b7(100 if args.quick else 1000, args.quick, lines, 1 if args.quick else 3)
