@@ -4,9 +4,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
+import time
 
 from ._args import add_assignments, evaluate_assignments
 from ._files import add_data_dir
@@ -16,6 +18,31 @@ from ._simulate import add_parser as add_simulate  # light: argparse only
 from ._sweep import add_parser as add_sweep
 
 DEFAULT_PROBLEM = "cylinder"
+
+
+@contextlib.contextmanager
+def _progress():
+    """On a terminal, a solve that runs over a second says on stderr which stage it is
+    in (the symbolic layer's stage hook); the line is cleared when it ends."""
+    if not sys.stderr.isatty():
+        yield
+        return
+    from ..symbolic._normal import stage_hook
+
+    start = time.monotonic()
+    shown = [False]
+
+    def hook(stage: str) -> None:
+        if time.monotonic() - start > 1.0:
+            print(f"\rlamech: solving: {stage} ...\033[K", end="", file=sys.stderr, flush=True)
+            shown[0] = True
+
+    try:
+        with stage_hook(hook):
+            yield
+    finally:
+        if shown[0]:
+            print("\r\033[K", end="", file=sys.stderr, flush=True)
 
 
 def _positive_int(text: str) -> int:
@@ -188,7 +215,8 @@ def _dispatch(args: argparse.Namespace) -> int:
             system = _overridden(system, args.param, getattr(args, "initial", []))
         if getattr(args, "angles", False):
             system = _in_angles(system)
-        solution = solve(system, budget=getattr(args, "budget", None))
+        with _progress():
+            solution = solve(system, budget=getattr(args, "budget", None))
         if command == "modes":
             from ..present import modes_latex, modes_text
             from ..symbolic import modes

@@ -37,7 +37,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import functools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from math import lcm
 
@@ -126,12 +126,32 @@ def work_budget(units: int | Work | None = None) -> Iterator[Work]:
 @contextlib.contextmanager
 def labelled(label: str) -> Iterator[None]:
     """Name the results computed in the block (``"multipliers"``, ``"forces"``) for the
-    list of what was left untidied when the budget ran out."""
+    list of what was left untidied when the budget ran out, and tell the stage hook
+    (:func:`stage_hook`), if any."""
+    hook = _HOOK.get()
+    if hook is not None and label != _LABEL.get():
+        hook(label)
     token = _LABEL.set(label)
     try:
         yield
     finally:
         _LABEL.reset(token)
+
+
+_HOOK: contextvars.ContextVar[Callable[[str], None] | None] = contextvars.ContextVar(
+    "lamech_stage_hook", default=None
+)
+
+
+@contextlib.contextmanager
+def stage_hook(hook: Callable[[str], None]) -> Iterator[None]:
+    """Call ``hook(stage)`` as a solve inside the block enters each stage (the
+    multipliers, the energy, the conditions, the forces, ...): a progress display."""
+    token = _HOOK.set(hook)
+    try:
+        yield
+    finally:
+        _HOOK.reset(token)
 
 
 def current_work() -> Work | None:

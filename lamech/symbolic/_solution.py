@@ -165,7 +165,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
         isinstance(budget, bool) or not isinstance(budget, int) or budget <= 0
     ):
         raise ValueError(f"budget must be a positive whole number of work units, got {budget!r}")
-    with work_budget(budget) as work:
+    with work_budget(budget) as work, labelled("the equations of motion"):
         sol = _solve(system)
     untidied = tuple(dict.fromkeys(work.untidied))
     notes = sol.notes
