@@ -41,7 +41,7 @@ hol = [eval(e, ns).xreplace(rep) for e in {hol!r}]
 nonhol = [eval(e, ns).xreplace(rep) for e in {nonhol!r}]
 lm = LagrangesMethod(L, q, hol_coneqs=hol or None, nonhol_coneqs=nonhol or None)
 lm.form_lagranges_equations()
-lam = lm.solve_multipliers()
+lam = lm.solve_multipliers() if (hol or nonhol) else {}  # none to solve for
 for k, v in lam.items():
     print(k, "=", v)
 """
@@ -70,11 +70,15 @@ def sympy_script(system) -> str:
 
 
 def child_cpu(cmd: list[str], timeout: float) -> float | None:
-    """CPU seconds (user + system) of one child process, None past ``timeout``."""
+    """CPU seconds (user + system) of one child process; None past ``timeout`` or when it
+    fails (its error on stderr)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
         subprocess.run(cmd, capture_output=True, timeout=timeout, check=True, cwd=ROOT)
     except subprocess.TimeoutExpired:
+        return None
+    except subprocess.CalledProcessError as exc:
+        print(f"  ({' '.join(cmd[1:])} failed: {exc.stderr.decode()[-300:]})", file=sys.stderr)
         return None
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -123,8 +127,8 @@ def bench_solve(lines: list[str], repeats: int = 3, cap: float = 300.0, quick: b
             a = statistics.median(x for x in ours if x is not None) if all(ours) else None
             b = statistics.median(x for x in theirs if x is not None) if all(theirs) else None
             ratio = f"{a / b:.2f}×" if a and b else "—"
-            cell_a = f"{a:.2f}" if a else f"> {cap:.0f}"
-            cell_b = f"{b:.2f}" if b else f"> {cap:.0f}"
+            cell_a = f"{a:.2f}" if a else f"> {cap:.0f} or failed"
+            cell_b = f"{b:.2f}" if b else f"> {cap:.0f} or failed"
             row = (f"| {label} | {cell_a} | {cell_b} | {ratio} | "
                    f"{(a / base) if a else float('nan'):.1f}× |")
             print("  " + row)
