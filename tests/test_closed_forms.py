@@ -31,7 +31,6 @@ from __future__ import annotations
 import functools
 import math
 import random
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -859,54 +858,4 @@ def test_rolling_disc_steady_turn_friction_is_centripetal():
         )
 
 
-# ----- every simplification bounded in time (a SymPy call can take minutes) ----------
-def test_a_simplification_past_its_bound_gives_the_expression_back():
-    """An endless SymPy computation is stopped at the bound: the solve goes on with the
-    expression as it was, so no problem can hang the symbolic path."""
-    from lamech.symbolic import simplification_bound, tidy
-
-    calls = []
-    real = sp.simplify
-
-    def endless(e, *args, **kwargs):
-        calls.append(e)
-        while True:  # pure Python, as SymPy is: the timer interrupts it
-            real(sp.sin(e) ** 2 + sp.cos(e) ** 2 + sp.Symbol(f"z{len(calls)}"))
-
-    x = sp.Symbol("x")
-    e = sp.sin(x) ** 2 + sp.cos(x) ** 2 + x
-    t0 = time.perf_counter()
-    with pytest.MonkeyPatch.context() as mp, simplification_bound(0.2):
-        mp.setattr(sp, "simplify", endless)
-        assert tidy(e) == e
-    assert calls and time.perf_counter() - t0 < 5
-    assert tidy(e) == x + 1  # the bound is back to its default
-
-
-def test_a_tight_bound_gives_the_same_multipliers_less_tidy():
-    """The double pendulum with every simplification cut at 1 ms: the same functions
-    (equal at random states), whatever their written form."""
-    from lamech.symbolic import simplification_bound
-
-    text = lamech.load("double_pendulum")
-    full = lamech.solve(text)
-    with simplification_bound(0.001):
-        cut = lamech.solve(text)
-    rng = np.random.default_rng(5)
-    S = full.symbols
-    names = ["theta1", "theta2", "theta1'", "theta2'"]
-    for values in rng.uniform(-2, 2, size=(3, 4)):
-        env = {**full.system.parameter_values, full.system.t: 0}
-        env.update({S[n]: v for n, v in zip(names, values)})
-        for k in full.multipliers:
-            a = float(full.multipliers[k].xreplace(env))
-            b = float(cut.multipliers[k].xreplace(env))
-            assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
-
-
-def test_the_bound_must_be_positive():
-    from lamech.symbolic import simplification_bound
-
-    with pytest.raises(ValueError, match="must be positive"):
-        with simplification_bound(0):
-            pass
+# ----- every simplification bounded by counted work: see tests/test_normal.py ----------

@@ -22,7 +22,7 @@ from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._modes import Equilibrium, Linear, Mode, Modes, check_modes, modes
 from ._multipliers import multipliers
-from ._normal import DEFAULT_BUDGET, Work, work_budget
+from ._normal import DEFAULT_BUDGET, OverBudget, Work, is_zero, normal, to_rational, work_budget
 from ._reduce import (
     CLOSED_FORM_LIMIT,
     KKT_OPS,
@@ -53,6 +53,10 @@ __all__ = [
     "DEFAULT_BUDGET",
     "Work",
     "work_budget",
+    "OverBudget",
+    "normal",
+    "is_zero",
+    "to_rational",
     "count_ops",
     "Integrals",
     "integrals",
