@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from lamech._outputs import OutputError, atomic_output, check_output
+from lamech.outputs import OutputError, atomic_output, check_output
 from lamech.cli import main
 
 FAST = ["--t-end", "0.2", "--samples", "11"]

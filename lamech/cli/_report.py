@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         plots = True
         matplotlib.use("Agg")
-    from .._outputs import check_output, write_output
+    from ..outputs import check_output, write_output
     from ..model import ModelError, with_values
     from ..numeric import SimulationError, simulate
     from ..present import report_page

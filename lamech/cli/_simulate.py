@@ -192,7 +192,7 @@ def _check_output_size(args, coordinates: int) -> None:
 def _check_outputs(args) -> None:
     """OutputError (a ValueError) for an output that is not a regular file or whose
     suffix is not its format, before anything runs."""
-    from .._outputs import check_output
+    from ..outputs import check_output
     from ..present._animate import FORMATS as ANIMATION_FORMATS
 
     if args.out:

@@ -128,7 +128,7 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
-    from .._outputs import OutputError, check_output
+    from ..outputs import OutputError, check_output
     from ..present import plot_sweep
     from ..problem import ProblemFileError, load
     from ..sweeps import SweepError, parse_assignment, run_sweep
@@ -144,16 +144,16 @@ def _run(args) -> int:
         initial = dict(parse_assignment(p, "--initial") for p in args.initial)
         if args.out == "-":
             args.out = None  # the table on standard output, as without --out
+        try:  # the most specific message first: the problem file itself
+            refuse_overwriting_input(args.problem, {"--out": args.out, "--plot": args.plot})
+        except ValueError as exc:
+            raise SweepError(str(exc)) from None
         if args.out:
             check_output(args.out, (".csv", ".parquet"), "--out", stdout=True)
         if args.plot:
             check_output(args.plot, PLOT_FORMATS, "--plot")
         if args.resume and not args.out:
             raise SweepError("--resume needs --out (the table to resume)")
-        try:
-            refuse_overwriting_input(args.problem, {"--out": args.out, "--plot": args.plot})
-        except ValueError as exc:
-            raise SweepError(str(exc)) from None
         if args.out and args.out.lower().endswith(".parquet"):
             try:
                 import pyarrow  # noqa: F401

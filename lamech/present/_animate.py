@@ -27,7 +27,7 @@ from typing import cast
 import numpy as np
 import sympy as sp
 
-from .._outputs import atomic_output, write_output
+from ..outputs import atomic_output, write_output
 
 __all__ = ["animate", "Scene", "FORMATS"]
 

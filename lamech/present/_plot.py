@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._outputs import write_output
+from ..outputs import write_output
 
 __all__ = ["plot_trajectory"]
 

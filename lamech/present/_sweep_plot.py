@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from .._outputs import write_output
+from ..outputs import write_output
 from ..sweeps import SweepError, SweepRun
 
 __all__ = ["plot_sweep"]

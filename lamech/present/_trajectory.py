@@ -8,7 +8,7 @@ import io
 import math
 from pathlib import Path
 
-from .._outputs import write_output
+from ..outputs import write_output
 
 __all__ = ["trajectory_text", "trajectory_csv"]
 
@@ -25,7 +25,7 @@ def _g(x) -> str:
 
 def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
     """Write the CSV of ``traj.columns()`` to ``path`` (a .csv file, by
-    :func:`lamech._outputs.write_output`); return the text when None."""
+    :func:`lamech.outputs.write_output`); return the text when None."""
     cols = traj.columns()
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")

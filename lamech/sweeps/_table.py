@@ -23,7 +23,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from .._outputs import write_output
+from ..outputs import write_output
 from ._parse import SweepError
 
 __all__ = ["Table", "format_value", "STATUSES"]
