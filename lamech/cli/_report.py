@@ -87,9 +87,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         plots = True
         matplotlib.use("Agg")
-    from ..outputs import check_output, write_output
     from ..model import ModelError, with_values
     from ..numeric import SimulationError, simulate
+    from ..outputs import check_output, write_output
     from ..present import report_page
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError, solve, steps
