@@ -36,7 +36,7 @@ def _client(app) -> TestClient:
 
 @pytest.fixture(scope="module")
 def client():
-    with _client(make_app(timeout=120, token=TOKEN, port=8765)) as c:
+    with _client(make_app(timeout=500, token=TOKEN, port=8765)) as c:
         yield c
 
 
@@ -131,7 +131,7 @@ def test_the_page_in_headless_chromium(chromium):
         page.click("#solve")
         page.wait_for_function(
             "document.getElementById('status').textContent.startsWith('done')",
-            timeout=120_000,
+            timeout=400_000,  # niced work on a busy 2-core machine
         )
         assert "contact lets go at theta1 = 55.15°" in page.inner_text("#status")
         report = page.frame_locator("#result")
@@ -148,7 +148,7 @@ def test_the_page_in_headless_chromium(chromium):
         page.click("#simulate")
         page.wait_for_function(
             "document.getElementById('status').textContent.startsWith('done')",
-            timeout=120_000,
+            timeout=400_000,  # niced work on a busy 2-core machine
         )
         said = page.inner_text("#status")
         assert "simulated: rolling slip at t = " in said, said
@@ -164,7 +164,7 @@ def test_the_page_in_headless_chromium(chromium):
         page.click("#sweep")
         page.wait_for_function(
             "document.getElementById('status').textContent.startsWith('sweep done')",
-            timeout=120_000,
+            timeout=400_000,  # niced work on a busy 2-core machine
         )
         assert page.locator("#progress").get_attribute("max") == "3"
         report.locator("th", has_text="slip:theta1").wait_for(timeout=30_000)
