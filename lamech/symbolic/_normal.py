@@ -798,6 +798,8 @@ def _presentations(space: _Space, num: PolyElement, den: dict, velocities: tuple
     """Printed forms of num / den: the numerator expanded, factored when short (each
     factor collected by the velocities' powers), and collected by those powers with
     factored coefficients."""
+    if not velocities:  # lamech's velocities are the symbols written x'
+        velocities = tuple(v for v in space.sym_index if v.name.endswith("'"))
     vel_idx = tuple(space.sym_index[v] for v in velocities if v in space.sym_index)
     dens = []
     for f, k in sorted(den.items(), key=lambda fk: _poly_key(fk[0])):
@@ -810,7 +812,7 @@ def _presentations(space: _Space, num: PolyElement, den: dict, velocities: tuple
     c = sp.Rational(int(content.numerator), int(content.denominator))
     yield c * space.to_expr(prim) / D
     if len(prim) <= FACTOR_TERMS:
-        yield c * _factored(space, prim, vel_idx) / D
+        yield _factored(space, prim, vel_idx, c, 1 / D)
     if vel_idx and len(prim) > 1:
         yield c * _collected(space, prim, vel_idx) / D
 
@@ -831,26 +833,28 @@ def _collected(space: _Space, p: PolyElement, vel_idx: tuple) -> sp.Expr:
     for key in sorted(groups, reverse=True):
         coeff = space.ring(dict(groups[key]))
         vpart = sp.Mul(*[space.expr_of[i] ** k for i, k in zip(vel_idx, key)])
-        terms.append(vpart * _factored(space, coeff))
+        terms.append(_factored(space, coeff, (), vpart))
     return sp.Add(*terms)
 
 
-def _factored(space: _Space, p: PolyElement, vel_idx: tuple = ()) -> sp.Expr:
+def _factored(space: _Space, p: PolyElement, vel_idx: tuple = (), *more: sp.Expr) -> sp.Expr:
     """``p`` as a product of its irreducible factors (when short), each collected by the
-    velocities (``vel_idx``) where that is shorter; else expanded."""
+    velocities (``vel_idx``) where that is shorter; else expanded. Multiplied by ``more``
+    in one product, so that a number stays outside a sum (3 (R1 + R2), which SymPy's
+    two-factor product would distribute to 3 R1 + 3 R2)."""
     if len(p) <= 1 or len(p) > FACTOR_TERMS:
-        return space.to_expr(p)
+        return sp.Mul(space.to_expr(p), *more)
     _charge(len(p) ** 3)
     coeff, factors = _factor_list(p)
-    out = sp.Rational(int(coeff.numerator), int(coeff.denominator))
+    parts: list = [sp.Rational(int(coeff.numerator), int(coeff.denominator)), *more]
     for f, k in factors:
         e = space.to_expr(f)
         if vel_idx and len(f) > 2 and any(m[i] for m in f for i in vel_idx):
             grouped = _collected(space, f, vel_idx)
             if _ops(grouped) <= _ops(e):
                 e = grouped
-        out *= e**k
-    return out
+        parts.append(e**k)
+    return sp.Mul(*parts)
 
 
 @functools.lru_cache(maxsize=4096)
