@@ -211,8 +211,11 @@ def _die_with_sweep(sweep: int) -> None:
 
 COMPILED_CASES = 500
 """From this many cases a sweep compiles its loop with numba even when the compiled code is
-not yet in the cache on disk (a minute, once per machine and problem); smaller sweeps run
+not yet in the cache on disk (a minute, once per machine); smaller sweeps run
 the loop as Python unless it is cached."""
+SYSTEM_CASES = 16
+"""With the loop compiled on this machine (once, for every system), the cases from which
+``auto`` compiles a new system's own functions (a few seconds) to run them compiled."""
 CHUNK = 256
 """Cases per call of the compiled loop: rows are recorded (and Ctrl-C is seen) between
 calls."""
@@ -660,7 +663,11 @@ def _run_compiled(ns, plan: _Plan, cases, todo, record, workers, engine) -> tupl
     want, to_end = how
     jit = engine == "compiled" and numba_available()
     if engine == "auto":  # numba imported only where it will be used (0.3 s)
-        jit = jit_is_cached(ns, "ev_run_one") or (len(todo) >= COMPILED_CASES and numba_available())
+        # the loop is compiled once per machine; a system's own functions cost seconds
+        jit = jit_is_cached(ns, "ev_run_one") or (
+            len(todo) >= (SYSTEM_CASES if jit_is_cached(None, "ev_run_one") else COMPILED_CASES)
+            and numba_available()
+        )
     names = list(cases[todo[0]])
     coords, n = ns.coordinate_names, ns.n
     threads = workers or _cpus()  # threads of the compiled loop (it releases the GIL)
