@@ -370,6 +370,53 @@ def _record(namespace: dict, pattern, diagonal: bool) -> tuple:
     return sy
 
 
+def _entry_arguments(sy: tuple) -> dict:
+    """Arguments of the types the callers pass to each of the engine's entry points
+    (:mod:`._loop`, :mod:`._batch`, :mod:`._run`): values that are never run, only typed,
+    so that the whole engine is compiled at once."""
+    from ._batch import _dense_tableau, _tableau
+
+    f1, f2, f3 = np.zeros(2), np.zeros((1, 2)), np.zeros((1, 1, 2))
+    i1, i2, i3 = (
+        np.zeros(1, dtype=np.int64),
+        np.zeros((3, 1), dtype=np.int64),
+        np.zeros((1, 4, 1), dtype=np.int64),
+    )
+    b1 = np.zeros(1, dtype=np.bool_)
+    tab = (*_tableau(), *_dense_tableau())
+    x = 0.0
+    return {
+        "ev_segment": (
+            x, f1, x, x, f1, x, x, x, 1, tab, i2, i2, f2, x, x, x, x, i2, b1, True, True, i1,
+            i1, f1, f2, f2, 0, f1, f2, f2, f2, i1, f1, f1,
+        ),
+        "ev_run": (
+            f2, f2, x, x, x, x, 1, tab, i2, i3, f3, x, x, x, x, x, i2, True, True, i2, i2, f2,
+            f3, f3, f2, f1, i1, i1, i1,
+        ),
+        "ev_starts": (f2, f2, f2, b1, b1, f1, f1, i2, x),
+        "batch_run": (f2, f2, x, x, x, 1, *tab[:5], f2, i1),
+        "batch_run_serial": (f2, f2, x, x, x, 1, *tab[:5], f2, i1),
+        "rhs_kernel": (x, f1, f1, i1, i1, i1, f1),
+        "accelerations": (x, f1, f1),
+        "kkt_solve": (f2, f1, f2, f1, f1, i1, i1, i1, f1),
+    }  # fmt: skip
+
+
+def _precompile(engine: dict, sy: tuple) -> None:
+    """Compile (or load) every entry point of the engine not yet in the cache on disk:
+    the loop is compiled once per machine, whichever of simulate, a sweep or the batch
+    loop runs first. Types only: nothing runs."""
+    import numba
+
+    name = engine["__name__"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for entry, args in _entry_arguments(sy).items():
+            if not _nbi(name, entry):
+                engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
+
+
 def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
     """The compiled functions of the system whose generated ``source`` is given, with its
     sparsity ``pattern`` (:func:`._kkt.sparsity`) and ``diagonal`` M: the system's own
@@ -399,6 +446,8 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
             _jit_system(namespace, cache=False)
             state, path = "memory", None
         sy = _record(namespace, pattern, diagonal)
+        if path is not None:  # a cache on disk: the whole engine, once per machine
+            _precompile(engine, sy)
         kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
         _LOADED[name] = kernels
         return kernels
