@@ -143,8 +143,8 @@ def _python_namespace(ns: NumericSystem) -> dict:
                 namespace[name] = types.FunctionType(f.__code__, namespace, name)
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
     namespace["sy"] = (
-        ns.dynamics, None, ns.constraints, ns.energy, ns.restitution, *arrays,
-        bool(ns.mass_diagonal),
+        bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
+        ns.restitution,
     )  # fmt: skip
     return namespace
 

@@ -365,7 +365,8 @@ def _record(namespace: dict, pattern, diagonal: bool) -> tuple:
     """The system record (:data:`._kernels.SYSTEM_FIELDS`) of the compiled module."""
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in pattern)
     functions = tuple(namespace[c] for c, _, _ in _CFUNCS)
-    sy = (*functions, *arrays, bool(diagonal))
+    # a flag first: numba then types the tuple without trying to unify its functions
+    sy = (bool(diagonal), *arrays, *functions)
     assert len(sy) == len(SYSTEM_FIELDS)
     return sy
 

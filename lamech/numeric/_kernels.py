@@ -45,24 +45,24 @@ STAGES = 12
 
 
 SYSTEM_FIELDS = (
-    "dynamics",
-    "dynamics_sparse",
-    "constraints",
-    "energy",
-    "restitution",
+    "diagonal",
     "PTR",
     "IDX",
     "CPTR",
     "CROW",
     "CPOS",
-    "diagonal",
+    "dynamics",
+    "dynamics_sparse",
+    "constraints",
+    "energy",
+    "restitution",
 )
-"""The system record ``sy`` every kernel takes first, a tuple in this order: the
-generated functions of :mod:`._codegen` (``dynamics(t, q, v, p)`` -> (M, rhs, A, gamma,
+"""The system record ``sy`` every kernel takes first, a tuple in this order: whether M
+is diagonal, the sparsity pattern of A (:func:`._kkt.sparsity`), and the generated
+functions of :mod:`._codegen` (``dynamics(t, q, v, p)`` -> (M, rhs, A, gamma,
 mu); ``dynamics_sparse`` -> (M's diagonal, rhs, A's nonzeros in CSR order, gamma, mu);
 ``constraints(t, q, p)`` -> (f, A, b); ``energy(t, q, v, p)`` -> (T, V) as an array;
-``restitution(t, q, p)`` -> e), the sparsity pattern of A (:func:`._kkt.sparsity`) and
-whether M is diagonal. Compiled, the functions are numba cfuncs of one signature for
+``restitution(t, q, p)`` -> e). Compiled, the functions are numba cfuncs of one signature for
 every system (:mod:`._jitcache`), so that the loop is compiled once, not per system."""
 prange = range  # numba.prange in the compiled module
 
@@ -83,27 +83,27 @@ def kernel_text() -> str:
 # that this code is compiled once for every system) and its sparsity pattern.
 def dynamics(sy, t, q, v, p):
     """(M, rhs, A, gamma, mu) of the system."""
-    return sy[0](t, q, v, p)
+    return sy[6](t, q, v, p)
 
 
 def dynamics_sparse(sy, t, q, v, p):
     """(diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)."""
-    return sy[1](t, q, v, p)
+    return sy[7](t, q, v, p)
 
 
 def constraints(sy, t, q, p):
     """(f, A, b) with F = A v + b."""
-    return sy[2](t, q, p)
+    return sy[8](t, q, p)
 
 
 def energy(sy, t, q, v, p):
     """(T, V)."""
-    return sy[3](t, q, v, p)
+    return sy[9](t, q, v, p)
 
 
 def restitution(sy, t, q, p):
     """e per constraint."""
-    return sy[4](t, q, p)
+    return sy[10](t, q, p)
 
 
 def kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
@@ -133,7 +133,7 @@ def kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
 
 def kkt_schur(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
     """:func:`kkt_schur_sparse` on dense M and A (the simulator's solve at a state)."""
-    PTR, IDX = sy[5], sy[6]
+    PTR, IDX = sy[1], sy[2]
     n = rhs.shape[0]
     Md = np.empty(n)
     for i in range(n):
@@ -147,7 +147,7 @@ def kkt_schur(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
 
 def dense_matrices(sy, Md, Av):
     """M and A as matrices from their structural nonzeros."""
-    PTR, IDX = sy[5], sy[6]
+    PTR, IDX = sy[1], sy[2]
     n = Md.shape[0]
     M = np.zeros((n, n))
     for i in range(n):
@@ -164,7 +164,7 @@ def kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
     nonzeros ``Av`` (by row: PTR, IDX; by column: CPTR, CROW, and CPOS their positions
     in Av). Nothing of size n x n or m x n is formed, unless a zero M_ii or dependent rows
     send it to the full KKT matrix."""
-    PTR, IDX, CPTR, CROW, CPOS = sy[5], sy[6], sy[7], sy[8], sy[9]
+    PTR, IDX, CPTR, CROW, CPOS = sy[1], sy[2], sy[3], sy[4], sy[5]
     n = rhs.shape[0]
     m = PTR.shape[0] - 1
     na = rows.shape[0]
@@ -230,9 +230,9 @@ def kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
 
 
 def kkt_solve(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
-    """The solve at a state: :func:`kkt_schur` where M is diagonal (``sy[10]``), else
+    """The solve at a state: :func:`kkt_schur` where M is diagonal (``sy[0]``), else
     :func:`kkt_dense`."""
-    if sy[10]:
+    if sy[0]:
         return kkt_schur(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
     return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
 
@@ -240,7 +240,7 @@ def kkt_solve(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
 def kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c):
     """[q''; lambda_rows] at a state: the generated functions and the solve, over the
     structural nonzeros where M is diagonal (no n x n M or m x n A filled per call)."""
-    if sy[10]:
+    if sy[0]:
         Md, rhs, Av, gam, mu = dynamics_sparse(sy, t, q, v, p)
         return kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
     M, rhs, A, gam, mu = dynamics(sy, t, q, v, p)
@@ -266,7 +266,7 @@ def accelerations(sy, t, y, p):
     # writable arrays of rhs_kernel's types, so that numba reuses the compiled solve
     # (read-only constant arrays would compile it again: 2 s more)
     none = np.zeros(0, dtype=np.int64)
-    rows = np.arange(sy[5].shape[0] - 1)
+    rows = np.arange(sy[1].shape[0] - 1)
     return kkt_state(sy, t, y[:n].copy(), y[n:].copy(), p, rows, none, none, np.zeros(0))
 
 
@@ -356,7 +356,7 @@ def batch_run_one(sy, y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
     K = np.zeros((STAGES + 1, N))
     f = np.zeros(N)
     batch_deriv(sy, t, y, p, f)
-    rows = np.arange(sy[5].shape[0] - 1)  # every constraint active
+    rows = np.arange(sy[1].shape[0] - 1)  # every constraint active
     none = np.zeros(0, dtype=np.int64)
     nothing = np.zeros(0)
     h = ev_first_step(sy, t, y, f, p, rows, none, none, nothing, t_end, np.inf, rtol, atol)
