@@ -1,26 +1,21 @@
-"""The compiled kernels of the hot path, as text for each system's generated module.
+"""The kernels of the hot path: the KKT solves, DOP853's step, the batch loop and the loop
+with events with its contact rules, as plain Python that numba compiles.
 
-numba compiles a system's KKT solve and right-hand sides from one module per system
-(:mod:`._jitcache`): the generated functions of its derivation (``dynamics``,
-``constraints``: :mod:`._codegen`), its sparsity pattern as module constants (``PTR``,
-``IDX``, ``CPTR``, ``CROW``: :func:`._kkt.sparsity`) and ``DIAGONAL``, the loops of
-:func:`lamech.linalg.gauss_inplace` and :func:`lamech.linalg.cholesky_inplace`, and the
-text of this file below the ``KERNELS`` line. Module-level functions over module-level
-constants, not closures: that is what lets numba cache the compiled code on disk
-(``cache=True`` keys a closure's cache by its cells, and a cell holding another compiled
-function pickles differently in every process, so a closure is compiled anew in each).
-
-The names above the ``KERNELS`` line stand in for those the generated module defines
-(they make this file a module that can be imported and checked by itself). The compiled
-solve is the twin of :func:`._kkt.kkt_solve_numpy` (the same system, the same numbers to
-rounding):
+Every kernel below the ``KERNELS`` line takes the system record ``sy``
+(:data:`SYSTEM_FIELDS`) first: the system's generated functions and its sparsity pattern
+arrive as arguments, not as module globals, so that the same compiled code serves every
+system. :mod:`._jitcache` compiles this text once per machine (numba's cache on disk),
+with each system's functions as numba cfuncs (first-class functions of one signature);
+:mod:`._batch` runs the same functions as Python around the NumPy ones (the same
+numbers, slowly). The compiled solve is the twin of :func:`._kkt.kkt_solve_numpy` (the
+same system, the same numbers to rounding):
 
 The KKT system  M q'' - A_r^T lambda + sum_s c_s A_{j_s}^T lambda_{k_s} = rhs,
 A_r q'' = -gamma_r  on the active ``rows`` (a slipping friction row j_s on the normal
 row at position k_s adds its kinetic friction, c_s = mu_j * slip_c[s]).
 
-``DIAGONAL`` (known from the symbolic M, as for particles and planar bodies in maximal
-coordinates): while every M_ii is nonzero, the Schur complement
+Where M is diagonal (``sy[0]``, known from the symbolic M, as for particles and planar
+bodies in maximal coordinates): while every M_ii is nonzero, the Schur complement
 S lambda = -gamma_r - A_r M^-1 rhs with S = A_r M^-1 G^T (m x m) replaces the
 (n + m)-square elimination (8-link chain: 24 x 24 -> 8 x 8), and every product runs over
 the structural nonzeros of A only. S is factored by Cholesky when it is symmetric
