@@ -549,8 +549,9 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     """Generate and compile the numeric functions of ``system`` (see the module docstring).
 
     ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise);
-    ``jit=None`` uses it where this system's compiled form is in the cache on disk (a
-    load, not a compile: :mod:`._jitcache`), else NumPy.
+    ``jit=None`` uses it where numba's loop is in the cache on disk (compiled once on
+    this machine, for every system: the system's own functions are then compiled in
+    seconds, or loaded: :mod:`._jitcache`), else NumPy.
     """
     import time as _time
 
