@@ -99,9 +99,31 @@ def engine_text() -> str:
             f"PROJECTION_ITERATIONS = {PROJECTION_ITERATIONS!r}",
             "",
             "",
-            kernel_text(),
+            _compiled_accessors(kernel_text()),
         ]
     )
+
+
+_ACCESSORS = {
+    "sy[6](": "as_dynamics(sy[6])(",
+    "sy[7](": "as_dynamics_sparse(sy[7])(",
+    "sy[8](": "as_constraints(sy[8])(",
+    "sy[9](": "as_energy(sy[9])(",
+    "sy[10](": "as_restitution(sy[10])(",
+}
+
+
+def _compiled_accessors(text: str) -> str:
+    """The kernels' text with the system's functions, addresses in the compiled record,
+    cast back to first-class functions (:mod:`._fnptr`)."""
+    for a, b in _ACCESSORS.items():
+        assert text.count(a) == 1, a
+        text = text.replace(a, b)
+    imports = (
+        "from lamech.numeric._fnptr import (\n    as_constraints,\n    as_dynamics,\n"
+        "    as_dynamics_sparse,\n    as_energy,\n    as_restitution,\n)\n\n\n"
+    )
+    return imports + text
 
 
 # the system's functions the loop calls, as cfuncs: (name, generated function, signature)
@@ -141,16 +163,9 @@ def system_text(source: str) -> str:
 
 def _signatures() -> dict:
     """The cfuncs' signatures: one for every system (C-contiguous float64 arrays)."""
-    from numba import types
+    from ._fnptr import SIGNATURES
 
-    a1, a2, f = types.float64[::1], types.float64[:, ::1], types.float64
-    return {
-        "c_dynamics": types.Tuple((a2, a1, a2, a1, a1))(f, a1, a1, a1),
-        "c_dynamics_sparse": types.Tuple((a1, a1, a1, a1, a1))(f, a1, a1, a1),
-        "c_constraints": types.Tuple((a1, a2, a1))(f, a1, a1),
-        "c_energy": a1(f, a1, a1, a1),
-        "c_restitution": a1(f, a1, a1),
-    }
+    return SIGNATURES
 
 
 def _versions() -> str:
@@ -370,37 +385,13 @@ def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
     return out
 
 
-class _Record(tuple):
-    """The system record as numba receives it from Python: a tuple whose numba type is
-    worked out once (typing a tuple of first-class functions took 0.65 ms a call: the
-    simulator calls the compiled right-hand side from Python thousands of times)."""
-
-    _numba_type_: object = None
-
-
-_TYPEOF_REGISTERED = []
-
-
-def _register_typeof() -> None:
-    if not _TYPEOF_REGISTERED:
-        from numba.extending import typeof_impl
-
-        typeof_impl.register(_Record)(lambda val, c: val._numba_type_)
-        _TYPEOF_REGISTERED.append(True)
-
-
 def _record(namespace: dict, pattern, diagonal: bool) -> tuple:
-    """The system record (:data:`._kernels.SYSTEM_FIELDS`) of the compiled module."""
-    import numba
-
+    """The system record (:data:`._kernels.SYSTEM_FIELDS`) of the compiled module: the
+    cfuncs as their addresses (:mod:`._fnptr`; the module keeps them alive)."""
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in pattern)
-    functions = tuple(namespace[c] for c, _, _ in _CFUNCS)
-    # a flag first: numba then types the tuple without trying to unify its functions
-    plain = (bool(diagonal), *arrays, *functions)
-    assert len(plain) == len(SYSTEM_FIELDS)
-    _register_typeof()
-    sy = _Record(plain)
-    sy._numba_type_ = numba.typeof(plain)
+    functions = tuple(int(namespace[c].address) for c, _, _ in _CFUNCS)
+    sy = (bool(diagonal), *arrays, *functions)
+    assert len(sy) == len(SYSTEM_FIELDS)
     return sy
 
 
@@ -483,6 +474,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
         if path is not None:  # a cache on disk: the whole engine, once per machine
             _precompile(engine, sy)
         kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
+        kernels.namespace = namespace  # type: ignore[attr-defined]  # the cfuncs sy points to
         _LOADED[name] = kernels
         return kernels
 

@@ -57,8 +57,9 @@ is diagonal, the sparsity pattern of A (:func:`._kkt.sparsity`), and the generat
 functions of :mod:`._codegen` (``dynamics(t, q, v, p)`` -> (M, rhs, A, gamma,
 mu); ``dynamics_sparse`` -> (M's diagonal, rhs, A's nonzeros in CSR order, gamma, mu);
 ``constraints(t, q, p)`` -> (f, A, b); ``energy(t, q, v, p)`` -> (T, V) as an array;
-``restitution(t, q, p)`` -> e). Compiled, the functions are numba cfuncs of one signature for
-every system (:mod:`._jitcache`), so that the loop is compiled once, not per system."""
+``restitution(t, q, p)`` -> e). Compiled, the functions are the addresses of numba
+cfuncs of one signature for every system (:mod:`._jitcache`, :mod:`._fnptr`), so that the
+loop is compiled once, not per system."""
 prange = range  # numba.prange in the compiled module
 
 
