@@ -275,6 +275,7 @@ class Kernels:
         self.sy = sy
         self.cache = cache
         self.path = path
+        self.namespace: dict = {}  # the system's module: it keeps the cfuncs sy points to
 
 
 _LOADED: dict[str, Kernels] = {}
@@ -374,7 +375,7 @@ def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
             return f(sy, *args)
 
         call.__name__ = getattr(f, "__name__", "kernel")
-        call.engine_function = f  # type: ignore[attr-defined]
+        call.engine_function = f
         return call
 
     out = {k: bound(engine[k]) for k in (
@@ -474,7 +475,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
         if path is not None:  # a cache on disk: the whole engine, once per machine
             _precompile(engine, sy)
         kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
-        kernels.namespace = namespace  # type: ignore[attr-defined]  # the cfuncs sy points to
+        kernels.namespace = namespace
         _LOADED[name] = kernels
         return kernels
 

@@ -625,8 +625,6 @@ def _run_cases(
     return run
 
 
-
-
 def _compiled_measures(plan: _Plan, ns) -> tuple[list, bool] | None:
     """(the events the measures want [(kind, constraint or None)], whether the runs must
     go on to t_end) when the compiled loop can give every measure, else None."""
