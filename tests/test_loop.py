@@ -69,7 +69,7 @@ CASES = {
 def _pair(name):
     text, t_end, kw = CASES[name]
     ns = compile_system(lamech.loads(text))
-    return (simulate(ns, t_end, engine="scipy", **kw), simulate(ns, t_end, engine="loop", **kw))
+    return (simulate(ns, t_end, engine="scipy", **kw), simulate(ns, t_end, engine="python", **kw))
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -122,13 +122,13 @@ def test_the_ball_bounces_and_rests_through_the_loop():
 
 def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, monkeypatch):
     system = lamech.load("pendulum")
-    with pytest.raises(SimulationError, match="engine 'loop' cannot run this problem: method "):
-        simulate(system, 1.0, engine="loop", method="Radau")
-    with pytest.raises(SimulationError, match="engine must be one of auto, loop, scipy"):
+    with pytest.raises(SimulationError, match="engine 'python' cannot run this problem: method "):
+        simulate(system, 1.0, engine="python", method="Radau")
+    with pytest.raises(SimulationError, match="engine must be one of auto, compiled, python, scipy"):
         simulate(system, 1.0, engine="cvode")
     shaken = _example("pendulum", 'V = "', 'V = "sin(t) + ')
     with pytest.raises(SimulationError, match="t in L, a constraint or a force"):
-        simulate(lamech.loads(shaken), 1.0, engine="loop")
+        simulate(lamech.loads(shaken), 1.0, engine="python")
     tr = simulate(system, 1.0, method="Radau")
     assert tr.engine == "SciPy Radau" and tr.status == "ok"
     # the default where the problem was never compiled: SciPy's integrator
@@ -138,7 +138,7 @@ def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, m
 
 def test_progress_is_called_between_the_loops_chunks():
     seen = []
-    tr = simulate(lamech.load("pendulum"), 1000.0, engine="loop", samples=11, rtol=1e-8,
+    tr = simulate(lamech.load("pendulum"), 1000.0, engine="python", samples=11, rtol=1e-8,
                   atol=1e-10, progress=seen.append)
     assert tr.status == "ok" and tr.steps > 4000
     assert len(seen) >= tr.steps // 2000 and seen == sorted(seen) and seen[-1] == 1000.0
@@ -250,7 +250,7 @@ def test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself(name
     make, t_end, kw = IMPACT_CASES[name]
     ns = compile_system(lamech.loads(make()))
     a = simulate(ns, t_end, engine="scipy", **kw)
-    b = simulate(ns, t_end, engine="loop", **kw)
+    b = simulate(ns, t_end, engine="python", **kw)
     _same_runs(a, b)
     impacts = [e for e in b.events if e.kind == "impact"]
     contacts = [e for e in b.events if e.kind == "contact"]
@@ -277,7 +277,7 @@ def test_the_zeno_bounces_rest_at_the_accumulation_time_through_the_loop():
     (1 - e)), the contact at t1 (1 + e) / (1 - e) (to the accumulation of the bounces
     too small to resolve), at rest on the floor after it."""
     ns = compile_system(lamech.loads(_zeno_problem("ball")))
-    b = simulate(ns, 10.0, engine="loop")
+    b = simulate(ns, 10.0, engine="python")
     e, t1 = 0.8, math.sqrt(2 / G)
     impacts = [ev for ev in b.events if ev.kind == "impact"]
     for k, ev in enumerate(impacts[:10]):
@@ -298,7 +298,7 @@ def test_integrate_events_applies_impacts_in_the_loop_when_asked():
     for name in ("zeno ball", "slip through"):
         make, t_end, kw = IMPACT_CASES[name]
         ns = compile_system(lamech.loads(make()))
-        tr = simulate(ns, t_end, engine="loop", **kw)
+        tr = simulate(ns, t_end, engine="python", **kw)
         params = kw.get("params")
         y0 = np.concatenate((tr.q[0], tr.qd[0]))
         res = integrate_events(ns, [y0], t_end, params=params, max_events=128,
@@ -326,7 +326,7 @@ def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers(tmp_path, m
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     for name in ("zeno ball", "slip through"):
         make, t_end, kw = IMPACT_CASES[name]
-        a = simulate(compile_system(lamech.loads(make())), t_end, engine="loop", **kw)
+        a = simulate(compile_system(lamech.loads(make())), t_end, engine="python", **kw)
         b = simulate(lamech.loads(make()), t_end, jit=True, **kw)
         assert a.engine == "loop (Python)" and b.engine == "loop (numba)"
         _same_runs(a, b, tol=1e-12)

@@ -513,16 +513,23 @@ def test_cli_engine_chooses_the_integrator_and_says_which_ran(capsys):
     args = ["simulate", "cylinder", "--t-end", "2.6", "--samples", "3",
             "--initial", "theta1=pi/200", "--param", "mu=0.1", "--json"]
     runs = {}
-    for engine in ("loop", "scipy"):
+    for engine in ("python", "scipy"):
         assert main([*args, "--engine", engine]) == 0
         runs[engine] = json.loads(capsys.readouterr().out)
-    assert runs["loop"]["engine"] == "loop (Python)" and runs["scipy"]["engine"] == "SciPy DOP853"
-    times = [[e["t"] for e in runs[k]["events"]] for k in ("loop", "scipy")]
+    assert runs["python"]["engine"] == "loop (Python)"
+    assert runs["scipy"]["engine"] == "SciPy DOP853"
+    times = [[e["t"] for e in runs[k]["events"]] for k in ("python", "scipy")]
     assert len(times[0]) == len(times[1]) >= 2
     assert max(abs(a - b) for a, b in zip(*times)) <= 1e-10
-    assert main([*args[:-1], "--engine", "loop", "--method", "Radau"]) == 2
+    assert main([*args[:-1], "--engine", "python", "--method", "Radau"]) == 2
     err = capsys.readouterr().err
-    assert "engine 'loop' cannot run this problem: method Radau" in err and "Traceback" not in err
+    assert "engine 'python' cannot run this problem: method Radau" in err
+    assert "Traceback" not in err
+    # the older name, still accepted, says which to use
+    assert main([*args, "--engine", "loop"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["engine"] == "loop (Python)"
+    assert "--engine loop is deprecated" in captured.err
     with pytest.raises(SystemExit) as stop:
         main([*args[:-1], "--engine", "rk4"])
     assert stop.value.code == 2 and "invalid choice: 'rk4'" in capsys.readouterr().err

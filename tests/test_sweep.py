@@ -133,9 +133,9 @@ def test_resume_refuses_a_table_of_another_sweep(tmp_path):
 def test_local_processes_match_in_process(tmp_path):
     params = {"mu": [0.15, 0.3, 0.45], "R2": [0.4]}
     # the processes run simulate: the compiled loop with events runs in this process
-    one = _cylinder(params, ["slip", "final:theta1"], engine="simulate")
+    one = _cylinder(params, ["slip", "final:theta1"], engine="scipy")
     two = _cylinder(params, ["slip", "final:theta1"], workers=2, out=tmp_path / "p.csv",
-                    engine="simulate")
+                    engine="scipy")
     assert two.backend == "2 local processes"
     assert two.rows == one.rows
 
@@ -145,7 +145,7 @@ def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
     params = {"mu": [0.15, 0.3, 0.45]}
-    one = _cylinder(params, ["slip"], engine="simulate")    # Dask's workers run simulate
+    one = _cylinder(params, ["slip"], engine="scipy")    # Dask's workers run simulate
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
@@ -162,7 +162,7 @@ def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
             "--initial", "theta1=0.01", "--measure", "slip", "--measure", "liftoff",
             "--t-end", "2.7", "--samples", "11"]
     local = tmp_path / "local.csv"
-    assert main(args + ["--workers", "1", "--engine", "simulate", "--out", str(local)]) == 0
+    assert main(args + ["--workers", "1", "--engine", "scipy", "--out", str(local)]) == 0
     remote = tmp_path / "dask.csv"
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
@@ -178,7 +178,7 @@ def test_dask_worker_killed_mid_sweep_is_rescheduled(tmp_path):
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
     import os
     params = {"mu": [0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45]}
-    one = _cylinder(params, ["slip"], engine="simulate")
+    one = _cylinder(params, ["slip"], engine="scipy")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
@@ -291,13 +291,13 @@ def test_a_dead_worker_keeps_finished_rows_and_resume_completes(tmp_path):
 
     out = tmp_path / "t.csv"
     run = _cylinder(params, ["slip"], out=out, workers=2, progress=kill_a_worker,
-                    engine="simulate")
+                    engine="scipy")
     assert "BrokenProcessPool" in run.stopped and len(run.rows) < 8
     with open(out, newline="") as fh:
         kept = {int(r["case"]) for r in csv.DictReader(fh)}
     assert kept == {r["case"] for r in run.rows}
-    again = _cylinder(params, ["slip"], out=out, resume=True, engine="simulate")
+    again = _cylinder(params, ["slip"], out=out, resume=True, engine="scipy")
     assert again.ran == 8 - len(kept) and not again.stopped
     fresh = tmp_path / "f.csv"
-    _cylinder(params, ["slip"], out=fresh, engine="simulate")
+    _cylinder(params, ["slip"], out=fresh, engine="scipy")
     assert _read(out) == _read(fresh)

@@ -103,7 +103,7 @@ def test_sweep_engines_give_the_same_rows():
     measures = ["slip", "liftoff", "final:theta1", "final:r'"]
     kw = dict(t_end=2.9, samples=11, workers=1, initial={"theta1": THETA_S})
     fast = run_sweep("cylinder", params, measures, engine="python", **kw)
-    slow = run_sweep("cylinder", params, measures, engine="simulate", **kw)
+    slow = run_sweep("cylinder", params, measures, engine="scipy", **kw)
     assert fast.backend == "the compiled loop with events (Python)"
     assert slow.backend == "this process"
     assert fast.counts == slow.counts == {"ok": 4}
@@ -121,7 +121,7 @@ def test_sweep_engines_give_the_same_rows():
     run = run_sweep("cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python",
                     **kw)
     assert run.backend == "this process"
-    with pytest.raises(SweepError, match="unknown engine"):
+    with pytest.raises(SweepError, match="engine must be one of auto, compiled, python, scipy"):
         run_sweep("cylinder", {"mu": [0.3]}, ["slip"], engine="fast", **kw)
 
 
@@ -150,7 +150,7 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
     params = {"A": [5.0, 20.0, 30.0]}                  # 5 < m g: stays on the floor
     kw = dict(t_end=3.0, samples=11, workers=1, max_step=0.01)
     fast = run_sweep(ball, params, ["liftoff", "contact"], engine="python", **kw)
-    slow = run_sweep(ball, params, ["liftoff", "contact"], engine="simulate", **kw)
+    slow = run_sweep(ball, params, ["liftoff", "contact"], engine="scipy", **kw)
     assert fast.backend == "this process" and fast.rows == slow.rows
     assert math.isnan(fast.rows[0]["liftoff:t"]) and fast.rows[1]["contact:t"] > 0
     # a ball dropped from h: the loop applies the impact itself, as simulate does
@@ -159,7 +159,7 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
                              "forces": {"y": "0"}})
     params = {"h": [0.5, 1.0]}
     fast = run_sweep(drop, params, ["contact", "final:y'"], engine="python", **kw)
-    slow = run_sweep(drop, params, ["contact", "final:y'"], engine="simulate", **kw)
+    slow = run_sweep(drop, params, ["contact", "final:y'"], engine="scipy", **kw)
     assert fast.backend == "the compiled loop with events (Python)"     # none left to simulate
     for a, b in zip(fast.rows, slow.rows):
         assert a.keys() == b.keys() and a["status"] == b["status"] == "ok"
@@ -218,7 +218,7 @@ def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
                              "forces": {"y": "A - sqrt(h - y)"}})
     kw = dict(t_end=1.0, samples=11, workers=1, max_step=0.01)
     fast = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="python", **kw)
-    slow = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="simulate", **kw)
+    slow = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="scipy", **kw)
     assert "by simulate" in fast.backend
     assert fast.rows == slow.rows and fast.rows[0]["status"] == "failed"
 
@@ -247,7 +247,7 @@ def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
     kw = dict(t_end=2.0, samples=11, workers=1, initial={"s'": 2.0, "theta'": 0.0})
     grid = {"alpha": [0.0, 0.3], "mu": [0.1, 0.3]}
     fast = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="python", **kw)
-    slow = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="simulate", **kw)
+    slow = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="scipy", **kw)
     assert fast.backend == "the compiled loop with events (Python)"
     for a, b in zip(fast.rows, slow.rows):
         assert a["status"] == b["status"] == "ok"

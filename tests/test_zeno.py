@@ -234,14 +234,14 @@ def _drift(t, f, A, b):
     return f, A, b + 5.0
 
 
-@pytest.mark.parametrize("engine", ["scipy", "loop"])  # the loop as Python (no numba)
+@pytest.mark.parametrize("engine", ["scipy", "python"])  # the loop as Python
 def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetrated(engine):
     # b (df/dt) off by 5: Newton's law on F = y' + 5 sends the ball down through the
     # floor (y'+ = -e (y'- + 5) - 5); the second impact is met at the disarmed contact's
     # threshold, and from there the gap never crosses zero again: only the check of the
     # state at the step's end sees the ball below the floor, and stops the run there
     tr = simulate(_with_floor(_drift), 2.0, samples=201, engine=engine)
-    assert tr.engine == {"scipy": "SciPy DOP853", "loop": "loop (Python)"}[engine]
+    assert tr.engine == {"scipy": "SciPy DOP853", "python": "loop (Python)"}[engine]
     assert tr.status == "penetrated", tr.message
     assert "no contact was located" in tr.message and "`floor`" in tr.message
     assert [ev.kind for ev in tr.events] == ["impact", "impact"]
@@ -269,7 +269,7 @@ def test_a_compiled_system_with_a_function_replaced_runs_the_replacement(tmp_pat
     changed = dataclasses.replace(ns, constraints=constraints)
     assert changed.replaced
     auto = simulate(changed, 2.0, samples=201)
-    loop = simulate(changed, 2.0, samples=201, engine="loop")
+    loop = simulate(changed, 2.0, samples=201, engine="python")
     assert (auto.engine, loop.engine) == ("SciPy DOP853", "loop (Python)")
     assert auto.status == loop.status == "penetrated", (auto.message, loop.message)
     assert simulate(ns, 2.0, samples=201).engine == "loop (numba)"  # the unchanged one

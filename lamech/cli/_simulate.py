@@ -136,19 +136,23 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument(
         "--jit",
         action="store_true",
-        help="compile the dynamics and the integration loop with numba. The first run of a "
-        "problem compiles them (about 30 s) and caches the result in $LAMECH_CACHE_DIR, "
-        "else $XDG_CACHE_HOME/lamech, else ~/.cache/lamech; later runs of it load them "
-        "(under a second) and use them without --jit, 6-30 times faster (the same "
-        "numbers to rounding). Without numba this does nothing",
+        help="compile with numba (as --engine compiled where the loop can run the problem). "
+        "The first compiled run on a machine compiles the integration loop, once for "
+        "every problem (2-3 minutes of CPU), and caches it in $LAMECH_CACHE_DIR, else "
+        "$XDG_CACHE_HOME/lamech, else ~/.cache/lamech; afterwards every problem runs "
+        "compiled by default, compiling only its own functions on its first run (a few "
+        "seconds) and loading them later. Without numba this does nothing",
     )
     s.add_argument(
         "--engine",
-        choices=("auto", "loop", "scipy"),
+        choices=("auto", "compiled", "python", "scipy", "loop"),
         default="auto",
-        help="what integrates: 'loop', lamech's DOP853 loop with events (compiled with "
-        "numba where the problem is, else as Python); 'scipy', SciPy's integrator driven "
-        "from Python; 'auto' (default) the loop where it is compiled, else SciPy",
+        help="what integrates (the names of lamech sweep --engine): 'compiled', lamech's "
+        "DOP853 loop with events compiled by numba (the loop once per machine, each "
+        "problem's own functions in seconds); 'python', the same loop as Python; "
+        "'scipy', SciPy's integrator driven from Python; 'auto' (default) the compiled "
+        "loop where numba's loop is in the cache on this machine, else SciPy ('loop', "
+        "an older name: compiled where the problem is, else Python)",
     )
     return s
 
@@ -251,6 +255,8 @@ def run(args) -> int:
     """Run ``lamech simulate``; returns the exit status (0 ok, 1 run failed, 2 bad input,
     128 + the signal's number when Ctrl-C (130), SIGTERM (143) or SIGHUP (129) stopped
     it: the trajectory up to there is kept and written as asked)."""
+    if args.engine == "loop":
+        print("lamech: --engine loop is deprecated; use compiled or python", file=sys.stderr)
     phase = ["before the run: nothing was written"]
     with stop_signals():
         try:
@@ -317,7 +323,7 @@ def _run(args, phase: list[str]) -> int:
                 project_initial=args.project_initial,
                 progress=progress,
                 pace=progress.pace,
-                jit=True if args.jit else None,
+                jit=True if args.jit or args.engine == "compiled" else None,
                 engine=args.engine,
             )
     except SimulationError as exc:

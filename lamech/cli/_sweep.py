@@ -101,14 +101,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument(
         "--engine",
-        choices=("auto", "compiled", "python", "simulate"),
+        choices=("auto", "compiled", "python", "scipy", "simulate"),
         default="auto",
-        help="how the cases run: the compiled loop with events where every measure is an "
-        "event or final:<coordinate> (auto: numba when its compiled loop is cached or "
+        help="how the cases run (the names of lamech simulate --engine): the loop with "
+        "events where every measure is an event or final:<coordinate> (auto: numba when "
+        "its compiled loop is cached on this machine and there are 16 cases or more, or "
         "from 500 cases, else the same loop as Python; compiled: numba whenever "
-        "installed; python), with simulate for the cases it leaves (impacts, "
-        "failures); simulate: every case by simulate on --workers processes "
-        "(default %(default)s)",
+        "installed; python), with simulate for the cases it leaves (failures); scipy: "
+        "every case by simulate on --workers processes ('simulate', its older name, is "
+        "accepted) (default %(default)s)",
     )
     add_tolerance_options(s)
     return s
@@ -119,6 +120,8 @@ def run(args) -> int:
     says which and why), 2 bad input, 128 + the signal's number when Ctrl-C (130),
     SIGTERM (143) or SIGHUP (129) stopped it (the workers end with it; rerun with
     --resume)."""
+    if args.engine == "simulate":
+        print("lamech: --engine simulate is deprecated; use scipy", file=sys.stderr)
     with stop_signals():
         try:
             return _run(args)

@@ -42,10 +42,8 @@ import types
 
 import numpy as np
 
-from ..linalg import gauss_inplace as _gauss
 from ._codegen import NumericSystem, numba_available
 from ._kernels import STAGES as _S  # DOP853's number of stages, checked in _tableau
-from ._project import PROJECTION_ITERATIONS
 from ._threads import one_blas_thread
 
 __all__ = [
@@ -128,39 +126,38 @@ class BatchResult:
 
 
 def _python_namespace(ns: NumericSystem) -> dict:
-    """:mod:`._kernels`' batch part as Python, around the system's NumPy functions: its
-    functions with globals of their own (no numba: the same code the compiled system
-    runs, slowly)."""
+    """:mod:`._kernels` as Python, around the system's NumPy functions: its functions with
+    globals of their own, where the KKT solve and the right-hand sides are the NumPy ones
+    of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
+    ``"sy"`` the system record they take."""
     from . import _kernels
 
-    namespace = {
-        "np": np,
-        "gauss_inplace": _gauss,
-        "accelerations": ns.accelerations,
-        "constraints": ns.constraints,
-        "dynamics": ns.dynamics,
-        "energy": ns.energy,
-        "restitution": ns.restitution,
-        "kkt_solve": ns.kkt_solve,
-        "rhs_kernel": ns.rhs_kernel,
-        "PROJECTION_ITERATIONS": PROJECTION_ITERATIONS,
-        "PTR": ns.pattern[0],
-        "STAGES": _S,
-        "prange": range,
-    }
-    for name in _kernels.EVENT_CONSTANTS:
-        namespace[name] = getattr(_kernels, name)
-    names = (*_kernels.BATCH_NAMES, "batch_run", "batch_run_serial")
-    for name in (*names, *_kernels.EVENT_NAMES, "ev_run"):
-        f = getattr(_kernels, name)
-        namespace[name] = types.FunctionType(f.__code__, namespace, name)
+    namespace = dict(vars(_kernels))
+    namespace["prange"] = range
+    namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
+    namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
+    namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
+    for name, f in vars(_kernels).items():
+        if isinstance(f, types.FunctionType) and f.__module__ == _kernels.__name__:
+            if name not in ("kkt_solve", "rhs_kernel", "accelerations"):
+                namespace[name] = types.FunctionType(f.__code__, namespace, name)
+    arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
+    namespace["sy"] = (
+        bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
+        ns.restitution,
+    )  # fmt: skip
     return namespace
+
+
+def _bound(namespace: dict, names) -> dict:
+    """The functions ``names`` of a namespace with its system record bound."""
+    return {name: functools.partial(namespace[name], namespace["sy"]) for name in names}
 
 
 def _python_loops(ns: NumericSystem):
     """(parallel loop, serial loop) of the batch part as Python (:func:`_python_namespace`)."""
-    namespace = _python_namespace(ns)
-    return namespace["batch_run"], namespace["batch_run_serial"]
+    f = _bound(_python_namespace(ns), ("batch_run", "batch_run_serial"))
+    return f["batch_run"], f["batch_run_serial"]
 
 
 _CACHE: dict[int, tuple] = {}
@@ -311,12 +308,11 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
         return known[1]
     names = ("ev_run", "ev_starts", "ev_segment")
     if use:
-        from ._jitcache import compiled_kernels, module_text
+        from ._jitcache import compiled_kernels
 
-        text = module_text(ns.source, ns.pattern, ns.mass_diagonal)
-        f = compiled_kernels(text, ns.n, ns.parameters.copy(), warm=False).functions
+        f = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal).functions
     else:
-        f = _python_namespace(ns)
+        f = _bound(_python_namespace(ns), names)
     out = {k: f[k] for k in names}
     out["numba"] = use
     _EVENT_CACHE[(id(ns), use)] = (ns, out)
@@ -358,17 +354,21 @@ def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
     return out
 
 
-def jit_is_cached(ns: NumericSystem, function: str = "ev_run_one") -> bool:
-    """Whether the numba-compiled ``function`` of ``ns``'s module (:mod:`._jitcache`) is in
-    the cache on disk: using it then costs a load (about a second), not a compile (about a
-    minute for the loop with events)."""
+def jit_is_cached(ns: NumericSystem | None = None, function: str = "ev_run_one") -> bool:
+    """Whether numba's compiled loop (the same for every system: :mod:`._jitcache`) holds
+    ``function`` in the cache on disk, and, given ``ns``, the system's own compiled
+    functions: using them then costs loads (about a second), not a compile (about a
+    minute for the loop with events, compiled once on a machine; seconds for a
+    system)."""
     import importlib.util
 
     if importlib.util.find_spec("numba") is None:  # not numba_available(): no import
         return False
-    from ._jitcache import is_cached, module_text
+    from ._jitcache import engine_is_cached, is_cached
 
-    return is_cached(module_text(ns.source, ns.pattern, ns.mass_diagonal), function)
+    if ns is None:
+        return engine_is_cached(function)
+    return is_cached(ns.source, function)
 
 
 def parameter_rows(ns: NumericSystem, names, values) -> np.ndarray:

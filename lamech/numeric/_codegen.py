@@ -363,25 +363,21 @@ def _gather_source(n: int, nonzero: list[tuple[int, int]]) -> str:
     return "\n".join(lines)
 
 
-def _kernels(
-    fns: dict, system: System, diagonal: bool, pattern, source: str, jit: bool | None, locks: list
-):
+def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None):
     """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
     numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
-    by their compiled versions; the compiled form cached on disk, :mod:`._jitcache`),
-    else NumPy (no batch loops: :mod:`._batch` runs them as Python; state ""). ``jit``
-    None: numba where the system's loop with events is in the cache on disk already (a
-    load, not a compile)."""
+    by their compiled versions: the system's own functions compiled, the loop around them
+    compiled once for every system and cached on disk, :mod:`._jitcache`), else NumPy (no
+    batch loops: :mod:`._batch` runs them as Python; state ""). ``jit`` None: numba where
+    the loop is in the cache on disk already (compiled once on this machine: only the
+    system's own small functions are compiled now)."""
     if jit is None:
-        jit = _loop_is_cached(source, pattern, diagonal)
+        jit = _loop_is_cached()
     if jit and numba_available():
         try:
-            from ._jitcache import compiled_kernels, module_text
+            from ._jitcache import compiled_kernels
 
-            p0 = np.array([p.numeric for p in system.parameters] + locks, dtype=float)
-            k = compiled_kernels(
-                module_text(source, pattern, diagonal), len(system.coordinates), p0
-            )
+            k = compiled_kernels(source, pattern, diagonal)
             f = k.functions
             fns["dynamics"], fns["constraints"] = f["dynamics"], f["constraints"]
             loops = (f["batch_run"], f["batch_run_serial"])
@@ -391,16 +387,16 @@ def _kernels(
     return (*numpy_kernels(fns["dynamics"], diagonal), (), "")
 
 
-def _loop_is_cached(source: str, pattern, diagonal: bool) -> bool:
-    """Whether numba is installed and the compiled loop of this system's module is in the
-    cache on disk (asked without importing numba: 0.3 s)."""
+def _loop_is_cached() -> bool:
+    """Whether numba is installed and its compiled loop (the same for every system) is in
+    the cache on disk (asked without importing numba: 0.3 s)."""
     import importlib.util
 
     if importlib.util.find_spec("numba") is None:
         return False
-    from ._jitcache import is_cached, module_text
+    from ._jitcache import engine_is_cached
 
-    return is_cached(module_text(source, pattern, diagonal), "ev_segment")
+    return engine_is_cached("ev_segment")
 
 
 def _force_geometry(system: System):
@@ -570,8 +566,9 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     """Generate and compile the numeric functions of ``system`` (see the module docstring).
 
     ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise);
-    ``jit=None`` uses it where this system's compiled form is in the cache on disk (a
-    load, not a compile: :mod:`._jitcache`), else NumPy.
+    ``jit=None`` uses it where numba's loop is in the cache on disk (compiled once on
+    this machine, for every system: the system's own functions are then compiled in
+    seconds, or loaded: :mod:`._jitcache`), else NumPy.
     """
     import time as _time
 
@@ -596,9 +593,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     locks = [math.nan] * len(switch_names)
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
-    kernel, accel, solve, loops, jit_cache = _kernels(
-        fns, system, diagonal, pattern, source, jit, locks
-    )
+    kernel, accel, solve, loops, jit_cache = _kernels(fns, diagonal, pattern, source, jit)
 
     flat = fns["force_jacobians_flat"]
 

@@ -1,26 +1,35 @@
-"""Compile once: each system's kernels as a module file on disk, compiled by numba with
-its own on-disk cache, so that a second run of the same problem loads the machine code
-instead of compiling it again (3-9 s per system before).
+"""Compile once: the loop once per machine, each system's own functions once per system,
+both as module files on disk compiled by numba with its on-disk cache.
+
+The loop (DOP853, the projection, the events and the contact rules: :mod:`._kernels`) is
+the same for every system: it takes the system record ``sy``
+(:data:`._kernels.SYSTEM_FIELDS`), whose functions are numba cfuncs of one signature for
+every system, which the loop calls as first-class functions. So the loop's module,
+``engine_<key>.py`` (:func:`engine_text`), is compiled the first time numba runs on a
+machine, every entry point at once (:func:`_precompile`: 2-3 minutes of CPU, once), and
+loaded from the cache afterwards; a system compiles only its own module,
+``lamech_<key>.py`` (:func:`system_text`: the generated functions and their cfunc
+wrappers, a few seconds), and loads it on its second run. Measured on the 2-core machine,
+whole process CPU: a problem never run before simulates on the compiled loop in 4.3-4.6
+s (the loop cached; ``python -c "import sympy"`` 0.5 s), its second run 2.3-2.7 s.
 
 numba caches (``cache=True``) only functions defined in a real source file, at module
 level: a function created by ``exec`` has no file, and a closure's cache key includes
-its cells, where another compiled function pickles differently in every process. So
-the generated source of a system (:mod:`._codegen`), its sparsity pattern as module
-constants and the kernels of :mod:`._kernels` are written as one module,
-``lamech_<key>.py``, in :func:`cache_dir`, imported by file, and compiled with
-``cache=True``; numba keeps the machine code next to it (``__pycache__``, or under
-``NUMBA_CACHE_DIR`` when that is set). The key is a SHA-256 of the module's text and of
-the versions of lamech, numba, NumPy and Python and the CPU, so any change to the
-generated code or to the compiler gives a new file (numba also checks the source's hash
-and the CPU itself).
+its cells. So both modules are written in :func:`cache_dir`, imported by file, and
+compiled with ``cache=True``; numba keeps the machine code next to them (``__pycache__``,
+or under ``NUMBA_CACHE_DIR`` when that is set). A key is a SHA-256 of the module's text
+and of the versions of lamech, numba, NumPy and Python and the CPU, so any change to the
+code or to the compiler gives a new file (numba also checks the source's hash and the CPU
+itself).
 
 Two processes may write the same file at once (a sweep's workers): a file is written
 under a temporary name and renamed into place (atomic), and both write the same text.
-Where the directory cannot be created or written, the module runs from memory (``exec``)
-and numba compiles it in this process only, silently: as before the cache existed.
+Where the directory cannot be created or written, the modules run from memory (``exec``)
+and numba compiles them in this process only, silently.
 
-Within one process, the same text is compiled once (:data:`_LOADED`): compiling a system
-again (the same problem with other parameter values) reuses its compiled functions.
+Within one process, the same text is compiled once (:data:`_LOADED`, :data:`_ENGINE`):
+compiling a system again (the same problem with other parameter values) reuses its
+compiled functions.
 """
 
 from __future__ import annotations
@@ -38,16 +47,17 @@ from pathlib import Path
 import numpy as np
 
 from ..linalg import cholesky_inplace, gauss_inplace
-from ._kernels import (
-    BATCH_NAMES,
-    EVENT_NAMES,
-    KERNEL_NAMES,
-    PROJECTION_ITERATIONS,
-    STAGES,
-    kernel_text,
-)
+from ._kernels import PROJECTION_ITERATIONS, STAGES, SYSTEM_FIELDS, kernel_text
 
-__all__ = ["cache_dir", "module_text", "compiled_kernels", "Kernels", "is_cached"]
+__all__ = [
+    "cache_dir",
+    "engine_text",
+    "system_text",
+    "compiled_kernels",
+    "Kernels",
+    "is_cached",
+    "engine_is_cached",
+]
 
 CACHE_ENV = "LAMECH_CACHE_DIR"
 """The environment variable that sets the cache directory (see :func:`cache_dir`)."""
@@ -64,20 +74,15 @@ def cache_dir() -> Path:
     return base / "lamech" / "kernels"
 
 
-def _array(name: str, a: np.ndarray) -> str:
-    return f"{name} = numpy.array({[int(x) for x in a]!r}, dtype=numpy.int64)"
-
-
-def module_text(source: str, pattern, diagonal: bool) -> str:
-    """The module of one system's compiled kernels: ``source`` (the generated functions,
-    :func:`._codegen.compile_system`), the loops of :mod:`lamech.linalg` it calls, the
-    sparsity ``pattern`` (:func:`._kkt.sparsity`) and ``diagonal`` as constants, and the
-    kernels and the batch loop of :mod:`._kernels`."""
-    body = source.removeprefix("import math\nimport numpy\n")
-    ptr, idx, cptr, crow, cpos = pattern
+def engine_text() -> str:
+    """The module of the problem-independent kernels (compiled once per installation):
+    the loops of :mod:`lamech.linalg` they call, their constants, and the kernels, the
+    batch loop and the loop with events of :mod:`._kernels`, each taking the system
+    record ``sy`` (:data:`._kernels.SYSTEM_FIELDS`) first."""
     return "\n".join(
         [
-            '"""lamech: the compiled kernels of one system (generated; safe to delete)."""',
+            '"""lamech: the compiled loop, the same for every system (generated; safe to',
+            'delete)."""',
             "",
             "import math",
             "",
@@ -85,27 +90,82 @@ def module_text(source: str, pattern, diagonal: bool) -> str:
             "import numpy as np",
             "from numba import prange",
             "",
-            body.strip("\n"),
-            "",
             "",
             inspect.getsource(gauss_inplace),
             "",
             inspect.getsource(cholesky_inplace),
             "",
-            _array("PTR", ptr),
-            _array("IDX", idx),
-            _array("CPTR", cptr),
-            _array("CROW", crow),
-            _array("CPOS", cpos),
-            f"DIAGONAL = {bool(diagonal)!r}",
             f"STAGES = {STAGES!r}",
             f"PROJECTION_ITERATIONS = {PROJECTION_ITERATIONS!r}",
             "",
             "",
-            kernel_text("KERNELS"),
-            kernel_text("BATCH"),
+            _compiled_accessors(kernel_text()),
         ]
     )
+
+
+_ACCESSORS = {
+    "sy[6](": "as_dynamics(sy[6])(",
+    "sy[7](": "as_dynamics_sparse(sy[7])(",
+    "sy[8](": "as_constraints(sy[8])(",
+    "sy[9](": "as_energy(sy[9])(",
+    "sy[10](": "as_restitution(sy[10])(",
+}
+
+
+def _compiled_accessors(text: str) -> str:
+    """The kernels' text with the system's functions, addresses in the compiled record,
+    cast back to first-class functions (:mod:`._fnptr`)."""
+    for a, b in _ACCESSORS.items():
+        assert text.count(a) == 1, a
+        text = text.replace(a, b)
+    imports = (
+        "from lamech.numeric._fnptr import (\n    as_constraints,\n    as_dynamics,\n"
+        "    as_dynamics_sparse,\n    as_energy,\n    as_restitution,\n)\n\n\n"
+    )
+    return imports + text
+
+
+# the system's functions the loop calls, as cfuncs: (name, generated function, signature)
+_CFUNCS = (
+    ("c_dynamics", "dynamics", "t, q, v, p"),
+    ("c_dynamics_sparse", "dynamics_sparse", "t, q, v, p"),
+    ("c_constraints", "constraints", "t, q, p"),
+    ("c_energy", "energy", "t, q, v, p"),
+    ("c_restitution", "restitution", "t, q, p"),
+)
+_JITTED = ("dynamics", "dynamics_sparse", "constraints", "energy", "restitution")
+
+
+def system_text(source: str) -> str:
+    """The module of one system's compiled functions: ``source`` (the generated functions,
+    :func:`._codegen.compile_system`) and, for each function the loop calls, a wrapper
+    ``c_<name>`` that numba compiles as a cfunc (the loop calls it as a first-class
+    function)."""
+    body = source.removeprefix("import math\nimport numpy\n")
+    wrappers = [f"def {c}({args}):\n    return {f}({args})" for c, f, args in _CFUNCS]
+    return "\n".join(
+        [
+            '"""lamech: the compiled functions of one system (generated; safe to delete)."""',
+            "",
+            "import math",
+            "",
+            "import numpy",
+            "",
+            body.strip("\n"),
+            "",
+            "",
+            "\n\n\n".join(wrappers),
+            "",
+        ]
+    )
+
+
+def _signatures() -> dict:
+    """The cfuncs' signatures: one for every system (C-contiguous float64 arrays)."""
+    from ._fnptr import SIGNATURES
+
+    return SIGNATURES
 
 
 def _versions() -> str:
@@ -145,11 +205,11 @@ def _numba_version() -> str:
         return str(numba.__version__)
 
 
-def module_key(text: str) -> str:
-    """The name of ``text``'s file: a hash of the text and the versions it is compiled
-    with (lamech, numba, NumPy, Python, the CPU)."""
+def module_key(text: str, prefix: str = "lamech_") -> str:
+    """The name of ``text``'s file: ``prefix`` and a hash of the text and the versions it
+    is compiled with (lamech, numba, NumPy, Python, the CPU)."""
     digest = hashlib.sha256((_versions() + "\n\n" + text).encode("utf-8")).hexdigest()
-    return "lamech_" + digest[:40]
+    return prefix + digest[:40]
 
 
 def _write(path: Path, text: str) -> None:
@@ -199,22 +259,27 @@ def _on_disk(text: str, name: str) -> dict | None:
 
 
 class Kernels:
-    """A system's compiled functions: ``functions`` {name: dispatcher} (``dynamics``,
-    ``constraints``, ``kkt_solve``, ``rhs_kernel``, ``accelerations``, and the batch
-    loop ``batch_run`` (parallel) and ``batch_run_serial``, the loop with events ``ev_run``
-    and the batch's starts ``ev_starts``) and where the hot path's
-    machine code came from, ``cache``: ``"loaded"`` (numba's cache on disk, nothing
-    compiled), ``"compiled"`` (compiled now and written to the cache), ``"memory"``
-    (no usable cache directory: compiled for this process only), ``"lazy"`` (from the
-    cache directory, not warmed up: each function loaded or compiled when first called)."""
+    """A system's compiled functions: ``functions`` {name: callable} (``dynamics``,
+    ``constraints``, ``kkt_solve``, ``rhs_kernel``, ``accelerations``, the batch loop
+    ``batch_run`` (parallel) and ``batch_run_serial``, the loop with events ``ev_run``
+    and ``ev_segment``, the batch's starts ``ev_starts``: the engine's, with the system
+    record bound), the record ``sy`` itself, and where the system's machine code came
+    from, ``cache``: ``"loaded"`` (numba's cache on disk, nothing compiled),
+    ``"compiled"`` (compiled now and written to the cache), ``"memory"`` (no usable cache
+    directory: compiled for this process only). The engine (the loop, the same for every
+    system) is compiled once and kept in the cache too; its functions are loaded (or
+    compiled, the first time on a machine) when first called."""
 
-    def __init__(self, functions: dict, cache: str, path: Path | None):
+    def __init__(self, functions: dict, sy: tuple, cache: str, path: Path | None):
         self.functions = functions
+        self.sy = sy
         self.cache = cache
         self.path = path
+        self.namespace: dict = {}  # the system's module: it keeps the cfuncs sy points to
 
 
 _LOADED: dict[str, Kernels] = {}
+_ENGINE: dict[str, dict] = {}
 _LOCK = threading.Lock()
 
 
@@ -227,123 +292,215 @@ def _new_lock() -> None:
 if hasattr(os, "register_at_fork"):  # not on Windows (no fork there)
     os.register_at_fork(after_in_child=_new_lock)
 
-_COMPILED = (
-    "dynamics",
-    "constraints",
-    "energy",
-    "restitution",
-    "gauss_inplace",
-    "cholesky_inplace",
-    *KERNEL_NAMES,
-    *BATCH_NAMES,
-    "batch_run_serial",
-    *EVENT_NAMES,
-)
-_CALLED = (
-    "dynamics",
-    "constraints",
-    "kkt_solve",
-    *KERNEL_NAMES,
-    "batch_run",
-    "batch_run_serial",
-    "ev_run",
-    "ev_starts",
-    "ev_segment",
-)
+
+# The loop calls each system's functions as first-class functions, which numba flags as
+# experimental whenever it compiles a call of one (lazily, at the loop's first call):
+# that is the design here, not a problem for the user to see.
+warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 
 
-def _jit(namespace: dict, cache: bool) -> dict:
-    """numba-compile the module's functions (lazily: on their first call) in
-    ``namespace``, which their globals resolve in."""
+def _jit_engine(namespace: dict, cache: bool) -> dict:
+    """numba-compile (lazily: on their first call) every function of the engine module
+    in ``namespace``, which their globals resolve in."""
+    import numba
+
+    names = [
+        k
+        for k, v in namespace.items()
+        if inspect.isfunction(v) and v.__module__ == namespace["__name__"]
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for fn in names:
+            if fn == "batch_run":
+                namespace[fn] = numba.njit(parallel=True, cache=cache)(namespace[fn])
+            elif fn == "ev_run":  # releases the GIL: a batch's slices run in threads
+                namespace[fn] = numba.njit(nogil=True, cache=cache)(namespace[fn])
+            else:
+                namespace[fn] = numba.njit(cache=cache)(namespace[fn])
+    return namespace
+
+
+def _engine() -> dict:
+    """The engine's namespace of compiled functions (this process's, or imported from the
+    cache directory, or from memory where that cannot be written). Called under _LOCK."""
+    text = engine_text()
+    name = module_key(text, "engine_")
+    known = _ENGINE.get(name)
+    if known is not None:
+        return known
+    namespace = _on_disk(text, name)
+    if namespace is not None:
+        namespace = _jit_engine(namespace, cache=True)
+    else:
+        namespace = {"__builtins__": __builtins__, "__name__": name}
+        exec(compile(text, f"<lamech engine {name}>", "exec"), namespace)
+        namespace = _jit_engine(namespace, cache=False)
+    _ENGINE[name] = namespace
+    return namespace
+
+
+def _jit_system(namespace: dict, cache: bool) -> None:
+    """numba-compile the system module's functions in ``namespace``: the generated ones
+    (lazily), and the cfuncs the loop calls (now: their signature is fixed)."""
     import numba
 
     with warnings.catch_warnings():
-        # a function numba cannot cache is compiled anyway (NumbaWarning): not an error
         warnings.simplefilter("ignore")
-        for fn in _COMPILED:
+        for fn in _JITTED:
             namespace[fn] = numba.njit(cache=cache)(namespace[fn])
-        namespace["batch_run"] = numba.njit(parallel=True, cache=cache)(namespace["batch_run"])
-        # the loop with events releases the GIL: a batch's slices run in threads
-        namespace["ev_run"] = numba.njit(nogil=True, cache=cache)(namespace["ev_run"])
-    namespace["kkt_solve"] = namespace["kkt_schur" if namespace["DIAGONAL"] else "kkt_dense"]
-    return {k: namespace[k] for k in _CALLED}
+        for c, sig in _signatures().items():
+            namespace[c] = numba.cfunc(sig, cache=cache)(namespace[c])
 
 
-def _warm_up(functions: dict, n: int, p: np.ndarray) -> None:
-    """Call the functions once with the hot path's argument types: each is compiled (or
-    loaded) now, so a numba failure shows here, not mid-run."""
-    q0 = np.zeros(n)
-    none = np.zeros(0, dtype=np.int64)
+def _cache_state(cfuncs: list) -> str:
+    """ "loaded" when the system's cfuncs all came from numba's cache, else "compiled"."""
+    hits = sum(int(getattr(f, "cache_hits", 0)) for f in cfuncs)
+    return "loaded" if hits == len(cfuncs) else "compiled"
+
+
+def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
+    """The functions callers use, the system record bound to the engine's."""
+
+    def bound(f):
+        first = [True]
+
+        def call(*args):
+            if first[0]:  # compiled or loaded now: numba's notices silenced (see above)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    out = f(sy, *args)
+                first[0] = False
+                return out
+            return f(sy, *args)
+
+        call.__name__ = getattr(f, "__name__", "kernel")
+        call.engine_function = f
+        return call
+
+    out = {k: bound(engine[k]) for k in (
+        "kkt_solve", "rhs_kernel", "accelerations", "batch_run", "batch_run_serial", "ev_run",
+        "ev_starts", "ev_segment",
+    )}  # fmt: skip
+    out["dynamics"], out["constraints"] = namespace["dynamics"], namespace["constraints"]
+    return out
+
+
+def _record(namespace: dict, pattern, diagonal: bool) -> tuple:
+    """The system record (:data:`._kernels.SYSTEM_FIELDS`) of the compiled module: the
+    cfuncs as their addresses (:mod:`._fnptr`; the module keeps them alive)."""
+    arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in pattern)
+    functions = tuple(int(namespace[c].address) for c, _, _ in _CFUNCS)
+    sy = (bool(diagonal), *arrays, *functions)
+    assert len(sy) == len(SYSTEM_FIELDS)
+    return sy
+
+
+def _entry_arguments(sy: tuple) -> dict:
+    """Arguments of the types the callers pass to each of the engine's entry points
+    (:mod:`._loop`, :mod:`._batch`, :mod:`._run`): values that are never run, only typed,
+    so that the whole engine is compiled at once."""
+    from ._batch import _dense_tableau, _tableau
+
+    f1, f2, f3 = np.zeros(2), np.zeros((1, 2)), np.zeros((1, 1, 2))
+    i1, i2, i3 = (
+        np.zeros(1, dtype=np.int64),
+        np.zeros((3, 1), dtype=np.int64),
+        np.zeros((1, 4, 1), dtype=np.int64),
+    )
+    b1 = np.zeros(1, dtype=np.bool_)
+    tab = (*_tableau(), *_dense_tableau())
+    x = 0.0
+    return {
+        "ev_segment": (
+            x, f1, x, x, f1, x, x, x, 1, tab, i2, i2, f2, x, x, x, x, i2, b1, True, True, i1,
+            i1, f1, f2, f2, 0, f1, f2, f2, f2, i1, f1, f1,
+        ),
+        "ev_run": (
+            f2, f2, x, x, x, x, 1, tab, i2, i3, f3, x, x, x, x, x, i2, True, True, i2, i2, f2,
+            f3, f3, f2, f1, i1, i1, i1,
+        ),
+        "ev_starts": (f2, f2, f2, b1, b1, f1, f1, i2, x),
+        "batch_run": (f2, f2, x, x, x, 1, *tab[:5], f2, i1),
+        "batch_run_serial": (f2, f2, x, x, x, 1, *tab[:5], f2, i1),
+        "rhs_kernel": (x, f1, f1, i1, i1, i1, f1),
+        "accelerations": (x, f1, f1),
+        "kkt_solve": (f2, f1, f2, f1, f1, i1, i1, i1, f1),
+    }  # fmt: skip
+
+
+def _precompile(engine: dict, sy: tuple) -> None:
+    """Compile (or load) every entry point of the engine not yet in the cache on disk:
+    the loop is compiled once per machine, whichever of simulate, a sweep or the batch
+    loop runs first. Types only: nothing runs."""
+    import numba
+
+    name = engine["__name__"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        functions["dynamics"](0.0, q0, q0, p)
-        functions["constraints"](0.0, q0, p)
-        functions["rhs_kernel"](0.0, np.zeros(2 * n), p, none, none, none, np.zeros(0))
-        functions["accelerations"](0.0, np.zeros(2 * n), p)
+        for entry, args in _entry_arguments(sy).items():
+            if not _nbi(name, entry):
+                engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
 
 
-def _cache_state(functions: dict) -> str:
-    """ "loaded" when the warmed-up functions all came from numba's cache, else
-    "compiled"."""
-    hits = misses = 0
-    for f in functions.values():
-        stats = getattr(f, "stats", None)
-        if stats is not None:
-            hits += sum(stats.cache_hits.values())
-            misses += sum(stats.cache_misses.values())
-    return "loaded" if hits and not misses else "compiled"
-
-
-def compiled_kernels(text: str, n: int, p: np.ndarray, warm: bool = True) -> Kernels:
-    """The compiled functions of the module ``text`` (:func:`module_text`) for a system of
-    ``n`` coordinates with parameters like ``p``: from this process's earlier compile,
-    from the cache on disk, or compiled now (and cached where the directory is
-    writable). Raises what numba raises when it cannot compile the source.
-
-    ``warm=False`` (the sweeps' loop with events) skips the warm-up: each function is
-    loaded or compiled on its first call, and the loop's machine code, which holds the
-    kernels it calls, is loaded without loading them too (0.4 s less on the 2-core
-    machine); ``cache`` is ``"lazy"`` until a later call with ``warm`` warms it up."""
+def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
+    """The compiled functions of the system whose generated ``source`` is given, with its
+    sparsity ``pattern`` (:func:`._kkt.sparsity`) and ``diagonal`` M: the system's own
+    functions from this process's earlier compile, from the cache on disk, or compiled
+    now (and cached where the directory is writable); the engine's functions around them.
+    Raises what numba raises when it cannot compile the source."""
+    text = system_text(source)
     name = module_key(text)
     with _LOCK:
         known = _LOADED.get(name)
         if known is not None:
-            if warm and known.cache == "lazy":
-                _warm_up(known.functions, n, p)
-                known.cache = _cache_state(known.functions)
             return known
+        engine = _engine()
         namespace = _on_disk(text, name)
         path = None if namespace is None else Path(namespace["__file__"])
-        functions = None
+        state = "memory"
         if namespace is not None:
             try:
-                functions = _jit(namespace, cache=True)
-                state = "lazy"
-                if warm:
-                    _warm_up(functions, n, p)
-                    state = _cache_state(functions)
+                _jit_system(namespace, cache=True)
+                state = _cache_state([namespace[c] for c, _, _ in _CFUNCS])
             except Exception:  # numba could not use the cache: compile in memory
                 sys.modules.pop(name, None)
-                functions = None
-        if functions is None:
-            namespace = {"__builtins__": __builtins__}
+                namespace = None
+        if namespace is None:
+            namespace = {"__builtins__": __builtins__, "__name__": name}
             exec(compile(text, f"<lamech generated {name}>", "exec"), namespace)
-            functions = _jit(namespace, cache=False)
-            _warm_up(functions, n, p)
+            _jit_system(namespace, cache=False)
             state, path = "memory", None
-        kernels = Kernels(functions, state, path)
+        sy = _record(namespace, pattern, diagonal)
+        if path is not None:  # a cache on disk: the whole engine, once per machine
+            _precompile(engine, sy)
+        kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
+        kernels.namespace = namespace
         _LOADED[name] = kernels
         return kernels
 
 
-def is_cached(text: str, function: str) -> bool:
-    """Whether numba's cache on disk holds machine code of ``function`` of the module
-    ``text`` (:func:`module_text`), so that using it costs a load, not a compile."""
-    name = module_key(text)
+def _nbi(name: str, function: str) -> bool:
+    numba_dir = os.environ.get("NUMBA_CACHE_DIR")
+    if numba_dir:
+        return any(Path(numba_dir).rglob(f"{name}.{function}-*.nbi"))
+    return any((cache_dir() / "__pycache__").glob(f"{name}.{function}-*.nbi"))
+
+
+def engine_is_cached(function: str = "ev_segment") -> bool:
+    """Whether numba's cache on disk holds the engine's ``function`` (the loop, the same
+    for every system): using it then costs a load, not a compile."""
     try:
-        numba_dir = os.environ.get("NUMBA_CACHE_DIR")
-        if numba_dir:
-            return any(Path(numba_dir).rglob(f"{name}.{function}-*.nbi"))
-        return any((cache_dir() / "__pycache__").glob(f"{name}.{function}-*.nbi"))
+        return _nbi(module_key(engine_text(), "engine_"), function)
+    except OSError:
+        return False
+
+
+def is_cached(source: str, function: str = "ev_segment") -> bool:
+    """Whether numba's cache on disk holds the engine's ``function`` and the compiled
+    functions of the system whose generated ``source`` is given: running it compiled
+    then costs loads, no compile."""
+    try:
+        return engine_is_cached(function) and _nbi(module_key(system_text(source)), "c_dynamics")
     except OSError:
         return False

@@ -1,26 +1,21 @@
-"""The compiled kernels of the hot path, as text for each system's generated module.
+"""The kernels of the hot path: the KKT solves, DOP853's step, the batch loop and the loop
+with events with its contact rules, as plain Python that numba compiles.
 
-numba compiles a system's KKT solve and right-hand sides from one module per system
-(:mod:`._jitcache`): the generated functions of its derivation (``dynamics``,
-``constraints``: :mod:`._codegen`), its sparsity pattern as module constants (``PTR``,
-``IDX``, ``CPTR``, ``CROW``: :func:`._kkt.sparsity`) and ``DIAGONAL``, the loops of
-:func:`lamech.linalg.gauss_inplace` and :func:`lamech.linalg.cholesky_inplace`, and the
-text of this file below the ``KERNELS`` line. Module-level functions over module-level
-constants, not closures: that is what lets numba cache the compiled code on disk
-(``cache=True`` keys a closure's cache by its cells, and a cell holding another compiled
-function pickles differently in every process, so a closure is compiled anew in each).
-
-The names above the ``KERNELS`` line stand in for those the generated module defines
-(they make this file a module that can be imported and checked by itself). The compiled
-solve is the twin of :func:`._kkt.kkt_solve_numpy` (the same system, the same numbers to
-rounding):
+Every kernel below the ``KERNELS`` line takes the system record ``sy``
+(:data:`SYSTEM_FIELDS`) first: the system's generated functions and its sparsity pattern
+arrive as arguments, not as module globals, so that the same compiled code serves every
+system. :mod:`._jitcache` compiles this text once per machine (numba's cache on disk),
+with each system's functions as numba cfuncs (first-class functions of one signature);
+:mod:`._batch` runs the same functions as Python around the NumPy ones (the same
+numbers, slowly). The compiled solve is the twin of :func:`._kkt.kkt_solve_numpy` (the
+same system, the same numbers to rounding):
 
 The KKT system  M q'' - A_r^T lambda + sum_s c_s A_{j_s}^T lambda_{k_s} = rhs,
 A_r q'' = -gamma_r  on the active ``rows`` (a slipping friction row j_s on the normal
 row at position k_s adds its kinetic friction, c_s = mu_j * slip_c[s]).
 
-``DIAGONAL`` (known from the symbolic M, as for particles and planar bodies in maximal
-coordinates): while every M_ii is nonzero, the Schur complement
+Where M is diagonal (``sy[0]``, known from the symbolic M, as for particles and planar
+bodies in maximal coordinates): while every M_ii is nonzero, the Schur complement
 S lambda = -gamma_r - A_r M^-1 rhs with S = A_r M^-1 G^T (m x m) replaces the
 (n + m)-square elimination (8-link chain: 24 x 24 -> 8 x 8), and every product runs over
 the structural nonzeros of A only. S is factored by Cholesky when it is symmetric
@@ -38,137 +33,75 @@ import numpy as np
 from ..linalg import cholesky_inplace, gauss_inplace
 from ._project import PROJECTION_ITERATIONS
 
-__all__ = [
-    "kernel_text",
-    "KERNEL_NAMES",
-    "BATCH_NAMES",
-    "EVENT_NAMES",
-    "EVENT_CONSTANTS",
-    "STAGES",
-    "PROJECTION_ITERATIONS",
-]
+__all__ = ["kernel_text", "SYSTEM_FIELDS", "STAGES", "PROJECTION_ITERATIONS"]
 
 STAGES = 12
 """DOP853's number of stages (checked against SciPy's table in :mod:`._batch`)."""
 
 
-# Stand-ins for the generated module's names (see the module docstring).
-def dynamics(t, q, v, p):  # (M, rhs, A, gamma, mu)
-    raise NotImplementedError
-
-
-def dynamics_sparse(t, q, v, p):  # (diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)
-    raise NotImplementedError
-
-
-def constraints(t, q, p):  # (f, A, b)
-    raise NotImplementedError
-
-
-def energy(t, q, v, p):  # (T, V)
-    raise NotImplementedError
-
-
-def restitution(t, q, p):  # (e,) per constraint
-    raise NotImplementedError
-
-
-PTR = IDX = CPTR = CROW = CPOS = np.zeros(1, dtype=np.int64)
-DIAGONAL = False
-prange = range  # numba.prange in the generated module
-
-KERNEL_NAMES = (
+SYSTEM_FIELDS = (
+    "diagonal",
+    "PTR",
+    "IDX",
+    "CPTR",
+    "CROW",
+    "CPOS",
+    "dynamics",
     "dynamics_sparse",
-    "kkt_dense",
-    "kkt_schur",
-    "kkt_schur_sparse",
-    "dense_matrices",
-    "kkt_state",
-    "rhs_kernel",
-    "accelerations",
+    "constraints",
+    "energy",
+    "restitution",
 )
-"""The functions of the ``KERNELS`` part that numba compiles (and the generated
-``dynamics_sparse``); ``kkt_solve`` is ``kkt_schur`` when ``DIAGONAL``, else
-``kkt_dense``."""
-BATCH_NAMES = ("batch_solve", "batch_deriv", "batch_project", "dop853_trial", "batch_run_one")
-"""The functions of the ``BATCH`` part that numba compiles (and ``batch_run`` in
-parallel, ``batch_run_serial``)."""
-EVENT_NAMES = (
-    "ev_active",
-    "ev_mode",
-    "ev_watch",
-    "ev_lam",
-    "ev_values",
-    "ev_correction",
-    "ev_project",
-    "ev_dense",
-    "ev_brent",
-    "ev_log",
-    "ev_settle",
-    "ev_first_step",
-    "ev_all",
-    "ev_sample",
-    "ev_dense_stages",
-    "ev_impulses",
-    "ev_impact",
-    "ev_bound",
-    "ev_accumulated",
-    "ev_segment",
-    "ev_run_one",
-    "ev_restricted",
-    "ev_consistent",
-    "ev_starts",
-)
-"""The functions of the ``BATCH`` part's loop with events that numba compiles (and
-``ev_run``, without the GIL; ``ev_starts`` the batch's initial states)."""
-EVENT_CONSTANTS = (
-    "EV_LIFT_OFF",
-    "EV_CONTACT",
-    "EV_SLIP",
-    "EV_STICK",
-    "EV_IMPACT",
-    "FR_NONE",
-    "FR_STICK",
-    "FR_SLIP",
-    "FR_OFF",
-    "ST_END",
-    "ST_FOUND",
-    "ST_CONTACT",
-    "ST_STICK",
-    "ST_EVENTS",
-    "ST_STEP",
-    "ST_GROWTH",
-    "ST_PENETRATION",
-    "ST_GRAZE",
-    "ST_SETTLE",
-    "ST_START",
-    "ST_SINGULAR",
-    "ST_BUDGET",
-    "DT_NONE",
-    "DT_MULTIPLIER",
-    "DT_RATIO",
-    "DT_REVERSAL",
-    "DT_INITIAL",
-    "DT_IMPACT",
-    "DT_ACCUMULATION",
-    "DT_IMPULSE",
-)
-"""The module constants of the loop with events (event kinds, friction states, statuses)."""
+"""The system record ``sy`` every kernel takes first, a tuple in this order: whether M
+is diagonal, the sparsity pattern of A (:func:`._kkt.sparsity`), and the generated
+functions of :mod:`._codegen` (``dynamics(t, q, v, p)`` -> (M, rhs, A, gamma,
+mu); ``dynamics_sparse`` -> (M's diagonal, rhs, A's nonzeros in CSR order, gamma, mu);
+``constraints(t, q, p)`` -> (f, A, b); ``energy(t, q, v, p)`` -> (T, V) as an array;
+``restitution(t, q, p)`` -> e). Compiled, the functions are the addresses of numba
+cfuncs of one signature for every system (:mod:`._jitcache`, :mod:`._fnptr`), so that the
+loop is compiled once, not per system."""
+prange = range  # numba.prange in the compiled module
 
 
-def kernel_text(part: str = "KERNELS") -> str:
-    """The text of this file's ``KERNELS`` part (to the ``BATCH`` line) or its
-    ``BATCH`` part (to the end)."""
+def kernel_text() -> str:
+    """The text of this file from its ``KERNELS`` line on: the kernels, the batch loop
+    and the loop with events (:func:`._jitcache.engine_text` compiles it)."""
     import inspect
     import sys
 
     text = inspect.getsource(sys.modules[__name__])
-    start = text.index("\n# KERNELS\n") + 1
-    batch = text.index("\n# BATCH\n") + 1
-    return text[start:batch] if part == "KERNELS" else text[batch:]
+    return text[text.index("\n# KERNELS\n") + 1 :]
 
 
 # KERNELS
+# The system record ``sy`` every kernel below takes first (see :data:`SYSTEM_FIELDS`): the
+# system's generated functions (numba cfuncs when compiled: first-class functions, so
+# that this code is compiled once for every system) and its sparsity pattern.
+def dynamics(sy, t, q, v, p):
+    """(M, rhs, A, gamma, mu) of the system."""
+    return sy[6](t, q, v, p)
+
+
+def dynamics_sparse(sy, t, q, v, p):
+    """(diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)."""
+    return sy[7](t, q, v, p)
+
+
+def constraints(sy, t, q, p):
+    """(f, A, b) with F = A v + b."""
+    return sy[8](t, q, p)
+
+
+def energy(sy, t, q, v, p):
+    """(T, V)."""
+    return sy[9](t, q, v, p)
+
+
+def restitution(sy, t, q, p):
+    """e per constraint."""
+    return sy[10](t, q, p)
+
+
 def kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
     """The full KKT matrix, by elimination with partial pivoting."""
     n = rhs.shape[0]
@@ -194,8 +127,9 @@ def kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
     return r
 
 
-def kkt_schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
+def kkt_schur(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
     """:func:`kkt_schur_sparse` on dense M and A (the simulator's solve at a state)."""
+    PTR, IDX = sy[1], sy[2]
     n = rhs.shape[0]
     Md = np.empty(n)
     for i in range(n):
@@ -204,11 +138,12 @@ def kkt_schur(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
     for j in range(PTR.shape[0] - 1):
         for e in range(PTR[j], PTR[j + 1]):
             Av[e] = A[j, IDX[e]]
-    return kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
+    return kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
 
 
-def dense_matrices(Md, Av):
+def dense_matrices(sy, Md, Av):
     """M and A as matrices from their structural nonzeros."""
+    PTR, IDX = sy[1], sy[2]
     n = Md.shape[0]
     M = np.zeros((n, n))
     for i in range(n):
@@ -220,11 +155,12 @@ def dense_matrices(Md, Av):
     return M, A
 
 
-def kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
+def kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
     """The Schur complement over the structural nonzeros: M's diagonal ``Md`` and A's
     nonzeros ``Av`` (by row: PTR, IDX; by column: CPTR, CROW, and CPOS their positions
     in Av). Nothing of size n x n or m x n is formed, unless a zero M_ii or dependent rows
     send it to the full KKT matrix."""
+    PTR, IDX, CPTR, CROW, CPOS = sy[1], sy[2], sy[3], sy[4], sy[5]
     n = rhs.shape[0]
     m = PTR.shape[0] - 1
     na = rows.shape[0]
@@ -232,7 +168,7 @@ def kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
     positive = True
     for i in range(n):
         if Md[i] == 0.0:
-            M, A = dense_matrices(Md, Av)
+            M, A = dense_matrices(sy, Md, Av)
             return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
         minv[i] = 1.0 / Md[i]
         positive = positive and Md[i] > 0.0
@@ -270,7 +206,7 @@ def kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
         # S = A_r M^-1 A_r^T is symmetric positive definite (M_ii > 0, independent
         # rows): Cholesky, half the work of elimination and no pivot search.
         if not cholesky_inplace(S, r):  # dependent rows here: let the full KKT decide
-            M, A = dense_matrices(Md, Av)
+            M, A = dense_matrices(sy, Md, Av)
             return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
     else:
         gauss_inplace(S, r)  # r becomes lambda
@@ -289,25 +225,30 @@ def kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
     return out
 
 
-kkt_solve = kkt_schur if DIAGONAL else kkt_dense
-
-
-def kkt_state(t, q, v, p, rows, slip_j, slip_k, slip_c):
-    """[q''; lambda_rows] at a state: the generated functions and the solve, over the
-    structural nonzeros when ``DIAGONAL`` (no n x n M or m x n A filled per call)."""
-    if DIAGONAL:
-        Md, rhs, Av, gam, mu = dynamics_sparse(t, q, v, p)
-        return kkt_schur_sparse(Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
-    M, rhs, A, gam, mu = dynamics(t, q, v, p)
+def kkt_solve(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):
+    """The solve at a state: :func:`kkt_schur` where M is diagonal (``sy[0]``), else
+    :func:`kkt_dense`."""
+    if sy[0]:
+        return kkt_schur(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
     return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
 
 
-def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
+def kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c):
+    """[q''; lambda_rows] at a state: the generated functions and the solve, over the
+    structural nonzeros where M is diagonal (no n x n M or m x n A filled per call)."""
+    if sy[0]:
+        Md, rhs, Av, gam, mu = dynamics_sparse(sy, t, q, v, p)
+        return kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c)
+    M, rhs, A, gam, mu = dynamics(sy, t, q, v, p)
+    return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
+
+
+def rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c):
     """y' = [v; q''] on a mode's active rows."""
     n = y.shape[0] // 2
     q = y[:n].copy()
     v = y[n:].copy()
-    sol = kkt_state(t, q, v, p, rows, slip_j, slip_k, slip_c)
+    sol = kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c)
     out = np.empty(2 * n)
     for i in range(n):
         out[i] = v[i]
@@ -315,14 +256,14 @@ def rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c):
     return out
 
 
-def accelerations(t, y, p):
+def accelerations(sy, t, y, p):
     """[q''; lambda] with every constraint active."""
     n = y.shape[0] // 2
     # writable arrays of rhs_kernel's types, so that numba reuses the compiled solve
     # (read-only constant arrays would compile it again: 2 s more)
     none = np.zeros(0, dtype=np.int64)
-    rows = np.arange(PTR.shape[0] - 1)
-    return kkt_state(t, y[:n].copy(), y[n:].copy(), p, rows, none, none, np.zeros(0))
+    rows = np.arange(sy[1].shape[0] - 1)
+    return kkt_state(sy, t, y[:n].copy(), y[n:].copy(), p, rows, none, none, np.zeros(0))
 
 
 # BATCH
@@ -337,23 +278,23 @@ def batch_solve(K, r):
     return x
 
 
-def batch_deriv(t, y, p, out):
+def batch_deriv(sy, t, y, p, out):
     """out = [v; q''] with every constraint active."""
     n = y.shape[0] // 2
-    sol = accelerations(t, y, p)
+    sol = accelerations(sy, t, y, p)
     for i in range(n):
         out[i] = y[n + i]
         out[n + i] = sol[i]
 
 
-def batch_project(t, y, p):
+def batch_project(sy, t, y, p):
     """Positions onto f = 0 (Gauss-Newton, minimum norm), then velocities onto
     A v + b = 0; in place. The compiled twin of :mod:`._project` with
     the Euclidean metric, at most PROJECTION_ITERATIONS Gauss-Newton steps."""
     n = y.shape[0] // 2
     q = y[:n].copy()
     for _ in range(PROJECTION_ITERATIONS):
-        f, A, b = constraints(t, q, p)
+        f, A, b = constraints(sy, t, q, p)
         m = f.shape[0]
         big = 0.0
         for j in range(m):
@@ -363,7 +304,7 @@ def batch_project(t, y, p):
         G = A @ A.T
         w = batch_solve(G, f)
         q -= A.T @ w
-    f, A, b = constraints(t, q, p)
+    f, A, b = constraints(sy, t, q, p)
     v = y[n:].copy()
     G = A @ A.T
     w = batch_solve(G, A @ v + b)
@@ -372,7 +313,9 @@ def batch_project(t, y, p):
     y[n:] = v
 
 
-def dop853_trial(t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew):
+def dop853_trial(
+    sy, t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew
+):
     """One DOP853 step of size h from (t, y) with y' = f there, on a mode's active rows:
     the stages into K, the solution into ``ynew``; returns SciPy's error norm (< 1:
     accept). The one step of both loops, the batch's and the one with events."""
@@ -383,12 +326,12 @@ def dop853_trial(t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, 
         for k in range(s):
             if A[s, k] != 0.0:
                 dy += A[s, k] * K[k]
-        K[s] = rhs_kernel(t + C[s] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
+        K[s] = rhs_kernel(sy, t + C[s] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
     acc = np.zeros(N)
     for k in range(STAGES):
         acc += B[k] * K[k]
     ynew[:] = y + h * acc
-    K[STAGES] = rhs_kernel(t + h, ynew, p, rows, slip_j, slip_k, slip_c)
+    K[STAGES] = rhs_kernel(sy, t + h, ynew, p, rows, slip_j, slip_k, slip_c)
     scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
     err5 = np.zeros(N)
     err3 = np.zeros(N)
@@ -402,17 +345,17 @@ def dop853_trial(t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, 
     return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
 
 
-def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
+def batch_run_one(sy, y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
     N = y0.shape[0]
     y = y0.copy()
     t = 0.0
     K = np.zeros((STAGES + 1, N))
     f = np.zeros(N)
-    batch_deriv(t, y, p, f)
-    rows = np.arange(PTR.shape[0] - 1)  # every constraint active
+    batch_deriv(sy, t, y, p, f)
+    rows = np.arange(sy[1].shape[0] - 1)  # every constraint active
     none = np.zeros(0, dtype=np.int64)
     nothing = np.zeros(0)
-    h = ev_first_step(t, y, f, p, rows, none, none, nothing, t_end, np.inf, rtol, atol)
+    h = ev_first_step(sy, t, y, f, p, rows, none, none, nothing, t_end, np.inf, rtol, atol)
     steps = 0
     ynew = np.zeros(N)
     while t < t_end:
@@ -422,7 +365,7 @@ def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
         if h < 10 * np.abs(np.nextafter(t, np.inf) - t):
             return y * np.nan, -1
         err = dop853_trial(
-            t, y, f, h, p, rows, none, none, nothing, rtol, atol, A, B, C, E3, E5, K, ynew
+            sy, t, y, f, h, p, rows, none, none, nothing, rtol, atol, A, B, C, E3, E5, K, ynew
         )
         if not np.isfinite(err):
             return y * np.nan, -1
@@ -430,8 +373,8 @@ def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
             factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
             t = t + h
             y[:] = ynew
-            batch_project(t, y, p)
-            batch_deriv(t, y, p, f)
+            batch_project(sy, t, y, p)
+            batch_deriv(sy, t, y, p, f)
             h = h * factor
             steps += 1
         else:
@@ -439,19 +382,19 @@ def batch_run_one(y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
     return y, steps
 
 
-def batch_run(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
+def batch_run(sy, Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
     """Every row of Y0 (parameters P) to t_end, over the cores (numba's prange)."""
     for b in prange(Y0.shape[0]):
-        y, s = batch_run_one(Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
+        y, s = batch_run_one(sy, Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
         out[b] = y
         steps[b] = s
 
 
-def batch_run_serial(Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
+def batch_run_serial(sy, Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
     """:func:`batch_run` in one thread, for a batch smaller than the thread count (its own
     function: numba's cache keys a function by its name, not by ``parallel``)."""
     for b in range(Y0.shape[0]):
-        y, s = batch_run_one(Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
+        y, s = batch_run_one(sy, Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
         out[b] = y
         steps[b] = s
 
@@ -586,14 +529,14 @@ def ev_watch(kinds, imode):
     return wk[:nw].copy(), wj[:nw].copy()
 
 
-def ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c):
+def ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c):
     """(q'', lambda (m,): NaN where inactive, the kinetic friction where slipping, mu)
     on the mode's rows (Run.kkt)."""
     n = y.shape[0] // 2
     q = y[:n].copy()
     v = y[n:].copy()
-    M, rhs, A, gam, mu = dynamics(t, q, v, p)
-    sol = kkt_solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
+    M, rhs, A, gam, mu = dynamics(sy, t, q, v, p)
+    sol = kkt_solve(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
     lam = np.full(m, np.nan)
     for a in range(rows.shape[0]):
         lam[rows[a]] = sol[n + a]
@@ -602,7 +545,9 @@ def ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c):
     return sol[:n].copy(), lam, mu
 
 
-def ev_values(t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel):
+def ev_values(
+    sy, t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
+):
     """The watched events' functions at (t, y) (_detect.event_values): lambda_j of an
     engaged unilateral (lift-off), f_j of a released one (contact), mu sN N - |lambda_j| of
     sticking friction (slip), sigma s_j of slipping friction (stick); a disarmed contact
@@ -613,8 +558,8 @@ def ev_values(t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c
         return out
     n = y.shape[0] // 2
     m = kinds.shape[1]
-    qdd, lam, mu = ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c)
-    f, A, b = constraints(t, y[:n].copy(), p)
+    qdd, lam, mu = ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c)
+    f, A, b = constraints(sy, t, y[:n].copy(), p)
     for i in range(nw):
         kind = wk[i]
         j = wj[i]
@@ -676,7 +621,7 @@ def ev_correction(W, Ar, r):
     return Ar.T @ w
 
 
-def ev_project(t, y, p, rows, hrows, offset):
+def ev_project(sy, t, y, p, rows, hrows, offset):
     """y onto the mode's manifold, in place (_project in the mass-matrix metric):
     positions onto f_h = offset_h (Gauss-Newton), velocities onto A_r v + b_r = 0."""
     n = y.shape[0] // 2
@@ -686,7 +631,7 @@ def ev_project(t, y, p, rows, hrows, offset):
         W = np.zeros((n, n))
         have_w = False
         for _ in range(PROJECTION_ITERATIONS):
-            f, A, b = constraints(t, q, p)
+            f, A, b = constraints(sy, t, q, p)
             r = np.empty(hrows.shape[0])
             big = 0.0
             for a in range(hrows.shape[0]):
@@ -696,18 +641,18 @@ def ev_project(t, y, p, rows, hrows, offset):
             if big <= 2e-16 * scale * max(1.0, np.max(np.abs(A))):
                 break
             if not have_w:
-                W = dynamics(t, q, v, p)[0]
+                W = dynamics(sy, t, q, v, p)[0]
                 have_w = True
             dq = ev_correction(W, A[hrows], r)
             q += dq
             if np.max(np.abs(dq)) <= 1e-16 * scale:
                 break
     if rows.shape[0] > 0:
-        f, A, b = constraints(t, q, p)
+        f, A, b = constraints(sy, t, q, p)
         Ar = A[rows]
         r = -(Ar @ v + b[rows])
         if np.any(r != 0.0):
-            W = dynamics(t, q, v, p)[0]
+            W = dynamics(sy, t, q, v, p)[0]
             v += ev_correction(W, Ar, r)
     y[:n] = q
     y[n:] = v
@@ -729,6 +674,7 @@ def ev_dense(s, t_old, h, y_old, F):
 
 
 def ev_brent(
+    sy,
     i,
     xa,
     xb,
@@ -757,6 +703,7 @@ def ev_brent(
     xpre = xa
     xcur = xb
     fpre = ev_values(
+        sy,
         xpre,
         ev_dense(xpre, t_old, h, y_old, F),
         p,
@@ -773,6 +720,7 @@ def ev_brent(
         arm_vel,
     )[i]
     fcur = ev_values(
+        sy,
         xcur,
         ev_dense(xcur, t_old, h, y_old, F),
         p,
@@ -838,6 +786,7 @@ def ev_brent(
         else:
             xcur += delta if sbis > 0.0 else -delta
         fcur = ev_values(
+            sy,
             xcur,
             ev_dense(xcur, t_old, h, y_old, F),
             p,
@@ -876,7 +825,7 @@ def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, va
 
 
 def ev_settle(
-    t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
+    sy, t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
 ):
     """Make the mode consistent at (t, y), in place (_switch.settle): release the
     unilateral constraint pulling hardest, else let the friction furthest beyond mu N
@@ -885,8 +834,8 @@ def ev_settle(
     m = kinds.shape[1]
     for _ in range(4 * m + 4):
         rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
-        ev_project(t, y, p, rows, hrows, fmode[2])
-        qdd, lam, mu = ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c)
+        ev_project(sy, t, y, p, rows, hrows, fmode[2])
+        qdd, lam, mu = ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c)
         if not np.all(np.isfinite(qdd)):
             return nev, ST_SINGULAR
         scale = 0.0
@@ -929,7 +878,7 @@ def ev_settle(
                     jw = j
         if jw >= 0:
             ratio = abs(lam[jw]) / max(abs(mu[jw] * lam[kinds[2, jw]]), 1e-300)
-            f, A, b = constraints(t, y[:n].copy(), p)
+            f, A, b = constraints(sy, t, y[:n].copy(), p)
             s = b[jw]
             for c in range(n):
                 s += A[jw, c] * y[n + c]
@@ -950,7 +899,7 @@ def ev_settle(
     return nev, ST_SETTLE
 
 
-def ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol):
+def ev_first_step(sy, t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol):
     """scipy's select_initial_step for DOP853 (error estimator order 7)."""
     interval = abs(t_end - t)
     if interval == 0.0:
@@ -960,7 +909,7 @@ def ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rto
     d1 = np.sqrt(np.mean((f / scale) ** 2))
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, interval)
-    f1 = rhs_kernel(t + h0, y + h0 * f, p, rows, slip_j, slip_k, slip_c)
+    f1 = rhs_kernel(sy, t + h0, y + h0 * f, p, rows, slip_j, slip_k, slip_c)
     d2 = np.sqrt(np.mean(((f1 - f) / scale) ** 2)) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -980,6 +929,7 @@ def ev_all(found, to_end):
 
 
 def ev_run_one(
+    sy,
     y0,
     p,
     t_end,
@@ -1019,7 +969,7 @@ def ev_run_one(
     # the start (_switch.initial_mode): a unilateral constraint open or opening starts
     # released, friction with a slip velocity starts slipping; a start off the
     # constraints is left to simulate (which refuses it with the values)
-    f0, A0, b0 = constraints(t, y[:n].copy(), p)
+    f0, A0, b0 = constraints(sy, t, y[:n].copy(), p)
     tol_q = tol * (1.0 + np.max(np.abs(y[:n])))
     F0 = np.empty(m)
     for j in range(m):
@@ -1051,7 +1001,7 @@ def ev_run_one(
         if (kinds[1, j] == 1 and abs(f0[j]) > tol_q) or abs(F0[j]) > tol_q:
             return t, ST_START, nev, 0
     nev, st = ev_settle(
-        t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
+        sy, t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
     )
     y_out[:] = y
     if st != 0:
@@ -1063,6 +1013,7 @@ def ev_run_one(
     io = np.zeros(4, dtype=np.int64)
     fo = np.zeros(2)
     t, st, nev, steps = ev_segment(
+        sy,
         t, y, 0.0, t_end, p, rtol, atol, max_step, max_steps, tab,
         kinds, imode, fmode, arm_pos, arm_vel, blow_up, pen, want, found, to_end, impacts,
         ev_kind, ev_j, ev_t, ev_y, ev_x, nev, none, np.zeros((0, N)), np.zeros((0, m)),
@@ -1073,19 +1024,19 @@ def ev_run_one(
     return t, st, nev, steps
 
 
-def ev_sample(t, y, p, m, rows, hrows, slip_j, slip_k, slip_c, offset, k, SY, SL, SR):
+def ev_sample(sy, t, y, p, m, rows, hrows, slip_j, slip_k, slip_c, offset, k, SY, SL, SR):
     """Sample k of a simulation at (t, y) (_record.Recorder.record): the state, lambda of
     the mode's KKT solve, the residuals max |f_h - offset_h| and max |A_r v + b_r|, T and
     V."""
     n = y.shape[0] // 2
     SY[k, :] = y
-    SL[k, :] = ev_lam(t, y, p, m, rows, slip_j, slip_k, slip_c)[1]
+    SL[k, :] = ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c)[1]
     q = y[:n].copy()
     v = y[n:].copy()
     rp = 0.0
     rv = 0.0
     if rows.shape[0] > 0:
-        f, Ac, b = constraints(t, q, p)
+        f, Ac, b = constraints(sy, t, q, p)
         for a in range(hrows.shape[0]):
             rp = max(rp, abs(f[hrows[a]] - offset[hrows[a]]))
         for a in range(rows.shape[0]):
@@ -1094,14 +1045,14 @@ def ev_sample(t, y, p, m, rows, hrows, slip_j, slip_k, slip_c, offset, k, SY, SL
             for c in range(n):
                 s += Ac[j, c] * v[c]
             rv = max(rv, abs(s))
-    E = energy(t, q, v, p)
+    E = energy(sy, t, q, v, p)
     SR[k, 0] = rp
     SR[k, 1] = rv
     SR[k, 2] = E[0]
     SR[k, 3] = E[1]
 
 
-def ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F):
+def ev_dense_stages(sy, t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F):
     """The step's dense output into F: the 3 more stages of scipy's _dense_output_impl."""
     N = y.shape[0]
     for s in range(STAGES + 1, D.shape[1]):
@@ -1109,7 +1060,9 @@ def ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D
         for k in range(s):
             if AX[s - STAGES - 1, k] != 0.0:
                 dy += AX[s - STAGES - 1, k] * K[k]
-        K[s] = rhs_kernel(t + CX[s - STAGES - 1] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
+        K[s] = rhs_kernel(
+            sy, t + CX[s - STAGES - 1] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c
+        )
     F[0] = ynew - y
     F[1] = h * K[0] - F[0]
     F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])
@@ -1120,7 +1073,7 @@ def ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D
         F[3 + r] = h * acc
 
 
-def ev_impulses(M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, extra, sj2, sc2):
+def ev_impulses(sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, extra, sj2, sc2):
     """(q'+, impulses (m,): NaN where none) of _switch._impulses' solve: the velocity
     jump on the active rows, j (its velocity form brought to ``target`` - b_j) and the
     rows ``extra``; the mode's slips and the friction rows ``sj2`` slipping through the
@@ -1170,6 +1123,7 @@ def ev_impulses(M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, extra, 
 
 
 def ev_impact(
+    sy,
     t, y, p, j, kinds, imode, fmode, arm_pos, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y,
     ev_x, nev,
 ):  # fmt: skip
@@ -1186,14 +1140,14 @@ def ev_impact(
     m = kinds.shape[1]
     q = y[:n].copy()
     v = y[n:].copy()
-    f, A, b = constraints(t, q, p)
-    e = restitution(t, q, p)[j]
+    f, A, b = constraints(sy, t, q, p)
+    e = restitution(sy, t, q, p)[j]
     Fm = b[j]
     for c in range(n):
         Fm += A[j, c] * v[c]
     rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
-    M, rhs, Ad, gam, mu = dynamics(t, q, v, p)
-    qdd = kkt_solve(M, rhs, Ad, gam, mu, rows, slip_j, slip_k, slip_c)[:n].copy()
+    M, rhs, Ad, gam, mu = dynamics(sy, t, q, v, p)
+    qdd = kkt_solve(sy, M, rhs, Ad, gam, mu, rows, slip_j, slip_k, slip_c)[:n].copy()
     if not np.all(np.isfinite(qdd)):
         return nev, ST_CONTACT
     a_gap = gam[j]
@@ -1218,7 +1172,7 @@ def ev_impact(
     none_i = np.zeros(0, dtype=np.int64)
     none_f = np.zeros(0)
     vp, imp = ev_impulses(
-        M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, frows, none_i, none_f
+        sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, frows, none_i, none_f
     )
     if not np.all(np.isfinite(vp)):
         return nev, ST_CONTACT
@@ -1244,7 +1198,7 @@ def ev_impact(
             nst += 1
     if ns2 > 0:
         vp, imp = ev_impulses(
-            M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, stay, sj2, sc2
+            sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, stay, sj2, sc2
         )
         if not np.all(np.isfinite(vp)):
             return nev, ST_CONTACT
@@ -1252,14 +1206,15 @@ def ev_impact(
     vb = vp
     ib = 0.0
     if engage and 0.0 < e < 1.0:  # _switch._accumulation: the bounces' time to rest
-        M2, rhs2, A2, gam2, mu2 = dynamics(t, q, vp, p)
-        qdd2 = kkt_solve(M2, rhs2, A2, gam2, mu2, rows, slip_j, slip_k, slip_c)[:n].copy()
+        M2, rhs2, A2, gam2, mu2 = dynamics(sy, t, q, vp, p)
+        qdd2 = kkt_solve(sy, M2, rhs2, A2, gam2, mu2, rows, slip_j, slip_k, slip_c)[:n].copy()
         a_n = gam2[j]
         for c in range(n):
             a_n += A[j, c] * qdd2[c]
         if a_n < 0.0:
             rest = 2.0 * e * abs(Fm) / (-a_n * (1.0 - e))
             vb, imb = ev_impulses(
+                sy,
                 M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, -e * Fm - b[j], none_i,
                 none_i, none_f,
             )  # fmt: skip
@@ -1333,7 +1288,7 @@ def ev_bound(t_end, fmode):
     return bound
 
 
-def ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev):
+def ev_accumulated(sy, t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev):
     """Log EV_CONTACT for each constraint whose bounces have accumulated by t, in the
     order of their accumulation times (_simulate._accumulated); the new count, or -1."""
     n = y.shape[0] // 2
@@ -1345,7 +1300,7 @@ def ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
         if jn < 0:
             return nev
         fmode[3, jn] = np.nan
-        e = restitution(t, y[:n].copy(), p)[jn]
+        e = restitution(sy, t, y[:n].copy(), p)[jn]
         nev = ev_log(EV_CONTACT, jn, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
                      DT_ACCUMULATION, e, nev)  # fmt: skip
         if nev < 0:
@@ -1354,6 +1309,7 @@ def ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
 
 
 def ev_segment(
+    sy,
     t,
     y,
     h_abs,
@@ -1411,11 +1367,11 @@ def ev_segment(
     y_out[:] = y
     rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
     wk, wj = ev_watch(kinds, imode)
-    f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+    f = rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c)
     io[2] += 1
     bound = ev_bound(t_end, fmode)
     if bound <= t < t_end:  # accumulated already (_simulate._segment): a fresh start
-        nev = ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev)
+        nev = ev_accumulated(sy, t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev)
         if nev < 0:
             return t, ST_EVENTS, 0, 0
         if ev_all(found, to_end):
@@ -1423,10 +1379,12 @@ def ev_segment(
         bound = ev_bound(t_end, fmode)
         h_abs = 0.0
     if h_abs <= 0.0:
-        h_abs = ev_first_step(t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol)
+        h_abs = ev_first_step(
+            sy, t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
+        )
         io[2] += 1
     g_old = ev_values(
-        t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
+        sy, t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
     )
     K = np.zeros((D.shape[1], N))
     F = np.zeros((7, N))
@@ -1454,7 +1412,25 @@ def ev_segment(
             h = t_new - t
             h_abs = abs(h)
             err = dop853_trial(
-                t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew
+                sy,
+                t,
+                y,
+                f,
+                h,
+                p,
+                rows,
+                slip_j,
+                slip_k,
+                slip_c,
+                rtol,
+                atol,
+                A,
+                B,
+                C,
+                E3,
+                E5,
+                K,
+                ynew,
             )
             io[2] += STAGES
             if err < 1.0:
@@ -1473,8 +1449,9 @@ def ev_segment(
         if not np.isfinite(big) or big > blow_up:
             return t, ST_GROWTH, nev, steps
         yb = ynew.copy()
-        ev_project(t_new, yb, p, rows, hrows, fmode[2])
+        ev_project(sy, t_new, yb, p, rows, hrows, fmode[2])
         g_new = ev_values(
+            sy,
             t_new, yb, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos,
             arm_vel,
         )  # fmt: skip
@@ -1483,8 +1460,8 @@ def ev_segment(
             if wk[i] == EV_CONTACT:
                 released = True
         if released:  # a gap that turns within the step: simulate's inside_step
-            fa, Aa, ba = constraints(t, y[:n].copy(), p)
-            fb, Ab, bb = constraints(t_new, yb[:n].copy(), p)
+            fa, Aa, ba = constraints(sy, t, y[:n].copy(), p)
+            fb, Ab, bb = constraints(sy, t_new, yb[:n].copy(), p)
             for i in range(wk.shape[0]):
                 if wk[i] == EV_CONTACT:
                     j = wj[i]
@@ -1502,7 +1479,7 @@ def ev_segment(
         k = io[0]
         dense = hit or (k < TS.shape[0] and TS[k] < t_new)
         if dense:
-            ev_dense_stages(t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F)
+            ev_dense_stages(sy, t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F)
             io[2] += 3
         if hit:
             te = t_new
@@ -1510,6 +1487,7 @@ def ev_segment(
             for i in range(wk.shape[0]):
                 if g_old[i] > 0.0 and g_new[i] <= 0.0:
                     r = ev_brent(
+                        sy,
                         i, t, t_new, t, h, y, F, p, wk, wj, kinds, imode, fmode, rows, slip_j,
                         slip_k, slip_c, arm_pos, arm_vel,
                     )  # fmt: skip
@@ -1519,12 +1497,12 @@ def ev_segment(
             # the samples up to the event, on the dense output (Recorder.up_to)
             while k < TS.shape[0] and TS[k] <= te:
                 ys = ev_dense(TS[k], t, h, y, F)
-                ev_sample(TS[k], ys, p, m, rows, hrows, slip_j, slip_k, slip_c, fmode[2], k,
+                ev_sample(sy, TS[k], ys, p, m, rows, hrows, slip_j, slip_k, slip_c, fmode[2], k,
                           SY, SL, SR)  # fmt: skip
                 k += 1
             io[0] = k
             ye = ev_dense(te, t, h, y, F)
-            ev_project(te, ye, p, rows, hrows, fmode[2])
+            ev_project(sy, te, ye, p, rows, hrows, fmode[2])
             y_out[:] = ye
             kind = wk[ie]
             j = wj[ie]
@@ -1532,7 +1510,7 @@ def ev_segment(
             if kind == EV_CONTACT:
                 # _simulate._check_penetration where the contact is met: a gap that jumped
                 # below zero is the simulator's to report
-                fc = constraints(te, ye[:n].copy(), p)[0]
+                fc = constraints(sy, te, ye[:n].copy(), p)[0]
                 depth = max(pen * (1.0 + np.max(np.abs(ye[:n]))), 10.0 * arm_pos)
                 if fc[j] < -depth:
                     io[1] = j
@@ -1541,6 +1519,7 @@ def ev_segment(
                     io[1] = j
                     return te, ST_CONTACT, nev, steps
                 nev, st = ev_impact(
+                    sy,
                     te, ye, p, j, kinds, imode, fmode, arm_pos, arm_vel, want, found, ev_kind,
                     ev_j, ev_t, ev_y, ev_x, nev,
                 )  # fmt: skip
@@ -1556,12 +1535,12 @@ def ev_segment(
                 # _switch._stick: it sticks, f held where it is, if mu N can hold it;
                 # else it slips on (a reversal when the direction changes)
                 sigma = fmode[0, j]
-                fj = constraints(te, ye[:n].copy(), p)[0][j]
+                fj = constraints(sy, te, ye[:n].copy(), p)[0][j]
                 fmode[2, j] = fj if kinds[1, j] == 1 else 0.0
                 imode[1, j] = FR_STICK
                 r2, h2, sj2, sk2, sc2 = ev_mode(kinds, imode, fmode)
-                ev_project(te, ye, p, r2, h2, fmode[2])
-                lam2, mu2 = ev_lam(te, ye, p, m, r2, sj2, sk2, sc2)[1:]
+                ev_project(sy, te, ye, p, r2, h2, fmode[2])
+                lam2, mu2 = ev_lam(sy, te, ye, p, m, r2, sj2, sk2, sc2)[1:]
                 kn = kinds[2, j]
                 if not abs(lam2[j]) <= mu2[j] * fmode[1, j] * lam2[kn] * (1.0 + 1e-9):
                     fmode[0, j] = -np.copysign(1.0, lam2[j])
@@ -1575,7 +1554,7 @@ def ev_segment(
                 imode[2, j] = 0
                 fmode[3, j] = np.nan  # Mode.release: a pending accumulation is dropped
             elif kind == EV_SLIP:
-                lam_j = ev_lam(te, ye, p, m, rows, slip_j, slip_k, slip_c)[1][j]
+                lam_j = ev_lam(sy, te, ye, p, m, rows, slip_j, slip_k, slip_c)[1][j]
                 fmode[0, j] = -np.copysign(1.0, lam_j)
                 imode[1, j] = FR_SLIP
                 imode[3, j] = 0
@@ -1587,6 +1566,7 @@ def ev_segment(
                 if nev < 0:
                     return te, ST_EVENTS, 0, steps
             nev, st = ev_settle(
+                sy,
                 te, ye, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y,
                 ev_x, nev,
             )  # fmt: skip
@@ -1599,10 +1579,10 @@ def ev_segment(
             y = ye
             rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
             wk, wj = ev_watch(kinds, imode)
-            f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+            f = rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c)
             bound = ev_bound(t_end, fmode)
             if bound <= t:  # accumulated at the event's time: logged before going on
-                nev = ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y,
+                nev = ev_accumulated(sy, t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y,
                                      ev_x, nev)  # fmt: skip
                 if nev < 0:
                     return t, ST_EVENTS, 0, steps
@@ -1610,15 +1590,29 @@ def ev_segment(
                     return t, ST_FOUND, nev, steps
                 bound = ev_bound(t_end, fmode)
             h_abs = ev_first_step(
-                t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
+                sy, t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
             )
             io[2] += 2
             g_old = ev_values(
-                t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
+                sy,
+                t,
+                y,
+                p,
+                wk,
+                wj,
+                kinds,
+                imode,
+                fmode,
+                rows,
+                slip_j,
+                slip_k,
+                slip_c,
+                arm_pos,
+                arm_vel,
             )
             continue
         if released:  # a body through a surface (simulate's _check_penetration)
-            fb = constraints(t_new, yb[:n].copy(), p)[0]
+            fb = constraints(sy, t_new, yb[:n].copy(), p)[0]
             depth = max(pen * (1.0 + np.max(np.abs(yb[:n]))), 10.0 * arm_pos)
             for i in range(wk.shape[0]):
                 if wk[i] == EV_CONTACT and fb[wj[i]] < -depth:
@@ -1627,7 +1621,7 @@ def ev_segment(
         # state (Recorder.up_to)
         while k < TS.shape[0] and TS[k] <= t_new:
             ys = yb if TS[k] == t_new else ev_dense(TS[k], t, h, y, F)
-            ev_sample(TS[k], ys, p, m, rows, hrows, slip_j, slip_k, slip_c, fmode[2], k,
+            ev_sample(sy, TS[k], ys, p, m, rows, hrows, slip_j, slip_k, slip_c, fmode[2], k,
                       SY, SL, SR)  # fmt: skip
             k += 1
         io[0] = k
@@ -1640,7 +1634,7 @@ def ev_segment(
             if (wk[i] == EV_CONTACT and imode[2, j] == 0) or (
                 wk[i] == EV_STICK and imode[3, j] == 0
             ):
-                fb, Ab, bb = constraints(t_new, yb[:n].copy(), p)
+                fb, Ab, bb = constraints(sy, t_new, yb[:n].copy(), p)
                 if wk[i] == EV_CONTACT:
                     if fb[j] > arm_pos:
                         imode[2, j] = 1
@@ -1654,6 +1648,7 @@ def ev_segment(
                         armed = True
         if armed:
             g_old = ev_values(
+                sy,
                 t_new, yb, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c,
                 arm_pos, arm_vel,
             )  # fmt: skip
@@ -1662,12 +1657,12 @@ def ev_segment(
         t = t_new
         y = yb
         y_out[:] = y
-        f = rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+        f = rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c)
         io[2] += 1
         if not np.all(np.isfinite(f)):
             return t, ST_SINGULAR, nev, steps
         if t >= bound:  # the bounces accumulated: their contacts logged, a fresh start
-            nev = ev_accumulated(t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
+            nev = ev_accumulated(sy, t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
                                  nev)  # fmt: skip
             if nev < 0:
                 return t, ST_EVENTS, 0, steps
@@ -1676,7 +1671,7 @@ def ev_segment(
             if t < t_end:
                 bound = ev_bound(t_end, fmode)
                 h_abs = ev_first_step(
-                    t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
+                    sy, t, y, f, p, rows, slip_j, slip_k, slip_c, bound, max_step, rtol, atol
                 )
                 io[2] += 1
     fo[0] = h_abs
@@ -1685,6 +1680,7 @@ def ev_segment(
 
 
 def ev_run(
+    sy,
     Y0,
     P,
     t_end,
@@ -1719,6 +1715,7 @@ def ev_run(
     thread (compiled with ``nogil``: the caller spreads slices of a batch over threads)."""
     for b in range(Y0.shape[0]):
         t, st, nev, steps = ev_run_one(
+            sy,
             Y0[b],
             P[b],
             t_end,
@@ -1751,13 +1748,13 @@ def ev_run(
         STEPS[b] = steps
 
 
-def ev_restricted(t, q, v, p, rows, free, what):
+def ev_restricted(sy, t, q, v, p, rows, free, what):
     """One correction of the start onto the constraints ``rows`` over the ``free``
     coordinates (mask), the mass-matrix metric restricted to them (_project with
     ``free``): ``what`` 0 positions (f = 0), 1 velocities (A v + b = 0). (dx over all
     coordinates, 0 on the held ones; the residual's size; the number of movable rows)."""
     n = q.shape[0]
-    f, A, b = constraints(t, q, p)
+    f, A, b = constraints(sy, t, q, p)
     nf = 0
     for i in range(n):
         if free[i]:
@@ -1799,7 +1796,7 @@ def ev_restricted(t, q, v, p, rows, free, what):
         return dx, big, na, 0.0
     if what == 1 and big == 0.0:
         return dx, big, na, 0.0
-    M = dynamics(t, q, v, p)[0]
+    M = dynamics(sy, t, q, v, p)[0]
     W = np.empty((nf, nf))
     for a in range(nf):
         for c in range(nf):
@@ -1812,12 +1809,12 @@ def ev_restricted(t, q, v, p, rows, free, what):
     return dx, big, na, step
 
 
-def ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
+def ev_consistent(sy, q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
     """The start with the held coordinates and velocities set and the others moved onto
     the constraints the unheld start meets (_initial.consistent_initial), in place."""
     n = q.shape[0]
     m = kinds.shape[1]
-    f, A, b = constraints(0.0, q, p)
+    f, A, b = constraints(sy, 0.0, q, p)
     tol_q = tol * (1.0 + np.max(np.abs(q)))
     nq = 0
     nv = 0
@@ -1851,18 +1848,18 @@ def ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
     if nq > 0 and np.any(free_q):
         # the metric's M at the first iteration's state (_project.project_positions)
         for _ in range(PROJECTION_ITERATIONS):
-            dx, big, na, step = ev_restricted(0.0, q, v, p, rows_q, free_q, 0)
+            dx, big, na, step = ev_restricted(sy, 0.0, q, v, p, rows_q, free_q, 0)
             if na == 0 or step == 0.0:
                 break
             q += dx
             if step <= 1e-16 * (1.0 + np.max(np.abs(q - dx))):
                 break
     if nv > 0 and np.any(free_v):
-        dx, big, na, step = ev_restricted(0.0, q, v, p, rows_v[:nv].copy(), free_v, 1)
+        dx, big, na, step = ev_restricted(sy, 0.0, q, v, p, rows_v[:nv].copy(), free_v, 1)
         v += dx
 
 
-def ev_starts(Q, V, P, hold_q, hold_v, value_q, value_v, kinds, tol):
+def ev_starts(sy, Q, V, P, hold_q, hold_v, value_q, value_v, kinds, tol):
     """:func:`ev_consistent` for every row of Q, V (parameters P), in place."""
     for b in range(Q.shape[0]):
-        ev_consistent(Q[b], V[b], P[b], hold_q, hold_v, value_q, value_v, kinds, tol)
+        ev_consistent(sy, Q[b], V[b], P[b], hold_q, hold_v, value_q, value_v, kinds, tol)

@@ -26,6 +26,7 @@ import numpy as np
 from . import _kernels as K
 from ._batch import _dense_tableau, _event_functions, _kinds, _tableau, logged_events
 from ._codegen import numba_available
+from ._engines import ENGINES, engine_name
 from ._events import EventKind, FrictionState
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
@@ -33,11 +34,6 @@ from ._run import Run
 
 __all__ = ["Loop", "loop_for", "ENGINES", "CHUNK"]
 
-ENGINES = ("auto", "loop", "scipy")
-"""``simulate``'s engines: ``"loop"`` the loop with events (numba's where the system was
-compiled with jit, else the same code as Python), ``"scipy"`` SciPy's integrators driven
-from Python, ``"auto"`` the loop where it is compiled and can run the problem, else
-SciPy."""
 CHUNK = 2000
 """Steps per call of the loop (a few ms compiled): progress and Ctrl-C between them."""
 
@@ -48,14 +44,14 @@ CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
 
 
 def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
-    """The loop for this run, or None where SciPy's integrators run it: ``engine``
-    "scipy"; "auto" unless the system is compiled with numba (and none of its functions
-    replaced since: :attr:`NumericSystem.replaced`; "loop" runs it as Python); a method
-    other than DOP853, inputs that switch (step, min, max), or t in the problem (the
-    simulator samples the force events inside each step there, the loop does not):
-    SimulationError (a ValueError) for "loop"."""
-    if engine not in ENGINES:
-        raise SimulationError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    """The loop for this run, or None where SciPy's integrators run it (``engine``
+    :data:`._engines.ENGINES`): "scipy"; "auto" unless the system is compiled with
+    numba (and none of its functions replaced since: :attr:`NumericSystem.replaced`);
+    a method other than DOP853, inputs that switch (step, min, max), or t in the
+    problem (the simulator samples the force events inside each step there, the loop
+    does not): SimulationError (a ValueError) for "compiled" and "python". "compiled"
+    on a system compiled without numba is a SimulationError too."""
+    engine = engine_name(engine, SimulationError)
     if engine == "scipy":
         return None
     ns = run.setup.ns
@@ -67,14 +63,21 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     elif ns.explicit_time:
         why = "t in L, a constraint or a force"
     if why is not None:
-        if engine == "loop":
+        if engine != "auto":
             raise SimulationError(
-                f"engine 'loop' cannot run this problem: {why}; use 'scipy' or 'auto'"
+                f"engine {engine!r} cannot run this problem: {why}; use 'scipy' or 'auto'"
             )
         return None
     compiled = ns.jit and numba_available() and not ns.replaced
     if engine == "auto" and not compiled:
         return None
+    if engine == "compiled" and not compiled:
+        raise SimulationError(
+            "engine 'compiled': the system is not compiled with numba (compile_system("
+            "..., jit=True), or numba is not installed); use 'python' or 'auto'"
+        )
+    if engine == "python":
+        compiled = False
     loop = Loop(run, _event_functions(ns, compiled)["ev_segment"], times)
     loop.name = "loop (numba)" if compiled else "loop (Python)"
     return loop

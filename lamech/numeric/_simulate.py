@@ -138,21 +138,21 @@ def simulate(
 
     ``jit``: compile the system's functions and the loop with events with numba, when it
     is installed. The compiled form is cached on disk
-    (:func:`lamech.numeric.jit_cache_dir`), so only the first run of a problem pays for
-    compiling (about 30 s with the loop); later runs load it (under a second). The
-    default, None, uses numba where the problem's compiled form is in the cache already
-    (an earlier run with ``jit=True``, ``--jit`` or a sweep compiled it), else NumPy.
+    (:func:`lamech.numeric.jit_cache_dir`): the loop once per machine (2-3 minutes of
+    CPU, for every problem), each problem's own functions on its first run (seconds).
+    The default, None, uses numba where the loop is in the cache already, else NumPy.
     Ignored when ``system`` is already a :class:`NumericSystem`.
 
     ``engine``: ``"auto"`` (default) runs DOP853 in the compiled loop with events (the
     loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside
     it: :mod:`._loop`) when the system is compiled with numba, else SciPy's integrator
-    driven from Python (``"scipy"``); ``"loop"`` asks for the loop, as Python where numba
-    is not used (the same numbers, slowly). The loop applies lift-off, impacts (with the
-    accumulation of bounces), slip and stick itself, and hands a step it cannot take to
-    the simulator's own steps; it does not run other methods, inputs that switch, or
-    problems with t in them (SimulationError for ``"loop"``; ``"auto"`` uses SciPy
-    there).
+    driven from Python (``"scipy"``); ``"compiled"`` asks for the compiled loop,
+    ``"python"`` for the same loop as Python (the same numbers, slowly); the names of
+    :mod:`._engines`, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
+    applies lift-off, impacts (with the accumulation of bounces), slip and stick itself,
+    and hands a step it cannot take to the simulator's own steps; it does not run other
+    methods, inputs that switch, or problems with t in them (SimulationError for
+    ``"compiled"`` and ``"python"``; ``"auto"`` uses SciPy there).
 
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force

@@ -33,7 +33,7 @@ about a minute), else the same loop as Python; impacts are applied in it. A case
 run meets what that loop leaves to the simulator (a failure, more than 64 events, an
 impact it cannot apply: see :data:`lamech.numeric.EVENT_FALLBACKS`) and every case of
 any other sweep runs
-:func:`lamech.numeric.simulate`, as before (``engine="simulate"`` for all cases). Both
+:func:`lamech.numeric.simulate`, as before (``engine="scipy"`` for all cases). Both
 give the same event times (to about 1e-14 on the cylinder; the tests hold them to 1e-9).
 
 Completed rows are appended to the output table as they finish (flushed), so an
@@ -61,6 +61,7 @@ import numpy as np
 
 from ..model import System
 from ..numeric import consistent_initial, friction_names, with_friction_parameters
+from ..numeric._engines import engine_name
 from ._parse import (
     EVENT_MEASURES,
     MAX_CASES,
@@ -211,8 +212,11 @@ def _die_with_sweep(sweep: int) -> None:
 
 COMPILED_CASES = 500
 """From this many cases a sweep compiles its loop with numba even when the compiled code is
-not yet in the cache on disk (a minute, once per machine and problem); smaller sweeps run
+not yet in the cache on disk (a minute, once per machine); smaller sweeps run
 the loop as Python unless it is cached."""
+SYSTEM_CASES = 16
+"""With the loop compiled on this machine (once, for every system), the cases from which
+``auto`` compiles a new system's own functions (a few seconds) to run them compiled."""
 CHUNK = 256
 """Cases per call of the compiled loop: rows are recorded (and Ctrl-C is seen) between
 calls."""
@@ -449,7 +453,8 @@ def run_sweep(
     progress : True/False, or a callable(done, total); default: a bar on a terminal.
     engine : ``"auto"`` (the compiled loop with events where the measures allow it, see the
         module docstring), ``"compiled"`` (the same, with numba whenever it is installed),
-        ``"python"`` (the same loop as Python), ``"simulate"`` (every case by simulate).
+        ``"python"`` (the same loop as Python), ``"scipy"`` (every case by simulate; the
+        older name ``"simulate"`` is accepted).
     """
     from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, check_options
     from ..problem import as_system
@@ -475,8 +480,7 @@ def run_sweep(
         )
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
-    if engine not in ENGINES:
-        raise SweepError(f"unknown engine {engine!r}; one of {', '.join(ENGINES)}")
+    engine = engine_name(engine, SweepError)
     values, cases = _grid(params)
     system = _with_friction_parameters(system, list(values))
     ms = [parse_measure(m, system) for m in measures]
@@ -598,7 +602,7 @@ def _run_cases(
 
     try:
         compiled = ""
-        if scheduler is None and engine != "simulate" and todo:
+        if scheduler is None and engine != "scipy" and todo:
             todo, compiled = _run_compiled(ns, plan, cases, todo, record, workers, engine)
         if not todo:
             run.backend = compiled
@@ -627,9 +631,6 @@ def _run_cases(
             table.close()
         run.seconds = time.perf_counter() - t0
     return run
-
-
-ENGINES = ("auto", "compiled", "python", "simulate")
 
 
 def _compiled_measures(plan: _Plan, ns) -> tuple[list, bool] | None:
@@ -668,7 +669,11 @@ def _run_compiled(ns, plan: _Plan, cases, todo, record, workers, engine) -> tupl
     want, to_end = how
     jit = engine == "compiled" and numba_available()
     if engine == "auto":  # numba imported only where it will be used (0.3 s)
-        jit = jit_is_cached(ns, "ev_run_one") or (len(todo) >= COMPILED_CASES and numba_available())
+        # the loop is compiled once per machine; a system's own functions cost seconds
+        jit = jit_is_cached(ns, "ev_run_one") or (
+            len(todo) >= (SYSTEM_CASES if jit_is_cached(None, "ev_run_one") else COMPILED_CASES)
+            and numba_available()
+        )
     names = list(cases[todo[0]])
     coords, n = ns.coordinate_names, ns.n
     threads = workers or _cpus()  # threads of the compiled loop (it releases the GIL)

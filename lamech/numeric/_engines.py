@@ -1,0 +1,40 @@
+"""The engines' names, one set for ``simulate`` and ``sweep``.
+
+- ``"auto"``: the loop with events compiled by numba where it is in the cache on this
+  machine (compiled once for every system), else the other engines' best choice;
+- ``"compiled"``: the loop with events, compiled by numba (the system compiled now if it
+  was not);
+- ``"python"``: the same loop run as Python (the same numbers, slowly);
+- ``"scipy"``: SciPy's integrators driven from Python (for a sweep: ``simulate`` for every
+  case).
+
+Older names stay accepted, with a DeprecationWarning: ``simulate``'s ``"loop"`` (the loop,
+compiled where the system is, else as Python) and ``sweep``'s ``"simulate"``
+(``"scipy"``).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+__all__ = ["ENGINES", "ALIASES", "engine_name"]
+
+ENGINES = ("auto", "compiled", "python", "scipy")
+"""The engines of ``simulate`` and ``sweep``."""
+ALIASES = {"loop": "loop", "simulate": "scipy"}
+"""Older names still accepted (``"loop"`` keeps its meaning: compiled where the system
+is, else Python)."""
+
+
+def engine_name(engine: str, error: type[Exception] = ValueError) -> str:
+    """``engine`` checked: one of :data:`ENGINES`, or an older name (a DeprecationWarning
+    names its successor); ``error`` (the caller's exception class) otherwise."""
+    if engine in ENGINES:
+        return engine
+    if engine in ALIASES:
+        new = "'compiled' or 'python'" if engine == "loop" else repr(ALIASES[engine])
+        warnings.warn(
+            f"engine {engine!r} is deprecated; use {new}", DeprecationWarning, stacklevel=3
+        )
+        return ALIASES[engine]
+    raise error(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
