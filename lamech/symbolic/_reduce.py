@@ -98,9 +98,7 @@ def _grouped(out: sp.Expr, velocities: tuple) -> sp.Expr:
     where that costs at most 4 more operations: a textbook groups so. Only short results
     (:data:`GROUP_OPS`); the velocities are the symbols written x' when not given."""
     if not velocities:
-        velocities = tuple(
-            sorted((s for s in out.free_symbols if s.name.endswith("'")), key=str)
-        )
+        velocities = tuple(sorted((s for s in out.free_symbols if s.name.endswith("'")), key=str))
     if not velocities or count_ops(out) > GROUP_OPS:
         return out
     try:
