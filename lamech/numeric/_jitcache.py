@@ -279,7 +279,7 @@ class Kernels:
 
 
 _LOADED: dict[str, Kernels] = {}
-_ENGINE: dict[str, dict] = {}
+_ENGINE: dict[tuple[str, str], dict] = {}  # (cache folder, module name) -> namespace
 _LOCK = threading.Lock()
 
 
@@ -326,7 +326,10 @@ def _engine() -> dict:
     cache directory, or from memory where that cannot be written). Called under _LOCK."""
     text = engine_text()
     name = module_key(text, "engine_")
-    known = _ENGINE.get(name)
+    # by folder too: a process that changes $LAMECH_CACHE_DIR (the tests do) gets the
+    # engine written and cached there, so a new process reading that folder finds it
+    key = (str(cache_dir()), name)
+    known = _ENGINE.get(key)
     if known is not None:
         return known
     namespace = _on_disk(text, name)
@@ -336,7 +339,7 @@ def _engine() -> dict:
         namespace = {"__builtins__": __builtins__, "__name__": name}
         exec(compile(text, f"<lamech engine {name}>", "exec"), namespace)
         namespace = _jit_engine(namespace, cache=False)
-    _ENGINE[name] = namespace
+    _ENGINE[key] = namespace
     return namespace
 
 
