@@ -677,17 +677,15 @@ class Rational:
         return num / den
 
 
-def to_rational(expr: sp.Expr, shifts: dict | None = None) -> Rational:
+def to_rational(expr: sp.Expr) -> Rational:
     """``expr`` in normal form (raises :class:`OverBudget` past the bounds and
     ``ZeroDivisionError`` for a division by an expression identically zero)."""
     with _one_call(CALL_WORK):
-        return _to_rational(expr, shifts)
+        return _to_rational(expr)
 
 
-def _to_rational(expr: sp.Expr, shifts: dict | None = None) -> Rational:
+def _to_rational(expr: sp.Expr) -> Rational:
     expr = sp.sympify(expr)
-    if shifts:
-        expr = expr.xreplace(shifts)
     space = _Space([expr])
     num, den = space.convert(expr)
     return Rational(space, num, tuple(sorted(den.items(), key=lambda fk: _poly_key(fk[0]))))
