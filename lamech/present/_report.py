@@ -121,7 +121,9 @@ def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
             lines.append(f"  {k}: {v.when} ({v.reason})")
             if v.condition and (v.when == "at the start" or v.kind == "slips"):
                 holds = "sticks" if v.kind == "slips" else "stays on"
-                lines.append(f"  {pad}  {holds} at the start while {v.condition}")
+                # a constant ratio (or a system at rest in equilibrium) holds for all time
+                when = "" if v.constant else " at the start"
+                lines.append(f"  {pad}  {holds}{when} while {v.condition}")
             if v.hint:
                 lines.append(f"  {pad}  note: {v.hint}")
         elif roots:

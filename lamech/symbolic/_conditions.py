@@ -401,8 +401,11 @@ def lets_go_verdict(
     multiplier: sp.Expr | None,
     roots: list[Root],
     shell_reason: str | None,
+    resting: bool = False,
 ) -> Verdict:
-    """Whether and where unilateral constraint ``name`` lets go (lambda < 0 or = 0)."""
+    """Whether and where unilateral constraint ``name`` lets go (lambda < 0 or = 0).
+    ``resting``: the system stays at its initial state (at rest in equilibrium), so the
+    answer at the start is the answer for all time."""
     kind = "lets go"
     if multiplier is None:
         return Verdict(kind, "not determined", shell_reason or "no closed-form multiplier")
@@ -440,6 +443,15 @@ def lets_go_verdict(
             cond,
             constant=True,
         )
+    if resting and value is not None:
+        return Verdict(
+            kind,
+            "never",
+            f"at rest in equilibrium, {lam_name} keeps its initial value "
+            f"{to_text(lam0)} = {value:.6g} > 0",
+            cond,
+            constant=True,
+        )
     if roots:
         return Verdict(kind, "at the roots", f"{lam_name} = 0 where the motion reaches it", cond)
     if shell_reason is None:
@@ -448,9 +460,15 @@ def lets_go_verdict(
 
 
 def slip_verdict(
-    system: System, name: str, multipliers: dict, roots: list[Root], shell_reason: str | None
+    system: System,
+    name: str,
+    multipliers: dict,
+    roots: list[Root],
+    shell_reason: str | None,
+    resting: bool = False,
 ) -> Verdict:
-    """Whether and where friction constraint ``name`` starts to slip (|lambda| > mu N)."""
+    """Whether and where friction constraint ``name`` starts to slip (|lambda| > mu N);
+    ``resting`` as in :func:`lets_go_verdict`."""
     kind = "slips"
     fr = system.constraint(name).friction
     lf, ln = multipliers.get(name), multipliers.get(fr.normal) if fr else None
@@ -490,11 +508,12 @@ def slip_verdict(
             "initial state: the friction needed exceeds mu N",
             cond,
         )
-    if constant:
+    if constant or resting:
+        why = "the ratio is constant" if constant else "at rest in equilibrium"
         return Verdict(
             kind,
             "never",
-            f"the ratio is constant: {needed} <= mu = {mu_value:.6g}",
+            f"{why}: {needed} <= mu = {mu_value:.6g}",
             cond,
             constant=True,
         )
