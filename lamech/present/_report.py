@@ -143,6 +143,8 @@ def to_json(sol) -> dict:
         "energy": _json_expr(sol.energy),
         "conserved": [_t(e) for e in sol.conserved],
     }
+    if getattr(sol, "partial", False):
+        out["partial"] = True  # interrupted while simplifying: see "notes"
     if sol.shell is not None:
         out["on_energy_shell"] = {k: _t(v) for k, v in sol.shell.multipliers.items()}
     out["vanishes"] = {k: [r.to_json() for r in v] for k, v in sol.vanishes.items()}
@@ -201,6 +203,12 @@ def to_text(sol) -> str:
     named = _Named(_long_results(sol))
     _shown = named.shown
     lines: list[str] = [s.title, "=" * len(s.title), ""]
+    if getattr(sol, "partial", False):
+        lines += [
+            "PARTIAL: interrupted (Ctrl-C) while simplifying; what was not yet tidied is "
+            "shown as derived (see the notes)",
+            "",
+        ]
     # What the loader found suspicious (a T that disagrees with the bodies) comes first:
     # it may invalidate everything below.
     warnings = [n for n in sol.notes if n in s.notes]

@@ -31,7 +31,7 @@ from ._conditions import (
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._normal import labelled, normal, work_budget
+from ._normal import interrupted, labelled, normal, work_budget
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
 
 __all__ = ["Solution", "solve"]
@@ -63,6 +63,7 @@ class Solution:
     closes: dict = field(default_factory=dict)  # contact open at the start -> [Root] (f = 0)
     work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_normal.Work)
     untidied: tuple[str, ...] = ()  # results shown as derived: the budget ran out
+    partial: bool = False  # interrupted (Ctrl-C) while simplifying: see the notes
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -177,13 +178,22 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
         sol = _solve(system)
     untidied = tuple(dict.fromkeys(work.untidied))
     notes = sol.notes
-    if untidied:
+    if interrupted():
+        notes += (
+            "partial: interrupted (Ctrl-C) while simplifying; "
+            + (", ".join(untidied) if untidied else "the rest")
+            + " shown as derived, not tidied; run again without interrupting for "
+            "the tidy forms",
+        )
+    elif untidied:
         notes += (
             f"the simplification budget ({work.limit} work units) ran out: "
             f"{', '.join(untidied)} shown as derived, not tidied; a larger budget "
             f"(budget={2 * work.limit}) tidies them",
         )
-    return replace(sol, work=(work.used, work.limit), untidied=untidied, notes=notes)
+    return replace(
+        sol, work=(work.used, work.limit), untidied=untidied, notes=notes, partial=interrupted()
+    )
 
 
 def _solve(system: System) -> Solution:
