@@ -215,9 +215,7 @@ def live_section(sol, equilibria=None) -> tuple[str, str]:
         "with no server. The range of each slider is 0.1 to 3 times the file's value; a "
         "typed value outside it widens it."
     )
-    skipped = "".join(
-        f'<p class="note">not compiled: {html.escape(s)}</p>' for s in model.skipped
-    )
+    skipped = "".join(f'<p class="note">not compiled: {html.escape(s)}</p>' for s in model.skipped)
     body = (
         f'<p class="note">{note}</p>{_slider_rows(model.params)}'
         '<p><button type="button" id="live-reset">the file\'s values</button></p>'
@@ -327,7 +325,8 @@ RUNTIME = r"""
     var scale = 1e-12 * (1 + P.reduce(function (m, v) { return Math.max(m, Math.abs(v)); }, 0));
     var label = name + " (lambda_" + name + ")";
     if (!isFinite(lam0)) {
-      return event("lets-go", name, "not determined", label + ": not defined at these values", null);
+      return event("lets-go", name, "not determined", label + ": not defined at these values",
+        null);
     }
     if (lam0 < -scale) {
       return event("lets-go", name, "at the start", label + " lets go at the start: lambda_" +
@@ -428,7 +427,8 @@ RUNTIME = r"""
     M.modes.forEach(function (m) {
       var w2 = m.w2(0, P), p = document.createElement("div"), text;
       if (!isFinite(w2)) text = "not defined at these values";
-      else if (w2 > 0) text = "omega = " + fmt(Math.sqrt(w2)) + " rad/s (omega^2 = " + fmt(w2) + ")";
+      else if (w2 > 0) text = "omega = " + fmt(Math.sqrt(w2)) + " rad/s (omega^2 = " + fmt(w2) +
+        ")";
       else if (w2 < 0) text = "unstable: growth rate " + fmt(Math.sqrt(-w2)) + " 1/s (omega^2 = " +
         fmt(w2) + ")";
       else text = "omega^2 = 0 (marginal)";

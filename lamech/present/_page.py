@@ -18,10 +18,10 @@ from functools import cache
 from pathlib import Path
 
 from ..symbolic import Derivation
+from ._live import LIVE_STYLE, live_section
 from ._report import latex_names
 from ._report import to_latex as _solution_latex
 from ._report import to_text as _solution_text
-from ._live import LIVE_STYLE, live_section
 from ._steps import step_rows
 
 __all__ = ["report_page", "KATEX_DIR"]
