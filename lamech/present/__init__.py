@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from ._animate import FORMATS, Scene, animate
+from ._live import LiveError, LiveModel, live_model, to_javascript
 from ._modes import modes_latex, modes_text
 from ._notebook import Animation, animation, sweep_html, trajectory_html
 from ._page import report_page
@@ -38,6 +39,10 @@ __all__ = [
     "steps_latex",
     "steps_json",
     "report_page",
+    "live_model",
+    "LiveModel",
+    "LiveError",
+    "to_javascript",
     "animation",
     "Animation",
     "trajectory_html",

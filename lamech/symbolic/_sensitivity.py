@@ -103,8 +103,8 @@ def root_sensitivity(
     (None where dF/dx = 0 there, or a value is not finite)."""
     F = in_free_parameters(system, F)
     free = free_parameters(system)
-    env = {s: v for _, s, v in free}
-    env[x] = root
+    env = {s: sp.Float(v) for _, s, v in free}
+    env[x] = sp.Float(root)
 
     def value(e: sp.Expr) -> float:
         """e at the root; 0 where its terms cancel to rounding (dF/dm = F/m = 0)."""
@@ -113,7 +113,7 @@ def root_sensitivity(
         total, size = 0.0, 0.0
         for term in terms:
             try:
-                v = complex(term.xreplace(env).evalf())
+                v = complex(sp.sympify(term).xreplace(env).evalf())
             except (TypeError, ValueError):
                 return math.nan
             if abs(v.imag) > 1e-12 * (1 + abs(v.real)):
