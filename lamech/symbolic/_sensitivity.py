@@ -46,18 +46,18 @@ def friction_parameters(system: System) -> dict[str, tuple[str, sp.Symbol, float
     gives as a number: ``mu`` when there is one and no parameter is so named, else
     ``mu_<constraint>``."""
     literal = [
-        c
+        (c.name, c.friction.mu)
         for c in system.constraints
         if c.friction is not None and sp.sympify(c.friction.mu).is_Number
     ]
-    taken = {p.name for p in system.parameters}
+    taken = {p.name for p in system.parameters} | set(system.symbols)
     out = {}
-    for c in literal:
-        label = "mu" if len(literal) == 1 and "mu" not in taken else f"mu_{c.name}"
+    for name, mu in literal:
+        label = "mu" if len(literal) == 1 and "mu" not in taken else f"mu_{name}"
         while label in taken:
             label += "_"
         taken.add(label)
-        out[c.name] = (label, sp.Symbol(label, real=True), float(c.friction.mu))
+        out[name] = (label, sp.Symbol(label, real=True), float(mu))
     return out
 
 
