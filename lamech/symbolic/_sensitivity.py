@@ -13,7 +13,7 @@ undefined where dF/dx = 0 (a double root: the event appears or disappears there)
 The parameters differentiated by are the *free* ones: those the problem file gives a
 number (a parameter written as an expression of others follows them, its expression
 substituted), and each friction coefficient written as a number, under the name
-:func:`friction_parameters` gives it (``mu``; ``mu_<constraint>`` when several).
+:func:`friction_parameters` gives it (``mu``; ``mu:<constraint>`` when several).
 """
 
 from __future__ import annotations
@@ -43,21 +43,18 @@ def _free(system: System) -> list:
 
 def friction_parameters(system: System) -> dict[str, tuple[str, sp.Symbol, float]]:
     """{constraint name: (label, symbol, value)} for each friction coefficient the file
-    gives as a number: ``mu`` when there is one and no parameter is so named, else
-    ``mu_<constraint>``."""
-    literal = [
-        (c.name, c.friction.mu)
-        for c in system.constraints
-        if c.friction is not None and sp.sympify(c.friction.mu).is_Number
-    ]
-    taken = {p.name for p in system.parameters} | set(system.symbols)
+    gives as a number, labelled as :func:`lamech.model.with_values` (and ``--param``)
+    name it: ``mu`` when the problem has one friction constraint and no parameter so
+    named, else ``mu:<constraint>``."""
+    friction = [c for c in system.constraints if c.friction is not None]
+    single = len(friction) == 1 and "mu" not in {p.name for p in system.parameters}
     out = {}
-    for name, mu in literal:
-        label = "mu" if len(literal) == 1 and "mu" not in taken else f"mu_{name}"
-        while label in taken:
-            label += "_"
-        taken.add(label)
-        out[name] = (label, sp.Symbol(label, real=True), float(mu))
+    for c in friction:
+        mu = c.friction.mu if c.friction is not None else None
+        if mu is None or not sp.sympify(mu).is_Number:
+            continue
+        label = "mu" if single else f"mu:{c.name}"
+        out[c.name] = (label, sp.Symbol(f"{label} (friction)", real=True), float(mu))
     return out
 
 
