@@ -219,7 +219,7 @@ def live_section(sol, equilibria=None) -> tuple[str, str]:
     body = (
         f'<p class="note">{note}</p>{_slider_rows(model.params)}'
         '<p><button type="button" id="live-reset">the file\'s values</button></p>'
-        '<div id="live-events"></div>'
+        '<div id="live-events"></div><div id="live-simulated"></div>'
         '<svg id="live-plot" viewBox="0 0 640 260" role="img" '
         'aria-label="multipliers on the energy shell"></svg>'
         f'<div id="live-modes"></div>{skipped}'
@@ -467,7 +467,28 @@ RUNTIME = r"""
     if (from !== num) num.value = String(v);
     P[i] = v;
     update();
+    tellParent();
   }
+  // in `lamech serve` the page sits in a frame: the server's page may re-run the
+  // simulation at the slider's values and send back its events (numbers and text only)
+  function values() {
+    var out = {};
+    M.params.forEach(function (p, i) { out[p.name] = P[i]; });
+    return out;
+  }
+  function tellParent() {
+    if (window.parent === window) return;
+    window.parent.postMessage({lamech: "params", params: values()}, "*");
+  }
+  window.addEventListener("message", function (ev) {
+    var d = ev.data, now = values();
+    if (window.parent === window || ev.source !== window.parent) return;
+    if (!d || d.lamech !== "simulated" || typeof d.text !== "string" || !d.params) return;
+    for (var k in now) if (d.params[k] !== now[k]) return;  // stale: the sliders moved on
+    var box = document.getElementById("live-simulated");
+    box.textContent = d.text;
+    box.setAttribute("data-state", String(d.state));
+  });
   inputs.forEach(function (inp) {
     var i = Number(inp.getAttribute("data-index"));
     inp.addEventListener("input", function () {
