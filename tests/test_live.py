@@ -14,8 +14,10 @@ import json
 import math
 import re
 import shutil
+import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -364,3 +366,99 @@ def test_the_page_stays_small_and_offline(pages):
     live = text.rsplit("<script>", 1)[1]
     assert "fetch(" not in live and "XMLHttpRequest" not in live and "eval(" not in live
     assert "new Function" not in live
+
+
+# ----- lamech serve: a slider re-runs the simulation ----------------------------------
+def slip_angle_from(mu: float, theta0: float) -> float:
+    """Released at theta0 at rest: sin(theta) = mu (7 cos(theta) - 4 cos(theta0))."""
+    return brentq(
+        lambda t: math.sin(t) - mu * (7 * math.cos(t) - 4 * math.cos(theta0)),
+        theta0,
+        math.acos(4 / 7 * math.cos(theta0)),
+    )
+
+
+def test_serve_runs_the_simulation_at_a_sliders_values():
+    pytest.importorskip("starlette", reason="lamech[serve] not installed")
+    pytest.importorskip("httpx", reason="Starlette's test client needs httpx")
+    from starlette.testclient import TestClient
+
+    from lamech.cli import make_app
+
+    text = (ROOT / "lamech" / "examples" / "cylinder.toml").read_text(encoding="utf-8")
+    app = make_app(timeout=500, token="t", port=8765)
+    with TestClient(
+        app, base_url="http://127.0.0.1:8765", headers={"Authorization": "token t"}
+    ) as client:
+        body = {"text": text, "simulate": True, "t_end": 3.0, "initial": {"theta1": 0.01}}
+        r = client.post("/api/run", json={**body, "params": {"mu": 0.2}, "events_only": True})
+        answer = r.json()
+        assert r.status_code == 200 and answer["ok"], answer
+        assert "page" not in answer and answer["params"] == {"mu": 0.2}
+        slip = next(e for e in answer["events"] if e["kind"] == "slip")
+        assert slip["coordinates"]["theta1"] == pytest.approx(slip_angle_from(0.2, 0.01), abs=1e-6)
+        # what is wrong is said: a value, a name, params without a simulation
+        r = client.post("/api/run", json={**body, "params": {"mu": "a lot"}})
+        assert r.status_code == 400 and "`mu` must be a finite number" in r.text
+        r = client.post("/api/run", json={**body, "params": {"nu": 1.0}, "events_only": True})
+        assert r.status_code == 200 and not r.json()["ok"] and "nu" in r.text
+        r = client.post("/api/run", json={"text": text, "params": {"mu": 0.2}})
+        assert r.status_code == 400 and "simulate" in r.text
+
+
+@pytest.mark.slow
+def test_serve_sliders_rerun_the_simulation_debounced(chromium):
+    port = _free_port()
+    server = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "serve", "--port", str(port), "--token", "t"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    try:
+        url = f"http://127.0.0.1:{port}/"
+        for _ in range(150):
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                time.sleep(0.2)
+        page = chromium.new_page(viewport={"width": 1400, "height": 900})
+        outside: list[str] = []
+        runs: list[str] = []
+        page.on("request", lambda r: outside.append(r.url)
+                if not r.url.startswith((url, "data:", "about:")) else None)
+        page.on("request", lambda r: runs.append(r.post_data or "")
+                if r.url.endswith("/api/run") else None)
+        page.goto(url + "?token=t")
+        text = (ROOT / "lamech" / "examples" / "cylinder.toml").read_text(encoding="utf-8")
+        page.fill("#editor", text)
+        page.fill("#initial", "theta1=0.01")
+        page.click("#simulate")
+        page.wait_for_function(
+            "document.getElementById('status').textContent.startsWith('done')", timeout=400_000
+        )
+        frame = page.frame_locator("#result")
+        frame.locator("#live[data-updates]").wait_for(timeout=30_000)
+        before = len(runs)
+        # three moves in quick succession: one simulation, at the last values
+        for mu in (0.3, 0.25, 0.2):
+            frame.locator("#live input[type=range][name='mu']").evaluate(
+                "(r, v) => { r.value = String(v); r.dispatchEvent(new Event('input')); }", mu
+            )
+        assert "26.75°" in frame.locator("#live-slips-rolling").inner_text()  # closed form
+        frame.locator("#live-simulated[data-state='done']").wait_for(timeout=400_000)
+        said = frame.locator("#live-simulated").inner_text()
+        want = math.degrees(slip_angle_from(0.2, 0.01))
+        shown = float(said.split("rolling slip")[1].split("theta1 = ")[1].split("°")[0])
+        assert shown == pytest.approx(want, abs=0.006), said
+        sent = [json.loads(b) for b in runs[before:]]
+        assert len(sent) == 1 and sent[0]["params"]["mu"] == 0.2 and sent[0]["events_only"]
+        assert outside == []
+    finally:
+        server.terminate()
+        server.wait(10)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
