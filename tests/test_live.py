@@ -201,7 +201,7 @@ def test_the_compiled_model_finds_the_roots_python_finds(cylinder, tmp_path):
 
     page = report_page(cylinder, steps(cylinder), None)
     script = page.rsplit("<script>", 1)[1].split("</script>", 1)[0]
-    assert script.startswith("var LIVE = ")
+    assert script.lstrip().startswith("(function (LIVE, root) {")
     # a minimal document for the runtime: enough elements to write into
     dom = """
     function El(tag) { this.tag = tag; this.children = []; this.attrs = {}; this.textContent = "";
@@ -213,12 +213,16 @@ def test_the_compiled_model_finds_the_roots_python_finds(cylinder, tmp_path):
     El.prototype.setAttribute = function (k, v) { this.attrs[k] = String(v); };
     El.prototype.getAttribute = function (k) { return k in this.attrs ? this.attrs[k] : null; };
     El.prototype.addEventListener = function () {};
+    El.prototype.querySelector = function (sel) {
+      return sel[0] === "#" ? document.getElementById(sel.slice(1)) : null; };
     El.prototype.querySelectorAll = function (sel) {
       var out = [];
       (function walk(e) { e.children.forEach(function (c) {
         if (typeof c === "object") { if ("data-value" in c.attrs) out.push(c); walk(c); } }); })(this);
       return out; };
     var ids = {};
+    var window = {addEventListener: function () {}};
+    window.parent = window;
     var document = {
       getElementById: function (id) { return ids[id] || (ids[id] = new El("div")); },
       querySelectorAll: function () { return []; },

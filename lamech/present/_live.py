@@ -200,9 +200,11 @@ LIVE_STYLE = """
 """
 
 
-def live_section(sol, equilibria=None) -> tuple[str, str]:
+def live_section(sol, equilibria=None, root_id: str = "live") -> tuple[str, str]:
     """(the section's HTML, its script) for the page; a note instead when there is
-    nothing to move (no energy shell)."""
+    nothing to move (no energy shell). The script works inside the element ``root_id``
+    (which the caller wraps the HTML in), so that several can share a document (a
+    notebook's outputs)."""
     try:
         model = live_model(sol, equilibria)
     except LiveError as exc:
@@ -224,12 +226,14 @@ def live_section(sol, equilibria=None) -> tuple[str, str]:
         'aria-label="multipliers on the energy shell"></svg>'
         f'<div id="live-modes"></div>{skipped}'
     )
-    return body, f"var LIVE = {model.script};\n{RUNTIME}"
+    root = json.dumps(root_id)
+    return body, f"{RUNTIME}({model.script}, document.getElementById({root}));\n"
 
 
 RUNTIME = r"""
-(function () {
-  var M = LIVE, N = 4001, inputs = document.querySelectorAll("#live input");
+(function (LIVE, root) {
+  var M = LIVE, N = 4001, inputs = root.querySelectorAll("input");
+  function byId(id) { return root.querySelector("#" + id); }
   var P = M.params.map(function (p) { return p.value; });
   var COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"];
   function fmt(v) { return isFinite(v) ? Number(v.toPrecision(6)).toString() : String(v); }
@@ -377,7 +381,7 @@ RUNTIME = r"""
     return e;
   }
   function plot(seg, marks) {
-    var el = document.getElementById("live-plot");
+    var el = byId("live-plot");
     while (el.firstChild) el.removeChild(el.firstChild);
     var a = seg.segs[0][0], b = seg.segs[0][1], names = Object.keys(M.lam);
     if (!(isFinite(a) && isFinite(b)) || a === b || !names.length) return;
@@ -422,7 +426,7 @@ RUNTIME = r"""
     el.appendChild(svg("text", {x: 2, y: Y(ymin)}, fmt(ymin)));
   }
   function modes() {
-    var el = document.getElementById("live-modes");
+    var el = byId("live-modes");
     el.textContent = "";
     M.modes.forEach(function (m) {
       var w2 = m.w2(0, P), p = document.createElement("div"), text;
@@ -438,7 +442,7 @@ RUNTIME = r"""
     });
   }
   function update() {
-    var box = document.getElementById("live-events");
+    var box = byId("live-events");
     box.textContent = "";
     var seg = segments(), marks = [];
     if (!isFinite(seg.x0) || seg.segs.some(function (s) { return !isFinite(s[1]); })) {
@@ -452,13 +456,13 @@ RUNTIME = r"""
       plot(seg, marks);
     }
     modes();
-    document.getElementById("live").setAttribute("data-updates",
-      String(Number(document.getElementById("live").getAttribute("data-updates") || 0) + 1));
+    var count = Number(root.getAttribute("data-updates") || 0) + 1;
+    root.setAttribute("data-updates", String(count));
   }
   function set(i, v, from) {
-    var range = document.querySelector('#live input[type=range][data-index="' + i + '"]');
-    var num = document.querySelector('#live input[type=number][data-index="' + i + '"]');
-    var bad = document.getElementById("live-bad" + i);
+    var range = root.querySelector('input[type=range][data-index="' + i + '"]');
+    var num = root.querySelector('input[type=number][data-index="' + i + '"]');
+    var bad = byId("live-bad" + i);
     if (!isFinite(v)) { bad.textContent = "not a number"; return; }
     bad.textContent = "";
     if (v < Number(range.min)) range.min = String(v);
@@ -485,7 +489,7 @@ RUNTIME = r"""
     if (window.parent === window || ev.source !== window.parent) return;
     if (!d || d.lamech !== "simulated" || typeof d.text !== "string" || !d.params) return;
     for (var k in now) if (d.params[k] !== now[k]) return;  // stale: the sliders moved on
-    var box = document.getElementById("live-simulated");
+    var box = byId("live-simulated");
     box.textContent = d.text;
     box.setAttribute("data-state", String(d.state));
   });
@@ -493,15 +497,15 @@ RUNTIME = r"""
     var i = Number(inp.getAttribute("data-index"));
     inp.addEventListener("input", function () {
       if (inp.type === "number" && inp.value === "") return;
-      set(i, inp.type === "number" ? Number(inp.value) : Number(inp.value), inp);
+      set(i, Number(inp.value), inp);
     });
     inp.addEventListener("change", function () {
       set(i, Number(inp.value === "" ? NaN : inp.value), inp);
     });
   });
-  document.getElementById("live-reset").addEventListener("click", function () {
+  byId("live-reset").addEventListener("click", function () {
     M.params.forEach(function (p, i) { set(i, p.value, null); });
   });
   update();
-})();
+})
 """
