@@ -259,7 +259,7 @@ def pages(tmp_path_factory, launch_file) -> dict[str, Path]:
     return made
 
 
-def _open(chromium, path: Path):
+def _open(chromium, path: Path, ready: str = "#live[data-updates]"):
     requested: list[str] = []
     errors: list[str] = []
     page = chromium.new_page()
@@ -274,7 +274,7 @@ def _open(chromium, path: Path):
     page.route("**/*", refuse)
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(path.as_uri())
-    page.wait_for_selector("#live[data-updates]", timeout=30_000)
+    page.wait_for_selector(ready, timeout=30_000)
     return page, requested, errors
 
 
@@ -466,3 +466,30 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+# ----- the notebook: a Solution shows the page's own controls ------------------------
+def test_a_solution_in_a_notebook_has_its_own_sliders(cylinder, launch_file, chromium, tmp_path):
+    """Jupyter calls ``_repr_html_``; two outputs in one document move independently."""
+    one, two = cylinder._repr_html_(), solve(str(launch_file))._repr_html_()
+    assert "$$\\begin{aligned}" in one and '<input type="range"' in one
+    assert one.count("<script>") == 1  # no KaTeX: the notebook typesets the math
+    doc = tmp_path / "notebook.html"
+    doc.write_text(f"<!DOCTYPE html><meta charset='utf-8'><body>{one}<hr>{two}</body>",
+                   encoding="utf-8")
+    page, requested, errors = _open(chromium, doc, "[id^='lamech-live-'][data-updates]")
+    roots = page.locator("[id^='lamech-live-']")
+    assert roots.count() == 2
+    cyl, launch = roots.nth(0), roots.nth(1)
+    cyl.locator("input[name='mu-value']").fill("0.45")
+    cyl.locator("input[name='mu-value']").dispatch_event("change")
+    assert "39.39°" in cyl.locator("#live-slips-rolling").inner_text()
+    want = f"{math.degrees(launch_angle(1.0)):.2f}°"
+    assert want in launch.locator("#live-lets-go-contact").inner_text()  # untouched
+    launch.locator("input[name='v0-value']").fill("2.5")
+    launch.locator("input[name='v0-value']").dispatch_event("change")
+    want = f"{math.degrees(launch_angle(2.5)):.2f}°"
+    assert want in launch.locator("#live-lets-go-contact").inner_text()
+    assert "39.39°" in cyl.locator("#live-slips-rolling").inner_text()
+    page.close()
+    assert errors == [] and requested == []

@@ -14,7 +14,7 @@ from typing import Any
 from ._animate import FORMATS, Scene, animate
 from ._live import LiveError, LiveModel, live_model, to_javascript
 from ._modes import modes_latex, modes_text
-from ._notebook import Animation, animation, sweep_html, trajectory_html
+from ._notebook import Animation, animation, solution_html, sweep_html, trajectory_html
 from ._page import report_page
 from ._plot import plot_trajectory
 from ._report import CONVENTION
@@ -47,6 +47,7 @@ __all__ = [
     "Animation",
     "trajectory_html",
     "sweep_html",
+    "solution_html",
     "Scene",
     "FORMATS",
     "CONVENTION",

@@ -156,7 +156,7 @@ def _simulation_html(traj, system, params) -> tuple[str, list[str]]:
     return "\n".join(parts), notes
 
 
-def _equilibria(sol) -> tuple:
+def equilibria(sol) -> tuple:
     """The equilibria whose frequencies the sliders follow: those of a motion with an
     energy shell (one degree of freedom: found quickly), else none."""
     if sol.shell is None:
@@ -190,7 +190,7 @@ def report_page(
     if source is not None:
         body.append(f"<pre>{html.escape(source)}</pre>")
     body += ['<h2 id="results">Results</h2>', _results_html(sol)]
-    live, live_script = live_section(sol, _equilibria(sol))
+    live, live_script = live_section(sol, equilibria(sol))
     body += ['<section id="live"><h2>Move the parameters</h2>', live, "</section>"]
     body += ['<h2 id="steps">Step by step</h2>', _steps_html(derivation)]
     if traj is not None:
