@@ -113,6 +113,17 @@ def test_lift_off_sensitivity_to_a_launch_speed(launch_file):
     assert root.sensitivity["m"] == 0.0
 
 
+def test_the_ladder_leaves_the_wall_later_from_higher_up():
+    # the textbook: it leaves the wall where sin(phi) = (2/3) sin(phi0), whatever m, g, l
+    root = solve("ladder").vanishes["wall"][0]
+    phi0 = 1.2
+    assert math.sin(root.value) == pytest.approx(2 / 3 * math.sin(phi0), abs=1e-12)
+    h = 1e-6
+    fd = (math.asin(2 / 3 * math.sin(phi0 + h)) - math.asin(2 / 3 * math.sin(phi0 - h))) / (2 * h)
+    assert root.sensitivity["phi0"] == pytest.approx(fd, rel=1e-7)
+    assert root.sensitivity["m"] == root.sensitivity["g"] == root.sensitivity["l"] == 0.0
+
+
 def test_a_parameter_that_follows_others_is_not_differentiated_by():
     # vertical_circle: v0 = sqrt(3 g l), so the string slackens at cos(theta) = -1/3
     # whatever g and l: both sensitivities are 0 and v0 has none of its own
