@@ -47,7 +47,8 @@ class Root:
     coordinate's units and ``degrees`` (None unless the coordinate is an angle);
     ``sensitivity`` its derivative by each free parameter, {name: d value / d name}
     (None where undefined: a double root), by implicit differentiation of the closed
-    form (:mod:`lamech.symbolic._sensitivity`)."""
+    form (:mod:`lamech.symbolic._sensitivity`); given for the first root of a list (the
+    event), empty for the later ones (where it would have happened had it still held)."""
 
     equation: str
     coordinate: str
@@ -252,7 +253,7 @@ def _zeros(system: System, shell: Shell, expr: sp.Expr) -> list[Root]:
                 eq = f"{to_text(lhs)} = {to_text(rhs)}"
                 break
         root = _label(system, x, r, eq or f"{to_text(num)} = 0")
-        out.append(_with_sensitivity(system, root, expr, x.symbol))
+        out.append(_with_sensitivity(system, root, expr, x.symbol) if not out else root)
     return out
 
 
@@ -290,7 +291,8 @@ def slip_points(system: System, shell: Shell, name: str) -> list[Root]:
             num, den = student(s * lf), student(ln)
         eq = f"{to_text(num)} = {to_text(sp.Mul(fr.mu, den, evaluate=False))}"
         F = s * lf - friction_mu(system, name) * ln
-        out.append(_with_sensitivity(system, _label(system, x, r, eq), F, x.symbol))
+        root = _label(system, x, r, eq)
+        out.append(_with_sensitivity(system, root, F, x.symbol) if not out else root)
     return out
 
 
