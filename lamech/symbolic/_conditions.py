@@ -239,7 +239,7 @@ def _zeros(system: System, shell: Shell, expr: sp.Expr) -> list[Root]:
     roots = _ordered_roots(system, shell, F)
     num = sp.numer(sp.together(expr))
     sols = _symbolic_solutions(num, x.symbol)
-    out = []
+    out: list[Root] = []
     pv = system.parameter_values
     for r in roots:
         eq = None
@@ -275,7 +275,7 @@ def slip_points(system: System, shell: Shell, name: str) -> list[Root]:
         return np.where(n > 0, g, np.nan) if np.ndim(v) else (g if n > 0 else float("nan"))
 
     roots = _ordered_roots(system, shell, G)
-    out = []
+    out: list[Root] = []
     for r in roots:
         s = 1 if Ff(r) >= 0 else -1
         ratio = sp.cancel(sp.together(s * lf / ln))
