@@ -24,6 +24,7 @@ import pytest
 import sympy as sp
 from scipy.optimize import brentq
 
+import lamech
 from lamech.present import LiveError, live_model, to_javascript
 from lamech.symbolic import free_parameters, solve
 
@@ -144,6 +145,38 @@ def test_sensitivities_in_the_text_and_the_json():
     data = json.loads(run.stdout)
     first = data["slips"]["rolling"][0]
     assert first["sensitivity"]["mu"] == pytest.approx(0.92282025, rel=1e-7)
+
+
+# ----- the problem file's slider ranges ----------------------------------------------
+CYLINDER = (ROOT / "lamech" / "examples" / "cylinder.toml").read_text(encoding="utf-8")
+
+
+def test_the_file_may_give_a_sliders_range():
+    system = lamech.loads(CYLINDER + "\n[sliders]\nmu = [0.05, 0.6]\nR2 = [0.6, 2]\n")
+    assert system.sliders == (("mu", 0.05, 0.6), ("R2", 0.6, 2.0))
+    model = live_model(solve(system))
+    ranges = {n: (lo, hi) for n, _, lo, hi in model.params}
+    assert ranges["mu"] == (0.05, 0.6)
+    assert ranges["R2"] == (0.5, 2.0)  # widened to hold the file's value, 0.5
+    assert ranges["g"] == (0.981, 29.43)  # the default: 0.1 to 3 times
+
+
+@pytest.mark.parametrize(
+    "entry, words",
+    [
+        ("nu = [0, 1]", "no slider `nu`: a slider is a parameter given as a number or a "
+         "friction coefficient given as a number; known: R1, R2, g, m, mu"),
+        ("mu = [0.5, 0.1]", "needs low < high (got [0.5, 0.1])"),
+        ('mu = ["a", 1]', "a slider's range is [low, high], two numbers"),
+        ("mu = 0.3", "a slider's range is [low, high], two numbers"),
+    ],
+)
+def test_a_bad_slider_range_is_said_at_its_line(entry, words):
+    text = CYLINDER + "\n[sliders]\n" + entry + "\n"
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.loads(text, name="c.toml")
+    line = text.splitlines().index(entry) + 1
+    assert f"c.toml:{line}:" in str(err.value) and words in str(err.value), str(err.value)
 
 
 # ----- JavaScript printing ------------------------------------------------------------

@@ -37,7 +37,9 @@ GRID = 4001
 """Grid points per segment for turning points and roots (as the Python side)."""
 
 RANGE = (0.1, 3.0)
-"""A slider's default range: these multiples of the file's value (-1..1 for zero)."""
+"""A slider's default range: these multiples of the file's value (-1..1 for zero); the
+problem file's ``[sliders]`` section gives others (``mu = [0.05, 1.0]``), widened to
+hold the value itself."""
 
 
 class LiveError(ValueError):
@@ -165,7 +167,11 @@ def live_model(sol, equilibria=None) -> LiveModel:
             except LiveError as exc:
                 skipped.append(f"omega^2 at {at} {exc}")
     parts["modes"] = "[" + ", ".join(modes) + "]"
-    params = tuple((n, v, *_range(v)) for n, _, v in free)
+    given = {name: (low, high) for name, low, high in system.sliders}
+    params = tuple(
+        (n, v, min(given[n][0], v), max(given[n][1], v)) if n in given else (n, v, *_range(v))
+        for n, _, v in free
+    )
     parts["params"] = json.dumps(
         [{"name": n, "value": v, "min": lo, "max": hi} for n, v, lo, hi in params]
     )
@@ -214,8 +220,8 @@ def live_section(sol, equilibria=None, root_id: str = "live") -> tuple[str, str]
         "The closed forms above, compiled to JavaScript: move a parameter (or type its "
         "value) and the multipliers on the energy shell, the lift-off and slip angles with "
         "their sensitivities and the small-oscillation frequencies follow, in this page, "
-        "with no server. The range of each slider is 0.1 to 3 times the file's value; a "
-        "typed value outside it widens it."
+        "with no server. The range of each slider is the file's [sliders] entry, or 0.1 to "
+        "3 times the file's value; a typed value outside it widens it."
     )
     skipped = "".join(f'<p class="note">not compiled: {html.escape(s)}</p>' for s in model.skipped)
     body = (
