@@ -35,7 +35,7 @@ def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
     assert cylinder_page.stat().st_size < 2_000_000  # issue 15: under 2 MB for the cylinder
     # no resource from outside: every src/href is a data URI or a fragment
     markup = re.sub(r"<script>.*?</script>", "", page, flags=re.S)  # KaTeX's own code
-    assert page.count("<script>") == 2  # KaTeX, and the call that renders the blocks
+    assert page.count("<script>") == 3  # KaTeX, the call that renders the blocks, the sliders
     for attr in re.findall(r'(?:src|href)\s*=\s*"([^"]*)"', markup):
         assert attr.startswith(("data:", "#")), attr
     assert "<link" not in page and "@import" not in page

@@ -179,6 +179,21 @@ def _initial(value: Any) -> dict[str, float] | str:
     return out
 
 
+def _params(value: Any) -> dict[str, float] | str:
+    """A slider's parameter values {name: number} for the simulation (``mu`` or
+    ``mu:<constraint>`` for a friction coefficient), or what is wrong."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict) or len(value) > 1000:
+        return 'params must be an object {"mu": 0.2}'
+    out = {}
+    for k, v in value.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            return f"params `{k}` must be a finite number"
+        out[k] = float(v)
+    return out
+
+
 def _grid_size(params: dict) -> int:
     size = 1
     for name, v in params.items():
@@ -288,10 +303,18 @@ def make_app(
         initial = _initial(data.get("initial"))
         if isinstance(initial, str):
             return _refuse(400, initial)
+        params = _params(data.get("params"))
+        if isinstance(params, str):
+            return _refuse(400, params)
+        events_only = bool(data.get("events_only"))
+        if (params or events_only) and not simulate:
+            return _refuse(400, '"params" and "events_only" go with "simulate": true')
         options = {
             "simulate": simulate,
             "t_end": float(t_end) if simulate else None,
             "initial": initial,
+            "params": params,
+            "events_only": events_only,
         }
         return await work(request, "run", data["text"], options)
 

@@ -85,6 +85,8 @@ def _work(kind: str, text: str, options: dict) -> dict:
         system = loads(text, name="problem.toml")  # text: no folder, so it names no files
         if kind == "check":
             return {"ok": True, "title": system.title}
+        if options.get("events_only"):
+            return _simulated(system, options)
         sol = solve(system)
         derivation = steps(sol)
     except (ProblemFileError, DegenerateConstraintsError, ModelError, ValueError) as exc:
@@ -125,6 +127,35 @@ def _work(kind: str, text: str, options: dict) -> dict:
             **{n + "'": _number(v) for n, v in zip(traj.coordinates, traj.qd[0])},
         }
     return answer
+
+
+def _simulated(system, options: dict) -> dict:
+    """A page's slider moved: the simulation alone, at ``options["params"]`` (parameter
+    values, ``mu`` or ``mu:<constraint>`` for a friction coefficient, as ``--param``),
+    its events and status, without solving again or making a page."""
+    from ..model import ModelError, with_values
+    from ..numeric import SimulationError, simulate
+    from ..symbolic import is_angle
+
+    params = options.get("params") or {}
+    try:
+        system = with_values(system, parameters=params) if params else system
+        traj = simulate(system, float(options["t_end"]), initial=options.get("initial") or None)
+    except (SimulationError, ModelError, ValueError, KeyError) as exc:
+        return {"ok": False, "errors": errors(exc)}
+    angles = {c.name for c in system.coordinates if is_angle(system, c.symbol)}
+    return {
+        "ok": True,
+        "title": system.title,
+        "params": params,
+        "status": str(traj.status),
+        "message": traj.message,
+        "events": _events(traj, angles),
+        "start": {
+            **{n: _number(v) for n, v in zip(traj.coordinates, traj.q[0])},
+            **{n + "'": _number(v) for n, v in zip(traj.coordinates, traj.qd[0])},
+        },
+    }
 
 
 def _sweep(conn, text: str, options: dict) -> dict:

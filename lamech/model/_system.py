@@ -297,6 +297,7 @@ class System:
     notes: tuple[str, ...] = ()
     scenery: tuple[Scenery, ...] = ()
     chart: Any = None  # a lamech.model.Chart: the coordinates results are given in
+    sliders: tuple[tuple[str, float, float], ...] = ()  # (name, low, high): [sliders]
 
     def __post_init__(self) -> None:
         # Every check, once per construction (``dataclasses.replace`` included): the

@@ -23,7 +23,8 @@ from ._trajectory import trajectory_csv, trajectory_text
 
 if TYPE_CHECKING:
     from ._animate import FORMATS, Scene, animate
-    from ._notebook import Animation, animation, sweep_html, trajectory_html
+    from ._live import LiveError, LiveModel, live_model, to_javascript
+    from ._notebook import Animation, animation, solution_html, sweep_html, trajectory_html
     from ._page import report_page
     from ._plot import plot_trajectory
     from ._sweep_plot import plot_sweep
@@ -38,6 +39,11 @@ _LAZY = {
     "animation": "_notebook",
     "sweep_html": "_notebook",
     "trajectory_html": "_notebook",
+    "solution_html": "_notebook",
+    "LiveError": "_live",
+    "LiveModel": "_live",
+    "live_model": "_live",
+    "to_javascript": "_live",
     "report_page": "_page",
     "plot_trajectory": "_plot",
     "plot_sweep": "_sweep_plot",
@@ -71,10 +77,15 @@ __all__ = [
     "steps_latex",
     "steps_json",
     "report_page",
+    "live_model",
+    "LiveModel",
+    "LiveError",
+    "to_javascript",
     "animation",
     "Animation",
     "trajectory_html",
     "sweep_html",
+    "solution_html",
     "Scene",
     "FORMATS",
     "CONVENTION",

@@ -11,7 +11,7 @@ import html
 import tempfile
 from pathlib import Path
 
-__all__ = ["trajectory_html", "sweep_html", "animation", "Animation"]
+__all__ = ["trajectory_html", "sweep_html", "solution_html", "animation", "Animation"]
 
 TABLE_ROWS = 30
 """Rows of a sweep shown inline (the rest: ``run.to_dataframe()``)."""
@@ -35,6 +35,27 @@ def trajectory_html(traj) -> str:
     return f"<pre>{html.escape(trajectory_text(traj))}</pre>" + _png(
         lambda p: plot_trajectory(traj, p)
     )
+
+
+def solution_html(sol) -> str:
+    """A Solution in a notebook: its main results in LaTeX (typeset by the notebook's
+    MathJax), then the report page's sliders (:mod:`lamech.present._live`: the closed
+    forms compiled to JavaScript, re-evaluated as a parameter moves), inside an element
+    of its own so that several outputs can share the notebook."""
+    import uuid
+
+    from ._live import LIVE_STYLE, live_section
+    from ._page import equilibria
+    from ._report import to_latex
+
+    root = f"lamech-live-{uuid.uuid4().hex[:12]}"
+    body, script = live_section(sol, equilibria(sol), root_id=root)
+    math = html.escape(to_latex(sol, standalone_math=True))
+    out = (
+        f"<div>{math}</div><style>{LIVE_STYLE}</style>"
+        f'<div id="{root}"><h4>Move the parameters</h4>{body}</div>'
+    )
+    return out + (f"<script>{script}</script>" if script else "")
 
 
 def _cell(v) -> str:

@@ -18,6 +18,7 @@ from functools import cache
 from pathlib import Path
 
 from ..symbolic import Derivation
+from ._live import LIVE_STYLE, live_section
 from ._report import latex_names
 from ._report import to_latex as _solution_latex
 from ._report import to_text as _solution_text
@@ -155,6 +156,17 @@ def _simulation_html(traj, system, params) -> tuple[str, list[str]]:
     return "\n".join(parts), notes
 
 
+def equilibria(sol) -> tuple:
+    """The equilibria whose frequencies the sliders follow: those of a motion with an
+    energy shell (one degree of freedom: found quickly), else none."""
+    if sol.shell is None:
+        return ()
+    try:
+        return tuple(sol.equilibria)
+    except (ValueError, TypeError, NotImplementedError, ArithmeticError):
+        return ()  # the modes are a bonus here: `lamech modes` says what went wrong
+
+
 def report_page(
     sol, derivation: Derivation, source: str | None, traj=None, params=None, note: str = ""
 ) -> str:
@@ -162,7 +174,12 @@ def report_page(
     text, ``traj`` an optional simulation of it (run with ``params``)."""
     script, style, licence = _katex()
     title = html.escape(sol.system.title)
-    sections = [("problem", "The problem"), ("results", "Results"), ("steps", "Step by step")]
+    sections = [
+        ("problem", "The problem"),
+        ("results", "Results"),
+        ("live", "Move the parameters"),
+        ("steps", "Step by step"),
+    ]
     if traj is not None:
         sections.append(("motion", "The motion"))
     nav = " ".join(f'<a href="#{k}">{v}</a>' for k, v in sections)
@@ -173,6 +190,8 @@ def report_page(
     if source is not None:
         body.append(f"<pre>{html.escape(source)}</pre>")
     body += ['<h2 id="results">Results</h2>', _results_html(sol)]
+    live, live_script = live_section(sol, equilibria(sol))
+    body += ['<section id="live"><h2>Move the parameters</h2>', live, "</section>"]
     body += ['<h2 id="steps">Step by step</h2>', _steps_html(derivation)]
     if traj is not None:
         sim, notes = _simulation_html(traj, sol.system, params)
@@ -186,7 +205,9 @@ def report_page(
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">\n'
         '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-        f"<title>{title}</title>\n<style>{style}</style>\n<style>{_STYLE}</style>\n"
+        f"<title>{title}</title>\n<style>{style}</style>\n<style>{_STYLE}{LIVE_STYLE}</style>\n"
         f"</head><body>\n" + "\n".join(body) + f"\n<script>{script}</script>\n"
-        f"<script>{_RENDER}</script>\n</body></html>\n"
+        f"<script>{_RENDER}</script>\n"
+        + (f"<script>{live_script}</script>\n" if live_script else "")
+        + "</body></html>\n"
     )

@@ -168,6 +168,24 @@ def _root_text(r) -> str:
     return f"{r.equation}:  {r.coordinate} = {r.value:.10g}{deg}"
 
 
+def sensitivity_text(r) -> str:
+    """A root's derivatives by the parameters, the nonzero ones by name and the rest
+    grouped: "d theta1/d mu = 0.92282; 0 for m, g, R1, R2"."""
+    parts, zero, undefined = [], [], []
+    for p, v in r.sensitivity.items():
+        if v is None:
+            undefined.append(p)
+        elif v == 0:
+            zero.append(p)
+        else:
+            parts.append(f"d {r.coordinate}/d {p} = {v:.6g}")
+    if zero:
+        parts.append(("0 for " if parts else f"d {r.coordinate}/d p = 0 for ") + ", ".join(zero))
+    if undefined:
+        parts.append("undefined (a double root) for " + ", ".join(undefined))
+    return "; ".join(parts)
+
+
 def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
     """The answer per constraint: at the start, never (with the reason), the roots in the
     order the motion meets them, or not determined; the parameter condition and a hint
@@ -189,6 +207,8 @@ def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
                 lines.append(f"  {pad}  note: {v.hint}")
         elif roots:
             lines += [f"  {k}: {_root_text(r)}" for r in roots[:1]]
+            if roots[0].sensitivity:
+                lines.append(f"  {pad}  sensitivity: {sensitivity_text(roots[0])}")
             lines += [f"  {pad}  later, had it still held: {_root_text(r)}" for r in roots[1:]]
         elif sol.shell:
             lines.append(f"  {k}: never in the range the motion reaches")

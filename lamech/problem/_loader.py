@@ -77,6 +77,7 @@ _KNOWN_SECTIONS = {
     "parametrisation",
     "loads",
     "inputs",
+    "sliders",
 }
 
 
@@ -638,6 +639,7 @@ class _Loader:
             forces = [f + q for f, q in zip(forces, extra_Q)]
             V = V + extra_V
         scenery = self._scenery()
+        sliders = self._sliders(params, constraints)
         self.fail_if_any()
         notes = self._compare_energy(skeleton, bodies, gravity, T, V)
         chart = self._chart(coords)
@@ -658,6 +660,7 @@ class _Loader:
             notes=tuple(notes),
             scenery=tuple(scenery),
             chart=chart,
+            sliders=tuple(sliders),
         )
         self.fail_if_any()
         return system
@@ -1075,6 +1078,50 @@ class _Loader:
             parts = [self.field(x, "inertia", f"{where} inertia", loc) for x in value]
             return None if any(p is None for p in parts) else tuple(parts)
         return self.field(value, "inertia", f"{where} inertia", loc)
+
+    def _sliders(self, params: list[Parameter], constraints: list) -> list:
+        """``[sliders]``: ``NAME = [low, high]``, the range of the report's slider of a
+        parameter given as a number, or of a friction coefficient given as a number
+        (``mu``, or ``"mu:<constraint>"`` when there are several, as ``--param``)."""
+        table = self.table("sliders") or {}
+        friction = [c for c in constraints if c.friction is not None]
+        names = {p.name for p in params if sp.sympify(p.value).is_Number}
+        literal = [c for c in friction if sp.sympify(c.friction.mu).is_Number]
+        if len(friction) == 1 and "mu" not in {p.name for p in params}:
+            names |= {"mu"} if literal else set()
+        else:
+            names |= {f"mu:{c.name}" for c in literal}
+        out = []
+        for name, value in table.items():
+            where, loc = f"sliders.{name}", ("sliders", None, name)
+            if name not in names:
+                self.problem(
+                    where,
+                    f"no slider `{name}`: a slider is a parameter given as a number or a "
+                    "friction coefficient given as a number; known: "
+                    + (", ".join(sorted(names)) or "none"),
+                    loc,
+                )
+                continue
+            ok = (
+                isinstance(value, list)
+                and len(value) == 2
+                and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in value
+                )
+            )
+            if not ok:
+                self.problem(where, "a slider's range is [low, high], two numbers", loc)
+                continue
+            low, high = float(value[0]), float(value[1])
+            if not low < high:
+                self.problem(
+                    where, f"a slider's range needs low < high (got [{low:g}, {high:g}])", loc
+                )
+                continue
+            out.append((name, low, high))
+        return out
 
     def _scenery(self) -> list[Scenery]:
         """``[[scenery]]``: drawn geometry, each entry a point, a line or a circle."""

@@ -33,6 +33,7 @@ from ._reduce import (
     eliminate,
     tidy,
 )
+from ._sensitivity import free_parameters, friction_mu, friction_parameters, in_free_parameters
 from ._solution import Solution, readable, solve
 from ._steps import CORRECTION, Derivation, Line, Step, Term, steps
 
@@ -69,6 +70,10 @@ __all__ = [
     "vanishing_points",
     "slip_points",
     "is_angle",
+    "free_parameters",
+    "friction_parameters",
+    "friction_mu",
+    "in_free_parameters",
     "generalized_forces",
     "cartesian_forces",
     "Solution",

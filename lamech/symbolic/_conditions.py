@@ -14,7 +14,7 @@ cos q, sin q or q itself; the value is always numeric (parameters at their value
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import sympy as sp
@@ -24,6 +24,7 @@ from ..model import System
 from ._budget import count_ops
 from ._integrals import Shell
 from ._normal import normal
+from ._sensitivity import friction_mu, root_sensitivity
 from ._student import has_big_integer, student
 
 __all__ = [
@@ -43,12 +44,17 @@ GRID = 4001
 @dataclass(frozen=True)
 class Root:
     """One root: ``equation`` (text with " = "), the ``coordinate``, its ``value`` in the
-    coordinate's units and ``degrees`` (None unless the coordinate is an angle)."""
+    coordinate's units and ``degrees`` (None unless the coordinate is an angle);
+    ``sensitivity`` its derivative by each free parameter, {name: d value / d name}
+    (None where undefined: a double root), by implicit differentiation of the closed
+    form (:mod:`lamech.symbolic._sensitivity`); given for the first root of a list (the
+    event), empty for the later ones (where it would have happened had it still held)."""
 
     equation: str
     coordinate: str
     value: float
     degrees: float | None
+    sensitivity: dict = field(default_factory=dict, compare=False)
 
     def to_json(self) -> dict:
         return {
@@ -56,6 +62,7 @@ class Root:
             "coordinate": self.coordinate,
             "value": self.value,
             "degrees": self.degrees,
+            "sensitivity": dict(self.sensitivity),
         }
 
 
@@ -239,6 +246,11 @@ def _label(system, x, root: float, equation: str) -> Root:
     return Root(equation, x.name, root, math.degrees(root) if angle else None)
 
 
+def _with_sensitivity(system: System, root: Root, F: sp.Expr, x: sp.Symbol) -> Root:
+    """``root`` with its derivative by each free parameter (F(x, p) = 0 there)."""
+    return replace(root, sensitivity=root_sensitivity(system, F, x, root.value))
+
+
 def vanishing_points(system: System, shell: Shell, name: str) -> list[Root]:
     """Where multiplier ``name`` on the shell reaches zero, in the order reached."""
     lam = shell.multipliers.get(name)
@@ -265,7 +277,7 @@ def _zeros(system: System, shell: Shell, expr: sp.Expr) -> list[Root]:
     roots = _ordered_roots(system, shell, F)
     num = sp.numer(sp.together(expr))
     sols = _symbolic_solutions(num, x.symbol)
-    out = []
+    out: list[Root] = []
     pv = system.parameter_values
     for r in roots:
         eq = None
@@ -278,7 +290,8 @@ def _zeros(system: System, shell: Shell, expr: sp.Expr) -> list[Root]:
             if abs(rv.imag) < 1e-12 and abs(lv - rv.real) < 1e-7 * (1 + abs(lv)):
                 eq = f"{to_text(lhs)} = {to_text(rhs)}"
                 break
-        out.append(_label(system, x, r, eq or f"{to_text(num)} = 0"))
+        root = _label(system, x, r, eq or f"{to_text(num)} = 0")
+        out.append(_with_sensitivity(system, root, expr, x.symbol) if not out else root)
     return out
 
 
@@ -300,7 +313,7 @@ def slip_points(system: System, shell: Shell, name: str) -> list[Root]:
         return np.where(n > 0, g, np.nan) if np.ndim(v) else (g if n > 0 else float("nan"))
 
     roots = _ordered_roots(system, shell, G)
-    out = []
+    out: list[Root] = []
     for r in roots:
         s = 1 if Ff(r) >= 0 else -1
         ratio = sp.cancel(sp.together(s * lf / ln))
@@ -315,7 +328,9 @@ def slip_points(system: System, shell: Shell, name: str) -> list[Root]:
             # a small initial value's denominator cleared: 10000 g sin = 3 (70000 g ...)
             num, den = student(s * lf), student(ln)
         eq = f"{to_text(num)} = {to_text(sp.Mul(fr.mu, den, evaluate=False))}"
-        out.append(_label(system, x, r, eq))
+        F = s * lf - friction_mu(system, name) * ln
+        root = _label(system, x, r, eq)
+        out.append(_with_sensitivity(system, root, F, x.symbol) if not out else root)
     return out
 
 

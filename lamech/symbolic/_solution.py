@@ -140,6 +140,13 @@ class Solution:
 
         return to_latex(self, standalone_math=True)
 
+    def _repr_html_(self) -> str:
+        # Jupyter prefers HTML to LaTeX: the LaTeX results, and beside them the report
+        # page's sliders (the same exception to the layer order as _repr_latex_)
+        from ..present import solution_html
+
+        return solution_html(self)
+
     def __repr__(self) -> str:
         return (
             f"<Solution of {self.system.title!r}: {len(self.coordinates)} coordinates, "
