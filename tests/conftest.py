@@ -5,8 +5,9 @@ A test never sees a compiled form another test left in a cache: ``simulate``'s d
 (``jit=None``, ``engine="auto"``) runs numba's loop where the problem's compiled form is
 cached, so a shared cache made a test's engine depend on which tests ran before it on
 the same worker (issue 28 item 1). Each test has a folder of its own; only the tests
-marked ``slow`` (the ones that compile with numba, and ask for their engine) share one
-per run, so a system one of them compiled is loaded by the others."""
+marked ``shared_cache`` (the ones that compile with numba, and ask for their engine) share
+one per run, so a system one of them compiled is loaded by the others. ``slow`` says only
+that a test is left out of the default set (``-m "not slow"``); CI runs it all the same."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import pytest
 @pytest.fixture(scope="session")
 def shared_cache_dir(tmp_path_factory):
     """One folder per run, shared by pytest-xdist's workers (the parent of a worker's
-    base folder): the compiled forms of the slow tests."""
+    base folder): the compiled forms of the tests marked ``shared_cache``."""
     base = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
         base = base.parent
@@ -39,8 +40,8 @@ def fixtures_cache_dir(tmp_path_factory):
 @pytest.fixture(autouse=True)
 def lamech_cache_dir(request, tmp_path_factory, shared_cache_dir):
     """``LAMECH_CACHE_DIR`` for the test and the processes it starts: a new folder for
-    each test, the run's shared one for a test marked ``slow``."""
-    if request.node.get_closest_marker("slow") is not None:
+    each test, the run's shared one for a test marked ``shared_cache``."""
+    if request.node.get_closest_marker("shared_cache") is not None:
         path = shared_cache_dir
     else:
         path = tmp_path_factory.mktemp("lamech-cache")

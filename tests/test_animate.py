@@ -19,6 +19,7 @@ def cylinder_run():
     return system, lamech.simulate(system, 2.7, initial={"theta1": 0.05}, samples=61)
 
 
+@pytest.mark.slow
 def test_gif_has_frames(tmp_path, cylinder_run):
     system, traj = cylinder_run
     out = animate(traj, system, tmp_path / "c.gif", max_frames=12, dpi=40)
@@ -119,6 +120,7 @@ def test_scenery_is_drawn_where_the_file_puts_it(tmp_path):
     assert out.stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_every_example_declares_its_fixed_geometry():
     """Each bundled example with bodies draws something besides them (a pivot, a floor,
     the fixed cylinder): a body moving in empty space is not what the file describes."""

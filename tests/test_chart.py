@@ -121,6 +121,7 @@ def test_newtons_law_holds_on_each_bob(in_angles):
         assert m1 * acc1[1] == pytest.approx(f1[1], abs=1e-9)
 
 
+@pytest.mark.slow
 def test_angles_switch_equals_the_files_parametrisation(in_angles, capsys):
     """--angles applies the circle chart lamech proposes; it is the file's one."""
     plain = lamech.solve(lamech.loads(CARTESIAN, "dp.toml"))
@@ -133,6 +134,7 @@ def test_angles_switch_equals_the_files_parametrisation(in_angles, capsys):
         assert sp.simplify(switched.multipliers[k] - in_angles.multipliers[k]) == 0
 
 
+@pytest.mark.slow
 def test_kept_cartesian_coordinates_give_rational_tensions(in_angles):
     """keep = true on every coordinate: no square roots, and the same tension as the
     angle form at the same state."""
@@ -179,6 +181,7 @@ def test_a_wrong_parametrisation_is_refused_with_the_reason(chart, message):
     assert "dp.toml:" in str(err.value)
 
 
+@pytest.mark.slow
 def test_long_closed_forms_are_delivered_and_summarised(capsys):
     """The four-bar linkage's multipliers are long: the API and --json give them whole
     (equal to the numeric KKT solution at the initial state), the text summarises."""
@@ -199,6 +202,7 @@ def test_long_closed_forms_are_delivered_and_summarised(capsys):
         assert "operations" in text and "--json" in text
 
 
+@pytest.mark.slow
 def test_the_symbolic_solve_is_bounded_by_counted_work():
     """The elimination of a large system (a chain of eight links in Cartesian
     coordinates: 24 unknowns) past the bounds of the normal forms stops and says so,

@@ -552,7 +552,10 @@ def test_the_sympy_model_is_lamechs(name):
             assert abs(a - b) <= 1e-12 * (1 + abs(b)), (name, what, a, b)
 
 
-@pytest.mark.parametrize("name", NAMES)
+# snakeboard: about 6 s of SymPy on its own
+@pytest.mark.parametrize(
+    "name", [pytest.param(n, marks=pytest.mark.slow) if n == "snakeboard" else n for n in NAMES]
+)
 def test_every_multiplier_is_delivered(name):
     solution = solved(name)
     names = {c.name for c in solution.system.constraints}

@@ -185,6 +185,7 @@ def _cli(*args, timeout=240):
                           text=True, timeout=timeout)
 
 
+@pytest.mark.slow
 def test_cli_without_arguments_solves_the_cylinder():
     out = _cli()
     assert out.returncode == 0, out.stderr

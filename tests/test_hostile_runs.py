@@ -233,6 +233,7 @@ def _wait_for(lines: queue.Queue, text: str, seconds: float) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.parametrize("name", ["SIGTERM", "SIGHUP"])
 def test_a_long_simulation_says_so_and_a_signal_keeps_its_trajectory(tmp_path, name):
     signum = getattr(signal, name, None)
@@ -274,6 +275,7 @@ def test_a_long_simulation_says_so_and_a_signal_keeps_its_trajectory(tmp_path, n
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_a_stiff_run_is_told_to_use_an_implicit_method(tmp_path):
     problem = tmp_path / "damper.toml"
     problem.write_text(DAMPER.replace("c = 10000.0", "c = 1e8"), encoding="utf-8")
@@ -336,6 +338,7 @@ def _alive(pid: int) -> bool:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 @pytest.mark.parametrize(
     "name, threaded", [("SIGTERM", False), ("SIGKILL", False), ("SIGKILL", True)]
@@ -411,7 +414,7 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name, threade
         assert rc == -signal.SIGKILL
 
 
-@pytest.mark.parametrize("threaded", [False, True])
+@pytest.mark.parametrize("threaded", [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch, threaded):
     """Also: with another thread running (a notebook's), the workers come from a fork
     server; forking this process could copy a lock that thread holds, and hang."""

@@ -58,6 +58,7 @@ def test_batch_refuses_events_and_bad_input(chain3):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_compiled_batch_gives_the_same_numbers(chain3):
     jitted = compile_system(lamech.loads(chain_toml(3)), jit=True)

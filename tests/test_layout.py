@@ -87,6 +87,7 @@ def test_ruff_check_and_format_are_clean():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_mypy_is_clean():
     out = subprocess.run([_tool("mypy")], capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stdout + out.stderr

@@ -44,6 +44,7 @@ def _same(a, b) -> bool:
     return sp.simplify(sp.expand(a - b)) == 0
 
 
+@pytest.mark.slow
 def test_a_force_at_a_point_is_F_dot_the_partial_velocity():
     system = lamech.loads(PENDULUM)
     S = system.symbols

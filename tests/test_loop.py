@@ -136,6 +136,7 @@ def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, m
     assert simulate(system, 1.0, samples=3).engine == "SciPy DOP853"
 
 
+@pytest.mark.slow
 def test_progress_is_called_between_the_loops_chunks():
     seen = []
     tr = simulate(lamech.load("pendulum"), 1000.0, engine="python", samples=11, rtol=1e-8,
@@ -145,6 +146,7 @@ def test_progress_is_called_between_the_loops_chunks():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_path, monkeypatch):
     """jit=True compiles the problem and its loop and caches them; from then on the
@@ -319,6 +321,7 @@ def test_integrate_events_applies_impacts_in_the_loop_when_asked():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers(tmp_path, monkeypatch):
     """jit=True: numba's loop applies the impacts (the Zeno ball, the disk whose friction

@@ -307,6 +307,7 @@ def _spectral_peaks(t, x, count):
     return sorted(out)
 
 
+@pytest.mark.slow
 def test_the_triple_pendulums_frequencies_are_the_peaks_of_its_simulated_spectrum():
     """Independent truth: released at rest with all three angles at 0.01 rad, the
     simulated triple pendulum's th1 has its spectral peaks at the three predicted
@@ -352,6 +353,7 @@ def test_simulate_mode_and_end_time_errors(capsys):
     assert "`lamech modes` finds 2 equilibria" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_frequencies_agree_with_det_k_minus_omega_squared_m_on_the_tangent_space():
     """The physical check, from the Euler-Lagrange equations before elimination, is made
     and passes where it applies (scleronomic holonomic constraints, no velocity terms);
@@ -406,6 +408,7 @@ f = "l - sqrt((x2 - x1)^2 + (y2 - y1)^2)"
 """
 
 
+@pytest.mark.slow
 def test_the_cartesian_double_pendulum_is_solved_numerically_in_four_unknowns():
     """Four coordinates and two kept rods: too many unknowns for SymPy's solve, so the
     equilibria are found numerically (and read as the simple numbers they are); hanging,
@@ -421,6 +424,7 @@ def test_the_cartesian_double_pendulum_is_solved_numerically_in_four_unknowns():
     assert "agrees" in down.check
 
 
+@pytest.mark.slow
 def test_the_conical_pendulum_is_linearised_about_its_steady_motion(capsys):
     """--at with a velocity: the spherical pendulum going round at theta0 with
     phi'^2 = g/(l cos(theta0)) is a fixed point of the reduced motion; it nods at

@@ -52,7 +52,11 @@ def at(expr: sp.Expr, env: dict) -> complex:
         return complex(ev(sp.sympify(expr)))
 
 
-@pytest.mark.parametrize("name", lamech.example_names())
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
+     for n in lamech.example_names()],
+)
 def test_raw_multipliers_solve_the_kkt_system(name):
     system = lamech.load(name)
     holding = holding_at_start(system)

@@ -92,6 +92,7 @@ def test_the_budget_must_be_positive():
         lamech.solve(lamech.load("pendulum"), budget=-1)
 
 
+@pytest.mark.slow
 def test_a_small_budget_gives_the_same_multipliers_less_tidy_and_says_so():
     """The double pendulum with almost no work allowed: the same functions (equal at
     random states), whatever their written form, and a note naming what is untidied."""
@@ -138,6 +139,7 @@ def _solve_text(name: str, seed: str, busy: int = 0) -> str:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.parametrize("name", ["double_pendulum", "rolling_sphere"])
 def test_the_same_bytes_on_an_idle_and_a_busy_machine_under_any_hash_seed(name):
     """Issue 30: the same file gives byte-identical JSON in two processes with different
@@ -148,6 +150,7 @@ def test_the_same_bytes_on_an_idle_and_a_busy_machine_under_any_hash_seed(name):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy():
     """SymPy's documented four-bar (relative joint angles) used to run past 10 minutes;
     now it is bounded, and its multipliers equal SymPy's LagrangesMethod's at the start."""

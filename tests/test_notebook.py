@@ -7,6 +7,8 @@ from __future__ import annotations
 import base64
 import re
 
+import pytest
+
 import lamech
 from lamech.present import Animation, animation
 
@@ -32,6 +34,7 @@ def test_a_sweep_shows_a_table_and_a_plot():
     assert len(_images(page)) == 1
 
 
+@pytest.mark.slow
 def test_an_animation_plays_inline_offline():
     system = lamech.load("pendulum")
     anim = animation(lamech.simulate(system, 1.0), system, max_frames=10, dpi=40)

@@ -38,6 +38,7 @@ def test_pendulum_tension_is_the_closed_form():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 @pytest.mark.parametrize("n", [2, 8])
 def test_numba_kernel_matches_numpy(n):
@@ -117,6 +118,7 @@ def _modes(ns):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 @pytest.mark.parametrize("name", ["cylinder", "pendulum", "atwood", "double_atwood",
                                   "incline_disk", "knife_edge", "ladder", "andrews_squeezer",

@@ -124,6 +124,7 @@ def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_sigterm_during_an_animation_leaves_no_short_gif(tmp_path):
     gif = tmp_path / "run.gif"
     proc = subprocess.Popen(

@@ -30,6 +30,7 @@ def cylinder_page(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
     page = cylinder_page.read_text(encoding="utf-8")
     assert cylinder_page.stat().st_size < 2_000_000  # issue 15: under 2 MB for the cylinder
@@ -52,6 +53,7 @@ def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
     assert "lift-off" in summary and "contact" in summary  # rolled off the top, let go
 
 
+@pytest.mark.slow
 def test_report_errors_say_where_and_lose_nothing(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text('title = "x"\n[coordinates]\nx = { initial = 0, velocity = 0 }\n'
@@ -69,6 +71,7 @@ def test_report_errors_say_where_and_lose_nothing(tmp_path):
     assert good.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_report_without_simulation_and_with_a_param(tmp_path):
     out = tmp_path / "p.html"
     run = _lamech("report", "pendulum", "-o", str(out), "--no-simulate", "--param", "theta0=1")
@@ -79,6 +82,7 @@ def test_report_without_simulation_and_with_a_param(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_the_report_renders_offline_in_headless_chromium(cylinder_page, chromium):
     requested: list[str] = []
     page = chromium.new_page(viewport={"width": 1100, "height": 1400})

@@ -101,7 +101,7 @@ def _kane_disc():
     return rates
 
 
-@pytest.mark.parametrize("case", ["rolling_disc", "by_name"])
+@pytest.mark.parametrize("case", ["rolling_disc", pytest.param("by_name", marks=pytest.mark.slow)])
 def test_the_rolling_disc_accelerates_as_sympys_kanes_method_says(case):
     """At random states: u' from KanesMethod against lamech's q'' carried to the same
     speeds, u = (theta', psi' sin(theta) + phi', psi' cos(theta)) (the angular
@@ -191,6 +191,7 @@ def _sphere(case: str) -> lamech.System:
     return lamech.loads(text)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["principal", "tensor"])
 def test_chaplygins_ball_keeps_its_energy_and_contact_momentum_and_rolls(case):
     system = _sphere(case)

@@ -65,6 +65,7 @@ def test_check_gives_errors_at_their_line(client):
     assert ok["ok"] is True and ok["title"] == "Solid cylinder rolling on a fixed cylinder"
 
 
+@pytest.mark.slow
 def test_run_solves_and_simulates(client):
     answer = client.post("/api/run", json={"text": CYLINDER, "simulate": True, "t_end": 1.5}).json()
     assert answer["ok"] is True, answer
@@ -104,6 +105,7 @@ def _free_port() -> int:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_the_page_in_headless_chromium(chromium):
     port = _free_port()
     server = subprocess.Popen(
@@ -188,6 +190,7 @@ def test_the_page_in_headless_chromium(chromium):
         server.wait(10)
 
 
+@pytest.mark.slow
 def test_a_sweep_reports_progress_then_its_table(client):
     start = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0.2,0.3,0.4"},
                                             "measures": ["slip"], "t_end": 2.7}).json()

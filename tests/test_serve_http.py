@@ -262,6 +262,7 @@ def _sweep(server, n: int = 5000):
         "text": CYLINDER, "params": {"mu": f"0.1:0.5:{n}"}, "measures": ["slip"], "t_end": 3})
 
 
+@pytest.mark.slow
 def test_the_queue_is_bounded_and_a_check_still_answers():
     server = Server()
     try:
@@ -294,6 +295,7 @@ def test_the_queue_is_bounded_and_a_check_still_answers():
         server.stop()
 
 
+@pytest.mark.slow
 def test_work_is_ended_when_its_client_goes_away():
     server = Server()
     try:
@@ -315,7 +317,9 @@ def test_work_is_ended_when_its_client_goes_away():
         server.stop()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize(
+    "sig", [pytest.param(signal.SIGTERM, marks=pytest.mark.slow), signal.SIGINT]
+)
 def test_a_signal_stops_the_server_and_every_child_within_5_s(sig):
     server = Server()
     try:
@@ -345,6 +349,7 @@ def test_a_signal_stops_the_server_and_every_child_within_5_s(sig):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_checks_stay_quick_while_slow_work_runs():
     """A load test, bounded: 2 slow solves (the double pendulum, ~10 s each) in flight,
     then 30 checks one after another; p50 and p99 printed, a generous bound asserted."""

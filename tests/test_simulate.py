@@ -56,6 +56,7 @@ def _check_pendulum(tr, theta0=0.5):
     assert np.allclose(tr.forces["string:tension"], tr.multiplier("string"), rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_pendulum_20_periods(pendulum):
     tr = simulate(pendulum, 20 * _pendulum_period(0.5), samples=4001)
     _check_pendulum(tr)
@@ -63,6 +64,7 @@ def test_pendulum_20_periods(pendulum):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_pendulum_1000_periods(pendulum):
     tr = simulate(pendulum, 1000 * _pendulum_period(0.5), samples=20001)
     _check_pendulum(tr)
@@ -289,6 +291,7 @@ def test_knife_edge_nonholonomic_invariants():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_jit_gives_the_same_numbers():
     system = lamech.load("cylinder")
@@ -383,7 +386,12 @@ f = "y"
 """
 
 
-@pytest.mark.parametrize("name", lamech.example_names() + ["<inverse-square>"])
+# andrews_squeezer: about 5 s of SymPy on its own
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n == "andrews_squeezer" else n
+     for n in lamech.example_names() + ["<inverse-square>"]],
+)
 def test_generated_code_matches_sympy(name):
     """The generated numeric functions against SymPy's own evaluation at random states."""
     from lamech.symbolic import dynamics
@@ -665,6 +673,7 @@ def test_cli_csv_and_json_contract(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_thirty_link_chain_without_special_handling():
     """Issue 4's large system: derive, compile and simulate the 30-link chain (60
     coordinates, 30 constraints); energy and constraints hold."""

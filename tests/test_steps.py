@@ -219,7 +219,7 @@ def _total(f, system):
 @pytest.mark.parametrize(
     "name",
     [
-        pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n
+        pytest.param(n, marks=[pytest.mark.slow, pytest.mark.shared_cache]) if n in SLOW else n
         for n in lamech.example_names()
     ],
 )
@@ -235,6 +235,7 @@ def test_every_examples_steps_hold_together(name):
     json.dumps(lamech.to_json(d))
 
 
+@pytest.mark.slow
 def test_cli_steps_text_latex_json():
     run = [sys.executable, "-m", "lamech", "solve", "cylinder", "--steps"]
     text = subprocess.run(run, capture_output=True, text=True, check=True).stdout

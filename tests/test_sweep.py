@@ -141,6 +141,7 @@ def test_local_processes_match_in_process(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
@@ -155,6 +156,7 @@ def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
@@ -173,6 +175,7 @@ def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_dask_worker_killed_mid_sweep_is_rescheduled(tmp_path):
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")

@@ -135,6 +135,7 @@ BALL = {
 }
 
 
+@pytest.mark.slow
 def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
     ball = lamech.from_dict(BALL)
     ns = compile_system(ball)
@@ -185,6 +186,7 @@ def test_inputs_that_switch_are_refused():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_numba_loop_gives_the_python_loop_numbers():
     py = _cylinder()

@@ -30,13 +30,16 @@ def _closed_pipe_run(args: list[str]) -> subprocess.CompletedProcess:
         os.close(write)
 
 
-@pytest.mark.parametrize("args", [["examples"], ["solve", "pendulum"]])
+@pytest.mark.parametrize(
+    "args", [["examples"], pytest.param(["solve", "pendulum"], marks=pytest.mark.slow)]
+)
 def test_a_closed_pipe_ends_quietly(args):
     out = _closed_pipe_run(args)
     assert "Traceback" not in out.stderr and "BrokenPipeError" not in out.stderr
     assert out.returncode == 141
 
 
+@pytest.mark.slow
 def test_sweep_into_a_closed_pipe_ends_quietly():
     out = _closed_pipe_run(
         [
@@ -193,6 +196,7 @@ def test_equations_are_simplified_as_a_student_would():
     )
 
 
+@pytest.mark.slow
 def test_the_html_animation_works_offline_and_is_small(tmp_path):
     """It loaded an icon font from a CDN (blank buttons offline) and was 13.5 MB for
     1.5 s of motion with 300 frames whatever the length."""
@@ -224,6 +228,7 @@ def test_velocities_render_with_dots_in_jupyter():
     assert r"\ddot{r}" in sp.latex(s.equations[0])
 
 
+@pytest.mark.slow
 def test_solve_takes_param_and_initial_like_simulate():
     """`lamech solve` had no --param/--initial. With them, the cylinder started at
     theta1 = 0.01 leaves at cos(theta1) = 4/7 cos(0.01) (closed form) and slips where the
@@ -470,7 +475,11 @@ def test_a_particle_does_not_pass_through_a_bump_inside_one_step():
 
 
 # ----- item 4: bundled examples are physically complete -------------------------------
-@pytest.mark.parametrize("name", lamech.problem.example_names())
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
+     for n in lamech.problem.example_names()],
+)
 def test_no_bundled_example_passes_through_a_surface_it_names(name):
     """The ladder swung through the floor after leaving the wall (only its foot's contact
     was modelled), the Atwood masses rose through the pulley, the wedge's block sank
@@ -506,6 +515,7 @@ def test_the_atwood_mass_stops_at_the_pulley_when_the_closed_form_says():
 
 
 # ----- item 8: what a student would write ----------------------------------------------
+@pytest.mark.slow
 def test_results_read_as_a_student_would_write_them():
     """X sin(a)/cos(a) was left for X tan(a); sin(2a) over a denominator with a leading
     minus for the wedge's textbook acceleration m g sin(a) cos(a)/(M + m sin(a)^2);

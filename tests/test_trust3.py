@@ -365,6 +365,7 @@ def test_friction_on_a_bilateral_normal_is_said_to_mean_little():
     assert not any("bilateral" in n for n in lamech.load("cylinder").notes)
 
 
+@pytest.mark.slow
 def test_a_force_named_on_one_of_the_two_bodies_it_joins_says_which_to_name():
     text = lamech.problem.example_path("moving_support").read_text(encoding="utf-8")
     one = lamech.solve(lamech.loads(text.replace('body = ["bob", "cart"]', 'body = "bob"')))

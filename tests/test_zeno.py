@@ -100,7 +100,9 @@ def _check_sequence(tr, name, t1, v1, a_n, e, gap_velocity):
     return rest
 
 
-@pytest.mark.parametrize("e", [0.5, 0.8, 0.9])
+@pytest.mark.parametrize(
+    "e", [0.5, pytest.param(0.8, marks=pytest.mark.slow), pytest.param(0.9, marks=pytest.mark.slow)]
+)
 def test_a_bouncing_ball_rests_on_the_floor_from_the_accumulation_time(e):
     h = 1.0
     tr = simulate(lamech.loads(BALL.replace("e = 0.8", f"e = {e}")), 10.0, samples=10001)
@@ -252,6 +254,7 @@ def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetr
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_a_compiled_system_with_a_function_replaced_runs_the_replacement(tmp_path, monkeypatch):
     # issue 28 item 1: with the ball's compiled form in the cache, the default engine ran
