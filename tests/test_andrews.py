@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system
-from lamech.numeric import simulate
+from lamech.numeric import compile_system, simulate
 
 # Bari/CWI test set, problem "andrews", reference solution at t = 0.03 (PSIDE, tol 1e-14)
 Q_REF = np.array([0.1581077119629904e+2, -0.1575637105984298e+2, 0.4082224013073101e-1,

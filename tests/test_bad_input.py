@@ -80,7 +80,8 @@ def tree(path: Path) -> set[str]:
 
 
 def load_error(load, *args, tmp_path: Path, monkeypatch, capfd) -> lamech.ProblemFileError:
-    """Run ``load(*args)`` in an empty working directory; it must raise, create nothing, print nothing."""
+    """Run ``load(*args)`` in an empty working directory; it must raise, create nothing,
+    print nothing."""
     monkeypatch.chdir(tmp_path)
     before = tree(BAD)
     with time_limit(TIME_LIMIT):
@@ -219,7 +220,8 @@ def test_the_trajectory_csv_is_written_whole_or_not_at_all(tmp_path):
 @pytest.mark.parametrize("options, message", [
     (["--dt", "1e-12"], "1e+12 output times (about 6.4e+04 GB) is more than lamech keeps"),
     (["--samples", "1000000000"], "1e+09 output times"),
-    (["--plot", "out.txt"], "--plot out.txt: the format follows the suffix; use a name ending in .png"),
+    (["--plot", "out.txt"],
+     "--plot out.txt: the format follows the suffix; use a name ending in .png"),
 ])
 def test_outputs_that_cannot_be_made_are_refused_before_the_run(options, message, capsys,
                                                                 tmp_path, monkeypatch):

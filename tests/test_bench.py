@@ -5,9 +5,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.run import (B5_PROBLEMS, kernel_inputs, lamech_b1, lamech_b5, lamech_qdd_lambda,
-                       sympy_b1, sympy_b5, sympy_lagranges, chain_state, lamech_chain,
-                       mujoco_angles, mujoco_chain, mujoco_masses, mujoco_tensions)
+from bench.run import (
+    B5_PROBLEMS,
+    chain_state,
+    kernel_inputs,
+    lamech_b1,
+    lamech_b5,
+    lamech_chain,
+    lamech_qdd_lambda,
+    mujoco_angles,
+    mujoco_chain,
+    mujoco_masses,
+    mujoco_tensions,
+    sympy_b1,
+    sympy_b5,
+    sympy_lagranges,
+)
 from lamech.numeric import compile_system
 
 
@@ -129,7 +142,7 @@ def test_casadi_peer_is_the_same_chain():
     """B3/B4's CasADi model: its tensions at the start are lamech's (the check the
     benchmark makes), and CVODES on it follows lamech's run."""
     pytest.importorskip("casadi", reason="casadi not installed (extra `bench`)")
-    from bench.run import CasadiChain, lamech_run, casadi_peer
+    from bench.run import CasadiChain, casadi_peer, lamech_run
     n = 3
     ns = compile_system(lamech_chain(n))
     _, lam = lamech_qdd_lambda(ns)

@@ -13,10 +13,15 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.symbolic import DegenerateConstraintsError, dynamics, kkt_numeric
-from lamech.problem import chain_toml
 from lamech.expr import parse
-from lamech.symbolic import CLOSED_FORM_LIMIT, eliminate
+from lamech.problem import chain_toml
+from lamech.symbolic import (
+    CLOSED_FORM_LIMIT,
+    DegenerateConstraintsError,
+    dynamics,
+    eliminate,
+    kkt_numeric,
+)
 
 FALLING_CLOCK = """
 title = "Bead on a rod whose end is driven: x = a cos(w t)"

@@ -219,7 +219,8 @@ def test_too_long():
 
 def test_too_deep():
     assert "nested too deeply" in err("(" * 200 + "x" + ")" * 200).message
-    assert "nested too deeply" in err("sin(" * (MAX_DEPTH + 5) + "x" + ")" * (MAX_DEPTH + 5)).message
+    deep = MAX_DEPTH + 5
+    assert "nested too deeply" in err("sin(" * deep + "x" + ")" * deep).message
     assert "nested too deeply" in err("-" * 1000 + "x").message
 
 

@@ -6,10 +6,8 @@ import numpy as np
 import pytest
 
 import lamech
+from lamech.numeric import compile_system, integrate_batch, numba_available, simulate
 from lamech.problem import chain_toml
-from lamech.numeric import integrate_batch
-from lamech.numeric import compile_system, numba_available
-from lamech.numeric import simulate
 
 
 def _starts(ns, count, seed=3):

@@ -124,7 +124,8 @@ def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, m
     system = lamech.load("pendulum")
     with pytest.raises(SimulationError, match="engine 'python' cannot run this problem: method "):
         simulate(system, 1.0, engine="python", method="Radau")
-    with pytest.raises(SimulationError, match="engine must be one of auto, compiled, python, scipy"):
+    with pytest.raises(SimulationError,
+                       match="engine must be one of auto, compiled, python, scipy"):
         simulate(system, 1.0, engine="cvode")
     shaken = _example("pendulum", 'V = "', 'V = "sin(t) + ')
     with pytest.raises(SimulationError, match="t in L, a constraint or a force"):

@@ -11,8 +11,18 @@ import sympy as sp
 
 import lamech
 from lamech.expr import TimeDerivative
-from lamech.model import (Body, Constraint, ConstraintKind, Coordinate, ForceSpec, Friction,
-                          ModelError, Parameter, ShapeKind, System)
+from lamech.model import (
+    Body,
+    Constraint,
+    ConstraintKind,
+    Coordinate,
+    ForceSpec,
+    Friction,
+    ModelError,
+    Parameter,
+    ShapeKind,
+    System,
+)
 
 PENDULUM = """\
 title = "Simple pendulum on a cord"

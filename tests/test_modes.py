@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
+from test_trust import CARTESIAN_PENDULUM as CARTESIAN
 
 import lamech
 from lamech.cli import main
 from lamech.model import with_values
-from test_trust import CARTESIAN_PENDULUM as CARTESIAN
 
 DOUBLE = """
 title = "Double pendulum"
@@ -79,7 +79,8 @@ def test_the_lectures_cylinder_on_top_is_unstable_with_the_textbook_growth_rate(
                  for n in ("g", "R1", "R2"))
     assert sp.simplify(mode.squared + 2 * g / (3 * (R1 + R2))) == 0
     # rolling ties the wheel's turn to the centre's: (R1 + R2) theta1 = R2 theta2
-    assert mode.shape["theta1"] / mode.shape["theta2"] == pytest.approx(p["R2"] / (p["R1"] + p["R2"]))
+    ratio = p["R2"] / (p["R1"] + p["R2"])
+    assert mode.shape["theta1"] / mode.shape["theta2"] == pytest.approx(ratio)
     assert mode.shape["r"] == 0
     assert not _by_position(md, theta1=math.pi).holds   # under the cylinder: it falls off
 
@@ -192,8 +193,14 @@ f = "q1^2 + q2^2 - L^2"
 
 def _sympy_linearizer_A(g, L, m):
     """SymPy's own answer, by its documented recipe."""
-    from sympy.physics.mechanics import (LagrangesMethod, Lagrangian, Particle, Point,
-                                         ReferenceFrame, dynamicsymbols)
+    from sympy.physics.mechanics import (
+        LagrangesMethod,
+        Lagrangian,
+        Particle,
+        Point,
+        ReferenceFrame,
+        dynamicsymbols,
+    )
     q1, q2 = dynamicsymbols("q1:3")
     q1d, q2d = dynamicsymbols("q1:3", level=1)
     t = dynamicsymbols._t

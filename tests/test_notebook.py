@@ -14,7 +14,8 @@ from lamech.present import Animation, animation
 
 
 def _images(page: str) -> list[bytes]:
-    return [base64.b64decode(b) for b in re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", page)]
+    found = re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", page)
+    return [base64.b64decode(b) for b in found]
 
 
 def test_a_trajectory_shows_its_summary_and_plot():

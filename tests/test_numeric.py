@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.problem import chain_toml
 from lamech.numeric import compile_system, numba_available
-from lamech.problem import loads
+from lamech.problem import chain_toml, loads
 
 
 def _kkt(ns, q, v, p):

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from lamech.outputs import OutputError, atomic_output, check_output
 from lamech.cli import main
+from lamech.outputs import OutputError, atomic_output, check_output
 
 FAST = ["--t-end", "0.2", "--samples", "11"]
 

@@ -26,7 +26,8 @@ def test_tour_output_is_what_lamech_prints():
 
 
 @pytest.mark.parametrize("snippet", [
-    pytest.param(b, marks=[pytest.mark.slow, pytest.mark.shared_cache] if "jit=True" in b else [])   # numba compiles
+    # numba compiles
+    pytest.param(b, marks=[pytest.mark.slow, pytest.mark.shared_cache] if "jit=True" in b else [])
     for b in _blocks("python") if re.search(r"^print\(.*#", b, re.M)])
 def test_python_snippet_prints_what_its_comments_say(snippet):
     out = io.StringIO()

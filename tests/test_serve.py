@@ -78,7 +78,8 @@ def test_run_solves_and_simulates(client):
 def test_bad_requests_get_the_same_clear_messages(client):
     big = client.post("/api/check", json={"text": "#" * 1_100_000})
     assert big.status_code == 413 and "over 1000 kB" in big.json()["errors"][0]["message"]
-    notjson = client.post("/api/check", content=b"{oops", headers={"content-type": "application/json"})
+    notjson = client.post("/api/check", content=b"{oops",
+                          headers={"content-type": "application/json"})
     assert notjson.status_code == 400 and "not JSON" in notjson.json()["errors"][0]["message"]
     notext = client.post("/api/run", json={"problem": CYLINDER})
     assert notext.status_code == 400 and '"text"' in notext.json()["errors"][0]["message"]
@@ -206,7 +207,8 @@ def test_a_sweep_reports_progress_then_its_table(client):
     assert job["done"] == 3 and job["counts"] == {"ok": 3}
     assert "<th>slip:theta1</th>" in job["html"] and job["html"].count("<tr>") == 4
     # refused before anything runs: too many cases, no measures, a bad grid
-    big = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0:1:200", "R2": "1:2:100"},
+    grid = {"mu": "0:1:200", "R2": "1:2:100"}
+    big = client.post("/api/sweep", json={"text": CYLINDER, "params": grid,
                                           "measures": ["slip"], "t_end": 1})
     assert big.status_code == 400 and "20000 cases" in big.json()["errors"][0]["message"]
     none = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0.2"}, "t_end": 1})

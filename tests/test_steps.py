@@ -119,7 +119,8 @@ def test_cylinder_energy_shell_lift_off_and_friction(cylinder):
     shell = {x.lhs: x.rhs for x in energy.lines}
     assert _same(shell[S["theta1'"] ** 2], 4 * g * (1 - sp.cos(th1)) / (3 * (R1 + R2)))
     on = {x.lhs: x.rhs for x in d.step("The multipliers as functions").lines}
-    assert _same(on[S["lambda_contact"]], m * g * (sp.Rational(7, 3) * sp.cos(th1) - sp.Rational(4, 3)))
+    assert _same(on[S["lambda_contact"]],
+                 m * g * (sp.Rational(7, 3) * sp.cos(th1) - sp.Rational(4, 3)))
     where = d.step("Where a constraint lets go")
     first = [x for x in where.lines if "55.15 deg" in x.label]
     assert len(first) == 1 and _same(first[0].lhs - first[0].rhs, sp.cos(th1) - sp.Rational(4, 7))
@@ -211,9 +212,8 @@ def _free(sol):
 
 
 def _total(f, system):
-    return sum((sp.diff(f, c.symbol) * c.velocity for c in system.coordinates), sp.Integer(0)) + sp.diff(
-        f, system.t
-    )
+    rate = sum((sp.diff(f, c.symbol) * c.velocity for c in system.coordinates), sp.Integer(0))
+    return rate + sp.diff(f, system.t)
 
 
 @pytest.mark.parametrize(
@@ -256,8 +256,8 @@ def test_cli_steps_text_latex_json():
 
 
 def test_readme_steps_excerpt_is_real_output():
-    from pathlib import Path
     import re
+    from pathlib import Path
 
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
     block = next(b for b in re.findall(r"```text\n(.*?)```", readme, re.S)

@@ -15,7 +15,6 @@ import lamech
 from lamech.cli import main
 from lamech.sweeps import SweepError, parse_values, run_sweep
 
-
 THETA_S = 0.01          # the cylinder starts just off the top, at rest
 
 
@@ -191,7 +190,8 @@ def test_dask_worker_killed_mid_sweep_is_rescheduled(tmp_path):
             if done == 2 and not killed:
                 victim = sorted(client.scheduler_info()["workers"])[0]
                 killed.append(victim)
-                with pytest.raises(Exception):          # its connection drops
+                # its connection drops: which error says so depends on when Dask notices
+                with pytest.raises(Exception):  # noqa: B017
                     client.run(os._exit, 1, workers=[victim])
 
         run = _cylinder(params, ["slip"], scheduler=client, progress=kill_a_worker,
