@@ -25,6 +25,7 @@ from lamech.numeric import Pace, SimulationError, check_options, simulate
 from lamech.sweeps import SweepError, run_sweep
 
 G = 9.81
+HERE = Path(__file__).parent
 
 # A bead on the rail y = x/2 held by a spring k and a damper c along x:
 # (5/4) m x'' + c x' + k x = 0, stiff when c^2 >> k m (time scales 5m/4c and c/k).
@@ -72,23 +73,7 @@ f = "y - x/2"
 x = "1/(1 - t)^3"
 """
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.95
-[coordinates]
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8").replace("e = 0.5", "e = 0.95")
 
 
 # ----- item 9: chatter and the last state reached ------------------------------------

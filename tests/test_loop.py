@@ -10,6 +10,7 @@ import math
 import subprocess
 import sys
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,24 +19,9 @@ import lamech
 from lamech.numeric import SimulationError, compile_system, numba_available, simulate
 
 G = 9.81
+HERE = Path(__file__).parent
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.5
-[coordinates]
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8")
 
 
 def _example(name: str, old: str = "", new: str = "") -> str:
@@ -185,25 +171,7 @@ def _spinning_disk(restitution: str | None = None) -> str:
     return text
 
 
-ZENO_INCLINE = """
-title = "Ball bouncing on a frictionless incline"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.7
-alpha = 0.3
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-V = "m*g*y"
-[[constraints]]
-name = "incline"
-f = "y + x*tan(alpha)"
-unilateral = true
-restitution = "e"
-"""
+ZENO_INCLINE = (HERE / "problems" / "ball_on_incline.toml").read_text(encoding="utf-8")
 
 
 def _zeno_problem(name: str) -> str:

@@ -8,6 +8,7 @@ import json
 import math
 import re
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,6 +30,7 @@ from lamech.numeric import (
 )
 
 G = 9.81
+HERE = Path(__file__).parent
 
 
 def _example_text(name: str) -> str:
@@ -135,23 +137,8 @@ def test_cylinder_slips_where_closed_form_says(mu):
                        rtol=1e-12)
 
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.5
-[coordinates]
-y = { initial = 0, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+# dropped from q0={"y": h}
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8")
 
 
 def test_ball_bounce_heights():

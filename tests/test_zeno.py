@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,44 +25,11 @@ import lamech
 from lamech.numeric import Status, compile_system, numba_available, simulate
 
 G = 9.81
+HERE = Path(__file__).parent
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.8
-[coordinates]
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8").replace("e = 0.5", "e = 0.8")
 
-INCLINE = """
-title = "Ball bouncing on a frictionless incline"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.7
-alpha = 0.3
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-V = "m*g*y"
-[[constraints]]
-name = "incline"
-f = "y + x*tan(alpha)"
-unilateral = true
-restitution = "e"
-"""
+INCLINE = (HERE / "problems" / "ball_on_incline.toml").read_text(encoding="utf-8")
 
 
 def _cylinder_over_a_floor(e: float) -> str:
