@@ -118,6 +118,7 @@ def test_derived_model_equals_the_books(squeezer):
     assert np.max(np.abs(book_model(q0, v0)[3])) < 1e-15       # consistent start
 
 
+@pytest.mark.slow
 def test_reference_solution_at_30_ms(squeezer):
     tr = simulate(squeezer, 0.03, samples=301)
     assert tr.status == "ok", tr.message

@@ -48,6 +48,7 @@ def test_scene_follows_the_bodies_and_forces(cylinder_run):
     assert not np.isfinite(normal[~on]).any()
 
 
+@pytest.mark.slow
 def test_html_is_self_contained(tmp_path):
     system = lamech.load("pendulum")
     traj = lamech.simulate(system, 1.0, samples=6)
@@ -67,6 +68,7 @@ def test_bad_extension_and_missing_ffmpeg(tmp_path, cylinder_run, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_cli_animate(tmp_path, capsys):
     from lamech.cli import main
     out = tmp_path / "pend.gif"
@@ -81,6 +83,7 @@ def test_cli_animate(tmp_path, capsys):
     assert "use a name ending in" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_pendulum_gif_frames_sampled_evenly(tmp_path):
     """max_frames thins the samples evenly; the bob drawn at (l sin θ, -l cos θ)."""
     system = lamech.load("pendulum")

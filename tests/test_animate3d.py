@@ -168,6 +168,7 @@ def test_cli_writes_the_top_in_3d(tmp_path, capsys):
     assert (first != last).any()
 
 
+@pytest.mark.slow
 def test_html_in_space(top_run, tmp_path):
     system, traj, _ = top_run
     out = animate(traj, system, tmp_path / "top.html", max_frames=4, dpi=30)

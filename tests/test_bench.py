@@ -24,6 +24,7 @@ from bench.run import (
 from lamech.numeric import compile_system
 
 
+@pytest.mark.slow
 def test_sympy_peer_is_the_same_chain():
     _, qdd = lamech_b1(3, jit=False)
     assert np.allclose(sympy_b1(3, cse=True), qdd, rtol=1e-10, atol=1e-12)
@@ -71,6 +72,7 @@ def test_symbolic_peer_solves_lamechs_problem(name):
         assert np.isclose(theirs[n], lam, rtol=1e-10)
 
 
+@pytest.mark.slow
 def test_symbolic_benchmark_problems_load():
     import lamech
     for _, source in B5_PROBLEMS:

@@ -186,6 +186,7 @@ def test_a_torque_free_body_keeps_its_energy_and_angular_momentum(case):
         assert wobble[-1] > 100 * wobble[0]
 
 
+@pytest.mark.slow
 def test_partial_velocities_of_a_point_on_a_turning_body_include_omega_cross_r():
     """dr_P/dq of the material point at the top's rim, against finite differences of
     c(q) + R(q) p with p, the point in the body frame, held."""

@@ -214,6 +214,7 @@ def test_the_symbolic_solve_is_bounded_by_counted_work():
     assert again.skipped == forms.skipped
 
 
+@pytest.mark.slow
 def test_a_partial_parametrisation_keeps_the_other_constraint():
     """Only the first rod in an angle: x2, y2 stay, the second rod stays a constraint,
     and the multipliers agree with the full chart's at the same state."""
@@ -231,6 +232,7 @@ def test_a_partial_parametrisation_keeps_the_other_constraint():
         assert float(lam.xreplace(env)) == pytest.approx(sol.initial_multipliers[k], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_the_bundled_double_pendulum_has_the_textbook_equation_of_motion():
     """theta1'' as on Wikipedia's "Double pendulum" page (the file's comment), at random
     states, and T1 = -2 l1 lambda_rod1 as the comment says."""

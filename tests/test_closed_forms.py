@@ -767,6 +767,7 @@ def four_bar_pin_forces(state: dict, p: dict) -> np.ndarray:
     return np.linalg.solve(K, rhs)
 
 
+@pytest.mark.slow
 def test_four_bar_multipliers_are_the_pin_force_by_newton_euler():
     """(lambda_loopx, lambda_loopy) is the force of the rocker on the coupler at B (the
     four_bar.toml header), at the initial state and at random states."""

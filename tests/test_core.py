@@ -139,6 +139,7 @@ def test_chain_tensions_at_rest_against_statics(n):
 
 # --------------------------------------------------------------------------- integrals
 
+@pytest.mark.slow
 def test_cyclic_momentum_of_the_spherical_pendulum():
     s = lamech.solve(lamech.load("spherical_pendulum"))
     S = s.symbols
@@ -199,6 +200,7 @@ def test_cli_without_arguments_solves_the_cylinder():
     assert "tangent = -g*m*sin(theta1)/3" in out.stdout
 
 
+@pytest.mark.slow
 def test_cli_json_is_one_object():
     out = _cli("solve", "pendulum", "--json")
     assert out.returncode == 0, out.stderr
@@ -206,6 +208,7 @@ def test_cli_json_is_one_object():
     assert j["on_energy_shell"]["string"] == "g*m*(3*cos(theta) - 2*cos(theta0))"
 
 
+@pytest.mark.slow
 def test_cli_bad_file_gives_a_message_not_a_traceback(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text(FALLING_CLOCK.replace('f = "y"', 'f = "y + R3"'))

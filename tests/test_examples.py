@@ -699,6 +699,7 @@ def test_moving_support():
 
 # ---------------------------------------------------------------------- knife edge
 
+@pytest.mark.slow
 def test_knife_edge():
     s = solved("knife_edge")
     S = s.symbols
@@ -800,6 +801,7 @@ def test_wedge():
 
 # -------------------------------------------------------------- spherical pendulum
 
+@pytest.mark.slow
 def test_spherical_pendulum():
     s = solved("spherical_pendulum")
     S = s.symbols

@@ -109,6 +109,7 @@ def test_chattering_contact_stops_with_a_clear_status():
     assert tr.final_time == pytest.approx(tr.events[-1].t, abs=1e-5) and tr.final_time < 1e-3
 
 
+@pytest.mark.slow
 def test_a_bouncing_ball_comes_to_rest_without_being_called_chatter():
     # e = 0.95: 200 bounces accumulating at t1 (1 + e)/(1 - e), then resting contact
     tr = simulate(lamech.loads(BALL), 20.0, samples=11)

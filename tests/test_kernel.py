@@ -27,6 +27,7 @@ def chain3():
     return compile_system(lamech.loads(chain_toml(3)), jit=False)
 
 
+@pytest.mark.slow
 def test_batch_matches_simulate_and_keeps_invariants(chain3):
     ns = chain3
     Y0 = _starts(ns, 3)

@@ -89,6 +89,7 @@ frame = "body"
     assert traj.coordinate("phi")[-1] == pytest.approx(alpha / 2, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_a_torque_on_a_body_in_space_uses_its_partial_angular_velocities():
     text = open(lamech.problem.example_path("heavy_top")).read() + """
 [[loads]]
@@ -137,6 +138,7 @@ spring = { from = [0, 0], to = ["x", 0], k = "k", damping = "c" }
     assert np.max(np.abs(traj.coordinate("x") - exact)) < 1e-8
 
 
+@pytest.mark.slow
 def test_a_spring_with_a_natural_length_in_the_plane():
     text = PENDULUM.replace('f = "l - r"', 'f = "l - r"\nunilateral = true').split("[[loads]]")[0]
     text += """

@@ -84,6 +84,7 @@ def test_the_loop_gives_simulates_events_samples_and_forces(name):
     assert a.energy_conserved == b.energy_conserved
 
 
+@pytest.mark.slow
 def test_the_loops_stick_and_reversal_are_the_closed_forms():
     _, b = _pair("stick")
     assert [e.kind for e in b.events] == ["slip", "stick"] and b.events[0].initial
@@ -93,6 +94,7 @@ def test_the_loops_stick_and_reversal_are_the_closed_forms():
     assert r.events[1].reversal is True
 
 
+@pytest.mark.slow
 def test_the_ball_bounces_and_rests_through_the_loop():
     """The loop hands each impact to the simulator and goes on: the bounce times
     t1 (1 + 2 e (1 - e^k) / (1 - e)) and the rest from the accumulation time."""
@@ -106,6 +108,7 @@ def test_the_ball_bounces_and_rests_through_the_loop():
     assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
 
 
+@pytest.mark.slow
 def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, monkeypatch):
     system = lamech.load("pendulum")
     with pytest.raises(SimulationError, match="engine 'python' cannot run this problem: method "):
@@ -260,6 +263,7 @@ def test_the_zeno_bounces_rest_at_the_accumulation_time_through_the_loop():
     assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
 
 
+@pytest.mark.slow
 def test_integrate_events_applies_impacts_in_the_loop_when_asked():
     """integrate_events(impacts=True) (the sweeps' loop, as Python here) gives simulate's
     bounces, the accumulation's contact and the slip through an impact; by default a

@@ -138,6 +138,7 @@ acceleration = "g"
 """
 
 
+@pytest.mark.slow
 def test_pivot_force_on_a_massless_rod_is_what_the_bob_needs():
     """The rod is massless, so the pin's force on it at the pivot is the force the rod
     passes to the bob: m (a_bob + g y^) = T (-sin theta, cos theta), with the pendulum's
@@ -327,6 +328,7 @@ def test_a_negative_mass_is_refused_and_zero_is_not():
         lamech.loads(text.replace('inertia = "I"', 'inertia = "-I"'), "negative.toml")
 
 
+@pytest.mark.slow
 def test_param_overrides_obey_the_same_rule(tmp_path, capsys):
     """--param sets a mass with the file's rules: a parameter that is 0 in the file may
     become positive but not negative (and a positive one keeps its sign: the file says

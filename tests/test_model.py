@@ -106,6 +106,7 @@ def same_as_file(error: ModelError, text: str) -> None:
         assert f"p.toml:{problem.line}: {where}: {message}" in str(info.value)
 
 
+@pytest.mark.slow
 def test_the_python_system_is_the_loaded_one_and_solves_alike():
     built, loaded = pendulum(), lamech.loads(PENDULUM)
     assert built.T == loaded.T and built.V == loaded.V

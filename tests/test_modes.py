@@ -66,6 +66,7 @@ def test_pendulum_hangs_stably_with_omega_squared_g_over_l():
     assert not up.holds and "`string` cannot hold it" in up.note
 
 
+@pytest.mark.slow
 def test_the_lectures_cylinder_on_top_is_unstable_with_the_textbook_growth_rate():
     system = lamech.load("cylinder")
     md = lamech.modes(system)
@@ -85,6 +86,7 @@ def test_the_lectures_cylinder_on_top_is_unstable_with_the_textbook_growth_rate(
     assert not _by_position(md, theta1=math.pi).holds   # under the cylinder: it falls off
 
 
+@pytest.mark.slow
 def test_the_spun_bead_rests_off_the_axis_only_when_the_hoop_spins_fast_enough():
     system = lamech.load("hoop_bead")
     p = _values(system)
@@ -106,6 +108,7 @@ def test_the_spun_bead_rests_off_the_axis_only_when_the_hoop_spins_fast_enough()
     assert bottom.modes[0].frequency ** 2 == pytest.approx(p["g"] / p["R"] - 9.0, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_double_pendulum_frequencies_are_two_plus_minus_root_two_g_over_l():
     system = lamech.loads(DOUBLE, "double.toml")
     md = lamech.modes(system)
@@ -124,6 +127,7 @@ def test_double_pendulum_frequencies_are_two_plus_minus_root_two_g_over_l():
             assert e.stability == "unstable"
 
 
+@pytest.mark.slow
 def test_the_simulated_motion_oscillates_at_the_predicted_frequencies():
     """Independent truth: released along each mode with a small amplitude, the simulated
     double pendulum swings at that mode's frequency (zero crossings of th1)."""
@@ -143,6 +147,7 @@ def test_the_simulated_motion_oscillates_at_the_predicted_frequencies():
         assert measured == pytest.approx(period, rel=1e-5)
 
 
+@pytest.mark.slow
 def test_the_cartesian_pendulum_is_linearised_in_x_about_the_hanging_position():
     """y = -sqrt(l^2 - x^2) is singular nowhere near the bottom, but y as the coordinate
     would be: the tangent space of the kept constraint gives the regular direction x."""
@@ -156,6 +161,7 @@ def test_the_cartesian_pendulum_is_linearised_in_x_about_the_hanging_position():
     assert _by_position(md, x1=0.0, y1=1.0).stability == "unstable"
 
 
+@pytest.mark.slow
 def test_cli_modes_text_json_and_bad_at(capsys):
     assert main(["modes", "pendulum", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
@@ -220,6 +226,7 @@ def _sympy_linearizer_A(g, L, m):
     return np.array(A.evalf(), dtype=float)
 
 
+@pytest.mark.slow
 def test_linearisation_equals_sympys_linearizer_on_its_documented_pendulum():
     system = lamech.loads(NONMINIMAL, "nonminimal.toml")
     md = lamech.modes(system)
@@ -234,6 +241,7 @@ def test_linearisation_equals_sympys_linearizer_on_its_documented_pendulum():
     assert np.allclose(lin.multipliers["rod"], [0, 0], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_non_holonomic_linearisation_has_fewer_velocities_than_positions():
     """The rolling disc at rest (theta = 0): four positions, two free velocities
     (theta', phi'), and the rolling ties y' = -a phi' (x' = a sin(theta) phi' = 0)."""
@@ -269,6 +277,7 @@ def test_a_mass_on_a_turning_table_rests_at_the_relative_equilibrium():
     assert e.linear.multipliers["drive"] == pytest.approx((0, 2 * p["m"] * r_star * p["Omega"]))
 
 
+@pytest.mark.slow
 def test_the_linearised_multiplier_follows_the_simulated_one():
     """Independent truth: the simulated bead near the spun hoop's side equilibrium, its
     hoop force against lambda_0 + c . (dtheta, dtheta') from the linearisation."""
@@ -334,6 +343,7 @@ def test_the_triple_pendulums_frequencies_are_the_peaks_of_its_simulated_spectru
     assert seen == pytest.approx(predicted, rel=1e-3)   # bin width 0.052 rad/s, refined
 
 
+@pytest.mark.slow
 def test_simulate_mode_releases_the_system_along_one_mode(capsys, tmp_path):
     """`lamech simulate --mode 1` on the turning table: r starts at r* + 0.05 at rest and,
     after the default four periods of omega = sqrt(k/m - Omega^2), is back there."""
@@ -349,6 +359,7 @@ def test_simulate_mode_releases_the_system_along_one_mode(capsys, tmp_path):
     assert data["r"].min() == pytest.approx(r_star - 0.05, rel=1e-4)   # linear: symmetric
 
 
+@pytest.mark.slow
 def test_simulate_mode_and_end_time_errors(capsys):
     assert main(["simulate", "pendulum", "--mode", "2"]) == 2
     assert "mode 2: this equilibrium has modes 1 to 1" in capsys.readouterr().err
@@ -373,6 +384,7 @@ def test_frequencies_agree_with_det_k_minus_omega_squared_m_on_the_tangent_space
     assert all(e.check is None for e in lamech.modes(lamech.load("hoop_bead")).equilibria)
 
 
+@pytest.mark.slow
 def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(capsys):
     md = lamech.modes(lamech.load("spherical_pendulum"))
     assert md.free.startswith("every value of phi rests as well")
@@ -382,6 +394,7 @@ def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(
     assert "these coordinates are singular here" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_the_tangent_check_reports_a_disagreement():
     from lamech.symbolic import Mode, check_modes
     sol = lamech.solve(lamech.load("pendulum"))

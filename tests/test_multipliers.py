@@ -71,6 +71,7 @@ def test_raw_multipliers_solve_the_kkt_system(name):
             assert got.real == pytest.approx(want, rel=1e-9, abs=1e-9), (name, c.name)
 
 
+@pytest.mark.slow
 def test_a_singular_mass_matrix_takes_the_augmented_path():
     """The double Atwood machine's massless pulley: M is singular, the KKT matrix is
     not; the multipliers are the tidy ones of ``lamech.solve`` at random states."""

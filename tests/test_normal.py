@@ -113,6 +113,7 @@ def test_a_small_budget_gives_the_same_multipliers_less_tidy_and_says_so():
             assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_the_same_text_in_another_thread():
     """No clock, no signal: a solve in a worker thread is bounded and prints the same."""
     p = lamech.load("cylinder")

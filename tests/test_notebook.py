@@ -18,6 +18,7 @@ def _images(page: str) -> list[bytes]:
     return [base64.b64decode(b) for b in found]
 
 
+@pytest.mark.slow
 def test_a_trajectory_shows_its_summary_and_plot():
     traj = lamech.simulate(lamech.load("cylinder"), 2.0, initial={"theta1": 0.05})
     page = traj._repr_html_()

@@ -85,6 +85,7 @@ def test_the_format_follows_the_suffix(tmp_path, capsys):
     assert "the format follows the suffix" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_outputs_get_the_ordinary_mode_and_no_temporary_is_left(tmp_path, umask_022, capsys):
     out, plot = tmp_path / "t.csv", tmp_path / "t.png"
     assert main(["simulate", "pendulum", *FAST, "--out", str(out), "--plot", str(plot)]) == 0

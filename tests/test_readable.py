@@ -68,6 +68,7 @@ def test_the_printed_form_is_the_textbooks(example, what, get, name, textbook):
     assert sp.count_ops(got) <= 1.5 * sp.count_ops(known), (what, got, known)
 
 
+@pytest.mark.slow
 def test_the_double_pendulums_tensions_are_written_in_the_angle_between_the_rods():
     """The double pendulum with strings as constraints: the second rod's tension over
     m1 + m2 sin^2(theta1 - theta2), as a textbook writes it, and equal to the KKT

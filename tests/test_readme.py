@@ -19,6 +19,7 @@ def _blocks(kind: str) -> list[str]:
     return re.findall(rf"```{kind}\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
 
 
+@pytest.mark.slow
 def test_tour_output_is_what_lamech_prints():
     tour = next(b for b in _blocks("text") if b.startswith("Solid cylinder rolling"))
     actual = lamech.to_text(lamech.solve(lamech.load("cylinder")))
@@ -46,6 +47,7 @@ def test_latex_sample_is_what_lamech_prints():
     assert shown.strip() == lamech.to_latex(lamech.solve(lamech.load("pendulum"))).strip()
 
 
+@pytest.mark.slow
 def test_readme_modes_block_is_real_output():
     block = next(b for b in _blocks("text") if b.startswith("Small oscillations: Bead"))
     found = lamech.modes(lamech.load("hoop_bead"))

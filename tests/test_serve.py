@@ -54,6 +54,7 @@ def test_examples_and_the_page(client):
     assert "http://" not in page and "https://" not in page  # nothing from outside
 
 
+@pytest.mark.slow
 def test_check_gives_errors_at_their_line(client):
     assert BAD != CYLINDER
     answer = client.post("/api/check", json={"text": BAD}).json()
@@ -75,6 +76,7 @@ def test_run_solves_and_simulates(client):
     assert answer["status"] == "ok"
 
 
+@pytest.mark.slow
 def test_bad_requests_get_the_same_clear_messages(client):
     big = client.post("/api/check", json={"text": "#" * 1_100_000})
     assert big.status_code == 413 and "over 1000 kB" in big.json()["errors"][0]["message"]

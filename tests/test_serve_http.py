@@ -161,6 +161,7 @@ def test_the_token_is_needed_by_header_or_query(server):
                           headers={"Authorization": None})[0] == 403
 
 
+@pytest.mark.slow
 def test_the_token_is_random_by_default_and_printed_in_the_url():
     s = Server.__new__(Server)
     s.port = _free_port()
@@ -190,6 +191,7 @@ def test_the_loopback_names_with_the_port_are_accepted(server, host):
     assert server.request("GET", "/api/examples", host=f"{host}:{server.port}")[0] == 200
 
 
+@pytest.mark.slow
 def test_a_foreign_origin_is_refused(server):
     for origin in ("http://evil.example", "null", f"http://localhost:{server.port}",
                    f"https://127.0.0.1:{server.port}"):
@@ -241,6 +243,7 @@ def test_malformed_requests_are_4xx_with_a_message(server, body, words):
         assert words in _message(data), data
 
 
+@pytest.mark.slow
 def test_a_problem_posted_names_no_files(server, tmp_path):
     secret = tmp_path / "secret.csv"
     secret.write_text("t,tau\nhunter2,1\n2,3\n")

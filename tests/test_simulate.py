@@ -88,6 +88,7 @@ def _cylinder(mu: str | None) -> lamech.System:
 THS = 0.01   # start angle: at rest slightly off the top
 
 
+@pytest.mark.slow
 def test_cylinder_multipliers_match_closed_form():
     system = lamech.load("cylinder")
     sol = lamech.solve(system)
@@ -193,6 +194,7 @@ def test_sliding_disk_sticks_when_it_rolls():
     assert np.max(tr.residual) < 1e-9
 
 
+@pytest.mark.slow
 def test_convergence_order(pendulum):
     theta0 = 0.5
     P = _pendulum_period(theta0)
@@ -255,6 +257,7 @@ def test_parameters_as_arguments(pendulum):
     assert np.max(np.abs(tr.multiplier("string") - ref) / ref) < 1e-8
 
 
+@pytest.mark.slow
 def test_rheonomic_hoop_keeps_its_jacobi_integral():
     system = lamech.load("hoop_bead")
     tr = simulate(system, 3.0, samples=301)
@@ -341,6 +344,7 @@ def test_events_and_status_are_typed():
     assert FrictionState("slip") is FrictionState.SLIP
 
 
+@pytest.mark.slow
 def test_cli_simulate(tmp_path, capsys):
     import json
 
@@ -438,6 +442,7 @@ def test_held_initial_values_move_the_others_least_in_the_mass_metric():
     assert np.allclose(v, [vp, -vp, -0.3 + 2 * vp, 0.3], rtol=0, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_trajectory_as_dataframe():
     pd = pytest.importorskip("pandas", reason="pandas not installed")
     tr = lamech.simulate(lamech.load("pendulum"), 1.0, samples=5)
@@ -503,6 +508,7 @@ def test_cli_initial_and_param(capsys):
     assert "unknown name" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_engine_chooses_the_integrator_and_says_which_ran(capsys):
     from lamech.cli import main
     args = ["simulate", "cylinder", "--t-end", "2.6", "--samples", "3",
@@ -548,6 +554,7 @@ f = "x - t"
 """
 
 
+@pytest.mark.slow
 def test_driven_into_a_singular_configuration():
     """x = t drives the bead along the unit circle to (1, 0) at t = 1, where the two
     constraint gradients (2x, 2y) and (1, 0) become parallel: the run stops there as
@@ -606,6 +613,7 @@ def _moving_support_truth(t_eval, m=1.0, g=9.81, l=1.0, a=0.1, w=3.0, theta0=0.3
     return sol.y[0], sol.y[1]
 
 
+@pytest.mark.slow
 def test_pendulum_on_a_driven_support_matches_the_reduced_equation():
     tr = simulate(lamech.load("moving_support"), 10.0, samples=501)
     assert tr.status == "ok", tr.message
@@ -626,6 +634,7 @@ def test_pendulum_on_a_driven_support_matches_the_reduced_equation():
     assert np.allclose(tr.multiplier("support"), support, rtol=1e-8, atol=1e-8)
 
 
+@pytest.mark.slow
 def test_cli_csv_and_json_contract(tmp_path, capsys):
     """The CSV and --json summary parsed back: columns, 17 significant digits, both
     ends sampled, events with t/kind/constraint/coordinates, energy_error null for a

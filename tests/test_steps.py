@@ -255,6 +255,7 @@ def test_cli_steps_text_latex_json():
     }
 
 
+@pytest.mark.slow
 def test_readme_steps_excerpt_is_real_output():
     import re
     from pathlib import Path

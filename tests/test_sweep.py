@@ -33,6 +33,7 @@ def _cylinder(params, measures, **kw):
     return run_sweep("cylinder", params, measures, initial={"theta1": THETA_S}, **kw)
 
 
+@pytest.mark.slow
 def test_slip_angle_matches_energy_integral_over_mu_and_R2():
     mus = [0.1, 0.25, 0.4, 0.6]
     run = _cylinder({"mu": mus, "R2": [0.3, 0.5]}, ["slip", "liftoff"])
@@ -62,6 +63,7 @@ def test_liftoff_angle_when_friction_barely_lets_go():
     assert abs(run.rows[0]["liftoff:t"] - run.rows[1]["liftoff:t"]) < 1e-9  # m drops out
 
 
+@pytest.mark.slow
 def test_series_measures_against_pendulum_closed_forms():
     # released at rest from theta0: string tension m g (3 cos th - 2 cos th0), min at the
     # start (m g cos th0), max at the bottom (m g (3 - 2 cos th0)); energy conserved.
@@ -84,6 +86,7 @@ def _read(path):
     return path.read_text(encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_resume_runs_only_missing_cases_and_gives_the_fresh_table(tmp_path, monkeypatch):
     params = {"mu": "0.1:0.6:3", "R2": "0.3,0.5"}
     fresh = tmp_path / "fresh.csv"
@@ -101,6 +104,7 @@ def test_resume_runs_only_missing_cases_and_gives_the_fresh_table(tmp_path, monk
     assert _read(part) == text
 
 
+@pytest.mark.slow
 def test_interrupted_sweep_keeps_finished_rows(tmp_path):
     out = tmp_path / "t.csv"
     params = {"mu": [0.2, 0.3, 0.4, 0.5]}
@@ -129,6 +133,7 @@ def test_resume_refuses_a_table_of_another_sweep(tmp_path):
         _cylinder({"mu": [0.2, 0.3]}, ["liftoff"], out=out, resume=True)
 
 
+@pytest.mark.slow
 def test_local_processes_match_in_process(tmp_path):
     params = {"mu": [0.15, 0.3, 0.45], "R2": [0.4]}
     # the processes run simulate: the compiled loop with events runs in this process
@@ -259,6 +264,7 @@ def test_bad_input_is_named(kw, msg):
         run_sweep("cylinder", **args)
 
 
+@pytest.mark.slow
 def test_cli_table_plot_and_errors(tmp_path, capsys):
     out, png = tmp_path / "s.csv", tmp_path / "s.png"
     rc = main(["sweep", "cylinder", "--param", "mu=0.2:0.4:3", "--measure", "slip",
@@ -280,6 +286,7 @@ def test_cli_table_plot_and_errors(tmp_path, capsys):
     assert rc == 2 and "--resume needs --out" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_dead_worker_keeps_finished_rows_and_resume_completes(tmp_path):
     import multiprocessing
     if multiprocessing.get_start_method() != "fork":

@@ -49,6 +49,7 @@ def _batch(ns, **kw):
     return P, Y0, integrate_events(ns, Y0, 3.0, params=P, **kw)
 
 
+@pytest.mark.slow
 def test_cylinder_events_match_simulate_and_the_energy_integral():
     ns = _cylinder()
     P, Y0, res = _batch(ns)
@@ -70,6 +71,7 @@ def test_cylinder_events_match_simulate_and_the_energy_integral():
         assert np.max(np.abs(y_end - np.concatenate((traj.final_q, traj.final_qd)))) < 1e-7
 
 
+@pytest.mark.slow
 def test_the_loop_stops_once_the_wanted_events_are_found():
     ns = _cylinder()
     _, _, res = _batch(ns, want=[("slip", None), ("lift-off", "contact")], to_end=False)
@@ -79,6 +81,7 @@ def test_the_loop_stops_once_the_wanted_events_are_found():
     assert all([e.kind for e in evs] == ["slip"] for evs in slip_only.events)
 
 
+@pytest.mark.slow
 def test_parameters_and_starts_as_case_by_case():
     ns = _cylinder()
     P, Y0, _ = _batch(ns, want=[("slip", None)], to_end=False)
@@ -98,6 +101,7 @@ def test_parameters_and_starts_as_case_by_case():
         parameter_rows(top, ["nope"], [[1.0]])
 
 
+@pytest.mark.slow
 def test_sweep_engines_give_the_same_rows():
     params = {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}
     measures = ["slip", "liftoff", "final:theta1", "final:r'"]
@@ -175,6 +179,7 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
     assert all(math.isnan(r["liftoff:t"]) for r in only.rows)
 
 
+@pytest.mark.slow
 def test_inputs_that_switch_are_refused():
     ball = lamech.from_dict({**BALL, "forces": {"y": "A*step(t - 1)"}})
     with pytest.raises(ValueError, match="inputs that switch"):
@@ -225,6 +230,7 @@ def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
     assert fast.rows == slow.rows and fast.rows[0]["status"] == "failed"
 
 
+@pytest.mark.slow
 def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
     # a disk set down sliding (s' = v0, theta' = 0) on a level floor: kinetic friction
     # mu m g slows the slide and spins the disk up until s' = R theta', at t = v0/(3 mu g)

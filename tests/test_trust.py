@@ -61,6 +61,7 @@ def test_sweep_into_a_closed_pipe_ends_quietly():
     assert out.returncode == 141
 
 
+@pytest.mark.slow
 def test_a_velocity_missing_from_T_is_named(tmp_path):
     """T = m/2 (r'^2 + r^2 theta^2): a forgotten prime leaves theta without inertia; the
     solve names it instead of crashing in SymPy (SymPy 1.14 has no
@@ -90,6 +91,7 @@ def _verdicts(text: str):
     return s, lamech.to_text(s)
 
 
+@pytest.mark.slow
 def test_a_disk_that_slips_at_once_says_so_with_the_rolling_condition():
     """tan(alpha) > 3 mu: the friction a rolling disk needs (m g sin(alpha)/3) exceeds
     mu N (N = m g cos(alpha)) from the first instant."""
@@ -169,6 +171,7 @@ def test_a_constant_positive_multiplier_never_lets_go(name, constraint, expected
     assert f"{constraint}: never (lambda_{constraint} is constant" in lamech.to_text(s)
 
 
+@pytest.mark.slow
 def test_a_T_that_disagrees_with_the_bodies_is_a_warning_at_the_top():
     """The README promises that lamech says so when [lagrangian] and [[bodies]]
     disagree: first thing in the report, not a last note."""
@@ -181,6 +184,7 @@ def test_a_T_that_disagrees_with_the_bodies_is_a_warning_at_the_top():
     ), head
 
 
+@pytest.mark.slow
 def test_equations_are_simplified_as_a_student_would():
     """The driven pendulum's equations had (2 sin^2 + 2 cos^2)/2 left in them; the
     readable form is the derived one, simplified (the difference simplifies to 0)."""
@@ -271,6 +275,7 @@ def test_solve_takes_param_and_initial_like_simulate():
     assert bad.returncode == 2 and "sign" in bad.stderr and "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow
 def test_simulate_warns_first_and_writes_into_new_folders(tmp_path):
     """The T/[[bodies]] disagreement is said by simulate too, before anything else; the
     README's `--out out/traj.csv` creates out/."""
@@ -561,6 +566,7 @@ f = "l1 - sqrt(x1^2 + y1^2)"
 """
 
 
+@pytest.mark.slow
 def test_a_kept_constraint_is_used_on_its_manifold():
     """f = l1 - sqrt(x1^2 + y1^2) kept: sqrt(x1^2 + y1^2) is l1 and x1 x1' + y1 y1' = 0
     in every result. The tension is the textbook m v^2/l1 - m g y1/l1 (was a quartic
@@ -618,6 +624,7 @@ def test_ctrl_c_during_start_up_of_the_real_command():
         assert err.endswith("lamech: interrupted\n")
 
 
+@pytest.mark.slow
 def test_control_characters_in_a_file_name_are_escaped(tmp_path, monkeypatch, capsys):
     """A file name (or title, or key) cannot clear the screen or recolour the terminal."""
     from lamech.cli import main
@@ -653,6 +660,7 @@ def test_the_title_never_reaches_generated_code():
     assert traj.status == "ok", traj.message
 
 
+@pytest.mark.slow
 def test_twenty_thousand_coordinates_are_refused_at_once():
     """369 kB of coordinates once built a 20000 x 20000 symbolic mass matrix for minutes."""
     import time

@@ -85,6 +85,7 @@ def test_a_bouncing_ball_rests_on_the_floor_from_the_accumulation_time(e):
     assert np.all(np.abs(tr.coordinate("y")[after]) <= 1e-9)
 
 
+@pytest.mark.slow
 def test_a_ball_on_an_incline_rests_from_the_accumulation_time_and_slides():
     e, alpha, h = 0.7, 0.3, 1.0
     tr = simulate(lamech.loads(INCLINE), 10.0, samples=2001)
@@ -111,6 +112,7 @@ def test_a_ball_on_an_incline_rests_from_the_accumulation_time_and_slides():
     assert np.allclose(tr.multiplier("incline")[after], G * math.cos(alpha) ** 2, rtol=1e-10)
 
 
+@pytest.mark.slow
 def test_the_cylinder_lands_on_a_floor_and_comes_to_rest_on_it():
     e, R2, H = 0.5, 0.5, 1.0
     tr = simulate(lamech.loads(_cylinder_over_a_floor(e)), 10.0, initial={"theta1": 0.01},
