@@ -21,26 +21,6 @@ import pytest
 # peer's model, or a server or a subprocess. Every test keeps at least one case in the
 # default set; CI (`./run-tests`) runs them all. Whole tests are marked where they stand.
 SLOW_CASES = frozenset({
-    "test_closed_forms.py::test_double_pendulum_tensions_by_newton[cartesian_double_pendulum]",
-    "test_closed_forms.py::test_every_multiplier_is_delivered[four_bar]",
-    "test_closed_forms.py::test_every_multiplier_is_delivered[polar_double_pendulum]",
-    "test_closed_forms.py::test_every_multiplier_is_delivered[rolling_disc]",
-    "test_closed_forms.py::test_multipliers_agree_with_sympy[cartesian_double_pendulum]",
-    "test_closed_forms.py::test_multipliers_agree_with_sympy[four_bar]",
-    "test_closed_forms.py::test_multipliers_agree_with_sympy[snakeboard]",
-    "test_closed_forms.py::test_raw_multipliers_agree_with_sympy_and_the_tidy_ones[four_bar]",
-    ("test_closed_forms.py::test_raw_multipliers_agree_with_sympy_and_the_tidy_ones"
-     "[polar_double_pendulum]"),
-    "test_closed_forms.py::test_raw_multipliers_agree_with_sympy_and_the_tidy_ones[rolling_disc]",
-    "test_closed_forms.py::test_raw_multipliers_agree_with_sympy_and_the_tidy_ones[snakeboard]",
-    ("test_closed_forms.py::test_raw_multipliers_hold_off_the_constraint_manifold"
-     "[polar_double_pendulum]"),
-    "test_closed_forms.py::test_raw_multipliers_hold_off_the_constraint_manifold[rolling_disc]",
-    "test_closed_forms.py::test_raw_multipliers_hold_off_the_constraint_manifold[snakeboard]",
-    "test_closed_forms.py::test_the_sympy_model_is_lamechs[four_bar]",
-    "test_closed_forms.py::test_the_sympy_model_is_lamechs[polar_double_pendulum]",
-    "test_closed_forms.py::test_the_sympy_model_is_lamechs[rolling_disc]",
-    "test_closed_forms.py::test_the_sympy_model_is_lamechs[snakeboard]",
     "test_core.py::test_chain_tensions_at_rest_against_statics[2]",
     "test_core.py::test_json_expressions_parse_back[cylinder]",
     "test_core.py::test_json_expressions_parse_back[double_atwood]",
