@@ -20,101 +20,131 @@ import pytest
 # in a default run under load (about 1 s idle), mostly SymPy solving a bundled example or a
 # peer's model, or a server or a subprocess. Every test keeps at least one case in the
 # default set; CI (`./run-tests`) runs them all. Whole tests are marked where they stand.
-SLOW_CASES = frozenset({
-    "test_core.py::test_chain_tensions_at_rest_against_statics[2]",
-    "test_core.py::test_json_expressions_parse_back[cylinder]",
-    "test_core.py::test_json_expressions_parse_back[double_atwood]",
-    "test_core.py::test_json_expressions_parse_back[hoop_bead]",
-    "test_examples.py::test_example_loads_and_is_consistent[atwood]",
-    "test_examples.py::test_example_loads_and_is_consistent[atwood_pulley]",
-    "test_examples.py::test_example_loads_and_is_consistent[cylinder]",
-    "test_examples.py::test_example_loads_and_is_consistent[double_atwood]",
-    "test_examples.py::test_example_loads_and_is_consistent[hoop_bead]",
-    "test_examples.py::test_example_loads_and_is_consistent[incline_disk]",
-    "test_examples.py::test_example_loads_and_is_consistent[ladder]",
-    "test_examples.py::test_example_loads_and_is_consistent[moving_support]",
-    "test_examples.py::test_example_loads_and_is_consistent[rotating_table]",
-    "test_examples.py::test_example_loads_and_is_consistent[sphere_slide]",
-    "test_examples.py::test_example_loads_and_is_consistent[spherical_pendulum]",
-    "test_examples.py::test_example_loads_and_is_consistent[wedge]",
-    "test_impossible_inputs.py::test_min_and_max_of_many_arguments_do_not_recurse[16]",
-    ("test_loop.py::test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself"
-     "[incline]"),
-    ("test_loop.py::test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself"
-     "[zeno ball]"),
-    ("test_loop.py::test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself"
-     "[zeno slip]"),
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[cylinder]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[four_bar]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[knife_edge]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[ladder]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[pendulum]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[reversal]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[stick]",
-    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces[wedge]",
-    "test_multipliers.py::test_raw_multipliers_solve_the_kkt_system[andrews_squeezer]",
-    "test_multipliers.py::test_raw_multipliers_solve_the_kkt_system[heavy_top]",
-    "test_readable.py::test_the_printed_form_is_the_textbooks[hoop_bead: the hoop's normal force]",
-    ("test_readable.py::test_the_printed_form_is_the_textbooks"
-     "[incline_disk: friction on a rolling disk]"),
-    "test_readable.py::test_the_printed_form_is_the_textbooks[spherical_pendulum: string tension]",
-    ("test_readable.py::test_the_printed_form_is_the_textbooks"
-     "[spherical_pendulum: tension on the shell]"),
-    "test_readable.py::test_the_printed_form_is_the_textbooks[wedge: normal force on the block]",
-    "test_readme.py::test_python_snippet_prints_what_its_comments_say[snippet0]",
-    "test_rolling.py::test_the_rolling_disc_accelerates_as_sympys_kanes_method_says[rolling_disc]",
-    ("test_serve_http.py::test_malformed_requests_are_4xx_with_a_message[{\"text\": \"x\", \"simula"
-     "te\": true, \"t_end\": 1, \"initial\": [1]}-initial]"),
-    ("test_serve_http.py::test_malformed_requests_are_4xx_with_a_message[{\"text\": \"x\", \"simula"
-     "te\": true, \"t_end\": 1, \"initial\": {\"theta1\": \"0.1\"}}-finite]"),
-    ("test_serve_http.py::test_malformed_requests_are_4xx_with_a_message[{\"text\": \"x\", \"simula"
-     "te\": true, \"t_end\": NaN}-t_end]"),
-    "test_serve_http.py::test_work_takes_json_only[None]",
-    "test_serve_http.py::test_work_takes_json_only[multipart/form-data; boundary=x]",
-    "test_serve_http.py::test_work_takes_json_only[text/plain]",
-    "test_simulate.py::test_generated_code_matches_sympy[four_bar]",
-    "test_simulate.py::test_generated_code_matches_sympy[heavy_top]",
-    "test_simulate.py::test_generated_code_matches_sympy[hoop_bead]",
-    "test_simulate.py::test_generated_code_matches_sympy[moving_support]",
-    "test_simulate.py::test_generated_code_matches_sympy[rolling_disc]",
-    "test_simulate.py::test_generated_code_matches_sympy[rolling_sphere]",
-    "test_simulate.py::test_generated_code_matches_sympy[spherical_pendulum]",
-    "test_steps.py::test_every_examples_steps_hold_together[atwood_pulley]",
-    "test_steps.py::test_every_examples_steps_hold_together[cylinder]",
-    "test_steps.py::test_every_examples_steps_hold_together[double_atwood]",
-    "test_steps.py::test_every_examples_steps_hold_together[hoop_bead]",
-    "test_steps.py::test_every_examples_steps_hold_together[incline_disk]",
-    "test_steps.py::test_every_examples_steps_hold_together[knife_edge]",
-    "test_steps.py::test_every_examples_steps_hold_together[ladder]",
-    "test_steps.py::test_every_examples_steps_hold_together[pendulum]",
-    "test_steps.py::test_every_examples_steps_hold_together[rotating_table]",
-    "test_steps.py::test_every_examples_steps_hold_together[sphere_slide]",
-    "test_steps.py::test_every_examples_steps_hold_together[spherical_pendulum]",
-    "test_steps.py::test_every_examples_steps_hold_together[wedge]",
-    "test_trust.py::test_a_ball_bouncing_many_times_comes_to_rest_on_the_floor[1e-06]",
-    "test_trust.py::test_a_ball_bouncing_many_times_comes_to_rest_on_the_floor[1e-08]",
-    "test_trust.py::test_a_ball_bouncing_many_times_comes_to_rest_on_the_floor[1e-10]",
-    "test_trust.py::test_a_constant_positive_multiplier_never_lets_go[wedge-contact-<lambda>]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[andrews_squeezer]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[double_pendulum]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[four_bar]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[heavy_top]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[hoop_bead]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[moving_support]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[rolling_disc]",
-    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names[spherical_pendulum]",
-    ("test_trust3.py::test_a_parameters_name_as_an_initial_value_is_its_value"
-     "[command1-theta=l-theta=1]"),
-    ("test_trust3.py::test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted"
-     "[3.0-0.5-0.7-True]"),
-})
+# By test, its cases' ids:
+SLOW_CASES = {
+    "test_core.py::test_chain_tensions_at_rest_against_statics": {
+        "2",
+    },
+    "test_core.py::test_json_expressions_parse_back": {
+        "cylinder",
+        "double_atwood",
+        "hoop_bead",
+    },
+    "test_examples.py::test_example_loads_and_is_consistent": {
+        "atwood",
+        "atwood_pulley",
+        "cylinder",
+        "double_atwood",
+        "hoop_bead",
+        "incline_disk",
+        "ladder",
+        "moving_support",
+        "rotating_table",
+        "sphere_slide",
+        "spherical_pendulum",
+        "wedge",
+    },
+    "test_impossible_inputs.py::test_min_and_max_of_many_arguments_do_not_recurse": {
+        "16",
+    },
+    "test_loop.py::test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself": {
+        "incline",
+        "zeno ball",
+        "zeno slip",
+    },
+    "test_loop.py::test_the_loop_gives_simulates_events_samples_and_forces": {
+        "cylinder",
+        "four_bar",
+        "knife_edge",
+        "ladder",
+        "pendulum",
+        "reversal",
+        "stick",
+        "wedge",
+    },
+    "test_multipliers.py::test_raw_multipliers_solve_the_kkt_system": {
+        "andrews_squeezer",
+        "heavy_top",
+    },
+    "test_readable.py::test_the_printed_form_is_the_textbooks": {
+        "hoop_bead: the hoop's normal force",
+        "incline_disk: friction on a rolling disk",
+        "spherical_pendulum: string tension",
+        "spherical_pendulum: tension on the shell",
+        "wedge: normal force on the block",
+    },
+    "test_readme.py::test_python_snippet_prints_what_its_comments_say": {
+        "snippet0",
+    },
+    "test_rolling.py::test_the_rolling_disc_accelerates_as_sympys_kanes_method_says": {
+        "rolling_disc",
+    },
+    "test_serve_http.py::test_malformed_requests_are_4xx_with_a_message": {
+        '{"text": "x", "simulate": true, "t_end": 1, "initial": [1]}-initial',
+        '{"text": "x", "simulate": true, "t_end": 1, "initial": {"theta1": "0.1"}}-finite',
+        '{"text": "x", "simulate": true, "t_end": NaN}-t_end',
+    },
+    "test_serve_http.py::test_work_takes_json_only": {
+        "None",
+        "multipart/form-data; boundary=x",
+        "text/plain",
+    },
+    "test_simulate.py::test_generated_code_matches_sympy": {
+        "four_bar",
+        "heavy_top",
+        "hoop_bead",
+        "moving_support",
+        "rolling_disc",
+        "rolling_sphere",
+        "spherical_pendulum",
+    },
+    "test_steps.py::test_every_examples_steps_hold_together": {
+        "atwood_pulley",
+        "cylinder",
+        "double_atwood",
+        "hoop_bead",
+        "incline_disk",
+        "knife_edge",
+        "ladder",
+        "pendulum",
+        "rotating_table",
+        "sphere_slide",
+        "spherical_pendulum",
+        "wedge",
+    },
+    "test_trust.py::test_a_ball_bouncing_many_times_comes_to_rest_on_the_floor": {
+        "1e-06",
+        "1e-08",
+        "1e-10",
+    },
+    "test_trust.py::test_a_constant_positive_multiplier_never_lets_go": {
+        "wedge-contact-<lambda>",
+    },
+    "test_trust.py::test_no_bundled_example_passes_through_a_surface_it_names": {
+        "andrews_squeezer",
+        "double_pendulum",
+        "four_bar",
+        "heavy_top",
+        "hoop_bead",
+        "moving_support",
+        "rolling_disc",
+        "spherical_pendulum",
+    },
+    "test_trust3.py::test_a_parameters_name_as_an_initial_value_is_its_value": {
+        "command1-theta=l-theta=1",
+    },
+    "test_trust3.py::test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted": {
+        "3.0-0.5-0.7-True",
+    },
+}
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker)."""
     for item in items:
-        if item.nodeid.removeprefix("tests/") in SLOW_CASES:
+        test, _, case = item.nodeid.removeprefix("tests/").partition("[")
+        if case[:-1] in SLOW_CASES.get(test, ()):
             item.add_marker(pytest.mark.slow)
 
 
