@@ -100,11 +100,13 @@ def test_the_heavy_tops_T_is_the_textbooks():
     # the body frame's angular velocity: Euler's kinematic equations for z-x-z
     w_world, w_body = angular_velocity(system, system.body("top"))
     phi, psi = S["phi"], S["psi"]
-    euler = sp.Matrix([
-        psid * sp.sin(th) * sp.sin(phi) + thd * sp.cos(phi),
-        psid * sp.sin(th) * sp.cos(phi) - thd * sp.sin(phi),
-        psid * sp.cos(th) + phid,
-    ])
+    euler = sp.Matrix(
+        [
+            psid * sp.sin(th) * sp.sin(phi) + thd * sp.cos(phi),
+            psid * sp.sin(th) * sp.cos(phi) - thd * sp.sin(phi),
+            psid * sp.cos(th) + phid,
+        ]
+    )
     assert all(_same(w_body[i], euler[i]) for i in range(3))
     R = body_rotation(system.body("top"))
     assert all(_same(x, y) for x, y in zip(R * w_body, w_world))
@@ -159,9 +161,7 @@ def _body_rates(traj) -> tuple[np.ndarray, np.ndarray]:
     return traj.t[1:-1], np.array(out)
 
 
-@pytest.mark.parametrize(
-    "case", [pytest.param("major", marks=pytest.mark.slow), "intermediate"]
-)
+@pytest.mark.parametrize("case", [pytest.param("major", marks=pytest.mark.slow), "intermediate"])
 def test_a_torque_free_body_keeps_its_energy_and_angular_momentum(case):
     inertia = {"major": [1.0, 2.0, 3.0], "intermediate": [1.0, 3.0, 2.0]}[case]
     system = lamech.loads(_free_body(str([str(x) for x in inertia]), 1.0, 1e-4))

@@ -364,9 +364,7 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name, threade
         # multiprocessing's own: the resource tracker, the fork server (not the workers it
         # starts, which share its command line)
         helpers = [
-            w
-            for w in workers
-            if _parent(w) == proc.pid and "from multiprocessing." in _cmdline(w)
+            w for w in workers if _parent(w) == proc.pid and "from multiprocessing." in _cmdline(w)
         ]
         server = [w for w in helpers if "forkserver" in _cmdline(w)]
         assert bool(server) == threaded  # a fork server only when other threads run

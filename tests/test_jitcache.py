@@ -50,8 +50,11 @@ print(json.dumps({
 def _start(cache: Path, *args: str) -> subprocess.Popen:
     env = dict(os.environ, LAMECH_CACHE_DIR=str(cache))
     return subprocess.Popen(
-        [sys.executable, "-c", PROBE, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True, env=env,
+        [sys.executable, "-c", PROBE, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
     )
 
 

@@ -91,13 +91,16 @@ frame = "body"
 
 @pytest.mark.slow
 def test_a_torque_on_a_body_in_space_uses_its_partial_angular_velocities():
-    text = open(lamech.problem.example_path("heavy_top")).read() + """
+    text = (
+        open(lamech.problem.example_path("heavy_top")).read()
+        + """
 [[loads]]
 name = "motor"
 body = "top"
 torque = [0, 0, "tau"]
 frame = "body"
 """
+    )
     text = text.replace("[parameters]\n", "[parameters]\ntau = 0.01\n", 1)
     system = lamech.loads(text)
     S = system.symbols

@@ -54,8 +54,10 @@ def at(expr: sp.Expr, env: dict) -> complex:
 
 @pytest.mark.parametrize(
     "name",
-    [pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
-     for n in lamech.example_names()],
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
+        for n in lamech.example_names()
+    ],
 )
 def test_raw_multipliers_solve_the_kkt_system(name):
     system = lamech.load(name)

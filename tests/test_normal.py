@@ -34,8 +34,12 @@ def _equal(a: sp.Expr, b: sp.Expr, symbols, seed: int = 3) -> bool:
 def test_the_ladders_floor_trigonometry_is_four():
     """The issue's example: 2,623 characters of a ladder's multiplier reduced to m g
     sized terms; its core is the number 4."""
-    e = (-3 * (-3 * sp.cos(ph) ** 2 - 1) * sp.sin(ph) ** 2 - 9 * sp.sin(ph) ** 2
-         * sp.cos(ph) ** 2 + 3 * sp.cos(ph) ** 2 + 1)
+    e = (
+        -3 * (-3 * sp.cos(ph) ** 2 - 1) * sp.sin(ph) ** 2
+        - 9 * sp.sin(ph) ** 2 * sp.cos(ph) ** 2
+        + 3 * sp.cos(ph) ** 2
+        + 1
+    )
     assert normal(e) == 4
 
 
@@ -44,14 +48,17 @@ def test_a_factor_that_is_identically_zero_never_reaches_the_output():
     assert normal(e) == m * g * sp.cos(th)
 
 
-@pytest.mark.parametrize("zero", [
-    sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2),
-    sp.cos(2 * th) - 1 + 2 * sp.sin(th) ** 2,
-    sp.tan(th) * sp.cos(th) - sp.sin(th),
-    sp.sin(th / 2) ** 2 - (1 - sp.cos(th)) / 2,
-    sp.sqrt(1 - x**2) ** 2 + x**2 - 1,
-    sp.cos(q1 + q2 + q3) - sp.cos(q1 + q2) * sp.cos(q3) + sp.sin(q1 + q2) * sp.sin(q3),
-])
+@pytest.mark.parametrize(
+    "zero",
+    [
+        sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2),
+        sp.cos(2 * th) - 1 + 2 * sp.sin(th) ** 2,
+        sp.tan(th) * sp.cos(th) - sp.sin(th),
+        sp.sin(th / 2) ** 2 - (1 - sp.cos(th)) / 2,
+        sp.sqrt(1 - x**2) ** 2 + x**2 - 1,
+        sp.cos(q1 + q2 + q3) - sp.cos(q1 + q2) * sp.cos(q3) + sp.sin(q1 + q2) * sp.sin(q3),
+    ],
+)
 def test_identities_are_recognised_as_zero(zero):
     assert is_zero(zero) is True
 
@@ -67,8 +74,12 @@ def test_a_division_by_an_identically_zero_expression_is_refused():
 
 
 def test_a_chain_is_written_in_angle_differences():
-    d = (m1 + m2 * sp.sin(q1) ** 2 - 2 * m2 * sp.sin(q1) * sp.sin(q2) * sp.cos(q1 - q2)
-         + m2 * sp.sin(q2) ** 2)
+    d = (
+        m1
+        + m2 * sp.sin(q1) ** 2
+        - 2 * m2 * sp.sin(q1) * sp.sin(q2) * sp.cos(q1 - q2)
+        + m2 * sp.sin(q2) ** 2
+    )
     out = normal(d, angles=(q1, q2))
     assert _equal(out, d, [q1, q2, m1, m2])
     assert sp.count_ops(out) <= sp.count_ops(m1 + m2 * sp.sin(q1 - q2) ** 2)
@@ -130,8 +141,12 @@ def _solve_text(name: str, seed: str, busy: int = 0) -> str:
     burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(busy)]
     try:
         return subprocess.run(
-            [sys.executable, "-m", "lamech", "solve", name, "--json"], env=env,
-            capture_output=True, text=True, timeout=600, check=True,
+            [sys.executable, "-m", "lamech", "solve", name, "--json"],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            check=True,
         ).stdout
     finally:
         for b in burners:

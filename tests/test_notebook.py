@@ -28,8 +28,9 @@ def test_a_trajectory_shows_its_summary_and_plot():
 
 
 def test_a_sweep_shows_a_table_and_a_plot():
-    run = lamech.run_sweep("cylinder", {"mu": [0.2, 0.3, 0.4]}, ["slip"], t_end=2.7,
-                           samples=11, workers=1)
+    run = lamech.run_sweep(
+        "cylinder", {"mu": [0.2, 0.3, 0.4]}, ["slip"], t_end=2.7, samples=11, workers=1
+    )
     page = run._repr_html_()
     assert page.count("<tr>") == 1 + 3 and "<th>slip:theta1</th>" in page
     assert "3 cases (3 ok)" in page

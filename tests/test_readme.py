@@ -26,17 +26,27 @@ def test_tour_output_is_what_lamech_prints():
     assert tour.strip() == actual.strip()
 
 
-@pytest.mark.parametrize("snippet", [
-    # numba compiles
-    pytest.param(b, marks=[pytest.mark.slow, pytest.mark.shared_cache] if "jit=True" in b else [])
-    for b in _blocks("python") if re.search(r"^print\(.*#", b, re.M)])
+@pytest.mark.parametrize(
+    "snippet",
+    [
+        # numba compiles
+        pytest.param(
+            b, marks=[pytest.mark.slow, pytest.mark.shared_cache] if "jit=True" in b else []
+        )
+        for b in _blocks("python")
+        if re.search(r"^print\(.*#", b, re.M)
+    ],
+)
 def test_python_snippet_prints_what_its_comments_say(snippet):
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        exec(compile(snippet, "README.md", "exec"), {})   # our own README, not user text
+        exec(compile(snippet, "README.md", "exec"), {})  # our own README, not user text
     printed = out.getvalue().splitlines()
-    comments = [line.split("#", 1)[1].strip() for line in snippet.splitlines()
-                if line.startswith("print(") and "#" in line]
+    comments = [
+        line.split("#", 1)[1].strip()
+        for line in snippet.splitlines()
+        if line.startswith("print(") and "#" in line
+    ]
     assert printed == comments
 
 

@@ -79,7 +79,7 @@ def test_a_bouncing_ball_rests_on_the_floor_from_the_accumulation_time(e):
     rest = _check_sequence(tr, "floor", t1, G * t1, G, e, lambda c: c["y'"])
     assert rest.t == pytest.approx(t1 * (1 + e) / (1 - e), abs=1e-9)
     assert abs(tr.final_q[0]) <= 1e-9 and abs(tr.final_qd[0]) <= 1e-9
-    assert tr.coordinate("y").min() >= -1e-9                 # never through the floor
+    assert tr.coordinate("y").min() >= -1e-9  # never through the floor
     after = tr.t > rest.t
     assert np.allclose(tr.multiplier("floor")[after], G, rtol=1e-12)
     assert np.all(np.abs(tr.coordinate("y")[after]) <= 1e-9)
@@ -90,7 +90,7 @@ def test_a_ball_on_an_incline_rests_from_the_accumulation_time_and_slides():
     e, alpha, h = 0.7, 0.3, 1.0
     tr = simulate(lamech.loads(INCLINE), 10.0, samples=2001)
     assert tr.status == "ok", tr.message
-    t1 = math.sqrt(2 * h / G)                     # the gap f = y + x tan(alpha): f'' = -g
+    t1 = math.sqrt(2 * h / G)  # the gap f = y + x tan(alpha): f'' = -g
 
     def gap_velocity(c):
         return c["y'"] + c["x'"] * math.tan(alpha)
@@ -115,8 +115,9 @@ def test_a_ball_on_an_incline_rests_from_the_accumulation_time_and_slides():
 @pytest.mark.slow
 def test_the_cylinder_lands_on_a_floor_and_comes_to_rest_on_it():
     e, R2, H = 0.5, 0.5, 1.0
-    tr = simulate(lamech.loads(_cylinder_over_a_floor(e)), 10.0, initial={"theta1": 0.01},
-                  samples=2001)
+    tr = simulate(
+        lamech.loads(_cylinder_over_a_floor(e)), 10.0, initial={"theta1": 0.01}, samples=2001
+    )
     assert tr.status == "ok", tr.message
     kinds = [(ev.kind, ev.constraint) for ev in tr.events]
     assert kinds[:3] == [("slip", "rolling"), ("lift-off", "contact"), ("impact", "floor")]
@@ -126,7 +127,7 @@ def test_the_cylinder_lands_on_a_floor_and_comes_to_rest_on_it():
     x0, y0 = r * math.sin(th), r * math.cos(th)
     vx = rd * math.sin(th) + r * thd * math.cos(th)
     vy = rd * math.cos(th) - r * thd * math.sin(th)
-    drop = y0 - (R2 - H)                           # the centre's height over its rest
+    drop = y0 - (R2 - H)  # the centre's height over its rest
     tau = (vy + math.sqrt(vy**2 + 2 * G * drop)) / G
     t1, v1 = tr.events[1].t + tau, G * tau - vy
     first = _impacts(tr, "floor")[0].coordinates
