@@ -181,6 +181,22 @@ def lamech_cache_dir(request, tmp_path_factory, shared_cache_dir):
         yield path
 
 
+@pytest.fixture(scope="session")
+def solved_example():
+    """``solved_example(name)``: ``lamech.solve`` of a bundled example, solved once per
+    worker and shared by the tests that read it (a Solution is frozen)."""
+    import lamech
+
+    cache = {}
+
+    def solved(name: str):
+        if name not in cache:
+            cache[name] = lamech.solve(lamech.load(name))
+        return cache[name]
+
+    return solved
+
+
 @pytest.fixture(scope="module")
 def chromium():
     """A headless Chromium driven by Playwright (Debian's browser: ``apt-get install

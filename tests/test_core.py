@@ -187,8 +187,8 @@ def test_json_expressions_parse_back(name):
     json.dumps(j)  # plain JSON types only
 
 
-def test_latex_has_the_multipliers():
-    tex = lamech.to_latex(lamech.solve(lamech.load("pendulum")))
+def test_latex_has_the_multipliers(solved_example):
+    tex = lamech.to_latex(solved_example("pendulum"))
     assert "\\lambda_{\\mathrm{string}}" in tex and "\\begin{align*}" in tex
     assert "\\cos{\\left(\\theta_{0} \\right)}" in tex
 

@@ -410,10 +410,10 @@ def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(
 
 
 @pytest.mark.slow
-def test_the_tangent_check_reports_a_disagreement():
+def test_the_tangent_check_reports_a_disagreement(solved_example):
     from lamech.symbolic import Mode, check_modes
 
-    sol = lamech.solve(lamech.load("pendulum"))
+    sol = solved_example("pendulum")
     down = _by_position(lamech.modes(sol), theta=0.0)
     assert check_modes(sol, down) == down.check
     wrong = [Mode(complex(0, 2.0), 2.0, None, {})]  # omega^2 = 4, not g/l = 9.81

@@ -47,6 +47,6 @@ def test_an_animation_plays_inline_offline():
     assert not re.search(r'(src|href)="https?://', page)
 
 
-def test_a_solution_renders_with_dotted_velocities():
-    latex = lamech.solve(lamech.load("pendulum"))._repr_latex_()
+def test_a_solution_renders_with_dotted_velocities(solved_example):
+    latex = solved_example("pendulum")._repr_latex_()
     assert r"\dot{\theta}" in latex and "theta'" not in latex

@@ -34,14 +34,14 @@ SLOW = {
 
 
 @pytest.fixture(scope="module")
-def cylinder():
-    sol = lamech.solve(lamech.load("cylinder"))
+def cylinder(solved_example):
+    sol = solved_example("cylinder")
     return sol, lamech.steps(sol)
 
 
 @pytest.fixture(scope="module")
-def pendulum():
-    sol = lamech.solve(lamech.load("pendulum"))
+def pendulum(solved_example):
+    sol = solved_example("pendulum")
     return sol, lamech.steps(sol)
 
 
@@ -271,7 +271,7 @@ def test_cli_steps_text_latex_json():
 
 
 @pytest.mark.slow
-def test_readme_steps_excerpt_is_real_output():
+def test_readme_steps_excerpt_is_real_output(cylinder):
     import re
     from pathlib import Path
 
@@ -281,7 +281,7 @@ def test_readme_steps_excerpt_is_real_output():
         for b in re.findall(r"```text\n(.*?)```", readme, re.S)
         if b.startswith("Step 8. The multipliers solved")
     )
-    actual = lamech.to_text(lamech.steps(lamech.solve(lamech.load("cylinder")))).splitlines()
+    actual = lamech.to_text(cylinder[1]).splitlines()
     shown = [line for line in block.splitlines() if line != "..."]
     for line in shown:
         assert line in actual, line

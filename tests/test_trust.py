@@ -220,12 +220,12 @@ def test_the_html_animation_works_offline_and_is_small(tmp_path):
         assert im.n_frames == 11
 
 
-def test_velocities_render_with_dots_in_jupyter():
+def test_velocities_render_with_dots_in_jupyter(solved_example):
     """A multiplier shown raw in a notebook (SymPy's LaTeX) reads l m theta-dot^2, not
     theta'^{2}; the text form keeps the file grammar."""
     import sympy as sp
 
-    s = lamech.solve(lamech.load("pendulum"))
+    s = solved_example("pendulum")
     latex = sp.latex(s.multipliers["string"])
     assert latex == r"g m \cos{\left(\theta \right)} + l m \dot{\theta}^{2}"
     assert lamech.to_text(s).count("theta'^2") >= 1
