@@ -22,6 +22,12 @@ import pytest
 # default set; CI (`./run-tests`) runs them all. Whole tests are marked where they stand.
 # By test, its cases' ids:
 SLOW_CASES = {
+    "test_bad_input.py::test_bad_file": {
+        "120-angular-velocity-unknown-body",
+        "121-angular-velocity-unknown-component",
+        "122-angular-velocity-in-f",
+        "123-angular-velocity-rate",
+    },
     "test_core.py::test_chain_tensions_at_rest_against_statics": {
         "2",
     },

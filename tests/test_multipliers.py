@@ -97,6 +97,7 @@ def test_dependent_constraints_are_refused():
         multipliers(dynamics(lamech.load("atwood")))
 
 
+@pytest.mark.slow
 def test_no_constraints_no_multipliers():
     assert lamech.multipliers(lamech.load("heavy_top")) == {}
 
