@@ -57,21 +57,7 @@ def _damper_x(t, m=1.0, k=100.0, c=1e4):
     return (r1 * np.exp(r2 * t) - r2 * np.exp(r1 * t)) / (r1 - r2)
 
 
-BLOW_UP = """
-title = "Pushed along a rail by a force that blows up at t = 1"
-[parameters]
-m = 1.0
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 0, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-[[constraints]]
-name = "rail"
-f = "y - x/2"
-[forces]
-x = "1/(1 - t)^3"
-"""
+BLOW_UP = (HERE / "problems" / "blow_up.toml").read_text(encoding="utf-8")
 
 BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8").replace("e = 0.5", "e = 0.95")
 

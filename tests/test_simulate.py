@@ -504,21 +504,7 @@ def test_trajectory_as_dataframe():
     assert {"theta", "theta'", "lambda:string", "energy", "residual"} <= set(df.columns)
 
 
-BLOW_UP = """
-title = "Bead pushed ever harder"
-[parameters]
-m = 1.0
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 0, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-[[constraints]]
-name = "rail"
-f = "y - x/2"
-[forces]
-x = "1/(1 - t)^3"
-"""
+BLOW_UP = (HERE / "problems" / "blow_up.toml").read_text(encoding="utf-8")
 
 
 def test_a_failed_run_keeps_what_it_computed(tmp_path):
