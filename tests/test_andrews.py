@@ -14,26 +14,87 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system
-from lamech.numeric import simulate
+from lamech.numeric import compile_system, simulate
 
 # Bari/CWI test set, problem "andrews", reference solution at t = 0.03 (PSIDE, tol 1e-14)
-Q_REF = np.array([0.1581077119629904e+2, -0.1575637105984298e+2, 0.4082224013073101e-1,
-                  -0.5347301163226948e+0, 0.5244099658805304e+0, 0.5347301163226948e+0,
-                  0.1048080741042263e+1])
-V_REF = np.array([0.1139920302151208e+4, -0.1424379294994111e+4, 0.1103291221937134e+2,
-                  0.1929337464421385e+2, 0.5735699284790808e+0, -0.1929337464421385e+2,
-                  0.3231791658026955e+0])
+Q_REF = np.array(
+    [
+        0.1581077119629904e2,
+        -0.1575637105984298e2,
+        0.4082224013073101e-1,
+        -0.5347301163226948e0,
+        0.5244099658805304e0,
+        0.5347301163226948e0,
+        0.1048080741042263e1,
+    ]
+)
+V_REF = np.array(
+    [
+        0.1139920302151208e4,
+        -0.1424379294994111e4,
+        0.1103291221937134e2,
+        0.1929337464421385e2,
+        0.5735699284790808e0,
+        -0.1929337464421385e2,
+        0.3231791658026955e0,
+    ]
+)
 # the test set writes M q'' = f - G^T lambda; lamech M q'' + h = A^T lambda + Q: opposite
-LAM_REF = -np.array([0.1991753333731910e+3, -0.2975531228015052e+2, 0.2306654119098399e+2,
-                     0.3145271365475927e+2, 0.2264249232082739e+2, 0.1161740700019673e+2])
+LAM_REF = -np.array(
+    [
+        0.1991753333731910e3,
+        -0.2975531228015052e2,
+        0.2306654119098399e2,
+        0.3145271365475927e2,
+        0.2264249232082739e2,
+        0.1161740700019673e2,
+    ]
+)
 
-P = dict(m1=.04325, m2=.00365, m3=.02373, m4=.00706, m5=.07050, m6=.00706, m7=.05498,
-         I1=2.194e-6, I2=4.410e-7, I3=5.255e-6, I4=5.667e-7, I5=1.169e-5, I6=5.667e-7,
-         I7=1.912e-5, xa=-.06934, ya=-.00227, xb=-.03635, yb=.03273, xc=.014, yc=.072,
-         d=28e-3, da=115e-4, e=2e-2, ea=1421e-5, rr=7e-3, ra=92e-5, ss=35e-3, sa=1874e-5,
-         sb=1043e-5, sc=18e-3, sd=2e-2, ta=2308e-5, tb=916e-5, u=4e-2, ua=1228e-5,
-         ub=449e-5, zf=2e-2, zt=4e-2, fa=1421e-5, mom=33e-3, c0=4530.0, l0=7785e-5)
+P = dict(
+    m1=0.04325,
+    m2=0.00365,
+    m3=0.02373,
+    m4=0.00706,
+    m5=0.07050,
+    m6=0.00706,
+    m7=0.05498,
+    I1=2.194e-6,
+    I2=4.410e-7,
+    I3=5.255e-6,
+    I4=5.667e-7,
+    I5=1.169e-5,
+    I6=5.667e-7,
+    I7=1.912e-5,
+    xa=-0.06934,
+    ya=-0.00227,
+    xb=-0.03635,
+    yb=0.03273,
+    xc=0.014,
+    yc=0.072,
+    d=28e-3,
+    da=115e-4,
+    e=2e-2,
+    ea=1421e-5,
+    rr=7e-3,
+    ra=92e-5,
+    ss=35e-3,
+    sa=1874e-5,
+    sb=1043e-5,
+    sc=18e-3,
+    sd=2e-2,
+    ta=2308e-5,
+    tb=916e-5,
+    u=4e-2,
+    ua=1228e-5,
+    ub=449e-5,
+    zf=2e-2,
+    zt=4e-2,
+    fa=1421e-5,
+    mom=33e-3,
+    c0=4530.0,
+    l0=7785e-5,
+)
 
 
 def book_model(q, v):
@@ -44,32 +105,36 @@ def book_model(q, v):
     s, c = np.sin, np.cos
     ee, zz = p.e - p.ea, p.zf - p.fa
     M = np.zeros((7, 7))
-    M[0, 0] = p.m1 * p.ra**2 + p.m2 * (p.rr**2 - 2 * p.da * p.rr * c(th) + p.da**2) \
-        + p.I1 + p.I2
+    M[0, 0] = p.m1 * p.ra**2 + p.m2 * (p.rr**2 - 2 * p.da * p.rr * c(th) + p.da**2) + p.I1 + p.I2
     M[1, 0] = M[0, 1] = p.m2 * (p.da**2 - p.da * p.rr * c(th)) + p.I2
     M[1, 1] = p.m2 * p.da**2 + p.I2
     M[2, 2] = p.m3 * (p.sa**2 + p.sb**2) + p.I3
     M[3, 3] = p.m4 * ee**2 + p.I4
     M[4, 3] = M[3, 4] = p.m4 * (ee**2 + p.zt * ee * s(ph)) + p.I4
-    M[4, 4] = p.m4 * (p.zt**2 + 2 * p.zt * ee * s(ph) + ee**2) \
-        + p.m5 * (p.ta**2 + p.tb**2) + p.I4 + p.I5
+    M[4, 4] = (
+        p.m4 * (p.zt**2 + 2 * p.zt * ee * s(ph) + ee**2) + p.m5 * (p.ta**2 + p.tb**2) + p.I4 + p.I5
+    )
     M[5, 5] = p.m6 * zz**2 + p.I6
     M[6, 5] = M[5, 6] = p.m6 * (zz**2 - p.u * zz * s(om)) + p.I6
-    M[6, 6] = p.m6 * (zz**2 - 2 * p.u * zz * s(om) + p.u**2) \
-        + p.m7 * (p.ua**2 + p.ub**2) + p.I6 + p.I7
+    M[6, 6] = (
+        p.m6 * (zz**2 - 2 * p.u * zz * s(om) + p.u**2) + p.m7 * (p.ua**2 + p.ub**2) + p.I6 + p.I7
+    )
     xd = p.sd * c(ga) + p.sc * s(ga) + p.xb
     yd = p.sd * s(ga) - p.sc * c(ga) + p.yb
     L = np.hypot(xd - p.xc, yd - p.yc)
     k = -p.c0 * (L - p.l0) / L
-    f = np.array([
-        p.mom - p.m2 * p.da * p.rr * thp * (thp + 2 * bep) * s(th),
-        p.m2 * p.da * p.rr * bep**2 * s(th),
-        k * (xd - p.xc) * (p.sc * c(ga) - p.sd * s(ga))
-        + k * (yd - p.yc) * (p.sd * c(ga) + p.sc * s(ga)),
-        p.m4 * p.zt * ee * dep**2 * c(ph),
-        -p.m4 * p.zt * ee * php * (php + 2 * dep) * c(ph),
-        -p.m6 * p.u * zz * epp**2 * c(om),
-        p.m6 * p.u * zz * omp * (omp + 2 * epp) * c(om)])
+    f = np.array(
+        [
+            p.mom - p.m2 * p.da * p.rr * thp * (thp + 2 * bep) * s(th),
+            p.m2 * p.da * p.rr * bep**2 * s(th),
+            k * (xd - p.xc) * (p.sc * c(ga) - p.sd * s(ga))
+            + k * (yd - p.yc) * (p.sd * c(ga) + p.sc * s(ga)),
+            p.m4 * p.zt * ee * dep**2 * c(ph),
+            -p.m4 * p.zt * ee * php * (php + 2 * dep) * c(ph),
+            -p.m6 * p.u * zz * epp**2 * c(om),
+            p.m6 * p.u * zz * omp * (omp + 2 * epp) * c(om),
+        ]
+    )
     crank_x = [-p.rr * s(be) + p.d * s(be + th), p.d * s(be + th)]
     crank_y = [p.rr * c(be) - p.d * c(be + th), -p.d * c(be + th)]
     G = np.zeros((6, 7))
@@ -82,11 +147,16 @@ def book_model(q, v):
     G[5, 5], G[5, 6] = -p.zf * c(om + ep), -p.zf * c(om + ep) - p.u * s(ep)
     cx = p.rr * c(be) - p.d * c(be + th)
     cy = p.rr * s(be) - p.d * s(be + th)
-    g = np.array([cx - p.ss * s(ga) - p.xb, cy + p.ss * c(ga) - p.yb,
-                  cx - p.e * s(ph + de) - p.zt * c(de) - p.xa,
-                  cy + p.e * c(ph + de) - p.zt * s(de) - p.ya,
-                  cx - p.zf * c(om + ep) - p.u * s(ep) - p.xa,
-                  cy - p.zf * s(om + ep) + p.u * c(ep) - p.ya])
+    g = np.array(
+        [
+            cx - p.ss * s(ga) - p.xb,
+            cy + p.ss * c(ga) - p.yb,
+            cx - p.e * s(ph + de) - p.zt * c(de) - p.xa,
+            cy + p.e * c(ph + de) - p.zt * s(de) - p.ya,
+            cx - p.zf * c(om + ep) - p.u * s(ep) - p.xa,
+            cy - p.zf * s(om + ep) + p.u * c(ep) - p.ya,
+        ]
+    )
     return M, f, G, g
 
 
@@ -113,12 +183,12 @@ def test_derived_model_equals_the_books(squeezer):
         h = 1e-7
         Gp = book_model(q + h * v, v)[2]
         Gm = book_model(q - h * v, v)[2]
-        assert np.allclose(gam, (Gp - Gm) @ v / (2 * h), rtol=1e-6,
-                           atol=1e-6 * np.max(np.abs(gam)))
+        assert np.allclose(gam, (Gp - Gm) @ v / (2 * h), rtol=1e-6, atol=1e-6 * np.max(np.abs(gam)))
     q0, v0 = ns.initial_state()
-    assert np.max(np.abs(book_model(q0, v0)[3])) < 1e-15       # consistent start
+    assert np.max(np.abs(book_model(q0, v0)[3])) < 1e-15  # consistent start
 
 
+@pytest.mark.slow
 def test_reference_solution_at_30_ms(squeezer):
     tr = simulate(squeezer, 0.03, samples=301)
     assert tr.status == "ok", tr.message

@@ -19,12 +19,13 @@ def cylinder_run():
     return system, lamech.simulate(system, 2.7, initial={"theta1": 0.05}, samples=61)
 
 
+@pytest.mark.slow
 def test_gif_has_frames(tmp_path, cylinder_run):
     system, traj = cylinder_run
     out = animate(traj, system, tmp_path / "c.gif", max_frames=12, dpi=40)
     with PIL.open(out) as im:
         assert im.n_frames == 12
-        assert im.size == (256, 256)          # 6.4 in at 40 dpi
+        assert im.size == (256, 256)  # 6.4 in at 40 dpi
 
 
 def test_scene_follows_the_bodies_and_forces(cylinder_run):
@@ -40,13 +41,15 @@ def test_scene_follows_the_bodies_and_forces(cylinder_run):
     assert np.allclose(angle, -traj.coordinate("theta2"))
     (_, at, normal), _ = scene.arrows
     on = np.isfinite(traj.multiplier("contact"))
-    assert np.allclose(np.linalg.norm(normal[on], axis=1), np.abs(traj.multiplier("contact")[on]),
-                       rtol=1e-9)
+    assert np.allclose(
+        np.linalg.norm(normal[on], axis=1), np.abs(traj.multiplier("contact")[on]), rtol=1e-9
+    )
     assert np.allclose(at[on], np.column_stack((np.sin(th), np.cos(th)))[on], atol=1e-12)
     # after lift-off there is no contact force and no contact track
     assert not np.isfinite(normal[~on]).any()
 
 
+@pytest.mark.slow
 def test_html_is_self_contained(tmp_path):
     system = lamech.load("pendulum")
     traj = lamech.simulate(system, 1.0, samples=6)
@@ -66,20 +69,23 @@ def test_bad_extension_and_missing_ffmpeg(tmp_path, cylinder_run, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_cli_animate(tmp_path, capsys):
     from lamech.cli import main
+
     out = tmp_path / "pend.gif"
-    code = main(["simulate", "pendulum", "--t-end", "0.5", "--samples", "5",
-                 "--animate", str(out)])
+    code = main(["simulate", "pendulum", "--t-end", "0.5", "--samples", "5", "--animate", str(out)])
     assert code == 0, capsys.readouterr().err
     assert f"wrote {out}" in capsys.readouterr().out
     with PIL.open(out) as im:
         assert im.n_frames == 5
-    assert main(["simulate", "pendulum", "--t-end", "0.5", "--animate",
-                 str(tmp_path / "x.bmp")]) == 2
+    assert (
+        main(["simulate", "pendulum", "--t-end", "0.5", "--animate", str(tmp_path / "x.bmp")]) == 2
+    )
     assert "use a name ending in" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_pendulum_gif_frames_sampled_evenly(tmp_path):
     """max_frames thins the samples evenly; the bob drawn at (l sin θ, -l cos θ)."""
     system = lamech.load("pendulum")
@@ -87,7 +93,7 @@ def test_pendulum_gif_frames_sampled_evenly(tmp_path):
     out = animate(traj, system, tmp_path / "p.gif", max_frames=6, dpi=30)
     with PIL.open(out) as im:
         assert im.n_frames == 6
-        assert im.size == (192, 192)          # 6.4 in at 30 dpi
+        assert im.size == (192, 192)  # 6.4 in at 30 dpi
     frames = np.unique(np.linspace(0, 100, 6).round().astype(int))
     scene = Scene(traj, system, None, frames)
     assert np.allclose(np.diff(scene.t), 0.2)
@@ -104,7 +110,10 @@ def test_scenery_is_drawn_where_the_file_puts_it(tmp_path):
 
     system = lamech.load(Path(__file__).parent / "bad" / "valid" / "scenery.toml")
     assert [(g.name, g.kind.value, len(g.points)) for g in system.scenery] == [
-        ("pivot", "point", 1), ("string", "line", 2), ("ring", "circle", 1)]
+        ("pivot", "point", 1),
+        ("string", "line", 2),
+        ("ring", "circle", 1),
+    ]
     traj = lamech.simulate(system, 1.0, samples=21)
     scene = Scene(traj, system, None, np.arange(len(traj.t)))
     (pk, pivot, _), (sk, string, _), (ck, centre, radius) = scene.scenery
@@ -114,11 +123,12 @@ def test_scenery_is_drawn_where_the_file_puts_it(tmp_path):
     assert np.allclose(string[:, 0], 0.0) and np.allclose(string[:, 1], bob, atol=1e-12)
     assert np.allclose(radius, 1.0)
     x0, x1, y0, y1 = scene.limits()
-    assert x0 < -1 and x1 > 1 and y0 < -1 and y1 > 1   # the whole ring, not just the swing
+    assert x0 < -1 and x1 > 1 and y0 < -1 and y1 > 1  # the whole ring, not just the swing
     out = animate(traj, system, tmp_path / "s.gif", max_frames=4, dpi=30)
     assert out.stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_every_example_declares_its_fixed_geometry():
     """Each bundled example with bodies draws something besides them (a pivot, a floor,
     the fixed cylinder): a body moving in empty space is not what the file describes."""

@@ -93,6 +93,7 @@ def test_view_holds_the_whole_motion(top_run):
     assert sides.min() >= 0.6 * sides.max() - 1e-12
 
 
+@pytest.mark.slow
 def test_rod_lies_along_its_shape_axis(tmp_path):
     """``shape = { rod = "h", axis = "x" }``: the rod's ends are the centre plus and minus
     h/2 along the body x axis; a planar body is given no axis."""
@@ -146,6 +147,7 @@ def test_spherical_pendulum_force_in_space():
         assert (point > lo).all() and (point < hi).all()
 
 
+@pytest.mark.slow
 def test_cli_writes_the_top_in_3d(tmp_path, capsys):
     """``lamech simulate heavy_top --animate top.gif``: one GIF frame per sample, 6.4 in
     at 100 dpi, and the picture changes as the top turns."""
@@ -166,6 +168,7 @@ def test_cli_writes_the_top_in_3d(tmp_path, capsys):
     assert (first != last).any()
 
 
+@pytest.mark.slow
 def test_html_in_space(top_run, tmp_path):
     system, traj, _ = top_run
     out = animate(traj, system, tmp_path / "top.html", max_frames=4, dpi=30)

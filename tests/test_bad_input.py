@@ -80,7 +80,8 @@ def tree(path: Path) -> set[str]:
 
 
 def load_error(load, *args, tmp_path: Path, monkeypatch, capfd) -> lamech.ProblemFileError:
-    """Run ``load(*args)`` in an empty working directory; it must raise, create nothing, print nothing."""
+    """Run ``load(*args)`` in an empty working directory; it must raise, create nothing,
+    print nothing."""
     monkeypatch.chdir(tmp_path)
     before = tree(BAD)
     with time_limit(TIME_LIMIT):
@@ -128,40 +129,60 @@ def test_valid_bases_load(path, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("path", list(cases(FILES)))
 def test_bad_file(path, tmp_path, monkeypatch, capfd):
-    error = load_error(lamech.load, path, tmp_path=tmp_path, monkeypatch=monkeypatch,
-                       capfd=capfd)
+    error = load_error(lamech.load, path, tmp_path=tmp_path, monkeypatch=monkeypatch, capfd=capfd)
     check_message(str(error), path.name, header(path))
 
 
-@pytest.mark.parametrize("stem", ["05-unknown-name-in-f", "11-velocity-in-V",
-                                  "27-inject-import-os", "35-exponent-tower",
-                                  "01-toml-unclosed-string"])
+@pytest.mark.parametrize(
+    "stem",
+    [
+        "05-unknown-name-in-f",
+        "11-velocity-in-V",
+        "27-inject-import-os",
+        "35-exponent-tower",
+        "01-toml-unclosed-string",
+    ],
+)
 def test_bad_text_through_loads(stem, tmp_path, monkeypatch, capfd):
     """The Python API gives the same error for the same text, under the name it is given."""
     path = BAD / f"{stem}.toml"
-    error = load_error(lamech.loads, path.read_text(encoding="utf-8"), "x.toml",
-                       tmp_path=tmp_path, monkeypatch=monkeypatch, capfd=capfd)
+    error = load_error(
+        lamech.loads,
+        path.read_text(encoding="utf-8"),
+        "x.toml",
+        tmp_path=tmp_path,
+        monkeypatch=monkeypatch,
+        capfd=capfd,
+    )
     check_message(str(error), "x.toml", header(path))
 
 
 def test_load_accepts_a_string_path(tmp_path, monkeypatch, capfd):
     path = BAD / "05-unknown-name-in-f.toml"
-    error = load_error(lamech.load, str(path), tmp_path=tmp_path, monkeypatch=monkeypatch,
-                       capfd=capfd)
+    error = load_error(
+        lamech.load, str(path), tmp_path=tmp_path, monkeypatch=monkeypatch, capfd=capfd
+    )
     check_message(str(error), path.name, header(path))
 
 
 def test_missing_file(tmp_path, monkeypatch, capfd):
-    error = load_error(lamech.load, tmp_path / "nowhere.toml", tmp_path=tmp_path,
-                       monkeypatch=monkeypatch, capfd=capfd)
+    error = load_error(
+        lamech.load,
+        tmp_path / "nowhere.toml",
+        tmp_path=tmp_path,
+        monkeypatch=monkeypatch,
+        capfd=capfd,
+    )
     assert "nowhere.toml" in str(error)
 
 
 # ------------------------------------------------- files that are not files, outputs
 
+
 def test_a_device_or_a_pipe_is_refused_without_reading_it(tmp_path):
     """/dev/zero would be read forever and a FIFO would block: both refused at once."""
     import os
+
     fifo = tmp_path / "pipe.toml"
     os.mkfifo(fifo)
     for path in ("/dev/zero", fifo):
@@ -184,17 +205,23 @@ def test_a_byte_order_mark_is_not_part_of_the_toml(tmp_path):
     assert lamech.load(path).title == lamech.load("pendulum").title
 
 
-@pytest.mark.parametrize("command", [
-    ["simulate", "{p}", "--t-end", "0.1", "--out", "{o}"],
-    ["simulate", "{p}", "--t-end", "0.1", "--plot", "{o}"],
-    ["sweep", "{p}", "--param", "m=1:2:2", "--t-end", "0.1", "--out", "{o}"],
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["simulate", "{p}", "--t-end", "0.1", "--out", "{o}"],
+        ["simulate", "{p}", "--t-end", "0.1", "--plot", "{o}"],
+        ["sweep", "{p}", "--param", "m=1:2:2", "--t-end", "0.1", "--out", "{o}"],
+    ],
+)
 def test_an_output_never_replaces_the_problem_file(command, tmp_path, monkeypatch, capsys):
     """By its own name, through a symlink, or as ./name: refused, the file untouched."""
     from lamech.cli import main
+
     problem = tmp_path / "q.toml"
-    problem.write_text((Path(lamech.__file__).parent / "examples" / "pendulum.toml")
-                       .read_text("utf-8"), encoding="utf-8")
+    problem.write_text(
+        (Path(lamech.__file__).parent / "examples" / "pendulum.toml").read_text("utf-8"),
+        encoding="utf-8",
+    )
     (tmp_path / "link.toml").symlink_to(problem)
     before = problem.read_bytes()
     monkeypatch.chdir(tmp_path)
@@ -211,19 +238,28 @@ def test_the_trajectory_csv_is_written_whole_or_not_at_all(tmp_path):
     out.write_text("old", encoding="utf-8")
     traj = lamech.simulate(lamech.load("pendulum"), 0.1, samples=11)
     from lamech.present import trajectory_csv
+
     trajectory_csv(traj, out)
     assert out.read_text("utf-8").startswith("t,")
     assert [p.name for p in tmp_path.iterdir()] == ["run.csv"]
 
 
-@pytest.mark.parametrize("options, message", [
-    (["--dt", "1e-12"], "1e+12 output times (about 6.4e+04 GB) is more than lamech keeps"),
-    (["--samples", "1000000000"], "1e+09 output times"),
-    (["--plot", "out.txt"], "--plot out.txt: the format follows the suffix; use a name ending in .png"),
-])
-def test_outputs_that_cannot_be_made_are_refused_before_the_run(options, message, capsys,
-                                                                tmp_path, monkeypatch):
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--dt", "1e-12"], "1e+12 output times (about 6.4e+04 GB) is more than lamech keeps"),
+        (["--samples", "1000000000"], "1e+09 output times"),
+        (
+            ["--plot", "out.txt"],
+            "--plot out.txt: the format follows the suffix; use a name ending in .png",
+        ),
+    ],
+)
+def test_outputs_that_cannot_be_made_are_refused_before_the_run(
+    options, message, capsys, tmp_path, monkeypatch
+):
     from lamech.cli import main
+
     monkeypatch.chdir(tmp_path)
     with time_limit(TIME_LIMIT):
         assert main(["simulate", "pendulum", "--t-end", "1", *options]) == 2

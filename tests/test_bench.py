@@ -5,12 +5,26 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.run import (B5_PROBLEMS, kernel_inputs, lamech_b1, lamech_b5, lamech_qdd_lambda,
-                       sympy_b1, sympy_b5, sympy_lagranges, chain_state, lamech_chain,
-                       mujoco_angles, mujoco_chain, mujoco_masses, mujoco_tensions)
+from bench.run import (
+    B5_PROBLEMS,
+    chain_state,
+    kernel_inputs,
+    lamech_b1,
+    lamech_b5,
+    lamech_chain,
+    lamech_qdd_lambda,
+    mujoco_angles,
+    mujoco_chain,
+    mujoco_masses,
+    mujoco_tensions,
+    sympy_b1,
+    sympy_b5,
+    sympy_lagranges,
+)
 from lamech.numeric import compile_system
 
 
+@pytest.mark.slow
 def test_sympy_peer_is_the_same_chain():
     _, qdd = lamech_b1(3, jit=False)
     assert np.allclose(sympy_b1(3, cse=True), qdd, rtol=1e-10, atol=1e-12)
@@ -23,13 +37,14 @@ def test_mujoco_peer_is_the_same_chain():
     model, data = mujoco_chain(n)
     data.qpos[:] = mujoco_angles(angles)
     mujoco.mj_forward(model, data)
-    assert np.allclose(mujoco_masses(model, data, n)[:, [0, 2]].ravel(), chain_state(n, angles),
-                       atol=1e-14)
+    assert np.allclose(
+        mujoco_masses(model, data, n)[:, [0, 2]].ravel(), chain_state(n, angles), atol=1e-14
+    )
     ns = compile_system(lamech_chain(n))
     q = chain_state(n, angles)
     M, rhs, A, gam, _ = ns.dynamics(0.0, q, np.zeros(2 * n), ns.parameters)
     K = np.block([[M, -A.T], [A, np.zeros((n, n))]])
-    lam = np.linalg.solve(K, np.concatenate((rhs, -gam)))[2 * n:]
+    lam = np.linalg.solve(K, np.concatenate((rhs, -gam)))[2 * n :]
     assert np.allclose(mujoco_tensions(model, data, n), -2 * lam, rtol=1e-9)
 
 
@@ -38,10 +53,10 @@ def test_reference_helper_matches_the_kernel():
     ns = compile_system(lamech_chain(2))
     qdd, lam = lamech_qdd_lambda(ns)
     y, p, rows, e, _, c = kernel_inputs(ns)
-    assert np.allclose(qdd, ns.rhs_kernel(0.0, y, p, rows, e, e, c)[ns.n:], rtol=1e-12)
+    assert np.allclose(qdd, ns.rhs_kernel(0.0, y, p, rows, e, e, c)[ns.n :], rtol=1e-12)
     _, qdd_b1 = lamech_b1(2, jit=False)
     assert np.allclose(qdd, qdd_b1, rtol=1e-12)
-    assert np.all(lam < 0)     # links in tension: lambda < 0 for f = |d|^2 - l^2
+    assert np.all(lam < 0)  # links in tension: lambda < 0 for f = |d|^2 - l^2
 
 
 @pytest.mark.parametrize("name", ["pendulum", "knife_edge"])
@@ -49,6 +64,7 @@ def test_symbolic_peer_solves_lamechs_problem(name):
     """B5: SymPy's LagrangesMethod gets lamech's L and constraints as written (holonomic
     and velocity ones), and its solve_multipliers, sign turned, is lamech's lambda."""
     import lamech
+
     system = lamech.load(name)
     theirs, _, _ = sympy_b5(system)
     mine, _ = lamech_b5(name)
@@ -58,8 +74,10 @@ def test_symbolic_peer_solves_lamechs_problem(name):
         assert np.isclose(theirs[n], lam, rtol=1e-10)
 
 
+@pytest.mark.slow
 def test_symbolic_benchmark_problems_load():
     import lamech
+
     for _, source in B5_PROBLEMS:
         system = lamech.loads(source) if "\n" in source else lamech.load(source)
         _, q, _, _, names = sympy_lagranges(system)
@@ -68,17 +86,20 @@ def test_symbolic_benchmark_problems_load():
 
 def test_interleave_alternates_the_order_and_keeps_min_median_max():
     from bench.run import interleave
+
     order = []
 
     def case(name, wall):
         def run():
             order.append(name)
             return wall.pop(0), 0.5, name
+
         return run
 
-    got = interleave([("a", case("a", [3.0, 1.0, 2.0])), ("b", case("b", [5.0, 4.0, 6.0]))],
-                     repeats=3)
-    assert order == ["a", "b", "b", "a", "a", "b"]      # reversed every other round
+    got = interleave(
+        [("a", case("a", [3.0, 1.0, 2.0])), ("b", case("b", [5.0, 4.0, 6.0]))], repeats=3
+    )
+    assert order == ["a", "b", "b", "a", "a", "b"]  # reversed every other round
     assert got["a"].wall == (1.0, 2.0, 3.0) and got["b"].wall == (4.0, 5.0, 6.0)
     assert got["a"].cpu == (0.5, 0.5, 0.5) and got["a"].result == ("a",)
     assert got["a"].runs == 3
@@ -86,22 +107,28 @@ def test_interleave_alternates_the_order_and_keeps_min_median_max():
 
 def test_interleave_runs_slow_and_capped_cases_once():
     from bench.run import interleave
+
     calls = {"slow": 0, "capped": 0, "fast": 0}
 
     def run(name, wall):
         def f():
             calls[name] += 1
             return None if wall is None else (wall, wall)
+
         return f
 
-    got = interleave([("slow", run("slow", 40.0)), ("capped", run("capped", None)),
-                      ("fast", run("fast", 1.0))], repeats=3, alone_after=30.0)
+    got = interleave(
+        [("slow", run("slow", 40.0)), ("capped", run("capped", None)), ("fast", run("fast", 1.0))],
+        repeats=3,
+        alone_after=30.0,
+    )
     assert calls == {"slow": 1, "capped": 1, "fast": 3}
     assert got["capped"] is None and got["slow"].runs == 1 and got["fast"].runs == 3
 
 
 def test_at_error_interpolates_on_the_pareto_front():
     from bench.run import at_error
+
     # time = err^(-1/8): interpolation in log-log is exact on the front
     pts = [(e ** (-1 / 8), e) for e in (1e-4, 1e-6, 1e-8, 1e-10)]
     assert np.isclose(at_error(pts, 1e-7), 1e-7 ** (-1 / 8), rtol=1e-12)
@@ -117,6 +144,7 @@ def test_mujoco_positions_are_the_final_states():
     would be a step behind: about 1e-3 off)."""
     pytest.importorskip("mujoco", reason="mujoco not installed (extra `bench`)")
     from bench.run import ANGLE, lamech_run, mujoco_run
+
     n = 2
     system = lamech_chain(n)
     _, _, ref_pos, ref_T = lamech_run(system, 0.2, 1e-12, False)
@@ -129,14 +157,15 @@ def test_casadi_peer_is_the_same_chain():
     """B3/B4's CasADi model: its tensions at the start are lamech's (the check the
     benchmark makes), and CVODES on it follows lamech's run."""
     pytest.importorskip("casadi", reason="casadi not installed (extra `bench`)")
-    from bench.run import CasadiChain, lamech_run, casadi_peer
+    from bench.run import CasadiChain, casadi_peer, lamech_run
+
     n = 3
     ns = compile_system(lamech_chain(n))
     _, lam = lamech_qdd_lambda(ns)
     peer = CasadiChain(n, jit=False)
     y0 = np.concatenate((chain_state(n), np.zeros(2 * n)))
     assert np.allclose(peer.tensions(y0), -2 * lam, rtol=1e-12)
-    assert casadi_peer(n, ns) is not None           # the benchmark's own check passes
+    assert casadi_peer(n, ns) is not None  # the benchmark's own check passes
     _, _, ref_pos, ref_T = lamech_run(ns.system, 0.5, 1e-12, False, ns)
     _, _, pos, T = peer.run(y0, 0.5, 1e-12, 1e-14)
     assert np.max(np.abs(pos - ref_pos)) < 1e-8
@@ -150,6 +179,7 @@ def test_b7_peers_are_the_ball_and_the_lecture_wheel():
     the true lift-off time by quad is mpmath's; the crossing is exact on a cubic."""
     mujoco = pytest.importorskip("mujoco", reason="mujoco not installed (extra `bench`)")
     from bench import events as ev
+
     model, data = ev.mujoco_ball("RK4", 1e-3)
     data.qpos[0] = 0.01
     mujoco.mj_forward(model, data)

@@ -74,6 +74,7 @@ def _same(a, b) -> bool:
     return sp.simplify(sp.expand(a - b)) == 0
 
 
+@pytest.mark.slow
 def test_the_rolling_disc_described_as_a_body_is_the_hand_derived_one():
     body = lamech.loads(DISC)
     hand = lamech.load("rolling_disc")
@@ -85,6 +86,7 @@ def test_the_rolling_disc_described_as_a_body_is_the_hand_derived_one():
     assert lam["roll_y"] == pytest.approx(-1.96395503111, rel=1e-10)
 
 
+@pytest.mark.slow
 def test_the_heavy_tops_T_is_the_textbooks():
     system = lamech.load("heavy_top")
     S = system.symbols
@@ -98,11 +100,13 @@ def test_the_heavy_tops_T_is_the_textbooks():
     # the body frame's angular velocity: Euler's kinematic equations for z-x-z
     w_world, w_body = angular_velocity(system, system.body("top"))
     phi, psi = S["phi"], S["psi"]
-    euler = sp.Matrix([
-        psid * sp.sin(th) * sp.sin(phi) + thd * sp.cos(phi),
-        psid * sp.sin(th) * sp.cos(phi) - thd * sp.sin(phi),
-        psid * sp.cos(th) + phid,
-    ])
+    euler = sp.Matrix(
+        [
+            psid * sp.sin(th) * sp.sin(phi) + thd * sp.cos(phi),
+            psid * sp.sin(th) * sp.cos(phi) - thd * sp.sin(phi),
+            psid * sp.cos(th) + phid,
+        ]
+    )
     assert all(_same(w_body[i], euler[i]) for i in range(3))
     R = body_rotation(system.body("top"))
     assert all(_same(x, y) for x, y in zip(R * w_body, w_world))
@@ -110,6 +114,7 @@ def test_the_heavy_tops_T_is_the_textbooks():
     _ = psi
 
 
+@pytest.mark.slow
 def test_the_heavy_top_precesses_steadily_where_the_textbook_says():
     system = lamech.load("heavy_top")
     pv = {str(k): float(v) for k, v in system.parameter_values.items()}
@@ -156,7 +161,7 @@ def _body_rates(traj) -> tuple[np.ndarray, np.ndarray]:
     return traj.t[1:-1], np.array(out)
 
 
-@pytest.mark.parametrize("case", ["major", "intermediate"])
+@pytest.mark.parametrize("case", [pytest.param("major", marks=pytest.mark.slow), "intermediate"])
 def test_a_torque_free_body_keeps_its_energy_and_angular_momentum(case):
     inertia = {"major": [1.0, 2.0, 3.0], "intermediate": [1.0, 3.0, 2.0]}[case]
     system = lamech.loads(_free_body(str([str(x) for x in inertia]), 1.0, 1e-4))
@@ -181,6 +186,7 @@ def test_a_torque_free_body_keeps_its_energy_and_angular_momentum(case):
         assert wobble[-1] > 100 * wobble[0]
 
 
+@pytest.mark.slow
 def test_partial_velocities_of_a_point_on_a_turning_body_include_omega_cross_r():
     """dr_P/dq of the material point at the top's rim, against finite differences of
     c(q) + R(q) p with p, the point in the body frame, held."""

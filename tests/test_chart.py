@@ -69,7 +69,8 @@ def test_the_parametrisation_gives_the_double_pendulum_in_its_angles(in_angles):
     assert sol.independent == ["theta1", "theta2"]
     th = sol.system.chart_coordinates
     assert [float(c.initial) for c in th] == pytest.approx(
-        [math.atan2(0.6, 0.8), math.atan2(0.64, 0.48)])
+        [math.atan2(0.6, 0.8), math.atan2(0.64, 0.48)]
+    )
     assert set(sol.multipliers) == {"rod1", "rod2"}
     assert not sol.closed.sizes  # short enough to print
 
@@ -100,18 +101,26 @@ def test_newtons_law_holds_on_each_bob(in_angles):
     acc = {k: v for k, v in sol.closed.accelerations.items()}
     rng = random.Random(4)
     for _ in range(5):
-        st = {t1: rng.uniform(-3, 3), t2: rng.uniform(-3, 3), w1: rng.uniform(-2, 2),
-              w2: rng.uniform(-2, 2)}
+        st = {
+            t1: rng.uniform(-3, 3),
+            t2: rng.uniform(-3, 3),
+            w1: rng.uniform(-2, 2),
+            w2: rng.uniform(-2, 2),
+        }
         env = {**pv, **st}
         dd1, dd2 = (float(acc[a].xreplace(env)) for a in (a1, a2))
         lam1, lam2 = (float(sol.multipliers[k].xreplace(env)) for k in ("rod1", "rod2"))
         th1, th2, v1, v2 = st[t1], st[t2], st[w1], st[w2]
         r1 = (l1 * math.sin(th1), -l1 * math.cos(th1))
         r2 = (r1[0] + l2 * math.sin(th2), r1[1] - l2 * math.cos(th2))
-        acc1 = (l1 * (math.cos(th1) * dd1 - math.sin(th1) * v1**2),
-                l1 * (math.sin(th1) * dd1 + math.cos(th1) * v1**2))
-        acc2 = (acc1[0] + l2 * (math.cos(th2) * dd2 - math.sin(th2) * v2**2),
-                acc1[1] + l2 * (math.sin(th2) * dd2 + math.cos(th2) * v2**2))
+        acc1 = (
+            l1 * (math.cos(th1) * dd1 - math.sin(th1) * v1**2),
+            l1 * (math.sin(th1) * dd1 + math.cos(th1) * v1**2),
+        )
+        acc2 = (
+            acc1[0] + l2 * (math.cos(th2) * dd2 - math.sin(th2) * v2**2),
+            acc1[1] + l2 * (math.sin(th2) * dd2 + math.cos(th2) * v2**2),
+        )
         d = (r2[0] - r1[0], r2[1] - r1[1])
         f2 = (2 * lam2 * d[0], 2 * lam2 * d[1] - m2 * g)
         f1 = (2 * lam1 * r1[0] - 2 * lam2 * d[0], 2 * lam1 * r1[1] - 2 * lam2 * d[1] - m1 * g)
@@ -121,11 +130,13 @@ def test_newtons_law_holds_on_each_bob(in_angles):
         assert m1 * acc1[1] == pytest.approx(f1[1], abs=1e-9)
 
 
+@pytest.mark.slow
 def test_angles_switch_equals_the_files_parametrisation(in_angles, capsys):
     """--angles applies the circle chart lamech proposes; it is the file's one."""
     plain = lamech.solve(lamech.loads(CARTESIAN, "dp.toml"))
-    assert any("--angles" in n and 'x2 = "l1*sin(theta1) + l2*sin(theta2)"' in n
-               for n in plain.notes)
+    assert any(
+        "--angles" in n and 'x2 = "l1*sin(theta1) + l2*sin(theta2)"' in n for n in plain.notes
+    )
     from lamech.model import circle_chart, with_chart
 
     switched = lamech.solve(with_chart(plain.system, circle_chart(plain.system)))
@@ -133,6 +144,7 @@ def test_angles_switch_equals_the_files_parametrisation(in_angles, capsys):
         assert sp.simplify(switched.multipliers[k] - in_angles.multipliers[k]) == 0
 
 
+@pytest.mark.slow
 def test_kept_cartesian_coordinates_give_rational_tensions(in_angles):
     """keep = true on every coordinate: no square roots, and the same tension as the
     angle form at the same state."""
@@ -148,28 +160,47 @@ def test_kept_cartesian_coordinates_give_rational_tensions(in_angles):
     x2, y2 = x1 + l2 * math.sin(th2), y1 - l2 * math.cos(th2)
     vx1, vy1 = l1 * math.cos(th1) * v1, l1 * math.sin(th1) * v1
     vx2, vy2 = vx1 + l2 * math.cos(th2) * v2, vy1 + l2 * math.sin(th2) * v2
-    cart = {S["x1"]: x1, S["y1"]: y1, S["x2"]: x2, S["y2"]: y2, S["x1'"]: vx1,
-            S["y1'"]: vy1, S["x2'"]: vx2, S["y2'"]: vy2, **pv}
+    cart = {
+        S["x1"]: x1,
+        S["y1"]: y1,
+        S["x2"]: x2,
+        S["y2"]: y2,
+        S["x1'"]: vx1,
+        S["y1'"]: vy1,
+        S["x2'"]: vx2,
+        S["y2'"]: vy2,
+        **pv,
+    }
     A = in_angles.symbols
     ang = {A["theta1"]: th1, A["theta2"]: th2, A["theta1'"]: v1, A["theta2'"]: v2, **pv}
     for k in ("rod1", "rod2"):
         assert float(sol.multipliers[k].xreplace(cart)) == pytest.approx(
-            float(in_angles.multipliers[k].xreplace(ang)), rel=1e-10)
+            float(in_angles.multipliers[k].xreplace(ang)), rel=1e-10
+        )
 
 
 @pytest.mark.parametrize(
     "chart, message",
     [
-        (CHART.replace('y2 = "-l1*cos(theta1) - l2*cos(theta2)"', 'y2 = "-l1*cos(theta1)"'),
-         "does not satisfy constraint `rod2` identically"),
-        (CHART.replace('x1 = "l1*sin(theta1)"', 'z1 = "l1*sin(theta1)"'),
-         "`z1` is not a coordinate"),
-        (CHART.replace('"theta1", "theta2"', '"theta1", "g"'),
-         "`g` is already a parameter or a coordinate"),
+        (
+            CHART.replace('y2 = "-l1*cos(theta1) - l2*cos(theta2)"', 'y2 = "-l1*cos(theta1)"'),
+            "does not satisfy constraint `rod2` identically",
+        ),
+        (
+            CHART.replace('x1 = "l1*sin(theta1)"', 'z1 = "l1*sin(theta1)"'),
+            "`z1` is not a coordinate",
+        ),
+        (
+            CHART.replace('"theta1", "theta2"', '"theta1", "g"'),
+            "`g` is already a parameter or a coordinate",
+        ),
         (CHART.replace("theta2)", "phi)"), "unknown name `phi`"),
         (CHART.replace('coordinates = ["theta1", "theta2"]', ""), "list the new coordinates"),
-        ('[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*tanh(theta1)"\n'
-         'y1 = "l1*sqrt(1 - tanh(theta1)^2)"\n', "not reached by the parametrisation"),
+        (
+            '[parametrisation]\ncoordinates = ["theta1"]\nx1 = "l1*tanh(theta1)"\n'
+            'y1 = "l1*sqrt(1 - tanh(theta1)^2)"\n',
+            "not reached by the parametrisation",
+        ),
     ],
 )
 def test_a_wrong_parametrisation_is_refused_with_the_reason(chart, message):
@@ -179,6 +210,7 @@ def test_a_wrong_parametrisation_is_refused_with_the_reason(chart, message):
     assert "dp.toml:" in str(err.value)
 
 
+@pytest.mark.slow
 def test_long_closed_forms_are_delivered_and_summarised(capsys):
     """The four-bar linkage's multipliers are long: the API and --json give them whole
     (equal to the numeric KKT solution at the initial state), the text summarises."""
@@ -186,8 +218,12 @@ def test_long_closed_forms_are_delivered_and_summarised(capsys):
     sol = lamech.solve(system)
     assert set(sol.multipliers) == {c.name for c in system.constraints}
     env = {**system.parameter_values, system.t: 0}
-    env.update({s: float(sp.sympify(v).xreplace(system.parameter_values))
-                for s, v in system.initial_state.items()})
+    env.update(
+        {
+            s: float(sp.sympify(v).xreplace(system.parameter_values))
+            for s, v in system.initial_state.items()
+        }
+    )
     for k, lam in sol.multipliers.items():
         assert float(lam.xreplace(env)) == pytest.approx(sol.initial_multipliers[k], rel=1e-9)
     assert main(["solve", "four_bar", "--json"]) == 0
@@ -199,6 +235,7 @@ def test_long_closed_forms_are_delivered_and_summarised(capsys):
         assert "operations" in text and "--json" in text
 
 
+@pytest.mark.slow
 def test_the_symbolic_solve_is_bounded_by_counted_work():
     """The elimination of a large system (a chain of eight links in Cartesian
     coordinates: 24 unknowns) past the bounds of the normal forms stops and says so,
@@ -210,6 +247,7 @@ def test_the_symbolic_solve_is_bounded_by_counted_work():
     assert again.skipped == forms.skipped
 
 
+@pytest.mark.slow
 def test_a_partial_parametrisation_keeps_the_other_constraint():
     """Only the first rod in an angle: x2, y2 stay, the second rod stays a constraint,
     and the multipliers agree with the full chart's at the same state."""
@@ -221,12 +259,17 @@ def test_a_partial_parametrisation_keeps_the_other_constraint():
     assert sol.independent[0] == "theta1" and "theta1" in sol.independent
     assert sol.reduction.eliminated_constraints[:1] == ("rod1",)
     env = {**sol.system.parameter_values, sol.system.t: 0}
-    env.update({k: float(sp.sympify(v).xreplace(sol.system.parameter_values))
-                for k, v in sol.system.initial_state.items()})
+    env.update(
+        {
+            k: float(sp.sympify(v).xreplace(sol.system.parameter_values))
+            for k, v in sol.system.initial_state.items()
+        }
+    )
     for k, lam in sol.multipliers.items():
         assert float(lam.xreplace(env)) == pytest.approx(sol.initial_multipliers[k], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_the_bundled_double_pendulum_has_the_textbook_equation_of_motion():
     """theta1'' as on Wikipedia's "Double pendulum" page (the file's comment), at random
     states, and T1 = -2 l1 lambda_rod1 as the comment says."""
@@ -235,17 +278,29 @@ def test_the_bundled_double_pendulum_has_the_textbook_equation_of_motion():
     m1, m2, l1, l2, g = (S[k] for k in ("m1", "m2", "l1", "l2", "g"))
     t1, t2, w1, w2 = S["theta1"], S["theta2"], S["theta1'"], S["theta2'"]
     D = t1 - t2
-    textbook = -(g * (2 * m1 + m2) * sp.sin(t1) + m2 * g * sp.sin(t1 - 2 * t2)
-                 + 2 * m2 * sp.sin(D) * (l2 * w2**2 + l1 * w1**2 * sp.cos(D)))
+    textbook = -(
+        g * (2 * m1 + m2) * sp.sin(t1)
+        + m2 * g * sp.sin(t1 - 2 * t2)
+        + 2 * m2 * sp.sin(D) * (l2 * w2**2 + l1 * w1**2 * sp.cos(D))
+    )
     textbook /= l1 * (2 * m1 + m2 - m2 * sp.cos(2 * D))
     T1 = m1 * ((m1 + m2) * (g * sp.cos(t1) + l1 * w1**2) + m2 * l2 * w2**2 * sp.cos(D))
     T1 /= m1 + m2 * sp.sin(D) ** 2
     rng = random.Random(8)
     for _ in range(5):
-        env = {m1: rng.uniform(0.5, 2), m2: rng.uniform(0.5, 2), l1: rng.uniform(0.5, 2),
-               l2: rng.uniform(0.5, 2), g: 9.81, t1: rng.uniform(-3, 3),
-               t2: rng.uniform(-3, 3), w1: rng.uniform(-2, 2), w2: rng.uniform(-2, 2)}
+        env = {
+            m1: rng.uniform(0.5, 2),
+            m2: rng.uniform(0.5, 2),
+            l1: rng.uniform(0.5, 2),
+            l2: rng.uniform(0.5, 2),
+            g: 9.81,
+            t1: rng.uniform(-3, 3),
+            t2: rng.uniform(-3, 3),
+            w1: rng.uniform(-2, 2),
+            w2: rng.uniform(-2, 2),
+        }
         ours = sol.closed.accelerations[S["theta1''"]]
         assert float(ours.xreplace(env)) == pytest.approx(float(textbook.xreplace(env)))
         assert float((-2 * l1 * sol.multipliers["rod1"]).xreplace(env)) == pytest.approx(
-            float(T1.xreplace(env)))
+            float(T1.xreplace(env))
+        )

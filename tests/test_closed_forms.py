@@ -114,6 +114,13 @@ SOURCES = {
     "polar_double_pendulum": lambda: lamech.loads(POLAR_DOUBLE_PENDULUM),
 }
 NAMES = list(SOURCES)
+# The default set (`-m "not slow"`) checks one problem, CI all five: solving each, and its
+# peer in SymPy, takes seconds.
+DEFAULT = "cartesian_double_pendulum"
+
+
+def cases(names):
+    return [n if n == DEFAULT else pytest.param(n, marks=pytest.mark.slow) for n in names]
 
 
 @functools.cache
@@ -530,7 +537,7 @@ def test_the_bundled_files_start_on_their_constraints():
         assert_on_manifold(system, vals, tol=1e-15)
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", cases(NAMES))
 def test_the_sympy_model_is_lamechs(name):
     """T, V and every constraint of the peer equal lamech's at random points (all
     symbols drawn at random: as functions, not only on the manifold)."""
@@ -552,7 +559,7 @@ def test_the_sympy_model_is_lamechs(name):
             assert abs(a - b) <= 1e-12 * (1 + abs(b)), (name, what, a, b)
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", cases(NAMES))
 def test_every_multiplier_is_delivered(name):
     solution = solved(name)
     names = {c.name for c in solution.system.constraints}
@@ -562,7 +569,7 @@ def test_every_multiplier_is_delivered(name):
     )
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", cases(NAMES))
 def test_multipliers_agree_with_sympy(name):
     solution = solved(name)
     system = solution.system
@@ -588,7 +595,7 @@ def raw(name: str) -> dict:
     return lamech.multipliers(SOURCES[name]())
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", cases(NAMES))
 def test_raw_multipliers_agree_with_sympy_and_the_tidy_ones(name):
     """At the initial state and random states on the constraint manifold, each raw
     multiplier equals SymPy's ``solve_multipliers`` (sign turned: lambda_lamech =
@@ -615,7 +622,7 @@ def test_raw_multipliers_agree_with_sympy_and_the_tidy_ones(name):
             )
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", cases(NAMES))
 def test_raw_multipliers_hold_off_the_constraint_manifold(name):
     """Nothing in the raw multipliers uses the constraints (no elimination, no
     simplification on the manifold): they equal SymPy's at states that break every
@@ -687,7 +694,7 @@ def double_pendulum_tensions(t1, t2, w1, w2, p):
     return T1, T2, across
 
 
-@pytest.mark.parametrize("name", ["cartesian_double_pendulum", "polar_double_pendulum"])
+@pytest.mark.parametrize("name", cases(["cartesian_double_pendulum", "polar_double_pendulum"]))
 def test_double_pendulum_tensions_by_newton(name):
     """Cartesian: f = |d|^2 - l^2, so lambda = -T/(2 l); polar: f = l - r, lambda = T."""
     solution = solved(name)
@@ -764,6 +771,7 @@ def four_bar_pin_forces(state: dict, p: dict) -> np.ndarray:
     return np.linalg.solve(K, rhs)
 
 
+@pytest.mark.slow
 def test_four_bar_multipliers_are_the_pin_force_by_newton_euler():
     """(lambda_loopx, lambda_loopy) is the force of the rocker on the coupler at B (the
     four_bar.toml header), at the initial state and at random states."""
@@ -808,6 +816,7 @@ def test_four_bar_newton_euler_keeps_the_energy():
 # -------------------------------------------------------- the disc's steady turn
 
 
+@pytest.mark.slow
 def test_rolling_disc_steady_turn_friction_is_centripetal():
     """In a steady turn (lean theta0, yaw rate Omega, spin phi' = -5 Omega sin(theta0)/6
     - 2 g tan(theta0)/(3 Omega r)) lamech's theta'', psi'', phi'' vanish, and the

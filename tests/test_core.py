@@ -13,10 +13,15 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.symbolic import DegenerateConstraintsError, dynamics, kkt_numeric
-from lamech.problem import chain_toml
 from lamech.expr import parse
-from lamech.symbolic import CLOSED_FORM_LIMIT, eliminate
+from lamech.problem import chain_toml
+from lamech.symbolic import (
+    CLOSED_FORM_LIMIT,
+    DegenerateConstraintsError,
+    dynamics,
+    eliminate,
+    kkt_numeric,
+)
 
 FALLING_CLOCK = """
 title = "Bead on a rod whose end is driven: x = a cos(w t)"
@@ -46,6 +51,7 @@ def _same(a, b) -> bool:
 
 # ------------------------------------------------------------------------------ derive
 
+
 def test_dynamics_of_the_pendulum_by_hand():
     system = lamech.load("pendulum")
     d = dynamics(system)
@@ -55,7 +61,7 @@ def test_dynamics_of_the_pendulum_by_hand():
     assert d.M == sp.diag(m, m * r**2)
     assert _same(d.h[0], -m * r * thd**2 - m * g * sp.cos(th))
     assert _same(d.h[1], 2 * m * r * rd * thd + m * g * r * sp.sin(th))
-    assert d.A == sp.Matrix([[-1, 0]])          # f = l - r: written, not normalised
+    assert d.A == sp.Matrix([[-1, 0]])  # f = l - r: written, not normalised
     assert d.gamma == sp.Matrix([0])
 
 
@@ -70,7 +76,7 @@ def test_rheonomic_gamma_and_the_force_that_drives():
     s = lamech.solve(system)
     assert _same(s.multipliers["drive"], -m * a * w**2 * sp.cos(w * t))
     assert _same(s.multipliers["rail"], m * g)
-    assert s.energy is None                       # the drive does work
+    assert s.energy is None  # the drive does work
     assert lamech.to_json(s)["energy"] is None
 
 
@@ -79,8 +85,12 @@ def test_numeric_kkt_singular_mass_matrix_is_fine():
     system = lamech.model.holding_at_start(lamech.load("double_atwood"))  # no open stops
     d = dynamics(system)
     state = {**system.parameter_values, system.t: 0.0}
-    state.update({s: float(sp.sympify(e).subs(system.parameter_values))
-                  for s, e in system.initial_state.items()})
+    state.update(
+        {
+            s: float(sp.sympify(e).subs(system.parameter_values))
+            for s, e in system.initial_state.items()
+        }
+    )
     M = np.array(d.M.subs(state).evalf(), dtype=float)
     assert np.linalg.matrix_rank(M) < M.shape[0]
     qdd, lam = kkt_numeric(d, state)
@@ -97,14 +107,15 @@ def test_redundant_constraints_are_named():
 
 # ------------------------------------------------------------------------------ reduce
 
+
 def test_elimination_takes_the_branch_through_the_initial_state():
     """x^2 + y^2 = l^2 with the bob below the pivot: y = -sqrt(l^2 - x^2)."""
     system = lamech.loads(chain_toml(1))
     red = eliminate(system)
     S = system.symbols
-    (coord, expr), = red.eliminated
+    ((coord, expr),) = red.eliminated
     assert coord.name == "y1"
-    assert _same(expr, -sp.sqrt(S["l"]**2 - S["x1"]**2))
+    assert _same(expr, -sp.sqrt(S["l"] ** 2 - S["x1"] ** 2))
 
 
 def test_large_systems_keep_their_coordinates():
@@ -134,17 +145,21 @@ def test_chain_tensions_at_rest_against_statics(n):
 
 # --------------------------------------------------------------------------- integrals
 
+
+@pytest.mark.slow
 def test_cyclic_momentum_of_the_spherical_pendulum():
     s = lamech.solve(lamech.load("spherical_pendulum"))
     S = s.symbols
     m, l, th, phd = S["m"], S["l"], S["theta"], S["phi'"]
-    assert any(_same(c, m * l**2 * sp.sin(th)**2 * phd) for c in s.conserved)
+    assert any(_same(c, m * l**2 * sp.sin(th) ** 2 * phd) for c in s.conserved)
 
 
 # ------------------------------------------------------------------------------ report
 
-@pytest.mark.parametrize("name", ["cylinder", "pendulum", "hoop_bead", "knife_edge",
-                                  "double_atwood"])
+
+@pytest.mark.parametrize(
+    "name", ["cylinder", "pendulum", "hoop_bead", "knife_edge", "double_atwood"]
+)
 def test_json_expressions_parse_back(name):
     """Every expression in --json parses with lamech's own parser to the same value."""
     s = lamech.solve(lamech.load(name))
@@ -169,22 +184,25 @@ def test_json_expressions_parse_back(name):
     for k, comps in j["generalized_forces"].items():
         for c, text in comps.items():
             assert _same(back(text), s.generalized_forces[k][c])
-    json.dumps(j)   # plain JSON types only
+    json.dumps(j)  # plain JSON types only
 
 
-def test_latex_has_the_multipliers():
-    tex = lamech.to_latex(lamech.solve(lamech.load("pendulum")))
+def test_latex_has_the_multipliers(solved_example):
+    tex = lamech.to_latex(solved_example("pendulum"))
     assert "\\lambda_{\\mathrm{string}}" in tex and "\\begin{align*}" in tex
     assert "\\cos{\\left(\\theta_{0} \\right)}" in tex
 
 
 # --------------------------------------------------------------------------------- cli
 
+
 def _cli(*args, timeout=240):
-    return subprocess.run([sys.executable, "-m", "lamech", *args], capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "lamech", *args], capture_output=True, text=True, timeout=timeout
+    )
 
 
+@pytest.mark.slow
 def test_cli_without_arguments_solves_the_cylinder():
     out = _cli()
     assert out.returncode == 0, out.stderr
@@ -193,6 +211,7 @@ def test_cli_without_arguments_solves_the_cylinder():
     assert "tangent = -g*m*sin(theta1)/3" in out.stdout
 
 
+@pytest.mark.slow
 def test_cli_json_is_one_object():
     out = _cli("solve", "pendulum", "--json")
     assert out.returncode == 0, out.stderr
@@ -200,6 +219,7 @@ def test_cli_json_is_one_object():
     assert j["on_energy_shell"]["string"] == "g*m*(3*cos(theta) - 2*cos(theta0))"
 
 
+@pytest.mark.slow
 def test_cli_bad_file_gives_a_message_not_a_traceback(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text(FALLING_CLOCK.replace('f = "y"', 'f = "y + R3"'))

@@ -26,8 +26,7 @@ x, y, theta1, m, g, t = sp.symbols("x y theta1 m g t")
 xd, theta1d = sp.Symbol("x'"), sp.Symbol("theta1'")
 
 
-NAMES = {"x": x, "y": y, "theta1": theta1, "m": m, "g": g, "t": t,
-         "x'": xd, "theta1'": theta1d}
+NAMES = {"x": x, "y": y, "theta1": theta1, "m": m, "g": g, "t": t, "x'": xd, "theta1'": theta1d}
 """Coordinates x, y, theta1 (velocities of x and theta1 allowed), parameters m, g, and t."""
 
 POSITIONS = {"x": x, "y": y, "theta1": theta1, "m": m, "g": g, "t": t}
@@ -44,45 +43,62 @@ def err(text, names=NAMES, what="this expression") -> ExpressionError:
 # The grammar
 # --------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("text, expected", [
-    ("1", sp.Integer(1)),
-    ("42", sp.Integer(42)),
-    ("0.3", sp.Rational(3, 10)),
-    ("1.5e-3", sp.Rational(3, 2000)),
-    ("2e3", sp.Integer(2000)),
-    ("pi", sp.pi),
-    ("t", t),
-    ("x", x),
-    ("x'", xd),
-    ("theta1'", theta1d),
-    ("x + y", x + y),
-    ("x - y", x - y),
-    ("x*y", x * y),
-    ("x/y", x / y),
-    ("x^2", x**2),
-    ("x**2", x**2),
-    ("-x^2", -(x**2)),
-    ("2^3^2", sp.Integer(512)),
-    ("2**3**2", sp.Integer(512)),
-    ("(x + y)*m", (x + y) * m),
-    ("+x", x),
-    ("--x", x),
-    ("m/2*(x'^2 + theta1'^2)", m / 2 * (xd**2 + theta1d**2)),
-    ("x^(1/2)", sp.sqrt(x)),
-    ("  x  +  y  ", x + y),
-    ("1/3", sp.Rational(1, 3)),
-    ("4/7", sp.Rational(4, 7)),
-])
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("1", sp.Integer(1)),
+        ("42", sp.Integer(42)),
+        ("0.3", sp.Rational(3, 10)),
+        ("1.5e-3", sp.Rational(3, 2000)),
+        ("2e3", sp.Integer(2000)),
+        ("pi", sp.pi),
+        ("t", t),
+        ("x", x),
+        ("x'", xd),
+        ("theta1'", theta1d),
+        ("x + y", x + y),
+        ("x - y", x - y),
+        ("x*y", x * y),
+        ("x/y", x / y),
+        ("x^2", x**2),
+        ("x**2", x**2),
+        ("-x^2", -(x**2)),
+        ("2^3^2", sp.Integer(512)),
+        ("2**3**2", sp.Integer(512)),
+        ("(x + y)*m", (x + y) * m),
+        ("+x", x),
+        ("--x", x),
+        ("m/2*(x'^2 + theta1'^2)", m / 2 * (xd**2 + theta1d**2)),
+        ("x^(1/2)", sp.sqrt(x)),
+        ("  x  +  y  ", x + y),
+        ("1/3", sp.Rational(1, 3)),
+        ("4/7", sp.Rational(4, 7)),
+    ],
+)
 def test_parse_grammar(text, expected):
     assert parse(text, NAMES) == expected
 
 
-@pytest.mark.parametrize("name, func", [
-    ("sin", sp.sin), ("cos", sp.cos), ("tan", sp.tan), ("asin", sp.asin),
-    ("acos", sp.acos), ("atan", sp.atan), ("sinh", sp.sinh), ("cosh", sp.cosh),
-    ("tanh", sp.tanh), ("exp", sp.exp), ("log", sp.log), ("sqrt", sp.sqrt),
-    ("abs", sp.Abs), ("sign", sp.sign),
-])
+@pytest.mark.parametrize(
+    "name, func",
+    [
+        ("sin", sp.sin),
+        ("cos", sp.cos),
+        ("tan", sp.tan),
+        ("asin", sp.asin),
+        ("acos", sp.acos),
+        ("atan", sp.atan),
+        ("sinh", sp.sinh),
+        ("cosh", sp.cosh),
+        ("tanh", sp.tanh),
+        ("exp", sp.exp),
+        ("log", sp.log),
+        ("sqrt", sp.sqrt),
+        ("abs", sp.Abs),
+        ("sign", sp.sign),
+    ],
+)
 def test_parse_functions(name, func):
     assert parse(f"{name}(theta1)", NAMES) == func(theta1)
 
@@ -112,6 +128,7 @@ def test_decimals_are_exact():
 # Errors: message, column, nothing else
 # --------------------------------------------------------------------------------------
 
+
 def test_unknown_name_lists_known_names():
     e = err("x + R3", POSITIONS)
     assert "unknown name `R3`" in e.message
@@ -134,58 +151,61 @@ def test_acceleration_not_allowed():
     assert "accelerations are not allowed" in err("x''").message
 
 
-@pytest.mark.parametrize("text, words", [
-    ("__import__('os').system('ls')", ["not allowed"]),
-    ("().__class__", ["attribute", "not allowed"]),
-    ("m.__class__", ["attribute", "not allowed"]),
-    ("lambda: 1", ["lambda", "not allowed"]),
-    ("[x for x in ()]", ["comprehension", "not allowed"]),
-    ("{x for x in ()}", ["comprehension", "not allowed"]),
-    ("(x for x in ())", ["comprehension", "not allowed"]),
-    ("open('f')", ["not allowed"]),
-    ('eval("1")', ["not allowed"]),
-    ("x[0]", ["indexing", "not allowed"]),
-    ("x < y", ["comparison", "not allowed"]),
-    ("x and y", ["and/or", "not allowed"]),
-    ("m if g else 1", ["if/else", "not allowed"]),
-    ("(x := 1)", ["not allowed"]),
-    ("x, y", ["tuple", "not allowed"]),
-    ("m % 2", ["`%`", "not allowed"]),
-    ("m // 2", ["`//`", "not allowed"]),
-    ("m & 2", ["`&`", "not allowed"]),
-    ("m @ g", ["`@`", "not allowed"]),
-    ("~m", ["not allowed"]),
-    ("not m", ["not allowed"]),
-    ("gamma(x)", ["unknown function `gamma`", "atan2"]),
-    ("x.sin()", ["only the functions"]),
-    ("sin", ["`sin` is a function"]),
-    ("atan2(x)", ["`atan2` takes 2 arguments, got 1"]),
-    ("sin(x, y)", ["`sin` takes 1 argument, got 2"]),
-    ("sin(x=1)", ["keyword"]),
-    ("sin(*x)", []),
-    ("9^9^9^9", ["too large"]),
-    ("2**10**10", ["too large"]),
-    ("x^65", ["too large"]),
-    ("10^401", ["too large"]),
-    ("1/0", ["division by zero"]),
-    ("x/(x - x)", ["division by zero"]),
-    ("0^-1", ["division by zero"]),
-    ("log(0)", ["log(0)"]),
-    ("1j", ["not a number"]),
-    ("'x'", ["quote"]),
-    ("x\\y", ["not allowed"]),
-    ("x # comment", ["not allowed"]),
-    ("x; y", ["not allowed"]),
-    ("x\ny", ["not allowed"]),
-    ("x \u00b7 y", ["not allowed"]),
-    ("\u03b8", ["not allowed"]),
-    ("", ["empty"]),
-    ("   ", ["empty"]),
-    ("x +", ["syntax error"]),
-    ("(x", ["syntax error"]),
-    ("x)", ["syntax error"]),
-    ("1e999", ["out of range"]),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("__import__('os').system('ls')", ["not allowed"]),
+        ("().__class__", ["attribute", "not allowed"]),
+        ("m.__class__", ["attribute", "not allowed"]),
+        ("lambda: 1", ["lambda", "not allowed"]),
+        ("[x for x in ()]", ["comprehension", "not allowed"]),
+        ("{x for x in ()}", ["comprehension", "not allowed"]),
+        ("(x for x in ())", ["comprehension", "not allowed"]),
+        ("open('f')", ["not allowed"]),
+        ('eval("1")', ["not allowed"]),
+        ("x[0]", ["indexing", "not allowed"]),
+        ("x < y", ["comparison", "not allowed"]),
+        ("x and y", ["and/or", "not allowed"]),
+        ("m if g else 1", ["if/else", "not allowed"]),
+        ("(x := 1)", ["not allowed"]),
+        ("x, y", ["tuple", "not allowed"]),
+        ("m % 2", ["`%`", "not allowed"]),
+        ("m // 2", ["`//`", "not allowed"]),
+        ("m & 2", ["`&`", "not allowed"]),
+        ("m @ g", ["`@`", "not allowed"]),
+        ("~m", ["not allowed"]),
+        ("not m", ["not allowed"]),
+        ("gamma(x)", ["unknown function `gamma`", "atan2"]),
+        ("x.sin()", ["only the functions"]),
+        ("sin", ["`sin` is a function"]),
+        ("atan2(x)", ["`atan2` takes 2 arguments, got 1"]),
+        ("sin(x, y)", ["`sin` takes 1 argument, got 2"]),
+        ("sin(x=1)", ["keyword"]),
+        ("sin(*x)", []),
+        ("9^9^9^9", ["too large"]),
+        ("2**10**10", ["too large"]),
+        ("x^65", ["too large"]),
+        ("10^401", ["too large"]),
+        ("1/0", ["division by zero"]),
+        ("x/(x - x)", ["division by zero"]),
+        ("0^-1", ["division by zero"]),
+        ("log(0)", ["log(0)"]),
+        ("1j", ["not a number"]),
+        ("'x'", ["quote"]),
+        ("x\\y", ["not allowed"]),
+        ("x # comment", ["not allowed"]),
+        ("x; y", ["not allowed"]),
+        ("x\ny", ["not allowed"]),
+        ("x \u00b7 y", ["not allowed"]),
+        ("\u03b8", ["not allowed"]),
+        ("", ["empty"]),
+        ("   ", ["empty"]),
+        ("x +", ["syntax error"]),
+        ("(x", ["syntax error"]),
+        ("x)", ["syntax error"]),
+        ("1e999", ["out of range"]),
+    ],
+)
 def test_errors(text, words):
     e = err(text)
     assert isinstance(e, ValueError)
@@ -219,7 +239,8 @@ def test_too_long():
 
 def test_too_deep():
     assert "nested too deeply" in err("(" * 200 + "x" + ")" * 200).message
-    assert "nested too deeply" in err("sin(" * (MAX_DEPTH + 5) + "x" + ")" * (MAX_DEPTH + 5)).message
+    deep = MAX_DEPTH + 5
+    assert "nested too deeply" in err("sin(" * deep + "x" + ")" * deep).message
     assert "nested too deeply" in err("-" * 1000 + "x").message
 
 
@@ -238,26 +259,48 @@ def test_what_names_the_place():
 # Printing in the grammar
 # --------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("expr, text", [
-    (x**2, "x^2"),
-    (sp.Abs(x), "abs(x)"),
-    (sp.Rational(4, 7), "4/7"),
-    (sp.sign(x), "sign(x)"),
-    (sp.E, "exp(1)"),
-    (sp.Float(0.1), "0.10000000000000001"),
-    (sp.Float(2.5), "2.5"),
-    (sp.atan2(y, x), "atan2(y, x)"),
-])
+
+@pytest.mark.parametrize(
+    "expr, text",
+    [
+        (x**2, "x^2"),
+        (sp.Abs(x), "abs(x)"),
+        (sp.Rational(4, 7), "4/7"),
+        (sp.sign(x), "sign(x)"),
+        (sp.E, "exp(1)"),
+        (sp.Float(0.1), "0.10000000000000001"),
+        (sp.Float(2.5), "2.5"),
+        (sp.atan2(y, x), "atan2(y, x)"),
+    ],
+)
 def test_to_text(expr, text):
     assert to_text(expr) == text
 
 
-@pytest.mark.parametrize("expr", [
-    sp.Abs(x) + sp.Rational(4, 7) * x**3, sp.sec(x), sp.csc(x), sp.cot(x), sp.coth(x),
-    sp.sech(x), sp.csch(x), sp.acot(x), sp.asec(x), sp.acsc(x), sp.E**x, sp.E,
-    m * g * sp.cos(theta1) - m * x * theta1d**2, sp.sqrt(x) / (1 + y)**sp.Rational(3, 2),
-    sp.atan2(y, x) ** -2, -x, x**-1, sp.pi / 2 - x, 2 ** sp.Rational(1, 3),
-])
+@pytest.mark.parametrize(
+    "expr",
+    [
+        sp.Abs(x) + sp.Rational(4, 7) * x**3,
+        sp.sec(x),
+        sp.csc(x),
+        sp.cot(x),
+        sp.coth(x),
+        sp.sech(x),
+        sp.csch(x),
+        sp.acot(x),
+        sp.asec(x),
+        sp.acsc(x),
+        sp.E**x,
+        sp.E,
+        m * g * sp.cos(theta1) - m * x * theta1d**2,
+        sp.sqrt(x) / (1 + y) ** sp.Rational(3, 2),
+        sp.atan2(y, x) ** -2,
+        -x,
+        x**-1,
+        sp.pi / 2 - x,
+        2 ** sp.Rational(1, 3),
+    ],
+)
 def test_to_text_round_trip(expr):
     text = to_text(expr)
     for banned in ("Abs", "sec", "csc", "coth", "**", "I", "E"):
@@ -273,8 +316,9 @@ def test_to_text_floats_have_17_digits():
     assert float(parse(text, NAMES)) == value
 
 
-@pytest.mark.parametrize("expr", [sp.I, x + sp.I, sp.Piecewise((x, x > 0)),
-                                  sp.Function("f")(x), sp.gamma(x)])
+@pytest.mark.parametrize(
+    "expr", [sp.I, x + sp.I, sp.Piecewise((x, x > 0)), sp.Function("f")(x), sp.gamma(x)]
+)
 def test_to_text_refuses_what_the_grammar_cannot_say(expr):
     with pytest.raises(ValueError):
         to_text(expr)
@@ -283,6 +327,7 @@ def test_to_text_refuses_what_the_grammar_cannot_say(expr):
 # --------------------------------------------------------------------------------------
 # Once-known parser problems, pinned by their minimal inputs
 # --------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("text", ["atan2(0, 0)", "tan(pi/2)", "0^(-x)"])
 def test_undefined_constants_are_rejected(text):
@@ -318,50 +363,197 @@ def test_tiny_decimal_round_trips():
 # --------------------------------------------------------------------------------------
 
 TOKENS = [
-    "x", "y", "theta1", "m", "g", "t", "pi", "x'", "y'", "theta1'", "x''", "'", '"', "'''",
-    "+", "-", "*", "/", "^", "**", "%", "//", "(", ")", "((((", "))))", "[", "]", "{", "}",
-    ",", ".", ":", "=", "==", "<", " ", "  ", "\t", "0", "1", "2", "9", "0.5", "1e3", "1e-400",
-    "1e308", "1e309", "999999999999999999999999", "0x1F", "1_000", "1j", "64", "65",
-    "sin", "cos", "atan2", "sqrt", "log", "abs", "sign", "exp", "gamma", "lambda", "__import__",
-    "__class__", "os", "if", "else", "for", "in", "not", "and", "yield", "await", "None",
-    "True", "\\", "#", ";", "\n", "\u03b8", "\x00", "@", "~", "&", "|", ":=", "...",
+    "x",
+    "y",
+    "theta1",
+    "m",
+    "g",
+    "t",
+    "pi",
+    "x'",
+    "y'",
+    "theta1'",
+    "x''",
+    "'",
+    '"',
+    "'''",
+    "+",
+    "-",
+    "*",
+    "/",
+    "^",
+    "**",
+    "%",
+    "//",
+    "(",
+    ")",
+    "((((",
+    "))))",
+    "[",
+    "]",
+    "{",
+    "}",
+    ",",
+    ".",
+    ":",
+    "=",
+    "==",
+    "<",
+    " ",
+    "  ",
+    "\t",
+    "0",
+    "1",
+    "2",
+    "9",
+    "0.5",
+    "1e3",
+    "1e-400",
+    "1e308",
+    "1e309",
+    "999999999999999999999999",
+    "0x1F",
+    "1_000",
+    "1j",
+    "64",
+    "65",
+    "sin",
+    "cos",
+    "atan2",
+    "sqrt",
+    "log",
+    "abs",
+    "sign",
+    "exp",
+    "gamma",
+    "lambda",
+    "__import__",
+    "__class__",
+    "os",
+    "if",
+    "else",
+    "for",
+    "in",
+    "not",
+    "and",
+    "yield",
+    "await",
+    "None",
+    "True",
+    "\\",
+    "#",
+    ";",
+    "\n",
+    "\u03b8",
+    "\x00",
+    "@",
+    "~",
+    "&",
+    "|",
+    ":=",
+    "...",
 ]
 
 token_text = st.lists(st.sampled_from(TOKENS), max_size=40).map("".join)
 spaced_token_text = st.lists(st.sampled_from(TOKENS), max_size=40).map(" ".join)
 bombs = st.builds(
     lambda base, exps, op: op.join([base] + exps),
-    st.sampled_from(["9", "2", "10", "x", "(x+1)", "0.5", "1", "-1", "0", "99999",
-                     "1.0000001", "1.01", "(x+y+m+g)", "pi", "exp(1)"]),
-    st.lists(st.sampled_from(["9", "10", "64", "65", "99", "(9^9)", "-9", "0.5", "x",
-                              "100000.5", "1000000000.5", "(1/3)"]),
-             min_size=1, max_size=6),
+    st.sampled_from(
+        [
+            "9",
+            "2",
+            "10",
+            "x",
+            "(x+1)",
+            "0.5",
+            "1",
+            "-1",
+            "0",
+            "99999",
+            "1.0000001",
+            "1.01",
+            "(x+y+m+g)",
+            "pi",
+            "exp(1)",
+        ]
+    ),
+    st.lists(
+        st.sampled_from(
+            [
+                "9",
+                "10",
+                "64",
+                "65",
+                "99",
+                "(9^9)",
+                "-9",
+                "0.5",
+                "x",
+                "100000.5",
+                "1000000000.5",
+                "(1/3)",
+            ]
+        ),
+        min_size=1,
+        max_size=6,
+    ),
     st.sampled_from(["^", "**"]),
 )
 # constants that grow past floats (exp(exp(20))) or that trigonometry cannot reduce
 towers = st.builds(
     lambda fns, inner: "".join(fns) + inner + ")" * len(fns),
-    st.lists(st.sampled_from(["exp(", "cosh(", "sinh(", "sin(", "tan(", "asin(", "log(",
-                              "sqrt(", "atan(", "exp(-", "(10^300)*("]), max_size=6),
+    st.lists(
+        st.sampled_from(
+            [
+                "exp(",
+                "cosh(",
+                "sinh(",
+                "sin(",
+                "tan(",
+                "asin(",
+                "log(",
+                "sqrt(",
+                "atan(",
+                "exp(-",
+                "(10^300)*(",
+            ]
+        ),
+        max_size=6,
+    ),
     st.sampled_from(["10", "20", "1e300", "2", "-1", "0.5", "x", "1000", "pi"]),
 )
 # powers of sums and products of them: their expansion, not their text, is large
 expansions = st.builds(
     lambda terms, n, times, joiner: joiner.join([f"({' + '.join(terms)})^{n}"] * times),
-    st.lists(st.sampled_from(["x", "y", "theta1", "m", "x'", "theta1'", "1"]), min_size=1,
-             max_size=6),
+    st.lists(
+        st.sampled_from(["x", "y", "theta1", "m", "x'", "theta1'", "1"]), min_size=1, max_size=6
+    ),
     st.integers(1, 70),
     st.integers(1, 4),
     st.sampled_from(["*", "^", "/"]),
 )
-nested = st.builds(lambda n, inner, fn: fn * n + inner + ")" * n,
-                   st.integers(0, 300), st.sampled_from(["x", "", "x,y", "1"]),
-                   st.sampled_from(["(", "sin(", "atan2(x,", "-("]))
-long_text = st.builds(lambda n, piece: piece * n, st.integers(1, 1200),
-                      st.sampled_from(["x+", "(", "9^", "1", "x'*", "sin("]))
+nested = st.builds(
+    lambda n, inner, fn: fn * n + inner + ")" * n,
+    st.integers(0, 300),
+    st.sampled_from(["x", "", "x,y", "1"]),
+    st.sampled_from(["(", "sin(", "atan2(x,", "-("]),
+)
+long_text = st.builds(
+    lambda n, piece: piece * n,
+    st.integers(1, 1200),
+    st.sampled_from(["x+", "(", "9^", "1", "x'*", "sin("]),
+)
 
-ANY_TEXT = st.one_of(st.text(max_size=200), token_text, spaced_token_text, bombs, nested,
-                     long_text, towers, expansions)
+ANY_TEXT = st.one_of(
+    st.text(max_size=200),
+    token_text,
+    spaced_token_text,
+    bombs,
+    nested,
+    long_text,
+    towers,
+    expansions,
+)
 
 SLOW = timedelta(seconds=2)
 
@@ -379,8 +571,9 @@ def _parse_or_error(text: str) -> None:
     assert time.perf_counter() - start < SLOW.total_seconds()
 
 
-@settings(max_examples=300, deadline=SLOW, derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=300, deadline=SLOW, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(ANY_TEXT)
 def test_any_text_parses_or_raises_expression_error(text):
     _parse_or_error(text)
@@ -392,16 +585,40 @@ def test_any_printable_ascii_parses_or_raises_expression_error(text):
     _parse_or_error(text)
 
 
-@pytest.mark.parametrize("text", [
-    "9^9^9^9", "2**10**10", "(9^9)^(9^9)", "99999^99999", "10^400*10^400", "(2^64)^64",
-    "0.5^-99999", "x^99999", "((((((((x))))))))^65", "1e308*1e308", "-" * 3999 + "x",
-    "(" * 2000 + ")" * 1999, "sin(" * 1999, "9" * 3999, "0." + "1" * 3990,
-    "9" * 1999 + "*" + "9" * 1999, "1" + "^9" * 1999,
-    # issue 17: what the text builds, not only the text
-    "1.0000001^1000000000.5", "1.01^20000.5", "theta1^100000.5", "((((1 + theta1)^64)^64)^64)",
-    "(x + y + theta1 + m + g + x')^64", "sin(exp(exp(20)))", "exp(exp(exp(exp(10))))",
-    "cosh(cosh(cosh(1e300)))", "tan(10^399*exp(900))", "x^64*x", "x" + "*x^64" * 200,
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "9^9^9^9",
+        "2**10**10",
+        "(9^9)^(9^9)",
+        "99999^99999",
+        "10^400*10^400",
+        "(2^64)^64",
+        "0.5^-99999",
+        "x^99999",
+        "((((((((x))))))))^65",
+        "1e308*1e308",
+        "-" * 3999 + "x",
+        "(" * 2000 + ")" * 1999,
+        "sin(" * 1999,
+        "9" * 3999,
+        "0." + "1" * 3990,
+        "9" * 1999 + "*" + "9" * 1999,
+        "1" + "^9" * 1999,
+        # issue 17: what the text builds, not only the text
+        "1.0000001^1000000000.5",
+        "1.01^20000.5",
+        "theta1^100000.5",
+        "((((1 + theta1)^64)^64)^64)",
+        "(x + y + theta1 + m + g + x')^64",
+        "sin(exp(exp(20)))",
+        "exp(exp(exp(exp(10))))",
+        "cosh(cosh(cosh(1e300)))",
+        "tan(10^399*exp(900))",
+        "x^64*x",
+        "x" + "*x^64" * 200,
+    ],
+)
 def test_bombs_fail_fast(text):
     _parse_or_error(text)
 
@@ -414,20 +631,37 @@ LEAVES = st.one_of(
     st.sampled_from(["x", "y", "theta1", "m", "g", "t", "pi", "x'", "theta1'"]),
     st.integers(0, 10**6).map(str),
     st.sampled_from(["0.3", "2.5", "1e-3", "1.25e2", "0.125", "3.14159", "7e0"]),
-    st.fractions(min_value=-50, max_value=50, max_denominator=40)
-      .map(lambda f: f"({f.numerator}/{f.denominator})"),
+    st.fractions(min_value=-50, max_value=50, max_denominator=40).map(
+        lambda f: f"({f.numerator}/{f.denominator})"
+    ),
 )
-UNARY = ["sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "exp", "log",
-         "sqrt", "abs", "sign"]
+UNARY = [
+    "sin",
+    "cos",
+    "tan",
+    "asin",
+    "acos",
+    "atan",
+    "sinh",
+    "cosh",
+    "tanh",
+    "exp",
+    "log",
+    "sqrt",
+    "abs",
+    "sign",
+]
 
 
 def _extend(children):
     return st.one_of(
-        st.tuples(children, st.sampled_from(["+", "-", "*", "/"]), children)
-          .map(lambda a: f"({a[0]}) {a[1]} ({a[2]})"),
+        st.tuples(children, st.sampled_from(["+", "-", "*", "/"]), children).map(
+            lambda a: f"({a[0]}) {a[1]} ({a[2]})"
+        ),
         st.tuples(children, st.integers(-6, 6)).map(lambda a: f"({a[0]})^{a[1]}"),
-        st.tuples(children, st.sampled_from(["1/2", "3/2", "-1/3"]))
-          .map(lambda a: f"({a[0]})^({a[1]})"),
+        st.tuples(children, st.sampled_from(["1/2", "3/2", "-1/3"])).map(
+            lambda a: f"({a[0]})^({a[1]})"
+        ),
         st.tuples(children, children).map(lambda a: f"({a[0]})^({a[1]})"),
         st.tuples(st.sampled_from(UNARY), children).map(lambda a: f"{a[0]}({a[1]})"),
         st.tuples(children, children).map(lambda a: f"atan2({a[0]}, {a[1]})"),
@@ -462,17 +696,30 @@ def _numerically_equal(a: sp.Expr, b: sp.Expr, points: int = 4) -> bool:
     return True
 
 
-@settings(max_examples=300, deadline=timedelta(seconds=5), derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@settings(
+    max_examples=300,
+    deadline=timedelta(seconds=5),
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
 @given(WELL_FORMED)
 def test_round_trip(text):
     try:
         first = parse(text, NAMES)
     except ExpressionError as e:
         # Well-formed text may still be refused for its value: 1/0, log(0), x^65, ...
-        assert any(w in e.message for w in ("division by zero", "log(0)", "too large",
-                                            "nested too deeply", "undefined", "out of range",
-                                            "not a real number")), (text, e.message)
+        assert any(
+            w in e.message
+            for w in (
+                "division by zero",
+                "log(0)",
+                "too large",
+                "nested too deeply",
+                "undefined",
+                "out of range",
+                "not a real number",
+            )
+        ), (text, e.message)
         assume(False)
     assert not first.has(sp.nan, sp.zoo, sp.oo, -sp.oo), (text, first)
     try:
@@ -510,9 +757,11 @@ def test_columns_and_numbers():
 # Bounds on what is built, not only on what is written (issue 17, item 1)
 # --------------------------------------------------------------------------------------
 
+
 @contextmanager
 def _within(seconds: float):
     """Fail (instead of hanging the suite) when the block takes longer than ``seconds``."""
+
     def on_alarm(signum, frame):
         raise AssertionError(f"no answer within {seconds} s")
 
@@ -525,40 +774,43 @@ def _within(seconds: float):
         signal.signal(signal.SIGALRM, previous)
 
 
-@pytest.mark.parametrize("text, words", [
-    # the exact rational 1.0000001^1000000000 has 7e9 digits, though its magnitude is small
-    ("1.0000001^1000000000.5", ["has more than 400 digits"]),
-    ("1.01^20000.5", ["has more than 400 digits"]),
-    ("(1/3)^1000", ["has more than 400 digits"]),
-    # a non-integer exponent is capped like an integer one
-    ("theta1^100000.5", ["exponent 200001/2 is too large"]),
-    ("x^(-129/2)", ["exponent -129/2 is too large"]),
-    # the cap applies after SymPy combines powers, so what lamech prints parses back
-    ("x^64*x", ["exponent 65 is too large", "x^64*x is x^65"]),
-    ("x^40/x^-40", ["exponent 80 is too large"]),
-    ("(x^2)^40", ["exponent 80 is too large"]),
-    ("((((1 + x)^64)^64)^64)", ["exponent 4096 is too large"]),
-    ("sqrt(x)^129", ["exponent 129/2 is too large"]),
-    # expansion: a power of a sum of k terms has C(n + k - 1, k - 1) terms
-    ("(x + y + theta1 + m + g)^64", ["would expand to more than 10000 terms"]),
-    ("(x + y + theta1)^40*(x' + theta1' + m)^40", ["would expand to", "terms"]),
-    # constants that grow past any float, or that trigonometry cannot reduce
-    ("sin(exp(exp(20)))", ["exp(exp(20))", "too large"]),
-    ("exp(exp(exp(exp(10))))", ["too large"]),
-    ("cosh(cosh(cosh(1e300)))", ["too large"]),
-    ("exp(1000)", ["too large"]),
-    ("1/exp(-10^400)", ["too large"]),
-    ("pi^(pi^(pi^pi))", ["too large"]),
-    ("2^(pi*10^300)", ["too large"]),
-    ("pi*10^399*10^399", ["too large"]),
-    ("x*10^300*10^300", ["too large"]),
-    # constants that are not real numbers
-    ("asin(2)", ["asin(2)", "not a real number"]),
-    ("sqrt(-1)", ["not a real number"]),
-    ("log(-1)*x", ["not a real number"]),
-    ("(-8)^(1/3)", ["not a real number"]),
-    ("acos(3/2) + x", ["not a real number"]),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        # the exact rational 1.0000001^1000000000 has 7e9 digits, though its magnitude is small
+        ("1.0000001^1000000000.5", ["has more than 400 digits"]),
+        ("1.01^20000.5", ["has more than 400 digits"]),
+        ("(1/3)^1000", ["has more than 400 digits"]),
+        # a non-integer exponent is capped like an integer one
+        ("theta1^100000.5", ["exponent 200001/2 is too large"]),
+        ("x^(-129/2)", ["exponent -129/2 is too large"]),
+        # the cap applies after SymPy combines powers, so what lamech prints parses back
+        ("x^64*x", ["exponent 65 is too large", "x^64*x is x^65"]),
+        ("x^40/x^-40", ["exponent 80 is too large"]),
+        ("(x^2)^40", ["exponent 80 is too large"]),
+        ("((((1 + x)^64)^64)^64)", ["exponent 4096 is too large"]),
+        ("sqrt(x)^129", ["exponent 129/2 is too large"]),
+        # expansion: a power of a sum of k terms has C(n + k - 1, k - 1) terms
+        ("(x + y + theta1 + m + g)^64", ["would expand to more than 10000 terms"]),
+        ("(x + y + theta1)^40*(x' + theta1' + m)^40", ["would expand to", "terms"]),
+        # constants that grow past any float, or that trigonometry cannot reduce
+        ("sin(exp(exp(20)))", ["exp(exp(20))", "too large"]),
+        ("exp(exp(exp(exp(10))))", ["too large"]),
+        ("cosh(cosh(cosh(1e300)))", ["too large"]),
+        ("exp(1000)", ["too large"]),
+        ("1/exp(-10^400)", ["too large"]),
+        ("pi^(pi^(pi^pi))", ["too large"]),
+        ("2^(pi*10^300)", ["too large"]),
+        ("pi*10^399*10^399", ["too large"]),
+        ("x*10^300*10^300", ["too large"]),
+        # constants that are not real numbers
+        ("asin(2)", ["asin(2)", "not a real number"]),
+        ("sqrt(-1)", ["not a real number"]),
+        ("log(-1)*x", ["not a real number"]),
+        ("(-8)^(1/3)", ["not a real number"]),
+        ("acos(3/2) + x", ["not a real number"]),
+    ],
+)
 def test_what_would_be_built_is_bounded(text, words):
     with _within(2.0):
         e = err(text)
@@ -566,19 +818,48 @@ def test_what_would_be_built_is_bounded(text, words):
         assert word in e.message, (text, e.message)
 
 
-@pytest.mark.parametrize("text", [
-    "x^64", "x^63*x", "x^-64", "x^(127/2)", "(1 + x)^64", "(x + y + theta1)^20",
-    "exp(900)", "exp(-1000)", "sin(10^399)", "cosh(700)", "2^1000", "(1/2)^1000",
-    "sqrt(2)^100", "1^1000000000.5", "(-1)^1000000001", "0^1000000", "acos(1/2)",
-    "sqrt(2)/2", "log(2)", "atan2(-1, 0)", "exp(x)^100",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "x^64",
+        "x^63*x",
+        "x^-64",
+        "x^(127/2)",
+        "(1 + x)^64",
+        "(x + y + theta1)^20",
+        "exp(900)",
+        "exp(-1000)",
+        "sin(10^399)",
+        "cosh(700)",
+        "2^1000",
+        "(1/2)^1000",
+        "sqrt(2)^100",
+        "1^1000000000.5",
+        "(-1)^1000000001",
+        "0^1000000",
+        "acos(1/2)",
+        "sqrt(2)/2",
+        "log(2)",
+        "atan2(-1, 0)",
+        "exp(x)^100",
+    ],
+)
 def test_within_the_bounds_is_accepted(text):
     with _within(2.0):
         parse(text, NAMES)
 
 
-@pytest.mark.parametrize("text", ["x^63*x", "x^32*x^32", "(x + 1)^60*(x + 1)^4",
-                                  "x^(127/2)", "(1/3)^600/(1/3)^590", "theta1'^64"])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "x^63*x",
+        "x^32*x^32",
+        "(x + 1)^60*(x + 1)^4",
+        "x^(127/2)",
+        "(1/3)^600/(1/3)^590",
+        "theta1'^64",
+    ],
+)
 def test_what_lamech_prints_parses_back(text):
     value = parse(text, NAMES)
     assert parse(to_text(value), NAMES) == value
@@ -602,6 +883,7 @@ def test_the_derivative_of_t_is_not_a_velocity():
 
 def test_printable_escapes_control_characters():
     from lamech.expr import printable
+
     assert printable("a\x1b[2Jb\x00c\x7f\u202e") == "a\\x1b[2Jb\\x00c\\x7f\\u202e"
     assert printable("tab\there, θ ok") == "tab\there, θ ok"
     assert printable("plain") == "plain"

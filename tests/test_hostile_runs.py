@@ -25,6 +25,7 @@ from lamech.numeric import Pace, SimulationError, check_options, simulate
 from lamech.sweeps import SweepError, run_sweep
 
 G = 9.81
+HERE = Path(__file__).parent
 
 # A bead on the rail y = x/2 held by a spring k and a damper c along x:
 # (5/4) m x'' + c x' + k x = 0, stiff when c^2 >> k m (time scales 5m/4c and c/k).
@@ -56,39 +57,9 @@ def _damper_x(t, m=1.0, k=100.0, c=1e4):
     return (r1 * np.exp(r2 * t) - r2 * np.exp(r1 * t)) / (r1 - r2)
 
 
-BLOW_UP = """
-title = "Pushed along a rail by a force that blows up at t = 1"
-[parameters]
-m = 1.0
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 0, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-[[constraints]]
-name = "rail"
-f = "y - x/2"
-[forces]
-x = "1/(1 - t)^3"
-"""
+BLOW_UP = (HERE / "problems" / "blow_up.toml").read_text(encoding="utf-8")
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.95
-[coordinates]
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8").replace("e = 0.5", "e = 0.95")
 
 
 # ----- item 9: chatter and the last state reached ------------------------------------
@@ -124,6 +95,7 @@ def test_chattering_contact_stops_with_a_clear_status():
     assert tr.final_time == pytest.approx(tr.events[-1].t, abs=1e-5) and tr.final_time < 1e-3
 
 
+@pytest.mark.slow
 def test_a_bouncing_ball_comes_to_rest_without_being_called_chatter():
     # e = 0.95: 200 bounces accumulating at t1 (1 + e)/(1 - e), then resting contact
     tr = simulate(lamech.loads(BALL), 20.0, samples=11)
@@ -233,6 +205,7 @@ def _wait_for(lines: queue.Queue, text: str, seconds: float) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.parametrize("name", ["SIGTERM", "SIGHUP"])
 def test_a_long_simulation_says_so_and_a_signal_keeps_its_trajectory(tmp_path, name):
     signum = getattr(signal, name, None)
@@ -274,6 +247,7 @@ def test_a_long_simulation_says_so_and_a_signal_keeps_its_trajectory(tmp_path, n
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_a_stiff_run_is_told_to_use_an_implicit_method(tmp_path):
     problem = tmp_path / "damper.toml"
     problem.write_text(DAMPER.replace("c = 10000.0", "c = 1e8"), encoding="utf-8")
@@ -336,6 +310,7 @@ def _alive(pid: int) -> bool:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 @pytest.mark.parametrize(
     "name, threaded", [("SIGTERM", False), ("SIGKILL", False), ("SIGKILL", True)]
@@ -375,9 +350,7 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name, threade
         # multiprocessing's own: the resource tracker, the fork server (not the workers it
         # starts, which share its command line)
         helpers = [
-            w
-            for w in workers
-            if _parent(w) == proc.pid and "from multiprocessing." in _cmdline(w)
+            w for w in workers if _parent(w) == proc.pid and "from multiprocessing." in _cmdline(w)
         ]
         server = [w for w in helpers if "forkserver" in _cmdline(w)]
         assert bool(server) == threaded  # a fork server only when other threads run
@@ -411,7 +384,7 @@ def test_killing_a_sweep_ends_its_workers_and_its_output(tmp_path, name, threade
         assert rc == -signal.SIGKILL
 
 
-@pytest.mark.parametrize("threaded", [False, True])
+@pytest.mark.parametrize("threaded", [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch, threaded):
     """Also: with another thread running (a notebook's), the workers come from a fork
     server; forking this process could copy a lock that thread holds, and hang."""

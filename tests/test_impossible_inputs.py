@@ -51,8 +51,15 @@ def test_an_inertia_no_body_has_is_refused_at_its_line(inertia, words):
     assert words in err and f":{_line(text, 'inertia')}:" in err, err
 
 
-@pytest.mark.parametrize("inertia", ['["1", "1", "2"]', '["0.5", "0.5", "1"]', '["0", "1", "1"]',
-                                     '[["2", "1", "0"], ["1", "2", "0"], ["0", "0", "2"]]'])
+@pytest.mark.parametrize(
+    "inertia",
+    [
+        '["1", "1", "2"]',
+        '["0.5", "0.5", "1"]',
+        '["0", "1", "1"]',
+        '[["2", "1", "0"], ["1", "2", "0"], ["0", "0", "2"]]',
+    ],
+)
 def test_a_possible_inertia_is_accepted(inertia):
     lamech.loads(TOP.format(inertia=inertia))  # a disc, a flat plate, a rod, a tilted box
 
@@ -84,8 +91,11 @@ def test_clip_with_lo_above_hi_is_refused_at_its_line():
     "extra, start",
     [
         ('[[scenery]]\nname = "ring"\ncircle = { center = [0, 0], radius = "-1" }', "circle"),
-        ('[[bodies]]\nname = "ball"\nmass = "m"\nposition = ["x", "0"]\n'
-         'shape = { circle = "-0.5" }', "shape"),
+        (
+            '[[bodies]]\nname = "ball"\nmass = "m"\nposition = ["x", "0"]\n'
+            'shape = { circle = "-0.5" }',
+            "shape",
+        ),
     ],
 )
 def test_a_negative_radius_is_refused_at_its_line(extra, start):
@@ -113,5 +123,6 @@ def test_a_max_of_many_arguments_switches_at_the_right_times():
     text = CART.format(force=f"max({args})", extra="")
     traj = lamech.simulate(lamech.loads(text), 0.5, samples=6)
     import numpy as np
+
     # x'' = max(0, t - 0.1): x(0.5) = 0.4^3 / 6
     assert np.isclose(traj.q[-1, 0], 0.4**3 / 6, rtol=1e-6), traj.q[-1, 0]

@@ -174,6 +174,7 @@ def test_the_bumpers_energy_is_conserved_symbolically():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba is not installed")
 def test_the_compiled_path_gives_the_same_switches():
     system = lamech.loads(BUMPER)

@@ -50,8 +50,11 @@ print(json.dumps({
 def _start(cache: Path, *args: str) -> subprocess.Popen:
     env = dict(os.environ, LAMECH_CACHE_DIR=str(cache))
     return subprocess.Popen(
-        [sys.executable, "-c", PROBE, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True, env=env,
+        [sys.executable, "-c", PROBE, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
     )
 
 
@@ -78,6 +81,7 @@ def test_the_cache_directory_follows_the_environment(monkeypatch, tmp_path):
 
 @needs_numba
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_a_second_process_loads_the_compiled_system_and_two_may_compile_at_once(tmp_path):
     cache = tmp_path / "cache"
     # two processes compile the same system at once (a sweep's workers do): both finish,
@@ -106,6 +110,7 @@ def test_a_second_process_loads_the_compiled_system_and_two_may_compile_at_once(
 
 @needs_numba
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_an_unusable_cache_directory_compiles_in_memory_silently(tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("not a directory\n")
@@ -119,6 +124,7 @@ def test_an_unusable_cache_directory_compiles_in_memory_silently(tmp_path):
 
 @needs_numba
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch):
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     # two variants of the pendulum no other test compiles (one process compiles a text

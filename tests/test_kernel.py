@@ -6,10 +6,8 @@ import numpy as np
 import pytest
 
 import lamech
+from lamech.numeric import compile_system, integrate_batch, numba_available, simulate
 from lamech.problem import chain_toml
-from lamech.numeric import integrate_batch
-from lamech.numeric import compile_system, numba_available
-from lamech.numeric import simulate
 
 
 def _starts(ns, count, seed=3):
@@ -29,20 +27,21 @@ def chain3():
     return compile_system(lamech.loads(chain_toml(3)), jit=False)
 
 
+@pytest.mark.slow
 def test_batch_matches_simulate_and_keeps_invariants(chain3):
     ns = chain3
     Y0 = _starts(ns, 3)
     res = integrate_batch(ns, Y0, 2.0, rtol=1e-10, atol=1e-12)
     assert res.ok.all() and (res.steps > 10).all()
     for b in range(len(Y0)):
-        q0 = dict(zip(ns.coordinate_names, Y0[b, :ns.n]))
+        q0 = dict(zip(ns.coordinate_names, Y0[b, : ns.n]))
         ref = simulate(ns, 2.0, q0=q0, samples=2, rtol=1e-13, atol=1e-14)
         assert np.max(np.abs(res.q[b] - ref.q[-1])) < 1e-8
         lam_ref = ref.lambdas[-1]
         assert np.max(np.abs(res.lambdas[b] - lam_ref)) < 1e-7 * np.max(np.abs(lam_ref))
         f, A, bb = ns.constraints(2.0, res.q[b], ns.parameters)
         assert np.max(np.abs(f)) < 1e-13 and np.max(np.abs(A @ res.qd[b] + bb)) < 1e-12
-        T0, V0 = ns.energy(0.0, Y0[b, :ns.n], Y0[b, ns.n:], ns.parameters)
+        T0, V0 = ns.energy(0.0, Y0[b, : ns.n], Y0[b, ns.n :], ns.parameters)
         T1, V1 = ns.energy(2.0, res.q[b], res.qd[b], ns.parameters)
         assert abs((T1 + V1) - (T0 + V0)) < 1e-9 * max(abs(T0 + V0), 1.0)
 
@@ -58,6 +57,7 @@ def test_batch_refuses_events_and_bad_input(chain3):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_compiled_batch_gives_the_same_numbers(chain3):
     jitted = compile_system(lamech.loads(chain_toml(3)), jit=True)
@@ -81,17 +81,17 @@ def test_batch_over_parameters_matches_simulate():
     lengths = [0.5, 1.0, 2.0]
     names = ns.parameter_names
     assert "l" in names, names
-    for y, ell in zip(Y0, lengths):          # the start on each pendulum's circle
+    for y, ell in zip(Y0, lengths):  # the start on each pendulum's circle
         y[:2] *= ell
     res = integrate_batch(ns, Y0, 1.5, params=[{"l": ell} for ell in lengths])
     assert res.ok.all()
     finals = []
     for b, ell in enumerate(lengths):
-        q0 = dict(zip(ns.coordinate_names, Y0[b, :ns.n]))
+        q0 = dict(zip(ns.coordinate_names, Y0[b, : ns.n]))
         ref = simulate(ns, 1.5, q0=q0, samples=2, params={"l": ell}, rtol=1e-13, atol=1e-14)
         assert np.max(np.abs(res.q[b] - ref.q[-1])) < 1e-8
         assert abs(res.lambdas[b, 0] - ref.lambdas[-1, 0]) < 1e-7 * abs(ref.lambdas[-1, 0])
         finals.append(res.q[b])
-    assert not np.allclose(finals[0] / 0.5, finals[2] / 2.0)   # the length mattered
+    assert not np.allclose(finals[0] / 0.5, finals[2] / 2.0)  # the length mattered
     with pytest.raises(ValueError, match="parameter sets"):
         integrate_batch(ns, Y0, 1.0, params=[{"l": 1.0}])

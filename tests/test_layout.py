@@ -19,10 +19,13 @@ HEAVY = ("sympy", "numpy", "scipy", "matplotlib", "numba")
 
 def _loaded_after(code: str) -> list[str]:
     """The heavy top-level packages a fresh interpreter has imported after ``code``."""
-    probe = (f"{code}\nimport sys, json\n"
-             f"print(json.dumps(sorted(m for m in sys.modules if m in {HEAVY!r})))")
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         cwd=ROOT, check=True)
+    probe = (
+        f"{code}\nimport sys, json\n"
+        f"print(json.dumps(sorted(m for m in sys.modules if m in {HEAVY!r})))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, check=True
+    )
     return json.loads(out.stdout.splitlines()[-1])
 
 
@@ -36,10 +39,12 @@ def test_layers_are_kept():
 
 
 def test_the_command_line_starts_without_heavy_imports():
-    quiet = ("import contextlib, io, lamech.cli\n"
-             "with contextlib.redirect_stdout(io.StringIO()):\n"
-             "    try:\n        lamech.cli.main({args})\n"
-             "    except SystemExit:\n        pass")
+    quiet = (
+        "import contextlib, io, lamech.cli\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    try:\n        lamech.cli.main({args})\n"
+        "    except SystemExit:\n        pass"
+    )
     assert _loaded_after(quiet.format(args="['--help']")) == []
     assert _loaded_after(quiet.format(args="['examples']")) == []
     assert _loaded_after(quiet.format(args="['simulate', '--help']")) == []
@@ -54,8 +59,10 @@ def test_import_lamech_is_light_and_solve_needs_no_plotting():
 
 def test_examples_lists_every_bundled_problem_with_its_title():
     import lamech
-    out = subprocess.run([sys.executable, "-m", "lamech", "examples"], capture_output=True,
-                         text=True, cwd=ROOT)
+
+    out = subprocess.run(
+        [sys.executable, "-m", "lamech", "examples"], capture_output=True, text=True, cwd=ROOT
+    )
     assert out.returncode == 0
     names = [line.split()[0] for line in out.stdout.splitlines()]
     assert names == lamech.example_names()
@@ -63,8 +70,10 @@ def test_examples_lists_every_bundled_problem_with_its_title():
 
 
 def test_tests_use_public_names_only():
-    private = re.compile(r"from lamech[\w.]* import [^\n#]*\b_(?!_)\w|lamech(\.\w+)*\._(?!_)\w|"
-                         r"import lamech[\w.]*\._(?!_)|from bench[\w.]* import [^\n#]*\b_(?!_)\w")
+    private = re.compile(
+        r"from lamech[\w.]* import [^\n#]*\b_(?!_)\w|lamech(\.\w+)*\._(?!_)\w|"
+        r"import lamech[\w.]*\._(?!_)|from bench[\w.]* import [^\n#]*\b_(?!_)\w"
+    )
     for path in sorted((ROOT / "tests").glob("*.py")):
         if path.name == "test_layout.py":
             continue
@@ -80,9 +89,8 @@ def _tool(name: str) -> str:
 
 
 def test_ruff_check_and_format_are_clean():
-    for args in (["check", "lamech", "bench"], ["format", "--check", "lamech"]):
-        out = subprocess.run([_tool("ruff"), *args], capture_output=True, text=True,
-                             cwd=ROOT)
+    for args in (["check", "lamech", "bench", "tests"], ["format", "--check", "lamech", "tests"]):
+        out = subprocess.run([_tool("ruff"), *args], capture_output=True, text=True, cwd=ROOT)
         assert out.returncode == 0, out.stdout + out.stderr
 
 
@@ -94,6 +102,7 @@ def test_mypy_is_clean():
 
 def test_the_version_is_in_one_place():
     import lamech
+
     text = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
     assert 'dynamic = ["version"]' in text and "lamech._version.__version__" in text
     assert re.fullmatch(r"\d+\.\d+\.\d+", lamech.__version__)

@@ -44,6 +44,7 @@ def _same(a, b) -> bool:
     return sp.simplify(sp.expand(a - b)) == 0
 
 
+@pytest.mark.slow
 def test_a_force_at_a_point_is_F_dot_the_partial_velocity():
     system = lamech.loads(PENDULUM)
     S = system.symbols
@@ -88,14 +89,18 @@ frame = "body"
     assert traj.coordinate("phi")[-1] == pytest.approx(alpha / 2, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_a_torque_on_a_body_in_space_uses_its_partial_angular_velocities():
-    text = open(lamech.problem.example_path("heavy_top")).read() + """
+    text = (
+        open(lamech.problem.example_path("heavy_top")).read()
+        + """
 [[loads]]
 name = "motor"
 body = "top"
 torque = [0, 0, "tau"]
 frame = "body"
 """
+    )
     text = text.replace("[parameters]\n", "[parameters]\ntau = 0.01\n", 1)
     system = lamech.loads(text)
     S = system.symbols
@@ -136,6 +141,7 @@ spring = { from = [0, 0], to = ["x", 0], k = "k", damping = "c" }
     assert np.max(np.abs(traj.coordinate("x") - exact)) < 1e-8
 
 
+@pytest.mark.slow
 def test_a_spring_with_a_natural_length_in_the_plane():
     text = PENDULUM.replace('f = "l - r"', 'f = "l - r"\nunilateral = true').split("[[loads]]")[0]
     text += """

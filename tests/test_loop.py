@@ -10,6 +10,7 @@ import math
 import subprocess
 import sys
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,24 +19,9 @@ import lamech
 from lamech.numeric import SimulationError, compile_system, numba_available, simulate
 
 G = 9.81
+HERE = Path(__file__).parent
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.5
-[coordinates]
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8")
 
 
 def _example(name: str, old: str = "", new: str = "") -> str:
@@ -54,11 +40,17 @@ CASES = {
     # impacts with restitution and the Zeno accumulation: handed to the simulator
     "ball": (BALL, 3.0, {}),
     # a sliding disk on a level floor: slip at the start, then stick
-    "stick": (_example("incline_disk", "alpha = 0.5", "alpha = 0.0"), 1.0,
-              {"qd0": {"s": 2.0, "theta": 0.0}}),
+    "stick": (
+        _example("incline_disk", "alpha = 0.5", "alpha = 0.0"),
+        1.0,
+        {"qd0": {"s": 2.0, "theta": 0.0}},
+    ),
     # spinning forward on a slope: slips backward, then cannot stick (a reversal)
-    "reversal": (_example("incline_disk", "alpha = 0.5", "alpha = 0.3"), 2.0,
-                 {"params": {"mu": 0.1}, "qd0": {"s": 0.0, "theta": 5.0}}),
+    "reversal": (
+        _example("incline_disk", "alpha = 0.5", "alpha = 0.3"),
+        2.0,
+        {"params": {"mu": 0.1}, "qd0": {"s": 0.0, "theta": 5.0}},
+    ),
     "pendulum": (_example("pendulum"), 5.0, {}),
     "four_bar": (_example("four_bar"), 2.0, {}),
     "knife_edge": (_example("knife_edge"), 2.0, {}),
@@ -84,8 +76,11 @@ def test_the_loop_gives_simulates_events_samples_and_forces(name):
             x, y = getattr(ea, detail), getattr(eb, detail)
             assert (x is None) == (y is None), (ea, eb)
             assert x is None or abs(x - y) <= 1e-9 * (1 + abs(x))
-        assert (ea.reversal, ea.initial, ea.accumulation is None) == \
-               (eb.reversal, eb.initial, eb.accumulation is None)
+        assert (ea.reversal, ea.initial, ea.accumulation is None) == (
+            eb.reversal,
+            eb.initial,
+            eb.accumulation is None,
+        )
     assert np.array_equal(a.t, b.t)
     assert np.max(np.abs(a.q - b.q)) <= 1e-9 and np.max(np.abs(a.qd - b.qd)) <= 1e-9
     assert np.array_equal(np.isnan(a.lambdas), np.isnan(b.lambdas))
@@ -98,6 +93,7 @@ def test_the_loop_gives_simulates_events_samples_and_forces(name):
     assert a.energy_conserved == b.energy_conserved
 
 
+@pytest.mark.slow
 def test_the_loops_stick_and_reversal_are_the_closed_forms():
     _, b = _pair("stick")
     assert [e.kind for e in b.events] == ["slip", "stick"] and b.events[0].initial
@@ -107,6 +103,7 @@ def test_the_loops_stick_and_reversal_are_the_closed_forms():
     assert r.events[1].reversal is True
 
 
+@pytest.mark.slow
 def test_the_ball_bounces_and_rests_through_the_loop():
     """The loop hands each impact to the simulator and goes on: the bounce times
     t1 (1 + 2 e (1 - e^k) / (1 - e)) and the rest from the accumulation time."""
@@ -120,11 +117,14 @@ def test_the_ball_bounces_and_rests_through_the_loop():
     assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
 
 
+@pytest.mark.slow
 def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, monkeypatch):
     system = lamech.load("pendulum")
     with pytest.raises(SimulationError, match="engine 'python' cannot run this problem: method "):
         simulate(system, 1.0, engine="python", method="Radau")
-    with pytest.raises(SimulationError, match="engine must be one of auto, compiled, python, scipy"):
+    with pytest.raises(
+        SimulationError, match="engine must be one of auto, compiled, python, scipy"
+    ):
         simulate(system, 1.0, engine="cvode")
     shaken = _example("pendulum", 'V = "', 'V = "sin(t) + ')
     with pytest.raises(SimulationError, match="t in L, a constraint or a force"):
@@ -136,15 +136,24 @@ def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, m
     assert simulate(system, 1.0, samples=3).engine == "SciPy DOP853"
 
 
+@pytest.mark.slow
 def test_progress_is_called_between_the_loops_chunks():
     seen = []
-    tr = simulate(lamech.load("pendulum"), 1000.0, engine="python", samples=11, rtol=1e-8,
-                  atol=1e-10, progress=seen.append)
+    tr = simulate(
+        lamech.load("pendulum"),
+        1000.0,
+        engine="python",
+        samples=11,
+        rtol=1e-8,
+        atol=1e-10,
+        progress=seen.append,
+    )
     assert tr.status == "ok" and tr.steps > 4000
     assert len(seen) >= tr.steps // 2000 and seen == sorted(seen) and seen[-1] == 1000.0
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_path, monkeypatch):
     """jit=True compiles the problem and its loop and caches them; from then on the
@@ -164,8 +173,14 @@ def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_pa
         "tr = lamech.simulate(lamech.loads(sys.stdin.read()), 6.0, initial={'theta1': 0.01})\n"
         "print(tr.engine, tr.events[-1].t)"
     )
-    out = subprocess.run([sys.executable, "-c", code], input=text, capture_output=True,
-                         text=True, timeout=600, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        input=text,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=True,
+    )
     engine, t_lift = out.stdout.rsplit(" ", 1)
     assert engine == "loop (numba)" and abs(float(t_lift) - b.events[-1].t) <= 1e-12
 
@@ -174,33 +189,18 @@ def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_pa
 def _spinning_disk(restitution: str | None = None) -> str:
     """The incline disk dropped from 5 cm above the slope, spinning (theta' = 20 with mu =
     0.1 below): it lands with more slip than mu times the normal impulse can stop."""
-    text = _example("incline_disk", 'n     = { initial = "R", velocity = 0 }',
-                    'n     = { initial = "R + 0.05", velocity = 0 }')
+    text = _example(
+        "incline_disk",
+        'n     = { initial = "R", velocity = 0 }',
+        'n     = { initial = "R + 0.05", velocity = 0 }',
+    )
     if restitution is not None:
         rule = f'unilateral = true\nrestitution = "{restitution}"\n'
         text = text.replace("unilateral = true\n", rule, 1)
     return text
 
 
-ZENO_INCLINE = """
-title = "Ball bouncing on a frictionless incline"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.7
-alpha = 0.3
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-V = "m*g*y"
-[[constraints]]
-name = "incline"
-f = "y + x*tan(alpha)"
-unilateral = true
-restitution = "e"
-"""
+ZENO_INCLINE = (HERE / "problems" / "ball_on_incline.toml").read_text(encoding="utf-8")
 
 
 def _zeno_problem(name: str) -> str:
@@ -216,8 +216,11 @@ IMPACT_CASES = {
     # e = 0: the contact engages and its friction slips through the impact
     "slip through": (_spinning_disk, 1.0, {"params": {"mu": 0.1}, "qd0": {"theta": 20.0}}),
     # e = 0.5: bounces, then a Zeno sequence whose engaging friction slips through
-    "zeno slip": (lambda: _spinning_disk("0.5"), 1.5,
-                  {"params": {"mu": 0.1}, "qd0": {"theta": 20.0}}),
+    "zeno slip": (
+        lambda: _spinning_disk("0.5"),
+        1.5,
+        {"params": {"mu": 0.1}, "qd0": {"theta": 20.0}},
+    ),
 }
 
 
@@ -226,8 +229,14 @@ def _same_runs(a, b, tol=1e-9):
     assert [(e.kind, e.constraint) for e in a.events] == [(e.kind, e.constraint) for e in b.events]
     for ea, eb in zip(a.events, b.events):
         assert abs(ea.t - eb.t) <= 1e-10
-        for detail in ("impulse", "restitution", "velocity_before", "accumulation", "ratio",
-                       "multiplier"):
+        for detail in (
+            "impulse",
+            "restitution",
+            "velocity_before",
+            "accumulation",
+            "ratio",
+            "multiplier",
+        ):
             x, y = getattr(ea, detail), getattr(eb, detail)
             assert (x is None) == (y is None), (detail, ea, eb)
             assert x is None or abs(x - y) <= tol * (1 + abs(x)), (detail, ea, eb)
@@ -289,6 +298,7 @@ def test_the_zeno_bounces_rest_at_the_accumulation_time_through_the_loop():
     assert abs(b.final_q[0]) <= 1e-9 and abs(b.final_qd[0]) <= 1e-9
 
 
+@pytest.mark.slow
 def test_integrate_events_applies_impacts_in_the_loop_when_asked():
     """integrate_events(impacts=True) (the sweeps' loop, as Python here) gives simulate's
     bounces, the accumulation's contact and the slip through an impact; by default a
@@ -301,24 +311,26 @@ def test_integrate_events_applies_impacts_in_the_loop_when_asked():
         tr = simulate(ns, t_end, engine="python", **kw)
         params = kw.get("params")
         y0 = np.concatenate((tr.q[0], tr.qd[0]))
-        res = integrate_events(ns, [y0], t_end, params=params, max_events=128,
-                               impacts=True)
+        res = integrate_events(ns, [y0], t_end, params=params, max_events=128, impacts=True)
         assert res.status == ["end"]
-        assert [(e.kind, e.constraint) for e in res.events[0]] == \
-               [(e.kind, e.constraint) for e in tr.events]
+        assert [(e.kind, e.constraint) for e in res.events[0]] == [
+            (e.kind, e.constraint) for e in tr.events
+        ]
         for ea, eb in zip(tr.events, res.events[0]):
             assert abs(ea.t - eb.t) <= 1e-10
             for detail in ("impulse", "restitution", "velocity_before", "accumulation"):
                 x, y = getattr(ea, detail), getattr(eb, detail)
                 assert (x is None) == (y is None) and (x is None or abs(x - y) <= 1e-9)
-        first = integrate_events(ns, [y0], t_end, params=params, want=[("impact", None)],
-                                 to_end=False, impacts=True)
+        first = integrate_events(
+            ns, [y0], t_end, params=params, want=[("impact", None)], to_end=False, impacts=True
+        )
         assert first.status == (["found"] if name == "zeno ball" else ["end"])
         old = integrate_events(ns, [y0], t_end, params=params)
         assert old.status == ["contact"] and old.fallback[0]
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers(tmp_path, monkeypatch):
     """jit=True: numba's loop applies the impacts (the Zeno ball, the disk whose friction

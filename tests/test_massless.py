@@ -25,6 +25,7 @@ EXAMPLES = Path(lamech.__file__).resolve().parent / "examples"
 
 # ------------------------------------------------------------- Atwood, massive pulley
 
+
 @pytest.fixture(scope="module")
 def pulley():
     return lamech.solve(lamech.load("atwood_pulley"))
@@ -64,8 +65,9 @@ def test_pulley_without_inertia_is_the_plain_atwood(pulley):
     S = pulley.symbols
     m1, m2, g = S["m1"], S["m2"], S["g"]
     for name in ("rope1", "rope2"):
-        assert sp.simplify(pulley.multipliers[name].subs(S["I"], 0)
-                           - 2 * m1 * m2 * g / (m1 + m2)) == 0
+        assert (
+            sp.simplify(pulley.multipliers[name].subs(S["I"], 0) - 2 * m1 * m2 * g / (m1 + m2)) == 0
+        )
 
 
 def test_pulley_rope_forces_on_mass_and_rim(pulley):
@@ -138,6 +140,7 @@ acceleration = "g"
 """
 
 
+@pytest.mark.slow
 def test_pivot_force_on_a_massless_rod_is_what_the_bob_needs():
     """The rod is massless, so the pin's force on it at the pivot is the force the rod
     passes to the bob: m (a_bob + g y^) = T (-sin theta, cos theta), with the pendulum's
@@ -268,8 +271,9 @@ def test_a_zero_mass_parameter_is_checked_the_same_way():
         lamech.loads(text, "bead.toml")
     # with a mass the same file is fine, and so is the bead tied to the block
     lamech.loads(text.replace("mb = 0", "mb = 0.1"), "bead.toml")
-    tied = LONE.replace("[[bodies]]", '[[constraints]]\nname = "tie"\nf = "x - R*phi"\n'
-                        "[[bodies]]", 1).replace("velocity = 1", "velocity = 0")
+    tied = LONE.replace(
+        "[[bodies]]", '[[constraints]]\nname = "tie"\nf = "x - R*phi"\n[[bodies]]', 1
+    ).replace("velocity = 1", "velocity = 0")
     s = lamech.solve(lamech.loads(tied, "tied.toml"))
     assert s.multipliers["tie"] == 0  # nothing to push: the block coasts, the bead follows
 
@@ -287,8 +291,10 @@ def test_a_massless_body_nothing_moves_is_a_problem_file_error_in_the_cli(tmp_pa
     path = tmp_path / "bead.toml"
     path.write_text(LONE, encoding="utf-8")
     out = tmp_path / "o.csv"
-    for command in (["solve", str(path)],
-                    ["simulate", str(path), "--t-end", "0.1", "--out", str(out)]):
+    for command in (
+        ["solve", str(path)],
+        ["simulate", str(path), "--t-end", "0.1", "--out", str(out)],
+    ):
         status = main(command)
         captured = capsys.readouterr()
         assert status == 2, (command, captured)
@@ -302,12 +308,14 @@ def test_a_run_that_cannot_start_is_one_line(tmp_path, capsys):
     """A KKT matrix singular at the initial state in a way the file's checks do not
     look for (a T without phi' and no massless body): `simulate` says so in one line,
     naming the coordinate, and writes nothing; `solve` too."""
-    text = LONE[:LONE.index("[[bodies]]")] + '[lagrangian]\nT = "m/2*x\'^2"\nV = "m*phi"\n'
+    text = LONE[: LONE.index("[[bodies]]")] + '[lagrangian]\nT = "m/2*x\'^2"\nV = "m*phi"\n'
     path = tmp_path / "typo.toml"
     path.write_text(text, encoding="utf-8")
     out = tmp_path / "o.csv"
-    for command in (["solve", str(path)],
-                    ["simulate", str(path), "--t-end", "0.1", "--out", str(out)]):
+    for command in (
+        ["solve", str(path)],
+        ["simulate", str(path), "--t-end", "0.1", "--out", str(out)],
+    ):
         status = main(command)
         captured = capsys.readouterr()
         assert status == 2, (command, captured)
@@ -327,23 +335,25 @@ def test_a_negative_mass_is_refused_and_zero_is_not():
         lamech.loads(text.replace('inertia = "I"', 'inertia = "-I"'), "negative.toml")
 
 
+@pytest.mark.slow
 def test_param_overrides_obey_the_same_rule(tmp_path, capsys):
     """--param sets a mass with the file's rules: a parameter that is 0 in the file may
     become positive but not negative (and a positive one keeps its sign: the file says
     so)."""
     text = (EXAMPLES / "atwood_pulley.toml").read_text(encoding="utf-8")
     path = tmp_path / "q.toml"
-    path.write_text(text.replace("[parameters]\n", "[parameters]\nM = 0\n", 1)
-                    .replace("mass = 0\n", 'mass = "M"\n'), encoding="utf-8")
+    path.write_text(
+        text.replace("[parameters]\n", "[parameters]\nM = 0\n", 1).replace(
+            "mass = 0\n", 'mass = "M"\n'
+        ),
+        encoding="utf-8",
+    )
     out = str(tmp_path / "o.csv")
-    assert main(["simulate", str(path), "--t-end", "0.05", "--param", "M=3",
-                 "--out", out]) == 0
+    assert main(["simulate", str(path), "--t-end", "0.05", "--param", "M=3", "--out", out]) == 0
     capsys.readouterr()
-    assert main(["simulate", str(path), "--t-end", "0.05", "--param", "M=-1",
-                 "--out", out]) == 2
+    assert main(["simulate", str(path), "--t-end", "0.05", "--param", "M=-1", "--out", out]) == 2
     err = capsys.readouterr().err
     assert "mass" in err and ">= 0" in err and "-1" in err
-    assert main(["simulate", str(path), "--t-end", "0.05", "--param", "I=0",
-                 "--out", out]) == 2
+    assert main(["simulate", str(path), "--t-end", "0.05", "--param", "I=0", "--out", out]) == 2
     err = capsys.readouterr().err
     assert "sign" in err and "`I`" in err

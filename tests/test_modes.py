@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
+from test_trust import CARTESIAN_PENDULUM as CARTESIAN
 
 import lamech
 from lamech.cli import main
 from lamech.model import with_values
-from test_trust import CARTESIAN_PENDULUM as CARTESIAN
 
 DOUBLE = """
 title = "Double pendulum"
@@ -35,7 +35,6 @@ position = ["l*sin(th1) + l*sin(th2)", "-l*cos(th1) - l*cos(th2)"]
 [gravity]
 acceleration = "g"
 """
-
 
 
 def _values(system):
@@ -66,6 +65,7 @@ def test_pendulum_hangs_stably_with_omega_squared_g_over_l():
     assert not up.holds and "`string` cannot hold it" in up.note
 
 
+@pytest.mark.slow
 def test_the_lectures_cylinder_on_top_is_unstable_with_the_textbook_growth_rate():
     system = lamech.load("cylinder")
     md = lamech.modes(system)
@@ -73,17 +73,21 @@ def test_the_lectures_cylinder_on_top_is_unstable_with_the_textbook_growth_rate(
     top = _by_position(md, theta1=0.0)
     assert top.stability == "unstable" and top.holds
     (mode,) = top.modes
-    assert mode.growth == pytest.approx(math.sqrt(2 * p["g"] / (3 * (p["R1"] + p["R2"]))),
-                                        rel=1e-12)
-    g, R1, R2 = (next(q.symbol for q in system.parameters if q.name == n)
-                 for n in ("g", "R1", "R2"))
+    assert mode.growth == pytest.approx(
+        math.sqrt(2 * p["g"] / (3 * (p["R1"] + p["R2"]))), rel=1e-12
+    )
+    g, R1, R2 = (
+        next(q.symbol for q in system.parameters if q.name == n) for n in ("g", "R1", "R2")
+    )
     assert sp.simplify(mode.squared + 2 * g / (3 * (R1 + R2))) == 0
     # rolling ties the wheel's turn to the centre's: (R1 + R2) theta1 = R2 theta2
-    assert mode.shape["theta1"] / mode.shape["theta2"] == pytest.approx(p["R2"] / (p["R1"] + p["R2"]))
+    ratio = p["R2"] / (p["R1"] + p["R2"])
+    assert mode.shape["theta1"] / mode.shape["theta2"] == pytest.approx(ratio)
     assert mode.shape["r"] == 0
-    assert not _by_position(md, theta1=math.pi).holds   # under the cylinder: it falls off
+    assert not _by_position(md, theta1=math.pi).holds  # under the cylinder: it falls off
 
 
+@pytest.mark.slow
 def test_the_spun_bead_rests_off_the_axis_only_when_the_hoop_spins_fast_enough():
     system = lamech.load("hoop_bead")
     p = _values(system)
@@ -92,7 +96,7 @@ def test_the_spun_bead_rests_off_the_axis_only_when_the_hoop_spins_fast_enough()
     side = _by_position(md, theta=theta0)
     assert side.condition == "g/(R*omega^2) <= 1" and side.stability == "stable"
     (mode,) = side.modes
-    assert mode.frequency ** 2 == pytest.approx(p["omega"] ** 2 * math.sin(theta0) ** 2, rel=1e-10)
+    assert mode.frequency**2 == pytest.approx(p["omega"] ** 2 * math.sin(theta0) ** 2, rel=1e-10)
     S = {q.name: q.symbol for q in system.parameters}
     th0 = sp.acos(S["g"] / (S["R"] * S["omega"] ** 2))
     assert sp.simplify(mode.squared - S["omega"] ** 2 * sp.sin(th0) ** 2) == 0
@@ -105,10 +109,11 @@ def test_the_spun_bead_rests_off_the_axis_only_when_the_hoop_spins_fast_enough()
     assert bottom.modes[0].frequency ** 2 == pytest.approx(p["g"] / p["R"] - 9.0, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_double_pendulum_frequencies_are_two_plus_minus_root_two_g_over_l():
     system = lamech.loads(DOUBLE, "double.toml")
     md = lamech.modes(system)
-    assert len(md.equilibria) == 4                      # each bob up or down
+    assert len(md.equilibria) == 4  # each bob up or down
     down = _by_position(md, th1=0.0, th2=0.0)
     assert down.stability == "stable"
     g, l = (next(q.symbol for q in system.parameters if q.name == n) for n in ("g", "l"))
@@ -123,6 +128,7 @@ def test_double_pendulum_frequencies_are_two_plus_minus_root_two_g_over_l():
             assert e.stability == "unstable"
 
 
+@pytest.mark.slow
 def test_the_simulated_motion_oscillates_at_the_predicted_frequencies():
     """Independent truth: released along each mode with a small amplitude, the simulated
     double pendulum swings at that mode's frequency (zero crossings of th1)."""
@@ -142,6 +148,7 @@ def test_the_simulated_motion_oscillates_at_the_predicted_frequencies():
         assert measured == pytest.approx(period, rel=1e-5)
 
 
+@pytest.mark.slow
 def test_the_cartesian_pendulum_is_linearised_in_x_about_the_hanging_position():
     """y = -sqrt(l^2 - x^2) is singular nowhere near the bottom, but y as the coordinate
     would be: the tangent space of the kept constraint gives the regular direction x."""
@@ -155,6 +162,7 @@ def test_the_cartesian_pendulum_is_linearised_in_x_about_the_hanging_position():
     assert _by_position(md, x1=0.0, y1=1.0).stability == "unstable"
 
 
+@pytest.mark.slow
 def test_cli_modes_text_json_and_bad_at(capsys):
     assert main(["modes", "pendulum", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
@@ -192,8 +200,15 @@ f = "q1^2 + q2^2 - L^2"
 
 def _sympy_linearizer_A(g, L, m):
     """SymPy's own answer, by its documented recipe."""
-    from sympy.physics.mechanics import (LagrangesMethod, Lagrangian, Particle, Point,
-                                         ReferenceFrame, dynamicsymbols)
+    from sympy.physics.mechanics import (
+        LagrangesMethod,
+        Lagrangian,
+        Particle,
+        Point,
+        ReferenceFrame,
+        dynamicsymbols,
+    )
+
     q1, q2 = dynamicsymbols("q1:3")
     q1d, q2d = dynamicsymbols("q1:3", level=1)
     t = dynamicsymbols._t
@@ -203,8 +218,13 @@ def _sympy_linearizer_A(g, L, m):
     P = pN.locatenew("P1", q1 * N.x + q2 * N.y)
     P.set_vel(N, P.pos_from(pN).dt(N))
     pP = Particle("pP", P, m)
-    LM = LagrangesMethod(Lagrangian(N, pP), [q1, q2], hol_coneqs=sp.Matrix([q1**2 + q2**2 - L**2]),
-                         forcelist=[(P, m * g * N.x)], frame=N)
+    LM = LagrangesMethod(
+        Lagrangian(N, pP),
+        [q1, q2],
+        hol_coneqs=sp.Matrix([q1**2 + q2**2 - L**2]),
+        forcelist=[(P, m * g * N.x)],
+        frame=N,
+    )
     LM.form_lagranges_equations()
     op = {q1: L, q2: 0, q1d: 0, q2d: 0, q1d.diff(t): 0, q2d.diff(t): 0}
     op.update(LM.solve_multipliers(op))
@@ -213,6 +233,7 @@ def _sympy_linearizer_A(g, L, m):
     return np.array(A.evalf(), dtype=float)
 
 
+@pytest.mark.slow
 def test_linearisation_equals_sympys_linearizer_on_its_documented_pendulum():
     system = lamech.loads(NONMINIMAL, "nonminimal.toml")
     md = lamech.modes(system)
@@ -227,6 +248,7 @@ def test_linearisation_equals_sympys_linearizer_on_its_documented_pendulum():
     assert np.allclose(lin.multipliers["rod"], [0, 0], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_non_holonomic_linearisation_has_fewer_velocities_than_positions():
     """The rolling disc at rest (theta = 0): four positions, two free velocities
     (theta', phi'), and the rolling ties y' = -a phi' (x' = a sin(theta) phi' = 0)."""
@@ -236,7 +258,7 @@ def test_non_holonomic_linearisation_has_fewer_velocities_than_positions():
     lin = e.linear
     assert lin.state == ("x", "y", "theta", "phi", "theta'", "phi'")
     expected = np.zeros((6, 6))
-    expected[1, 5] = -a           # y' = -a phi'
+    expected[1, 5] = -a  # y' = -a phi'
     expected[2, 4] = expected[3, 5] = 1
     assert np.allclose(lin.A, expected, atol=1e-12)
     assert e.stability == "marginal" and all(abs(m.eigenvalue) < 1e-6 for m in e.modes)
@@ -262,6 +284,7 @@ def test_a_mass_on_a_turning_table_rests_at_the_relative_equilibrium():
     assert e.linear.multipliers["drive"] == pytest.approx((0, 2 * p["m"] * r_star * p["Omega"]))
 
 
+@pytest.mark.slow
 def test_the_linearised_multiplier_follows_the_simulated_one():
     """Independent truth: the simulated bead near the spun hoop's side equilibrium, its
     hoop force against lambda_0 + c . (dtheta, dtheta') from the linearisation."""
@@ -279,18 +302,21 @@ def test_the_linearised_multiplier_follows_the_simulated_one():
     predicted = side.multipliers["hoop"] + c[0] * dth + c[1] * dthd
     lam = traj.multiplier("hoop")
     assert np.abs(lam - predicted).max() < 1e-6 * abs(side.multipliers["hoop"])  # second order
-    assert np.abs(lam - side.multipliers["hoop"]).max() > 1e-4                  # it does move
+    assert np.abs(lam - side.multipliers["hoop"]).max() > 1e-4  # it does move
 
 
-TRIPLE = DOUBLE.replace('title = "Double pendulum"', 'title = "Triple pendulum"').replace(
-    'th2 = { initial = 0.1, velocity = 0 }',
-    'th2 = { initial = 0.1, velocity = 0 }\nth3 = { initial = 0.1, velocity = 0 }',
-) + """
+TRIPLE = (
+    DOUBLE.replace('title = "Double pendulum"', 'title = "Triple pendulum"').replace(
+        "th2 = { initial = 0.1, velocity = 0 }",
+        "th2 = { initial = 0.1, velocity = 0 }\nth3 = { initial = 0.1, velocity = 0 }",
+    )
+    + """
 [[bodies]]
 name = "bob3"
 mass = "m"
 position = ["l*sin(th1) + l*sin(th2) + l*sin(th3)", "-l*cos(th1) - l*cos(th2) - l*cos(th3)"]
 """
+)
 
 
 def _spectral_peaks(t, x, count):
@@ -307,6 +333,7 @@ def _spectral_peaks(t, x, count):
     return sorted(out)
 
 
+@pytest.mark.slow
 def test_the_triple_pendulums_frequencies_are_the_peaks_of_its_simulated_spectrum():
     """Independent truth: released at rest with all three angles at 0.01 rad, the
     simulated triple pendulum's th1 has its spectral peaks at the three predicted
@@ -314,7 +341,7 @@ def test_the_triple_pendulums_frequencies_are_the_peaks_of_its_simulated_spectru
     x^3 - 9 x^2 + 18 x - 6 = 0 for equal masses and lengths)."""
     system = lamech.loads(TRIPLE, "triple.toml")
     md = lamech.modes(system)
-    assert len(md.equilibria) == 8                      # each bob up or down
+    assert len(md.equilibria) == 8  # each bob up or down
     down = _by_position(md, th1=0.0, th2=0.0, th3=0.0)
     assert down.stability == "stable"
     predicted = sorted(m.frequency for m in down.modes)
@@ -323,9 +350,10 @@ def test_the_triple_pendulums_frequencies_are_the_peaks_of_its_simulated_spectru
     start = with_values(system, initial={"th1": 0.01, "th2": 0.01, "th3": 0.01})
     traj = lamech.simulate(start, 120.0, samples=12001, rtol=1e-10, atol=1e-12)
     seen = _spectral_peaks(traj.t, traj.coordinate("th1"), 3)
-    assert seen == pytest.approx(predicted, rel=1e-3)   # bin width 0.052 rad/s, refined
+    assert seen == pytest.approx(predicted, rel=1e-3)  # bin width 0.052 rad/s, refined
 
 
+@pytest.mark.slow
 def test_simulate_mode_releases_the_system_along_one_mode(capsys, tmp_path):
     """`lamech simulate --mode 1` on the turning table: r starts at r* + 0.05 at rest and,
     after the default four periods of omega = sqrt(k/m - Omega^2), is back there."""
@@ -338,9 +366,10 @@ def test_simulate_mode_releases_the_system_along_one_mode(capsys, tmp_path):
     assert data["t"][-1] == pytest.approx(4 * 2 * math.pi / 1.6)
     assert data["r"][0] == pytest.approx(r_star + 0.05, rel=1e-12)
     assert data["r"][-1] == pytest.approx(r_star + 0.05, rel=1e-6)
-    assert data["r"].min() == pytest.approx(r_star - 0.05, rel=1e-4)   # linear: symmetric
+    assert data["r"].min() == pytest.approx(r_star - 0.05, rel=1e-4)  # linear: symmetric
 
 
+@pytest.mark.slow
 def test_simulate_mode_and_end_time_errors(capsys):
     assert main(["simulate", "pendulum", "--mode", "2"]) == 2
     assert "mode 2: this equilibrium has modes 1 to 1" in capsys.readouterr().err
@@ -352,33 +381,42 @@ def test_simulate_mode_and_end_time_errors(capsys):
     assert "`lamech modes` finds 2 equilibria" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_frequencies_agree_with_det_k_minus_omega_squared_m_on_the_tangent_space():
     """The physical check, from the Euler-Lagrange equations before elimination, is made
     and passes where it applies (scleronomic holonomic constraints, no velocity terms);
     it is not claimed for the spun hoop (rheonomic: a relative equilibrium)."""
-    for system in (lamech.loads(TRIPLE, "triple.toml"), lamech.loads(NONMINIMAL, "n.toml"),
-                   lamech.load("cylinder"), lamech.loads(CARTESIAN, "cart.toml")):
+    for system in (
+        lamech.loads(TRIPLE, "triple.toml"),
+        lamech.loads(NONMINIMAL, "n.toml"),
+        lamech.load("cylinder"),
+        lamech.loads(CARTESIAN, "cart.toml"),
+    ):
         for e in lamech.modes(system).equilibria:
-            assert e.check.startswith("omega^2 from det(K - omega^2 M) = 0 on the tangent "
-                                      "space agrees"), (system.title, e.values)
+            assert e.check.startswith(
+                "omega^2 from det(K - omega^2 M) = 0 on the tangent space agrees"
+            ), (system.title, e.values)
     assert all(e.check is None for e in lamech.modes(lamech.load("hoop_bead")).equilibria)
 
 
+@pytest.mark.slow
 def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(capsys):
     md = lamech.modes(lamech.load("spherical_pendulum"))
     assert md.free.startswith("every value of phi rests as well")
     bottom = _by_position(md, theta=0.0)
-    assert bottom.stability is None and bottom.modes == ()   # not a wrong answer: none
+    assert bottom.stability is None and bottom.modes == ()  # not a wrong answer: none
     assert main(["modes", "spherical_pendulum"]) == 0
     assert "these coordinates are singular here" in capsys.readouterr().out
 
 
-def test_the_tangent_check_reports_a_disagreement():
+@pytest.mark.slow
+def test_the_tangent_check_reports_a_disagreement(solved_example):
     from lamech.symbolic import Mode, check_modes
-    sol = lamech.solve(lamech.load("pendulum"))
+
+    sol = solved_example("pendulum")
     down = _by_position(lamech.modes(sol), theta=0.0)
     assert check_modes(sol, down) == down.check
-    wrong = [Mode(complex(0, 2.0), 2.0, None, {})]      # omega^2 = 4, not g/l = 9.81
+    wrong = [Mode(complex(0, 2.0), 2.0, None, {})]  # omega^2 = 4, not g/l = 9.81
     verdict = check_modes(sol, down, wrong)
     assert verdict.startswith("DISAGREES") and "omega^2 = 9.81" in verdict
 
@@ -406,21 +444,27 @@ f = "l - sqrt((x2 - x1)^2 + (y2 - y1)^2)"
 """
 
 
+@pytest.mark.slow
 def test_the_cartesian_double_pendulum_is_solved_numerically_in_four_unknowns():
     """Four coordinates and two kept rods: too many unknowns for SymPy's solve, so the
     equilibria are found numerically (and read as the simple numbers they are); hanging,
     it swings in x1, x2 at (2 +- sqrt 2) g/l like the angle form."""
     md = lamech.modes(lamech.loads(CARTESIAN_DOUBLE, "cdp.toml"))
     assert sorted((e.at["y1"], e.at["y2"]) for e in md.equilibria) == [
-        (-1, -2), (-1, 0), (1, 0), (1, 2)]
+        (-1, -2),
+        (-1, 0),
+        (1, 0),
+        (1, 2),
+    ]
     down = _by_position(md, x1=0.0, y1=-1.0, x2=0.0, y2=-2.0)
     assert down.stability == "stable" and down.linear.state == ("x1", "x2", "x1'", "x2'")
-    squares = sorted(m.frequency ** 2 for m in down.modes)
+    squares = sorted(m.frequency**2 for m in down.modes)
     assert squares == pytest.approx([(2 - math.sqrt(2)) * 9.81, (2 + math.sqrt(2)) * 9.81])
     assert down.multipliers == pytest.approx({"rod1": 2 * 9.81, "rod2": 9.81})
     assert "agrees" in down.check
 
 
+@pytest.mark.slow
 def test_the_conical_pendulum_is_linearised_about_its_steady_motion(capsys):
     """--at with a velocity: the spherical pendulum going round at theta0 with
     phi'^2 = g/(l cos(theta0)) is a fixed point of the reduced motion; it nods at
@@ -432,9 +476,13 @@ def test_the_conical_pendulum_is_linearised_about_its_steady_motion(capsys):
     (e,) = lamech.modes(system, at={"theta": th0, "phi": 0.0, "phi'": spin}).equilibria
     assert e.note is None and e.values["phi'"] == pytest.approx(spin)
     nod = next(m for m in e.modes if m.frequency)
-    assert nod.frequency ** 2 == pytest.approx(spin**2 * (1 + 3 * math.cos(th0) ** 2), rel=1e-10)
+    assert nod.frequency**2 == pytest.approx(spin**2 * (1 + 3 * math.cos(th0) ** 2), rel=1e-10)
     assert abs(abs(nod.phases["theta"] - nod.phases["phi"]) - 90) < 1e-6
-    assert e.check is None                  # not at rest: the K, M check does not apply
-    assert main(["modes", "spherical_pendulum", "--at", "theta=0.5", "--at", "phi=0",
-                 "--at", "phi'=1"]) == 0
+    assert e.check is None  # not at rest: the K, M check does not apply
+    assert (
+        main(
+            ["modes", "spherical_pendulum", "--at", "theta=0.5", "--at", "phi=0", "--at", "phi'=1"]
+        )
+        == 0
+    )
     assert "not a steady state: there the accelerations are theta'' = " in capsys.readouterr().out

@@ -52,7 +52,13 @@ def at(expr: sp.Expr, env: dict) -> complex:
         return complex(ev(sp.sympify(expr)))
 
 
-@pytest.mark.parametrize("name", lamech.example_names())
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
+        for n in lamech.example_names()
+    ],
+)
 def test_raw_multipliers_solve_the_kkt_system(name):
     system = lamech.load(name)
     holding = holding_at_start(system)
@@ -67,6 +73,7 @@ def test_raw_multipliers_solve_the_kkt_system(name):
             assert got.real == pytest.approx(want, rel=1e-9, abs=1e-9), (name, c.name)
 
 
+@pytest.mark.slow
 def test_a_singular_mass_matrix_takes_the_augmented_path():
     """The double Atwood machine's massless pulley: M is singular, the KKT matrix is
     not; the multipliers are the tidy ones of ``lamech.solve`` at random states."""
@@ -90,6 +97,7 @@ def test_dependent_constraints_are_refused():
         multipliers(dynamics(lamech.load("atwood")))
 
 
+@pytest.mark.slow
 def test_no_constraints_no_multipliers():
     assert lamech.multipliers(lamech.load("heavy_top")) == {}
 

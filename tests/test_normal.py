@@ -34,8 +34,12 @@ def _equal(a: sp.Expr, b: sp.Expr, symbols, seed: int = 3) -> bool:
 def test_the_ladders_floor_trigonometry_is_four():
     """The issue's example: 2,623 characters of a ladder's multiplier reduced to m g
     sized terms; its core is the number 4."""
-    e = (-3 * (-3 * sp.cos(ph) ** 2 - 1) * sp.sin(ph) ** 2 - 9 * sp.sin(ph) ** 2
-         * sp.cos(ph) ** 2 + 3 * sp.cos(ph) ** 2 + 1)
+    e = (
+        -3 * (-3 * sp.cos(ph) ** 2 - 1) * sp.sin(ph) ** 2
+        - 9 * sp.sin(ph) ** 2 * sp.cos(ph) ** 2
+        + 3 * sp.cos(ph) ** 2
+        + 1
+    )
     assert normal(e) == 4
 
 
@@ -44,14 +48,17 @@ def test_a_factor_that_is_identically_zero_never_reaches_the_output():
     assert normal(e) == m * g * sp.cos(th)
 
 
-@pytest.mark.parametrize("zero", [
-    sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2),
-    sp.cos(2 * th) - 1 + 2 * sp.sin(th) ** 2,
-    sp.tan(th) * sp.cos(th) - sp.sin(th),
-    sp.sin(th / 2) ** 2 - (1 - sp.cos(th)) / 2,
-    sp.sqrt(1 - x**2) ** 2 + x**2 - 1,
-    sp.cos(q1 + q2 + q3) - sp.cos(q1 + q2) * sp.cos(q3) + sp.sin(q1 + q2) * sp.sin(q3),
-])
+@pytest.mark.parametrize(
+    "zero",
+    [
+        sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2),
+        sp.cos(2 * th) - 1 + 2 * sp.sin(th) ** 2,
+        sp.tan(th) * sp.cos(th) - sp.sin(th),
+        sp.sin(th / 2) ** 2 - (1 - sp.cos(th)) / 2,
+        sp.sqrt(1 - x**2) ** 2 + x**2 - 1,
+        sp.cos(q1 + q2 + q3) - sp.cos(q1 + q2) * sp.cos(q3) + sp.sin(q1 + q2) * sp.sin(q3),
+    ],
+)
 def test_identities_are_recognised_as_zero(zero):
     assert is_zero(zero) is True
 
@@ -67,8 +74,12 @@ def test_a_division_by_an_identically_zero_expression_is_refused():
 
 
 def test_a_chain_is_written_in_angle_differences():
-    d = (m1 + m2 * sp.sin(q1) ** 2 - 2 * m2 * sp.sin(q1) * sp.sin(q2) * sp.cos(q1 - q2)
-         + m2 * sp.sin(q2) ** 2)
+    d = (
+        m1
+        + m2 * sp.sin(q1) ** 2
+        - 2 * m2 * sp.sin(q1) * sp.sin(q2) * sp.cos(q1 - q2)
+        + m2 * sp.sin(q2) ** 2
+    )
     out = normal(d, angles=(q1, q2))
     assert _equal(out, d, [q1, q2, m1, m2])
     assert sp.count_ops(out) <= sp.count_ops(m1 + m2 * sp.sin(q1 - q2) ** 2)
@@ -92,6 +103,7 @@ def test_the_budget_must_be_positive():
         lamech.solve(lamech.load("pendulum"), budget=-1)
 
 
+@pytest.mark.slow
 def test_a_small_budget_gives_the_same_multipliers_less_tidy_and_says_so():
     """The double pendulum with almost no work allowed: the same functions (equal at
     random states), whatever their written form, and a note naming what is untidied."""
@@ -112,6 +124,7 @@ def test_a_small_budget_gives_the_same_multipliers_less_tidy_and_says_so():
             assert b == pytest.approx(a, rel=1e-9, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_the_same_text_in_another_thread():
     """No clock, no signal: a solve in a worker thread is bounded and prints the same."""
     p = lamech.load("cylinder")
@@ -128,8 +141,12 @@ def _solve_text(name: str, seed: str, busy: int = 0) -> str:
     burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(busy)]
     try:
         return subprocess.run(
-            [sys.executable, "-m", "lamech", "solve", name, "--json"], env=env,
-            capture_output=True, text=True, timeout=600, check=True,
+            [sys.executable, "-m", "lamech", "solve", name, "--json"],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            check=True,
         ).stdout
     finally:
         for b in burners:
@@ -138,6 +155,7 @@ def _solve_text(name: str, seed: str, busy: int = 0) -> str:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.parametrize("name", ["double_pendulum", "rolling_sphere"])
 def test_the_same_bytes_on_an_idle_and_a_busy_machine_under_any_hash_seed(name):
     """Issue 30: the same file gives byte-identical JSON in two processes with different
@@ -148,6 +166,7 @@ def test_the_same_bytes_on_an_idle_and_a_busy_machine_under_any_hash_seed(name):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy():
     """SymPy's documented four-bar (relative joint angles) used to run past 10 minutes;
     now it is bounded, and its multipliers equal SymPy's LagrangesMethod's at the start."""

@@ -7,14 +7,18 @@ from __future__ import annotations
 import base64
 import re
 
+import pytest
+
 import lamech
 from lamech.present import Animation, animation
 
 
 def _images(page: str) -> list[bytes]:
-    return [base64.b64decode(b) for b in re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", page)]
+    found = re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", page)
+    return [base64.b64decode(b) for b in found]
 
 
+@pytest.mark.slow
 def test_a_trajectory_shows_its_summary_and_plot():
     traj = lamech.simulate(lamech.load("cylinder"), 2.0, initial={"theta1": 0.05})
     page = traj._repr_html_()
@@ -24,14 +28,16 @@ def test_a_trajectory_shows_its_summary_and_plot():
 
 
 def test_a_sweep_shows_a_table_and_a_plot():
-    run = lamech.run_sweep("cylinder", {"mu": [0.2, 0.3, 0.4]}, ["slip"], t_end=2.7,
-                           samples=11, workers=1)
+    run = lamech.run_sweep(
+        "cylinder", {"mu": [0.2, 0.3, 0.4]}, ["slip"], t_end=2.7, samples=11, workers=1
+    )
     page = run._repr_html_()
     assert page.count("<tr>") == 1 + 3 and "<th>slip:theta1</th>" in page
     assert "3 cases (3 ok)" in page
     assert len(_images(page)) == 1
 
 
+@pytest.mark.slow
 def test_an_animation_plays_inline_offline():
     system = lamech.load("pendulum")
     anim = animation(lamech.simulate(system, 1.0), system, max_frames=10, dpi=40)
@@ -41,6 +47,6 @@ def test_an_animation_plays_inline_offline():
     assert not re.search(r'(src|href)="https?://', page)
 
 
-def test_a_solution_renders_with_dotted_velocities():
-    latex = lamech.solve(lamech.load("pendulum"))._repr_latex_()
+def test_a_solution_renders_with_dotted_velocities(solved_example):
+    latex = solved_example("pendulum")._repr_latex_()
     assert r"\dot{\theta}" in latex and "theta'" not in latex

@@ -1,14 +1,14 @@
 """Generated dynamics: the NumPy and numba KKT kernels give the same numbers, and the
 multiplier from the numeric KKT solve equals the closed form (pendulum tension)."""
+
 import math
 
 import numpy as np
 import pytest
 
 import lamech
-from lamech.problem import chain_toml
 from lamech.numeric import compile_system, numba_available
-from lamech.problem import loads
+from lamech.problem import chain_toml, loads
 
 
 def _kkt(ns, q, v, p):
@@ -38,6 +38,7 @@ def test_pendulum_tension_is_the_closed_form():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 @pytest.mark.parametrize("n", [2, 8])
 def test_numba_kernel_matches_numpy(n):
@@ -117,10 +118,23 @@ def _modes(ns):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
-@pytest.mark.parametrize("name", ["cylinder", "pendulum", "atwood", "double_atwood",
-                                  "incline_disk", "knife_edge", "ladder", "andrews_squeezer",
-                                  "chain3", "massless"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "cylinder",
+        "pendulum",
+        "atwood",
+        "double_atwood",
+        "incline_disk",
+        "knife_edge",
+        "ladder",
+        "andrews_squeezer",
+        "chain3",
+        "massless",
+    ],
+)
 def test_structured_kkt_solve_matches_dense(name):
     """Both solves (numba: Schur complement over A's nonzeros with Cholesky or elimination
     when M is diagonal; NumPy: the Schur complement with LAPACK; each falling back to the
@@ -138,7 +152,7 @@ def test_structured_kkt_solve_matches_dense(name):
     b = compile_system(system, jit=True)
     assert b.jit
     if name in ("cylinder", "chain3", "massless", "atwood"):
-        assert b.mass_diagonal     # these exercise the Schur path (massless: its fallback)
+        assert b.mass_diagonal  # these exercise the Schur path (massless: its fallback)
     rng = np.random.default_rng(7)
     q0, _ = a.initial_state()
     for _ in range(10):
@@ -161,11 +175,15 @@ def test_gauss_elimination_banded_and_pivoting():
     """The hand-written elimination: a random dense system, a tridiagonal one (the band
     shortcut), one that needs row swaps, and a singular one (NaN)."""
     from lamech.linalg import gauss_inplace
+
     rng = np.random.default_rng(3)
-    for K in (rng.normal(size=(9, 9)),
-              np.diag(rng.uniform(1, 2, 12)) + np.diag(rng.normal(size=11), 1)
-              + np.diag(rng.normal(size=11), -1),
-              np.array([[0.0, 1.0, 2.0], [1.0, 0.0, 0.0], [3.0, 1.0, 0.0]])):
+    for K in (
+        rng.normal(size=(9, 9)),
+        np.diag(rng.uniform(1, 2, 12))
+        + np.diag(rng.normal(size=11), 1)
+        + np.diag(rng.normal(size=11), -1),
+        np.array([[0.0, 1.0, 2.0], [1.0, 0.0, 0.0], [3.0, 1.0, 0.0]]),
+    ):
         x = rng.normal(size=K.shape[0])
         got = x.copy()
         gauss_inplace(K.copy(), got)
@@ -180,6 +198,7 @@ def test_cholesky_envelope_solve():
     tridiagonal one, an arrow-shaped one with a late envelope), and False where K is not
     positive definite (singular, indefinite)."""
     from lamech.linalg import cholesky_inplace
+
     rng = np.random.default_rng(5)
     B = rng.normal(size=(7, 7))
     tri = np.diag(np.full(10, 2.0)) - np.diag(np.ones(9), 1) - np.diag(np.ones(9), -1)
@@ -199,23 +218,26 @@ def test_numpy_schur_solve_matches_full_kkt():
     full KKT solve: all rows, a slipping row folded into its normal, no rows; and a zero
     M_ii sends it to the full matrix."""
     from lamech.numeric import kkt_solve_numpy
+
     rng = np.random.default_rng(11)
     n, m = 30, 10
     M = np.diag(rng.uniform(0.5, 2.0, n))
     A = rng.normal(size=(m, n)) * (rng.uniform(size=(m, n)) < 0.3)
-    A[np.arange(m), np.arange(m)] = 1.0          # independent rows
+    A[np.arange(m), np.arange(m)] = 1.0  # independent rows
     rhs, gam, mu = rng.normal(size=n), rng.normal(size=m), np.full(m, 0.4)
     e = np.zeros(0, dtype=np.int64)
     schur, full = kkt_solve_numpy(True), kkt_solve_numpy(False)
     rows = np.arange(m, dtype=np.int64)
-    modes = [(rows, e, e, np.zeros(0)),
-             (rows[1:], np.array([0]), np.array([2]), np.array([-1.0])),
-             (rows[:0], e, e, np.zeros(0))]
+    modes = [
+        (rows, e, e, np.zeros(0)),
+        (rows[1:], np.array([0]), np.array([2]), np.array([-1.0])),
+        (rows[:0], e, e, np.zeros(0)),
+    ]
     for mode in modes:
         a = schur(M, rhs, A, gam, mu, *mode)
         b = full(M, rhs, A, gam, mu, *mode)
         assert a.shape == b.shape == (n + len(mode[0]),)
         assert np.allclose(a, b, rtol=1e-10, atol=1e-12)
-    M[3, 3] = 0.0                                   # massless: the full matrix decides
+    M[3, 3] = 0.0  # massless: the full matrix decides
     a = schur(M, rhs, A, gam, mu, *modes[0])
     assert np.allclose(a, full(M, rhs, A, gam, mu, *modes[0]), rtol=1e-10, atol=1e-12)

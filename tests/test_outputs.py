@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from lamech.outputs import OutputError, atomic_output, check_output
 from lamech.cli import main
+from lamech.outputs import OutputError, atomic_output, check_output
 
 FAST = ["--t-end", "0.2", "--samples", "11"]
 
@@ -43,8 +43,12 @@ def _not_regular(tmp_path: Path) -> dict[str, Path]:
         os.mknod(device, 0o666 | stat.S_IFCHR, os.makedev(1, 3))
     except (PermissionError, AttributeError):
         device = None  # type: ignore[assignment]
-    return {"a FIFO": fifo, "a symbolic link": link, "a directory": folder,
-            "a character device": device}
+    return {
+        "a FIFO": fifo,
+        "a symbolic link": link,
+        "a directory": folder,
+        "a character device": device,
+    }
 
 
 @pytest.mark.parametrize("what", ["a FIFO", "a symbolic link", "a directory", "a character device"])
@@ -85,6 +89,7 @@ def test_the_format_follows_the_suffix(tmp_path, capsys):
     assert "the format follows the suffix" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_outputs_get_the_ordinary_mode_and_no_temporary_is_left(tmp_path, umask_022, capsys):
     out, plot = tmp_path / "t.csv", tmp_path / "t.png"
     assert main(["simulate", "pendulum", *FAST, "--out", str(out), "--plot", str(plot)]) == 0
@@ -105,8 +110,20 @@ def test_out_dash_is_standard_output(capsys):
 def test_sweep_out_refuses_a_symlink_and_a_fifo(tmp_path, capsys):
     paths = _not_regular(tmp_path)
     for what in ("a symbolic link", "a FIFO"):
-        code = main(["sweep", "pendulum", "--param", "l=1,2", "--measure", "final:theta",
-                     "--t-end", "0.1", "--out", str(paths[what])])
+        code = main(
+            [
+                "sweep",
+                "pendulum",
+                "--param",
+                "l=1,2",
+                "--measure",
+                "final:theta",
+                "--t-end",
+                "0.1",
+                "--out",
+                str(paths[what]),
+            ]
+        )
         assert code == 2 and f"is {what}" in capsys.readouterr().err
     assert (tmp_path / "precious.csv").read_text() == "keep me\n"
 
@@ -124,12 +141,23 @@ def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_sigterm_during_an_animation_leaves_no_short_gif(tmp_path):
     gif = tmp_path / "run.gif"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "lamech", "simulate", "double_pendulum", "--t-end", "5",
-         "--animate", str(gif)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        [
+            sys.executable,
+            "-m",
+            "lamech",
+            "simulate",
+            "double_pendulum",
+            "--t-end",
+            "5",
+            "--animate",
+            str(gif),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
     )
     try:
         deadline = time.monotonic() + 120

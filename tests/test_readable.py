@@ -24,34 +24,55 @@ def _lam(s, name):
 # (example, which result, getter, textbook form as text in the example's names)
 TABLE = [
     ("pendulum", "string tension", _lam, "string", "m*(g*cos(theta) + l*theta'^2)"),
-    ("pendulum", "tension on the shell", _shell, "string",
-     "m*g*(3*cos(theta) - 2*cos(theta0))"),
-    ("cylinder", "normal force", _lam, "contact",
-     "m*g*cos(theta1) - m*(R1 + R2)*theta1'^2"),
+    ("pendulum", "tension on the shell", _shell, "string", "m*g*(3*cos(theta) - 2*cos(theta0))"),
+    ("cylinder", "normal force", _lam, "contact", "m*g*cos(theta1) - m*(R1 + R2)*theta1'^2"),
     ("cylinder", "friction", _lam, "rolling", "-m*g*sin(theta1)/3"),
-    ("cylinder", "normal force on the shell", _shell, "contact",
-     "m*g*(7*cos(theta1) - 4)/3"),
-    ("sphere_slide", "normal force on the shell", _shell, "contact",
-     "m*g*(3*cos(theta) - 2)"),
+    ("cylinder", "normal force on the shell", _shell, "contact", "m*g*(7*cos(theta1) - 4)/3"),
+    ("sphere_slide", "normal force on the shell", _shell, "contact", "m*g*(3*cos(theta) - 2)"),
     ("atwood", "string tension", _lam, "string", "2*g*m1*m2/(m1 + m2)"),
-    ("wedge", "normal force on the block", _lam, "contact",
-     "M*m*g*cos(alpha)/(M + m*sin(alpha)^2)"),
-    ("double_atwood", "upper string", _lam, "upper",
-     "8*g*m1*m2*m3/(m1*m2 + m1*m3 + 4*m2*m3)"),
+    (
+        "wedge",
+        "normal force on the block",
+        _lam,
+        "contact",
+        "M*m*g*cos(alpha)/(M + m*sin(alpha)^2)",
+    ),
+    ("double_atwood", "upper string", _lam, "upper", "8*g*m1*m2*m3/(m1*m2 + m1*m3 + 4*m2*m3)"),
     ("incline_disk", "friction on a rolling disk", _lam, "rolling", "-m*g*sin(alpha)/3"),
-    ("spherical_pendulum", "string tension", _lam, "string",
-     "m*(g*cos(theta) + l*theta'^2 + l*sin(theta)^2*phi'^2)"),
-    ("spherical_pendulum", "tension on the shell", _shell, "string",
-     "m*(3*g*cos(theta) - 2*g*cos(theta0) + l*Omega^2*sin(theta0)^2)"),
-    ("vertical_circle", "tension on the shell", _shell, "string",
-     "m*(v0^2/l + g*(3*cos(theta) - 2))"),
-    ("hoop_bead", "the hoop's normal force", _lam, "hoop",
-     "-m*(g*cos(theta) + R*theta'^2 + R*omega^2*sin(theta)^2)"),
+    (
+        "spherical_pendulum",
+        "string tension",
+        _lam,
+        "string",
+        "m*(g*cos(theta) + l*theta'^2 + l*sin(theta)^2*phi'^2)",
+    ),
+    (
+        "spherical_pendulum",
+        "tension on the shell",
+        _shell,
+        "string",
+        "m*(3*g*cos(theta) - 2*g*cos(theta0) + l*Omega^2*sin(theta0)^2)",
+    ),
+    (
+        "vertical_circle",
+        "tension on the shell",
+        _shell,
+        "string",
+        "m*(v0^2/l + g*(3*cos(theta) - 2))",
+    ),
+    (
+        "hoop_bead",
+        "the hoop's normal force",
+        _lam,
+        "hoop",
+        "-m*(g*cos(theta) + R*theta'^2 + R*omega^2*sin(theta)^2)",
+    ),
 ]
 
 
-@pytest.mark.parametrize("example, what, get, name, textbook", TABLE,
-                         ids=[f"{r[0]}: {r[1]}" for r in TABLE])
+@pytest.mark.parametrize(
+    "example, what, get, name, textbook", TABLE, ids=[f"{r[0]}: {r[1]}" for r in TABLE]
+)
 def test_the_printed_form_is_the_textbooks(example, what, get, name, textbook):
     from lamech.expr import parse
 
@@ -68,6 +89,7 @@ def test_the_printed_form_is_the_textbooks(example, what, get, name, textbook):
     assert sp.count_ops(got) <= 1.5 * sp.count_ops(known), (what, got, known)
 
 
+@pytest.mark.slow
 def test_the_double_pendulums_tensions_are_written_in_the_angle_between_the_rods():
     """The double pendulum with strings as constraints: the second rod's tension over
     m1 + m2 sin^2(theta1 - theta2), as a textbook writes it, and equal to the KKT

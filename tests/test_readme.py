@@ -19,22 +19,34 @@ def _blocks(kind: str) -> list[str]:
     return re.findall(rf"```{kind}\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
 
 
+@pytest.mark.slow
 def test_tour_output_is_what_lamech_prints():
     tour = next(b for b in _blocks("text") if b.startswith("Solid cylinder rolling"))
     actual = lamech.to_text(lamech.solve(lamech.load("cylinder")))
     assert tour.strip() == actual.strip()
 
 
-@pytest.mark.parametrize("snippet", [
-    pytest.param(b, marks=[pytest.mark.slow] if "jit=True" in b else [])   # numba compiles
-    for b in _blocks("python") if re.search(r"^print\(.*#", b, re.M)])
+@pytest.mark.parametrize(
+    "snippet",
+    [
+        # numba compiles
+        pytest.param(
+            b, marks=[pytest.mark.slow, pytest.mark.shared_cache] if "jit=True" in b else []
+        )
+        for b in _blocks("python")
+        if re.search(r"^print\(.*#", b, re.M)
+    ],
+)
 def test_python_snippet_prints_what_its_comments_say(snippet):
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        exec(compile(snippet, "README.md", "exec"), {})   # our own README, not user text
+        exec(compile(snippet, "README.md", "exec"), {})  # our own README, not user text
     printed = out.getvalue().splitlines()
-    comments = [line.split("#", 1)[1].strip() for line in snippet.splitlines()
-                if line.startswith("print(") and "#" in line]
+    comments = [
+        line.split("#", 1)[1].strip()
+        for line in snippet.splitlines()
+        if line.startswith("print(") and "#" in line
+    ]
     assert printed == comments
 
 
@@ -45,6 +57,7 @@ def test_latex_sample_is_what_lamech_prints():
     assert shown.strip() == lamech.to_latex(lamech.solve(lamech.load("pendulum"))).strip()
 
 
+@pytest.mark.slow
 def test_readme_modes_block_is_real_output():
     block = next(b for b in _blocks("text") if b.startswith("Small oscillations: Bead"))
     found = lamech.modes(lamech.load("hoop_bead"))

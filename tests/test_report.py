@@ -30,6 +30,7 @@ def cylinder_page(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
     page = cylinder_page.read_text(encoding="utf-8")
     assert cylinder_page.stat().st_size < 2_000_000  # issue 15: under 2 MB for the cylinder
@@ -43,7 +44,7 @@ def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
     assert page.count("url(data:font/woff2;base64,") == 20
     assert "Copyright (c) 2013-2020 Khan Academy" in page  # the licence kept
     # the problem file, the results, the steps, the motion
-    assert 'f = &quot;r - (R1 + R2)&quot;' in page
+    assert "f = &quot;r - (R1 + R2)&quot;" in page
     assert r"\frac{4}{7}" in page and "55.15" in page
     assert page.count('<h3 id="step-') == 13
     assert 'class="note correction"' in page and "(R1 + R2) dtheta1" in page
@@ -52,10 +53,14 @@ def test_the_page_holds_everything_and_needs_nothing_outside(cylinder_page):
     assert "lift-off" in summary and "contact" in summary  # rolled off the top, let go
 
 
+@pytest.mark.slow
 def test_report_errors_say_where_and_lose_nothing(tmp_path):
     bad = tmp_path / "bad.toml"
-    bad.write_text('title = "x"\n[coordinates]\nx = { initial = 0, velocity = 0 }\n'
-                   '[lagrangian]\nT = "x\'^2/2"\nV = "x^^2"\n', encoding="utf-8")
+    bad.write_text(
+        'title = "x"\n[coordinates]\nx = { initial = 0, velocity = 0 }\n'
+        '[lagrangian]\nT = "x\'^2/2"\nV = "x^^2"\n',
+        encoding="utf-8",
+    )
     run = _lamech("report", str(bad), "-o", str(tmp_path / "r.html"))
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert f"{bad}:6:" in run.stderr
@@ -69,6 +74,7 @@ def test_report_errors_say_where_and_lose_nothing(tmp_path):
     assert good.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_report_without_simulation_and_with_a_param(tmp_path):
     out = tmp_path / "p.html"
     run = _lamech("report", "pendulum", "-o", str(out), "--no-simulate", "--param", "theta0=1")
@@ -79,9 +85,11 @@ def test_report_without_simulation_and_with_a_param(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_the_report_renders_offline_in_headless_chromium(cylinder_page, chromium):
     requested: list[str] = []
     page = chromium.new_page(viewport={"width": 1100, "height": 1400})
+
     def refuse(route):
         if not route.request.url.startswith(("file:", "data:")):
             requested.append(route.request.url)
@@ -102,12 +110,10 @@ def test_the_report_renders_offline_in_headless_chromium(cylinder_page, chromium
     assert lift.locator(".katex .mfrac").count() == 1
     # the KaTeX fonts were loaded from the page itself
     fonts = page.evaluate(
-        "Array.from(document.fonts).filter(f => f.status === 'loaded')"
-        ".map(f => f.family)"
+        "Array.from(document.fonts).filter(f => f.status === 'loaded').map(f => f.family)"
     )
     assert any("KaTeX" in f for f in fonts)
     ARTEFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTEFACTS / "report-cylinder.png"), full_page=False)
     page.close()
     assert requested == []  # nothing asked of the network
-

@@ -101,7 +101,7 @@ def _kane_disc():
     return rates
 
 
-@pytest.mark.parametrize("case", ["rolling_disc", "by_name"])
+@pytest.mark.parametrize("case", ["rolling_disc", pytest.param("by_name", marks=pytest.mark.slow)])
 def test_the_rolling_disc_accelerates_as_sympys_kanes_method_says(case):
     """At random states: u' from KanesMethod against lamech's q'' carried to the same
     speeds, u = (theta', psi' sin(theta) + phi', psi' cos(theta)) (the angular
@@ -139,6 +139,7 @@ def test_the_rolling_disc_accelerates_as_sympys_kanes_method_says(case):
         assert np.allclose(ours, theirs, rtol=1e-9, atol=1e-9 * (1 + np.abs(theirs).max()))
 
 
+@pytest.mark.slow
 def test_the_disc_rolling_by_its_angular_velocity_is_the_hand_written_rolling():
     """roll_x and roll_y written with disc.wx, disc.wy, disc.wz are the example's
     x' - r cos(psi) phi' and y' - r sin(psi) phi'."""
@@ -191,6 +192,7 @@ def _sphere(case: str) -> lamech.System:
     return lamech.loads(text)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["principal", "tensor"])
 def test_chaplygins_ball_keeps_its_energy_and_contact_momentum_and_rolls(case):
     system = _sphere(case)
@@ -242,6 +244,7 @@ def test_chaplygins_ball_keeps_its_energy_and_contact_momentum_and_rolls(case):
     assert np.max(np.abs(traj.forces["roll_y:x"])) < 1e-10
 
 
+@pytest.mark.slow
 def test_the_angular_velocity_by_name_is_the_bodys_in_both_frames():
     """top.wx..wz and top.w1..w3 in a generalized force are R omega_body and Euler's
     kinematic equations for z-x-z turns (the heavy top)."""

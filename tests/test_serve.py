@@ -54,6 +54,7 @@ def test_examples_and_the_page(client):
     assert "http://" not in page and "https://" not in page  # nothing from outside
 
 
+@pytest.mark.slow
 def test_check_gives_errors_at_their_line(client):
     assert BAD != CYLINDER
     answer = client.post("/api/check", json={"text": BAD}).json()
@@ -65,6 +66,7 @@ def test_check_gives_errors_at_their_line(client):
     assert ok["ok"] is True and ok["title"] == "Solid cylinder rolling on a fixed cylinder"
 
 
+@pytest.mark.slow
 def test_run_solves_and_simulates(client):
     answer = client.post("/api/run", json={"text": CYLINDER, "simulate": True, "t_end": 1.5}).json()
     assert answer["ok"] is True, answer
@@ -74,10 +76,13 @@ def test_run_solves_and_simulates(client):
     assert answer["status"] == "ok"
 
 
+@pytest.mark.slow
 def test_bad_requests_get_the_same_clear_messages(client):
     big = client.post("/api/check", json={"text": "#" * 1_100_000})
     assert big.status_code == 413 and "over 1000 kB" in big.json()["errors"][0]["message"]
-    notjson = client.post("/api/check", content=b"{oops", headers={"content-type": "application/json"})
+    notjson = client.post(
+        "/api/check", content=b"{oops", headers={"content-type": "application/json"}
+    )
     assert notjson.status_code == 400 and "not JSON" in notjson.json()["errors"][0]["message"]
     notext = client.post("/api/run", json={"problem": CYLINDER})
     assert notext.status_code == 400 and '"text"' in notext.json()["errors"][0]["message"]
@@ -104,11 +109,13 @@ def _free_port() -> int:
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_the_page_in_headless_chromium(chromium):
     port = _free_port()
     server = subprocess.Popen(
         [sys.executable, "-m", "lamech", "serve", "--port", str(port), "--token", TOKEN],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
     )
     try:
         url = f"http://127.0.0.1:{port}/"
@@ -120,8 +127,12 @@ def test_the_page_in_headless_chromium(chromium):
                 time.sleep(0.2)
         page = chromium.new_page(viewport={"width": 1400, "height": 900})
         outside: list[str] = []
-        page.on("request", lambda r: outside.append(r.url)
-                if not r.url.startswith((url, "data:", "about:")) else None)
+        page.on(
+            "request",
+            lambda r: (
+                outside.append(r.url) if not r.url.startswith((url, "data:", "about:")) else None
+            ),
+        )
         page.goto(url + "?token=" + TOKEN)
         # type the cylinder problem (the last character typed by key: an input event)
         page.fill("#editor", CYLINDER[:-1])
@@ -188,9 +199,17 @@ def test_the_page_in_headless_chromium(chromium):
         server.wait(10)
 
 
+@pytest.mark.slow
 def test_a_sweep_reports_progress_then_its_table(client):
-    start = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0.2,0.3,0.4"},
-                                            "measures": ["slip"], "t_end": 2.7}).json()
+    start = client.post(
+        "/api/sweep",
+        json={
+            "text": CYLINDER,
+            "params": {"mu": "0.2,0.3,0.4"},
+            "measures": ["slip"],
+            "t_end": 2.7,
+        },
+    ).json()
     assert start["ok"] is True and start["total"] == 3
     seen = set()
     for _ in range(600):
@@ -203,16 +222,22 @@ def test_a_sweep_reports_progress_then_its_table(client):
     assert job["done"] == 3 and job["counts"] == {"ok": 3}
     assert "<th>slip:theta1</th>" in job["html"] and job["html"].count("<tr>") == 4
     # refused before anything runs: too many cases, no measures, a bad grid
-    big = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0:1:200", "R2": "1:2:100"},
-                                          "measures": ["slip"], "t_end": 1})
+    grid = {"mu": "0:1:200", "R2": "1:2:100"}
+    big = client.post(
+        "/api/sweep", json={"text": CYLINDER, "params": grid, "measures": ["slip"], "t_end": 1}
+    )
     assert big.status_code == 400 and "20000 cases" in big.json()["errors"][0]["message"]
     none = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0.2"}, "t_end": 1})
     assert none.status_code == 400 and "measures" in none.json()["errors"][0]["message"]
-    odd = client.post("/api/sweep", json={"text": CYLINDER, "params": {"mu": "0:1:x"},
-                                          "measures": ["slip"], "t_end": 1})
+    odd = client.post(
+        "/api/sweep",
+        json={"text": CYLINDER, "params": {"mu": "0:1:x"}, "measures": ["slip"], "t_end": 1},
+    )
     assert odd.status_code == 400 and "whole number" in odd.json()["errors"][0]["message"]
-    bad = client.post("/api/sweep", json={"text": CYLINDER, "params": {"nope": "1,2"},
-                                          "measures": ["slip"], "t_end": 1}).json()
+    bad = client.post(
+        "/api/sweep",
+        json={"text": CYLINDER, "params": {"nope": "1,2"}, "measures": ["slip"], "t_end": 1},
+    ).json()
     for _ in range(300):
         job = client.get(f"/api/sweep/{bad['job']}").json()
         if job["finished"]:

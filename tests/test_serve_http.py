@@ -42,9 +42,19 @@ class Server:
     def __init__(self, *extra: str):
         self.port = _free_port()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "lamech", "serve", "--port", str(self.port),
-             "--token", TOKEN, *extra],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+            [
+                sys.executable,
+                "-m",
+                "lamech",
+                "serve",
+                "--port",
+                str(self.port),
+                "--token",
+                TOKEN,
+                *extra,
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
         )
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
@@ -56,8 +66,15 @@ class Server:
                 time.sleep(0.1)
         raise AssertionError("the server did not start in 60 s")
 
-    def request(self, method: str, path: str, body: bytes | str | dict | None = None,
-                headers: dict | None = None, host: str | None = None, timeout: float = 120):
+    def request(
+        self,
+        method: str,
+        path: str,
+        body: bytes | str | dict | None = None,
+        headers: dict | None = None,
+        host: str | None = None,
+        timeout: float = 120,
+    ):
         """(status, headers, JSON or text) of one request; ``host`` replaces the Host."""
         conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
         if isinstance(body, dict):
@@ -149,23 +166,32 @@ def _message(data) -> str:
 
 
 def test_the_token_is_needed_by_header_or_query(server):
-    for headers in ({"Authorization": None}, {"Authorization": "token wrong"},
-                    {"Authorization": f"Basic {TOKEN}"}):
+    for headers in (
+        {"Authorization": None},
+        {"Authorization": "token wrong"},
+        {"Authorization": f"Basic {TOKEN}"},
+    ):
         status, _, data = server.request("GET", "/api/examples", headers=headers)
         assert status == 403 and "token" in _message(data)
     status, _, page = server.request("GET", "/", headers={"Authorization": None})
     assert status == 403 and "?token=" in page
     assert server.request("GET", "/api/examples")[0] == 200
     assert server.request("GET", f"/?token={TOKEN}", headers={"Authorization": None})[0] == 200
-    assert server.request("GET", f"/api/examples?token={TOKEN}x",
-                          headers={"Authorization": None})[0] == 403
+    assert (
+        server.request("GET", f"/api/examples?token={TOKEN}x", headers={"Authorization": None})[0]
+        == 403
+    )
 
 
+@pytest.mark.slow
 def test_the_token_is_random_by_default_and_printed_in_the_url():
     s = Server.__new__(Server)
     s.port = _free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "lamech", "serve", "--port", str(s.port)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "serve", "--port", str(s.port)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     try:
         line = proc.stderr.readline().decode()
         assert f"http://127.0.0.1:{s.port}/?token=" in line
@@ -176,8 +202,18 @@ def test_the_token_is_random_by_default_and_printed_in_the_url():
         proc.wait(10)
 
 
-@pytest.mark.parametrize("host", ["evil.example", "evil.example:{port}", "127.0.0.1:1",
-                                  "127.0.0.1", "", "127.0.0.1:{port}@evil", "[::2]:{port}"])
+@pytest.mark.parametrize(
+    "host",
+    [
+        "evil.example",
+        "evil.example:{port}",
+        "127.0.0.1:1",
+        "127.0.0.1",
+        "",
+        "127.0.0.1:{port}@evil",
+        "[::2]:{port}",
+    ],
+)
 def test_a_foreign_host_is_refused(server, host):
     status, _, data = server.request("GET", "/api/examples", host=host.format(port=server.port))
     assert status in (400, 403), data  # uvicorn itself refuses some (400)
@@ -190,27 +226,41 @@ def test_the_loopback_names_with_the_port_are_accepted(server, host):
     assert server.request("GET", "/api/examples", host=f"{host}:{server.port}")[0] == 200
 
 
+@pytest.mark.slow
 def test_a_foreign_origin_is_refused(server):
-    for origin in ("http://evil.example", "null", f"http://localhost:{server.port}",
-                   f"https://127.0.0.1:{server.port}"):
-        status, _, data = server.request("POST", "/api/check", {"text": CYLINDER},
-                                         headers={"Origin": origin})
+    for origin in (
+        "http://evil.example",
+        "null",
+        f"http://localhost:{server.port}",
+        f"https://127.0.0.1:{server.port}",
+    ):
+        status, _, data = server.request(
+            "POST", "/api/check", {"text": CYLINDER}, headers={"Origin": origin}
+        )
         assert status == 403 and "another origin" in _message(data), origin
     same = f"http://127.0.0.1:{server.port}"
-    status, _, data = server.request("POST", "/api/check", {"text": CYLINDER},
-                                     headers={"Origin": same})
+    status, _, data = server.request(
+        "POST", "/api/check", {"text": CYLINDER}, headers={"Origin": same}
+    )
     assert status == 200 and data["ok"] is True
 
 
-@pytest.mark.parametrize("kind", ["text/plain", "application/x-www-form-urlencoded",
-                                  "multipart/form-data; boundary=x", None])
+@pytest.mark.parametrize(
+    "kind",
+    ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x", None],
+)
 def test_work_takes_json_only(server, kind):
     for path in ("/api/check", "/api/run", "/api/sweep"):
-        status, _, data = server.request("POST", path, json.dumps({"text": CYLINDER}),
-                                         headers={"Content-Type": kind})
+        status, _, data = server.request(
+            "POST", path, json.dumps({"text": CYLINDER}), headers={"Content-Type": kind}
+        )
         assert status == 415 and "application/json" in _message(data)
-    ok = server.request("POST", "/api/check", {"text": CYLINDER},
-                        headers={"Content-Type": "application/json; charset=utf-8"})
+    ok = server.request(
+        "POST",
+        "/api/check",
+        {"text": CYLINDER},
+        headers={"Content-Type": "application/json; charset=utf-8"},
+    )
     assert ok[0] == 200
 
 
@@ -241,6 +291,7 @@ def test_malformed_requests_are_4xx_with_a_message(server, body, words):
         assert words in _message(data), data
 
 
+@pytest.mark.slow
 def test_a_problem_posted_names_no_files(server, tmp_path):
     secret = tmp_path / "secret.csv"
     secret.write_text("t,tau\nhunter2,1\n2,3\n")
@@ -258,10 +309,14 @@ def test_unknown_paths_and_methods_are_4xx(server):
 
 
 def _sweep(server, n: int = 5000):
-    return server.request("POST", "/api/sweep", {
-        "text": CYLINDER, "params": {"mu": f"0.1:0.5:{n}"}, "measures": ["slip"], "t_end": 3})
+    return server.request(
+        "POST",
+        "/api/sweep",
+        {"text": CYLINDER, "params": {"mu": f"0.1:0.5:{n}"}, "measures": ["slip"], "t_end": 3},
+    )
 
 
+@pytest.mark.slow
 def test_the_queue_is_bounded_and_a_check_still_answers():
     server = Server()
     try:
@@ -294,6 +349,7 @@ def test_the_queue_is_bounded_and_a_check_still_answers():
         server.stop()
 
 
+@pytest.mark.slow
 def test_work_is_ended_when_its_client_goes_away():
     server = Server()
     try:
@@ -304,7 +360,8 @@ def test_work_is_ended_when_its_client_goes_away():
         sock.sendall(
             f"POST /api/run HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
             f"Authorization: token {TOKEN}\r\nContent-Type: application/json\r\n"
-            f"Content-Length: {len(body)}\r\n\r\n".encode() + body
+            f"Content-Length: {len(body)}\r\n\r\n".encode()
+            + body
         )
         assert _wait_for(lambda: len(_alive(server.descendants()) - idle) == 1, 20)
         worker = _alive(server.descendants()) - idle
@@ -315,7 +372,9 @@ def test_work_is_ended_when_its_client_goes_away():
         server.stop()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize(
+    "sig", [pytest.param(signal.SIGTERM, marks=pytest.mark.slow), signal.SIGINT]
+)
 def test_a_signal_stops_the_server_and_every_child_within_5_s(sig):
     server = Server()
     try:
@@ -325,7 +384,8 @@ def test_a_signal_stops_the_server_and_every_child_within_5_s(sig):
         replies: list = []
         waiting = threading.Thread(
             target=lambda: replies.append(
-                server.request("POST", "/api/run", {"text": SLOW}, timeout=30)),
+                server.request("POST", "/api/run", {"text": SLOW}, timeout=30)
+            ),
             daemon=True,
         )
         waiting.start()  # a request in flight (queued behind the sweeps)
@@ -345,6 +405,7 @@ def test_a_signal_stops_the_server_and_every_child_within_5_s(sig):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_checks_stay_quick_while_slow_work_runs():
     """A load test, bounded: 2 slow solves (the double pendulum, ~10 s each) in flight,
     then 30 checks one after another; p50 and p99 printed, a generous bound asserted."""
@@ -352,8 +413,9 @@ def test_checks_stay_quick_while_slow_work_runs():
     try:
         server.request("POST", "/api/check", {"text": CYLINDER})
         threads = [
-            threading.Thread(target=server.request, args=("POST", "/api/run", {"text": SLOW}),
-                             daemon=True)
+            threading.Thread(
+                target=server.request, args=("POST", "/api/run", {"text": SLOW}), daemon=True
+            )
             for _ in range(2)
         ]
         for t in threads:
@@ -371,8 +433,10 @@ def test_checks_stay_quick_while_slow_work_runs():
         latencies.sort()
         p50 = latencies[len(latencies) // 2]
         p99 = latencies[min(len(latencies) - 1, int(0.99 * len(latencies)))]
-        print(f"\n{len(latencies)} checks while 2 slow solves run: p50 {p50:.3f} s, "
-              f"p99 {p99:.3f} s, max {latencies[-1]:.3f} s")
+        print(
+            f"\n{len(latencies)} checks while 2 slow solves run: p50 {p50:.3f} s, "
+            f"p99 {p99:.3f} s, max {latencies[-1]:.3f} s"
+        )
         assert p99 < 5.0
     finally:
         server.stop()

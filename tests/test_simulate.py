@@ -8,6 +8,7 @@ import json
 import math
 import re
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,6 +30,7 @@ from lamech.numeric import (
 )
 
 G = 9.81
+HERE = Path(__file__).parent
 
 
 def _example_text(name: str) -> str:
@@ -49,13 +51,14 @@ def _check_pendulum(tr, theta0=0.5):
     assert np.max(tr.residual_position) <= 1e-10
     assert tr.energy_error is not None and tr.energy_error <= 1e-9
     th = tr.coordinate("theta")
-    ref = G * (3 * np.cos(th) - 2 * math.cos(theta0))   # m = 1
+    ref = G * (3 * np.cos(th) - 2 * math.cos(theta0))  # m = 1
     rel = np.max(np.abs(tr.multiplier("string") - ref) / np.abs(ref))
     assert rel <= 1e-8, rel
     # the Cartesian tension equals the multiplier (f = l - r, unit radial direction)
     assert np.allclose(tr.forces["string:tension"], tr.multiplier("string"), rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_pendulum_20_periods(pendulum):
     tr = simulate(pendulum, 20 * _pendulum_period(0.5), samples=4001)
     _check_pendulum(tr)
@@ -63,6 +66,7 @@ def test_pendulum_20_periods(pendulum):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_pendulum_1000_periods(pendulum):
     tr = simulate(pendulum, 1000 * _pendulum_period(0.5), samples=20001)
     _check_pendulum(tr)
@@ -81,9 +85,10 @@ def _cylinder(mu: str | None) -> lamech.System:
     return lamech.loads(text)
 
 
-THS = 0.01   # start angle: at rest slightly off the top
+THS = 0.01  # start angle: at rest slightly off the top
 
 
+@pytest.mark.slow
 def test_cylinder_multipliers_match_closed_form():
     system = lamech.load("cylinder")
     sol = lamech.solve(system)
@@ -92,7 +97,7 @@ def test_cylinder_multipliers_match_closed_form():
     pv = system.parameter_values
     tr = simulate(system, 2.2, q0={"theta1": THS, "theta2": 3 * THS}, samples=2201)
     assert tr.status == "ok", tr.message
-    assert tr.events == []          # rolls the whole time (slips at t = 2.28)
+    assert tr.events == []  # rolls the whole time (slips at t = 2.28)
     th, thd = tr.coordinate("theta1"), tr.velocity("theta1")
     for name in ("contact", "rolling"):
         expr = sp.sympify(sol.multipliers[name]).subs(pv)
@@ -118,38 +123,28 @@ def test_cylinder_lift_off_angle():
 
 @pytest.mark.parametrize("mu", [0.3, 0.1])
 def test_cylinder_slips_where_closed_form_says(mu):
-    tr = simulate(lamech.load("cylinder"), 3.0, q0={"theta1": THS, "theta2": 3 * THS},
-                  samples=301, params={"mu": mu})
+    tr = simulate(
+        lamech.load("cylinder"),
+        3.0,
+        q0={"theta1": THS, "theta2": 3 * THS},
+        samples=301,
+        params={"mu": mu},
+    )
     assert tr.status == "ok", tr.message
     kinds = [(e.kind, e.constraint) for e in tr.events]
     assert kinds[:2] == [("slip", "rolling"), ("lift-off", "contact")]
-    ref = brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(THS)),
-                 0.05, 0.9, xtol=1e-15)
+    ref = brentq(
+        lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(THS)), 0.05, 0.9, xtol=1e-15
+    )
     assert abs(tr.events[0].coordinates["theta1"] - ref) <= 1e-9
     # while slipping the friction column holds the kinetic friction -mu N
     k = np.nonzero((tr.t > tr.events[0].t) & (tr.t < tr.events[1].t))[0]
     assert len(k)
-    assert np.allclose(tr.multiplier("rolling")[k], -mu * tr.multiplier("contact")[k],
-                       rtol=1e-12)
+    assert np.allclose(tr.multiplier("rolling")[k], -mu * tr.multiplier("contact")[k], rtol=1e-12)
 
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.5
-[coordinates]
-y = { initial = 0, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+# dropped from q0={"y": h}
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8")
 
 
 def test_ball_bounce_heights():
@@ -161,11 +156,11 @@ def test_ball_bounce_heights():
     t1 = math.sqrt(2 * h / G)
     t_k = t1
     for k, ev in enumerate(impacts[:8], start=1):
-        up = ev.coordinates["y'"]                     # velocity after the impact
-        assert abs(up ** 2 / (2 * G) - e ** (2 * k) * h) <= 1e-9 * h
+        up = ev.coordinates["y'"]  # velocity after the impact
+        assert abs(up**2 / (2 * G) - e ** (2 * k) * h) <= 1e-9 * h
         assert abs(ev.t - t_k) <= 1e-9
         assert abs(ev.velocity_before + up / e) <= 1e-9
-        t_k += 2 * e ** k * t1
+        t_k += 2 * e**k * t1
     # Zeno: the bounces accumulate at t1 (1 + e)/(1 - e), then it rests on the floor
     assert tr.events[-1].kind == "contact"
     assert abs(tr.events[-1].t - t1 * (1 + e) / (1 - e)) < 1e-4
@@ -173,7 +168,7 @@ def test_ball_bounce_heights():
     assert np.allclose(tr.multiplier("floor")[rest], G, rtol=1e-12)
     # the sampled apex of the first bounce
     first = (tr.t > impacts[0].t) & (tr.t < impacts[1].t)
-    assert abs(tr.coordinate("y")[first].max() - e ** 2 * h) < 1e-5
+    assert abs(tr.coordinate("y")[first].max() - e**2 * h) < 1e-5
 
 
 def test_disk_on_steep_incline_slips_at_once():
@@ -184,8 +179,8 @@ def test_disk_on_steep_incline_slips_at_once():
     assert tr.status == "ok", tr.message
     assert [(e.kind, e.t) for e in tr.events] == [("slip", 0.0)]
     t = tr.t
-    s_ref = 0.5 * G * (math.sin(alpha) - mu * math.cos(alpha)) * t ** 2
-    th_ref = 0.5 * (2 * mu * G * math.cos(alpha) / R) * t ** 2
+    s_ref = 0.5 * G * (math.sin(alpha) - mu * math.cos(alpha)) * t**2
+    th_ref = 0.5 * (2 * mu * G * math.cos(alpha) / R) * t**2
     assert np.max(np.abs(tr.coordinate("s") - s_ref)) <= 1e-9
     assert np.max(np.abs(tr.coordinate("theta") - th_ref)) <= 1e-8
     assert np.allclose(tr.multiplier("rolling"), -mu * G * math.cos(alpha), rtol=1e-12)
@@ -198,12 +193,13 @@ def test_sliding_disk_sticks_when_it_rolls():
     assert tr.status == "ok", tr.message
     kinds = [e.kind for e in tr.events]
     assert kinds == ["slip", "stick"]
-    t_stick = v0 / (3 * mu * G)                     # v = v0 - mu g t meets R w = 2 mu g t
+    t_stick = v0 / (3 * mu * G)  # v = v0 - mu g t meets R w = 2 mu g t
     assert abs(tr.events[1].t - t_stick) <= 1e-9
     assert abs(tr.qd[-1, 0] - 2 * v0 / 3) <= 1e-9
     assert np.max(tr.residual) < 1e-9
 
 
+@pytest.mark.slow
 def test_convergence_order(pendulum):
     theta0 = 0.5
     P = _pendulum_period(theta0)
@@ -214,26 +210,31 @@ def test_convergence_order(pendulum):
         errs.append(abs(tr.q[-1, 1] - theta0) + 0.3 * abs(tr.qd[-1, 1]))
     slope_steps = np.polyfit(np.log(steps), np.log(errs), 1)[0]
     slope_tol = np.polyfit(np.log([1e-5, 1e-6, 1e-7, 1e-8, 1e-9]), np.log(errs), 1)[0]
-    assert -10 < slope_steps < -6.5, slope_steps      # DOP853: order 8
-    assert 0.8 < slope_tol < 1.3, slope_tol           # error proportional to tolerance
+    assert -10 < slope_steps < -6.5, slope_steps  # DOP853: order 8
+    assert 0.8 < slope_tol < 1.3, slope_tol  # error proportional to tolerance
     assert errs[-1] < errs[0] * 1e-3
 
 
 def test_initial_state_off_the_constraints(pendulum):
     with pytest.raises(SimulationError, match="violates"):
         simulate(pendulum, 1.0, q0={"r": 1.001})
-    tr = simulate(pendulum, 1.0, q0={"r": 1.001}, qd0={"r": 0.2}, project_initial=True,
-                  samples=11)
+    tr = simulate(pendulum, 1.0, q0={"r": 1.001}, qd0={"r": 0.2}, project_initial=True, samples=11)
     assert tr.status == "ok"
     assert abs(tr.q[0, 0] - 1.0) < 1e-14 and abs(tr.qd[0, 0]) < 1e-14
     assert tr.notes and "projected" in tr.notes[0]
 
 
 def test_bad_options(pendulum):
-    for kwargs in ({"t_end": -1.0}, {"t_end": float("nan")}, {"t_end": 1.0, "rtol": 0.0},
-                   {"t_end": 1.0, "rtol": -1e-8}, {"t_end": 1.0, "atol": 0.0},
-                   {"t_end": 1.0, "samples": 1}, {"t_end": 1.0, "dt": -0.1},
-                   {"t_end": 1.0, "samples": 10, "dt": 0.1}):
+    for kwargs in (
+        {"t_end": -1.0},
+        {"t_end": float("nan")},
+        {"t_end": 1.0, "rtol": 0.0},
+        {"t_end": 1.0, "rtol": -1e-8},
+        {"t_end": 1.0, "atol": 0.0},
+        {"t_end": 1.0, "samples": 1},
+        {"t_end": 1.0, "dt": -0.1},
+        {"t_end": 1.0, "samples": 10, "dt": 0.1},
+    ):
         with pytest.raises(SimulationError):
             simulate(pendulum, **kwargs)
 
@@ -243,13 +244,30 @@ def test_csv_and_summary(pendulum):
     assert list(tr.t) == [0.0, 1.0]
     text = lamech.present.trajectory_csv(tr)
     rows = list(csv.reader(io.StringIO(text)))
-    assert rows[0] == ["t", "r", "theta", "r'", "theta'", "lambda:string",
-                       "force:string:tension", "energy", "residual"]
+    assert rows[0] == [
+        "t",
+        "r",
+        "theta",
+        "r'",
+        "theta'",
+        "lambda:string",
+        "force:string:tension",
+        "energy",
+        "residual",
+    ]
     assert len(rows) == 3
-    assert float(rows[2][2]) == tr.q[-1, 1]          # 17 significant digits round-trip
+    assert float(rows[2][2]) == tr.q[-1, 1]  # 17 significant digits round-trip
     s = tr.summary()
-    for key in ("events", "final", "max_residual", "max_residual_position",
-                "max_residual_velocity", "energy_error", "status", "message"):
+    for key in (
+        "events",
+        "final",
+        "max_residual",
+        "max_residual_position",
+        "max_residual_velocity",
+        "energy_error",
+        "status",
+        "message",
+    ):
         assert key in s
     assert set(s["final"]) == {"r", "theta", "r'", "theta'"}
     assert s["status"] == "ok"
@@ -266,14 +284,15 @@ def test_parameters_as_arguments(pendulum):
     assert np.max(np.abs(tr.multiplier("string") - ref) / ref) < 1e-8
 
 
+@pytest.mark.slow
 def test_rheonomic_hoop_keeps_its_jacobi_integral():
     system = lamech.load("hoop_bead")
     tr = simulate(system, 3.0, samples=301)
     assert tr.status == "ok", tr.message
-    assert tr.energy_error is None            # the drive does work
+    assert tr.energy_error is None  # the drive does work
     m, g, R, w = 1.0, 9.81, 0.5, 6.0
     th, thd = tr.coordinate("theta"), tr.velocity("theta")
-    h = m * R**2 * thd**2 / 2 - m * R**2 * w**2 * np.sin(th)**2 / 2 - m * g * R * np.cos(th)
+    h = m * R**2 * thd**2 / 2 - m * R**2 * w**2 * np.sin(th) ** 2 / 2 - m * g * R * np.cos(th)
     assert np.max(np.abs(h - h[0])) <= 1e-9 * abs(h[0])
     assert np.max(np.abs(tr.coordinate("phi") - w * tr.t)) < 1e-10
 
@@ -289,6 +308,7 @@ def test_knife_edge_nonholonomic_invariants():
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_jit_gives_the_same_numbers():
     system = lamech.load("cylinder")
@@ -302,12 +322,12 @@ def test_jit_gives_the_same_numbers():
 
 
 def test_ladder_leaves_the_wall_at_two_thirds_height():
-    tr = simulate(lamech.load("ladder"), 0.8, samples=101)   # the top lands at t = 0.816
+    tr = simulate(lamech.load("ladder"), 0.8, samples=101)  # the top lands at t = 0.816
     assert tr.status == "ok", tr.message
     assert [(e.kind, e.constraint) for e in tr.events] == [("lift-off", "wall")]
     phi = tr.events[0].coordinates["phi"]
     assert abs(phi - math.asin(2 / 3 * math.sin(1.2))) <= 1e-9
-    assert tr.energy_error < 1e-9          # frictionless: lift-off dissipates nothing
+    assert tr.energy_error < 1e-9  # frictionless: lift-off dissipates nothing
 
 
 def test_ladder_lands_flat_and_slides_on():
@@ -330,11 +350,12 @@ def test_ladder_lands_flat_and_slides_on():
     assert abs(land.coordinates["phi'"]) < 1e-12 and abs(land.coordinates["y'"]) < 1e-12
     after = tr.t > land.t
     assert np.allclose(tr.coordinate("y")[after], 0, atol=1e-12)
-    assert np.allclose(tr.coordinate("x")[after],
-                       land.coordinates["x"] + vx * (tr.t[after] - land.t), atol=1e-9)
+    assert np.allclose(
+        tr.coordinate("x")[after], land.coordinates["x"] + vx * (tr.t[after] - land.t), atol=1e-9
+    )
     assert tr.coordinate("y").min() > -1e-9
     top = tr.coordinate("y") + l / 2 * np.sin(tr.coordinate("phi"))
-    assert top.min() > -1e-9                                # never through the floor
+    assert top.min() > -1e-9  # never through the floor
 
 
 def test_events_and_status_are_typed():
@@ -351,13 +372,31 @@ def test_events_and_status_are_typed():
     assert FrictionState("slip") is FrictionState.SLIP
 
 
+@pytest.mark.slow
 def test_cli_simulate(tmp_path, capsys):
     import json
 
     from lamech.cli import main
+
     out, png = tmp_path / "traj.csv", tmp_path / "forces.png"
-    assert main(["simulate", "ladder", "--t-end", "1", "--samples", "51",
-                 "--out", str(out), "--json", "--plot", str(png)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "ladder",
+                "--t-end",
+                "1",
+                "--samples",
+                "51",
+                "--out",
+                str(out),
+                "--json",
+                "--plot",
+                str(png),
+            ]
+        )
+        == 0
+    )
     summary = json.loads(capsys.readouterr().out)
     assert summary["status"] == "ok"
     assert summary["events"][0]["kind"] == "lift-off"
@@ -383,10 +422,18 @@ f = "y"
 """
 
 
-@pytest.mark.parametrize("name", lamech.example_names() + ["<inverse-square>"])
+# andrews_squeezer: about 5 s of SymPy on its own
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n == "andrews_squeezer" else n
+        for n in lamech.example_names() + ["<inverse-square>"]
+    ],
+)
 def test_generated_code_matches_sympy(name):
     """The generated numeric functions against SymPy's own evaluation at random states."""
     from lamech.symbolic import dynamics
+
     system = lamech.loads(INVERSE_SQUARE) if name.startswith("<") else lamech.load(name)
     ns = compile_system(system)
     dyn = dynamics(system)
@@ -396,12 +443,15 @@ def test_generated_code_matches_sympy(name):
         q = rng.uniform(0.2, 1.5, ns.n)
         v = rng.uniform(-1.0, 1.0, ns.n)
         t = float(rng.uniform(0, 2))
-        env = {**system.parameter_values, system.t: t,
-               **dict(zip(system.q, q)), **dict(zip(system.qd, v))}
+        env = {
+            **system.parameter_values,
+            system.t: t,
+            **dict(zip(system.q, q)),
+            **dict(zip(system.qd, v)),
+        }
         M, rhs, A, gam, _ = ns.dynamics(t, q, v, p)
         for got, expr in ((M, dyn.M), (rhs, dyn.Q - dyn.h), (A, dyn.A), (gam, dyn.gamma)):
-            ref = np.array(sp.Matrix(expr).subs(env).evalf(), dtype=float).reshape(
-                np.shape(got))
+            ref = np.array(sp.Matrix(expr).subs(env).evalf(), dtype=float).reshape(np.shape(got))
             assert np.allclose(got, ref, rtol=1e-13, atol=1e-13), (name, got, ref)
         T, V = ns.energy(t, q, v, p)
         assert math.isclose(T, float(system.T.subs(env)), rel_tol=1e-13, abs_tol=1e-13)
@@ -421,8 +471,9 @@ def test_initial_values_held_and_friction_as_parameter():
     assert abs(tr.coordinate("theta2")[0] - (R1 + R2) / R2 * theta_s) < 1e-14
     slip = next(e for e in tr.events if e.kind == "slip")
     # N = m g (7 cos θ - 4 cos θs)/3, F = -m g sin θ / 3: slip where sin θ = μ (7 cos θ - 4 cos θs)
-    root = brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(theta_s)),
-                  theta_s, 1.0)
+    root = brentq(
+        lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(theta_s)), theta_s, 1.0
+    )
     assert abs(slip.coordinates["theta1"] - root) < 1e-9
     with pytest.raises(SimulationError, match="unknown coordinate `phi`"):
         lamech.simulate(cyl, 1.0, initial={"phi": 1.0})
@@ -443,6 +494,7 @@ def test_held_initial_values_move_the_others_least_in_the_mass_metric():
     assert np.allclose(v, [vp, -vp, -0.3 + 2 * vp, 0.3], rtol=0, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_trajectory_as_dataframe():
     pd = pytest.importorskip("pandas", reason="pandas not installed")
     tr = lamech.simulate(lamech.load("pendulum"), 1.0, samples=5)
@@ -452,21 +504,7 @@ def test_trajectory_as_dataframe():
     assert {"theta", "theta'", "lambda:string", "energy", "residual"} <= set(df.columns)
 
 
-BLOW_UP = """
-title = "Bead pushed ever harder"
-[parameters]
-m = 1.0
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 0, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-[[constraints]]
-name = "rail"
-f = "y - x/2"
-[forces]
-x = "1/(1 - t)^3"
-"""
+BLOW_UP = (HERE / "problems" / "blow_up.toml").read_text(encoding="utf-8")
 
 
 def test_a_failed_run_keeps_what_it_computed(tmp_path):
@@ -498,8 +536,22 @@ def test_ctrl_c_keeps_the_trajectory():
 
 def test_cli_initial_and_param(capsys):
     from lamech.cli import main
-    code = main(["simulate", "cylinder", "--t-end", "2.6", "--samples", "3",
-                 "--initial", "theta1=pi/200", "--param", "mu=0.1", "--json"])
+
+    code = main(
+        [
+            "simulate",
+            "cylinder",
+            "--t-end",
+            "2.6",
+            "--samples",
+            "3",
+            "--initial",
+            "theta1=pi/200",
+            "--param",
+            "mu=0.1",
+            "--json",
+        ]
+    )
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["status"] == "ok"
     assert [e["kind"] for e in out["events"]][:2] == ["slip", "lift-off"]
@@ -508,10 +560,23 @@ def test_cli_initial_and_param(capsys):
     assert "unknown name" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_engine_chooses_the_integrator_and_says_which_ran(capsys):
     from lamech.cli import main
-    args = ["simulate", "cylinder", "--t-end", "2.6", "--samples", "3",
-            "--initial", "theta1=pi/200", "--param", "mu=0.1", "--json"]
+
+    args = [
+        "simulate",
+        "cylinder",
+        "--t-end",
+        "2.6",
+        "--samples",
+        "3",
+        "--initial",
+        "theta1=pi/200",
+        "--param",
+        "mu=0.1",
+        "--json",
+    ]
     runs = {}
     for engine in ("python", "scipy"):
         assert main([*args, "--engine", engine]) == 0
@@ -553,6 +618,7 @@ f = "x - t"
 """
 
 
+@pytest.mark.slow
 def test_driven_into_a_singular_configuration():
     """x = t drives the bead along the unit circle to (1, 0) at t = 1, where the two
     constraint gradients (2x, 2y) and (1, 0) become parallel: the run stops there as
@@ -606,16 +672,18 @@ def _moving_support_truth(t_eval, m=1.0, g=9.81, l=1.0, a=0.1, w=3.0, theta0=0.3
     def rhs(t, y):
         return [y[1], -g / l * math.sin(y[0]) + a * w**2 / l * math.cos(w * t) * math.cos(y[0])]
 
-    sol = solve_ivp(rhs, (0, t_eval[-1]), [theta0, 0.0], t_eval=t_eval, method="DOP853",
-                    rtol=1e-12, atol=1e-12)
+    sol = solve_ivp(
+        rhs, (0, t_eval[-1]), [theta0, 0.0], t_eval=t_eval, method="DOP853", rtol=1e-12, atol=1e-12
+    )
     return sol.y[0], sol.y[1]
 
 
+@pytest.mark.slow
 def test_pendulum_on_a_driven_support_matches_the_reduced_equation():
     tr = simulate(lamech.load("moving_support"), 10.0, samples=501)
     assert tr.status == "ok", tr.message
-    assert tr.energy_error is None                  # the drive does work
-    assert tr.events == []                          # the string stays taut
+    assert tr.energy_error is None  # the drive does work
+    assert tr.events == []  # the string stays taut
     t = tr.t
     m, g, l, a, w, M = 1.0, 9.81, 1.0, 0.1, 3.0, 2.0
     assert np.max(np.abs(tr.coordinate("xs") - a * np.cos(w * t))) < 1e-10
@@ -631,29 +699,54 @@ def test_pendulum_on_a_driven_support_matches_the_reduced_equation():
     assert np.allclose(tr.multiplier("support"), support, rtol=1e-8, atol=1e-8)
 
 
+@pytest.mark.slow
 def test_cli_csv_and_json_contract(tmp_path, capsys):
     """The CSV and --json summary parsed back: columns, 17 significant digits, both
     ends sampled, events with t/kind/constraint/coordinates, energy_error null for a
     driven (time-dependent) problem."""
     from lamech.cli import main
+
     out = tmp_path / "m.csv"
-    code = main(["simulate", "moving_support", "--t-end", "2", "--samples", "5",
-                 "--out", str(out), "--json"])
+    code = main(
+        [
+            "simulate",
+            "moving_support",
+            "--t-end",
+            "2",
+            "--samples",
+            "5",
+            "--out",
+            str(out),
+            "--json",
+        ]
+    )
     assert code == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["status"] == "ok" and summary["energy_error"] is None
     assert summary["max_residual"] < 1e-9
     rows = list(csv.reader(out.open()))
-    assert rows[0] == ["t", "xs", "r", "theta", "xs'", "r'", "theta'", "lambda:support",
-                       "lambda:string", "force:string:tension", "energy", "residual"]
+    assert rows[0] == [
+        "t",
+        "xs",
+        "r",
+        "theta",
+        "xs'",
+        "r'",
+        "theta'",
+        "lambda:support",
+        "lambda:string",
+        "force:string:tension",
+        "energy",
+        "residual",
+    ]
     assert [float(r[0]) for r in rows[1:]] == [0.0, 0.5, 1.0, 1.5, 2.0]
     last = rows[-1]
     for name, value in summary["final"].items():
-        assert float(last[rows[0].index(name)]) == value      # round-trips exactly
+        assert float(last[rows[0].index(name)]) == value  # round-trips exactly
     assert abs(float(last[1]) - 0.1 * math.cos(6.0)) < 1e-10  # xs = a cos(w t)
     th_ref, _ = _moving_support_truth(np.array([0.0, 2.0]))
     assert abs(float(last[3]) - th_ref[-1]) < 1e-7
-    assert last[3] == f"{float(last[3]):.17g}"               # written with 17 digits
+    assert last[3] == f"{float(last[3]):.17g}"  # written with 17 digits
 
     code = main(["simulate", "ladder", "--t-end", "0.8", "--samples", "3", "--json"])
     summary = json.loads(capsys.readouterr().out)
@@ -665,10 +758,12 @@ def test_cli_csv_and_json_contract(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_thirty_link_chain_without_special_handling():
     """Issue 4's large system: derive, compile and simulate the 30-link chain (60
     coordinates, 30 constraints); energy and constraints hold."""
     from lamech.problem import chain_toml
+
     tr = lamech.simulate(lamech.loads(chain_toml(30)), 1.0, samples=3)
     assert tr.status == "ok", tr.message
     assert tr.summary()["max_residual"] < 1e-10
@@ -710,10 +805,14 @@ def test_a_force_that_rises_and_falls_within_a_step_lifts_the_block_off():
     assert abs(tr.events[0].t - t0) <= 1e-9
 
     def y(t):  # the flight from rest at t0 under F sin(w t) - m g
-        return (-F / (m * w**2) * (math.sin(w * t) - math.sin(w * t0))
-                + F / (m * w) * math.cos(w * t0) * (t - t0) - g / 2 * (t - t0) ** 2)
+        return (
+            -F / (m * w**2) * (math.sin(w * t) - math.sin(w * t0))
+            + F / (m * w) * math.cos(w * t0) * (t - t0)
+            - g / 2 * (t - t0) ** 2
+        )
 
     from scipy.optimize import brentq
+
     landing = brentq(y, t0 + 0.5, 2.5, xtol=1e-15)
     assert abs(tr.events[1].t - landing) <= 1e-9
     assert abs(tr.events[2].t - (2 * math.pi + math.asin(m * g / F)) / w) <= 1e-9

@@ -22,19 +22,26 @@ import sympy as sp
 import lamech
 from lamech.symbolic import CORRECTION, Derivation, Term
 
-SLOW = {"andrews_squeezer", "rolling_disc", "double_pendulum", "moving_support", "four_bar",
-        "heavy_top", "rolling_sphere"}
+SLOW = {
+    "andrews_squeezer",
+    "rolling_disc",
+    "double_pendulum",
+    "moving_support",
+    "four_bar",
+    "heavy_top",
+    "rolling_sphere",
+}
 
 
 @pytest.fixture(scope="module")
-def cylinder():
-    sol = lamech.solve(lamech.load("cylinder"))
+def cylinder(solved_example):
+    sol = solved_example("cylinder")
     return sol, lamech.steps(sol)
 
 
 @pytest.fixture(scope="module")
-def pendulum():
-    sol = lamech.solve(lamech.load("pendulum"))
+def pendulum(solved_example):
+    sol = solved_example("pendulum")
     return sol, lamech.steps(sol)
 
 
@@ -61,8 +68,10 @@ def test_cylinder_per_coordinate_lines_are_the_lectures(cylinder):
     r, th1, th2 = S["r"], S["theta1"], S["theta2"]
     rd, th1d = S["r'"], S["theta1'"]
     rdd, th2dd = S["r''"], S["theta2''"]
-    step_r, step_1, step_2 = d.step("Coordinate r"), d.step("Coordinate theta1"), d.step(
-        "Coordinate theta2"
+    step_r, step_1, step_2 = (
+        d.step("Coordinate r"),
+        d.step("Coordinate theta1"),
+        d.step("Coordinate theta2"),
     )
     # r: d/dt dL/dr' = m r'', dL/dr = m r theta1'^2 - m g cos theta1, df1/dr = 1, df2/dr = 0
     assert _same(_line(step_r, "d/dt d/dq'", "L", rd), m * rdd)
@@ -119,7 +128,9 @@ def test_cylinder_energy_shell_lift_off_and_friction(cylinder):
     shell = {x.lhs: x.rhs for x in energy.lines}
     assert _same(shell[S["theta1'"] ** 2], 4 * g * (1 - sp.cos(th1)) / (3 * (R1 + R2)))
     on = {x.lhs: x.rhs for x in d.step("The multipliers as functions").lines}
-    assert _same(on[S["lambda_contact"]], m * g * (sp.Rational(7, 3) * sp.cos(th1) - sp.Rational(4, 3)))
+    assert _same(
+        on[S["lambda_contact"]], m * g * (sp.Rational(7, 3) * sp.cos(th1) - sp.Rational(4, 3))
+    )
     where = d.step("Where a constraint lets go")
     first = [x for x in where.lines if "55.15 deg" in x.label]
     assert len(first) == 1 and _same(first[0].lhs - first[0].rhs, sp.cos(th1) - sp.Rational(4, 7))
@@ -185,8 +196,11 @@ def _identities(sol, d: Derivation, rng: random.Random) -> None:
                 assert abs(num(first) - num(_total(con.expr, system))) < 1e-8, con.name
     if any(x.label.startswith("from") for x in _solved_lines(d)):
         # by hand with the reduced accelerations put in = the closed form
-        acc = {c.acceleration: sol.closed.accelerations[c.acceleration]
-               for c in sol.reduction.independent if c.acceleration in sol.closed.accelerations}
+        acc = {
+            c.acceleration: sol.closed.accelerations[c.acceleration]
+            for c in sol.reduction.independent
+            if c.acceleration in sol.closed.accelerations
+        }
         for line in _solved_lines(d):
             if line.label.startswith("from"):
                 name = str(line.lhs).removeprefix("lambda_")
@@ -211,15 +225,14 @@ def _free(sol):
 
 
 def _total(f, system):
-    return sum((sp.diff(f, c.symbol) * c.velocity for c in system.coordinates), sp.Integer(0)) + sp.diff(
-        f, system.t
-    )
+    rate = sum((sp.diff(f, c.symbol) * c.velocity for c in system.coordinates), sp.Integer(0))
+    return rate + sp.diff(f, system.t)
 
 
 @pytest.mark.parametrize(
     "name",
     [
-        pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n
+        pytest.param(n, marks=[pytest.mark.slow, pytest.mark.shared_cache]) if n in SLOW else n
         for n in lamech.example_names()
     ],
 )
@@ -235,6 +248,7 @@ def test_every_examples_steps_hold_together(name):
     json.dumps(lamech.to_json(d))
 
 
+@pytest.mark.slow
 def test_cli_steps_text_latex_json():
     run = [sys.executable, "-m", "lamech", "solve", "cylinder", "--steps"]
     text = subprocess.run(run, capture_output=True, text=True, check=True).stdout
@@ -250,18 +264,24 @@ def test_cli_steps_text_latex_json():
     assert "The energy integral" in titles
     shell = next(s for s in data["steps"] if s["title"].startswith("The multipliers as"))
     assert shell["lines"][0] == {
-        "lhs": "lambda_contact", "rhs": "g*m*(7*cos(theta1) - 4)/3", "label": "theta1'^2 put in"
+        "lhs": "lambda_contact",
+        "rhs": "g*m*(7*cos(theta1) - 4)/3",
+        "label": "theta1'^2 put in",
     }
 
 
-def test_readme_steps_excerpt_is_real_output():
-    from pathlib import Path
+@pytest.mark.slow
+def test_readme_steps_excerpt_is_real_output(cylinder):
     import re
+    from pathlib import Path
 
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    block = next(b for b in re.findall(r"```text\n(.*?)```", readme, re.S)
-                 if b.startswith("Step 8. The multipliers solved"))
-    actual = lamech.to_text(lamech.steps(lamech.solve(lamech.load("cylinder")))).splitlines()
+    block = next(
+        b
+        for b in re.findall(r"```text\n(.*?)```", readme, re.S)
+        if b.startswith("Step 8. The multipliers solved")
+    )
+    actual = lamech.to_text(cylinder[1]).splitlines()
     shown = [line for line in block.splitlines() if line != "..."]
     for line in shown:
         assert line in actual, line

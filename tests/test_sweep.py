@@ -15,16 +15,16 @@ import lamech
 from lamech.cli import main
 from lamech.sweeps import SweepError, parse_values, run_sweep
 
-
-THETA_S = 0.01          # the cylinder starts just off the top, at rest
+THETA_S = 0.01  # the cylinder starts just off the top, at rest
 
 
 def _slip_angle(mu: float, ths: float = THETA_S) -> float:
     """Closed form (energy integral): N = m g (7 cos th - 4 cos ths)/3, F = -m g sin th/3;
     slip where sin th = mu (7 cos th - 4 cos ths), before lift-off."""
     top = math.acos(4 / 7 * math.cos(ths))
-    return brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(ths)),
-                  ths, top, xtol=1e-15)
+    return brentq(
+        lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(ths)), ths, top, xtol=1e-15
+    )
 
 
 def _cylinder(params, measures, **kw):
@@ -34,6 +34,7 @@ def _cylinder(params, measures, **kw):
     return run_sweep("cylinder", params, measures, initial={"theta1": THETA_S}, **kw)
 
 
+@pytest.mark.slow
 def test_slip_angle_matches_energy_integral_over_mu_and_R2():
     mus = [0.1, 0.25, 0.4, 0.6]
     run = _cylinder({"mu": mus, "R2": [0.3, 0.5]}, ["slip", "liftoff"])
@@ -50,7 +51,7 @@ def test_slip_angle_matches_energy_integral_over_mu_and_R2():
     assert run.columns[:3] == ["case", "mu", "R2"]
 
 
-@pytest.mark.filterwarnings("ignore:overflow:RuntimeWarning")   # rejected trial steps
+@pytest.mark.filterwarnings("ignore:overflow:RuntimeWarning")  # rejected trial steps
 def test_liftoff_angle_when_friction_barely_lets_go():
     # N -> 0 at lift-off while F = -m g sin/3 does not, so any finite mu slips just before;
     # with mu = 1e6 that happens ~1e-7 rad before cos th = (4/7) cos ths.
@@ -63,13 +64,19 @@ def test_liftoff_angle_when_friction_barely_lets_go():
     assert abs(run.rows[0]["liftoff:t"] - run.rows[1]["liftoff:t"]) < 1e-9  # m drops out
 
 
+@pytest.mark.slow
 def test_series_measures_against_pendulum_closed_forms():
     # released at rest from theta0: string tension m g (3 cos th - 2 cos th0), min at the
     # start (m g cos th0), max at the bottom (m g (3 - 2 cos th0)); energy conserved.
     th0 = [0.3, 0.8]
-    run = run_sweep("pendulum", {"theta0": th0, "m": [2.0]},
-                    ["min:lambda:string", "max:lambda:string", "final:energy",
-                     "max:theta", "liftoff"], t_end=2.0, samples=4001, workers=1)
+    run = run_sweep(
+        "pendulum",
+        {"theta0": th0, "m": [2.0]},
+        ["min:lambda:string", "max:lambda:string", "final:energy", "max:theta", "liftoff"],
+        t_end=2.0,
+        samples=4001,
+        workers=1,
+    )
     g = 9.81
     for row in run.rows:
         c0 = math.cos(row["theta0"])
@@ -78,13 +85,14 @@ def test_series_measures_against_pendulum_closed_forms():
         assert abs(row["max:lambda:string"] / (2 * g * (3 - 2 * c0)) - 1) < 1e-5
         assert abs(row["final:energy"] + 2 * g * c0) < 1e-9
         assert abs(row["max:theta"] - row["theta0"]) < 1e-6
-        assert math.isnan(row["liftoff:t"])       # the string never slackens
+        assert math.isnan(row["liftoff:t"])  # the string never slackens
 
 
 def _read(path):
     return path.read_text(encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_resume_runs_only_missing_cases_and_gives_the_fresh_table(tmp_path, monkeypatch):
     params = {"mu": "0.1:0.6:3", "R2": "0.3,0.5"}
     fresh = tmp_path / "fresh.csv"
@@ -102,6 +110,7 @@ def test_resume_runs_only_missing_cases_and_gives_the_fresh_table(tmp_path, monk
     assert _read(part) == text
 
 
+@pytest.mark.slow
 def test_interrupted_sweep_keeps_finished_rows(tmp_path):
     out = tmp_path / "t.csv"
     params = {"mu": [0.2, 0.3, 0.4, 0.5]}
@@ -113,7 +122,7 @@ def test_interrupted_sweep_keeps_finished_rows(tmp_path):
     run = _cylinder(params, ["slip"], out=out, progress=stop_after_two)
     assert run.interrupted and len(run.rows) == 2
     with open(out, newline="") as fh:
-        assert len(list(csv.reader(fh))) == 3     # header + the two finished rows
+        assert len(list(csv.reader(fh))) == 3  # header + the two finished rows
     again = _cylinder(params, ["slip"], out=out, resume=True)
     assert again.ran == 2 and again.kept == 2 and not again.interrupted
     fresh = tmp_path / "f.csv"
@@ -130,42 +139,67 @@ def test_resume_refuses_a_table_of_another_sweep(tmp_path):
         _cylinder({"mu": [0.2, 0.3]}, ["liftoff"], out=out, resume=True)
 
 
+@pytest.mark.slow
 def test_local_processes_match_in_process(tmp_path):
     params = {"mu": [0.15, 0.3, 0.45], "R2": [0.4]}
     # the processes run simulate: the compiled loop with events runs in this process
     one = _cylinder(params, ["slip", "final:theta1"], engine="scipy")
-    two = _cylinder(params, ["slip", "final:theta1"], workers=2, out=tmp_path / "p.csv",
-                    engine="scipy")
+    two = _cylinder(
+        params, ["slip", "final:theta1"], workers=2, out=tmp_path / "p.csv", engine="scipy"
+    )
     assert two.backend == "2 local processes"
     assert two.rows == one.rows
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_dask_local_cluster_matches_in_process(tmp_path, capsys):
     distributed = pytest.importorskip(
-        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
+        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')"
+    )
     params = {"mu": [0.15, 0.3, 0.45]}
-    one = _cylinder(params, ["slip"], engine="scipy")    # Dask's workers run simulate
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    one = _cylinder(params, ["slip"], engine="scipy")  # Dask's workers run simulate
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         run = _cylinder(params, ["slip"], scheduler=client)
     assert run.backend.startswith("Dask") and "(2 workers)" in run.backend
     assert run.rows == one.rows
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
     distributed = pytest.importorskip(
-        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
-    args = ["sweep", "cylinder", "--param", "mu=0.1:0.6:4", "--param", "R2=0.3,0.5",
-            "--initial", "theta1=0.01", "--measure", "slip", "--measure", "liftoff",
-            "--t-end", "2.7", "--samples", "11"]
+        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')"
+    )
+    args = [
+        "sweep",
+        "cylinder",
+        "--param",
+        "mu=0.1:0.6:4",
+        "--param",
+        "R2=0.3,0.5",
+        "--initial",
+        "theta1=0.01",
+        "--measure",
+        "slip",
+        "--measure",
+        "liftoff",
+        "--t-end",
+        "2.7",
+        "--samples",
+        "11",
+    ]
     local = tmp_path / "local.csv"
     assert main(args + ["--workers", "1", "--engine", "scipy", "--out", str(local)]) == 0
     remote = tmp_path / "dask.csv"
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
         rc = main(args + ["--scheduler", cluster.scheduler_address, "--out", str(remote)])
     text = capsys.readouterr().out
     assert rc == 0 and "on Dask at tcp://" in text and "(2 workers)" in text, text
@@ -173,46 +207,77 @@ def test_dask_worker_processes_through_the_cli(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 def test_dask_worker_killed_mid_sweep_is_rescheduled(tmp_path):
     distributed = pytest.importorskip(
-        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')")
+        "distributed", reason="dask.distributed not installed (pip install 'lamech[dask]')"
+    )
     import os
+
     params = {"mu": [0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45]}
     one = _cylinder(params, ["slip"], engine="scipy")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         killed = []
 
         def kill_a_worker(done, total):
             if done == 2 and not killed:
                 victim = sorted(client.scheduler_info()["workers"])[0]
                 killed.append(victim)
-                with pytest.raises(Exception):          # its connection drops
+                # its connection drops: which error says so depends on when Dask notices
+                with pytest.raises(Exception):  # noqa: B017
                     client.run(os._exit, 1, workers=[victim])
 
-        run = _cylinder(params, ["slip"], scheduler=client, progress=kill_a_worker,
-                        out=tmp_path / "t.csv")
+        run = _cylinder(
+            params, ["slip"], scheduler=client, progress=kill_a_worker, out=tmp_path / "t.csv"
+        )
     assert killed and not run.stopped and run.ran == 8
     assert run.rows == one.rows
 
 
 def test_python_api_table():
     pd = pytest.importorskip("pandas", reason="pandas not installed")
-    df = lamech.sweep("cylinder", {"mu": [0.2, 0.3]}, ["slip"], t_end=2.7, samples=11,
-                      workers=1, initial={"theta1": THETA_S})
+    df = lamech.sweep(
+        "cylinder",
+        {"mu": [0.2, 0.3]},
+        ["slip"],
+        t_end=2.7,
+        samples=11,
+        workers=1,
+        initial={"theta1": THETA_S},
+    )
     assert isinstance(df, pd.DataFrame)
     assert list(df["mu"]) == [0.2, 0.3]
     assert np.allclose(df["slip:theta1"], [_slip_angle(0.2), _slip_angle(0.3)], atol=1e-9)
-    rec = lamech.sweep("cylinder", {"mu": [0.3]}, ["slip"], t_end=2.7, samples=11,
-                       workers=1, initial={"theta1": THETA_S}, output="records")
+    rec = lamech.sweep(
+        "cylinder",
+        {"mu": [0.3]},
+        ["slip"],
+        t_end=2.7,
+        samples=11,
+        workers=1,
+        initial={"theta1": THETA_S},
+        output="records",
+    )
     assert rec[0]["slip:theta1"] == df["slip:theta1"][1]
 
 
 def test_xarray_dataset():
     pytest.importorskip("xarray", reason="xarray not installed (optional)")
-    ds = lamech.sweep("cylinder", {"mu": [0.2, 0.3], "R2": [0.3, 0.5]}, ["slip"], t_end=2.7,
-                      samples=11, workers=1, initial={"theta1": THETA_S}, output="xarray")
+    ds = lamech.sweep(
+        "cylinder",
+        {"mu": [0.2, 0.3], "R2": [0.3, 0.5]},
+        ["slip"],
+        t_end=2.7,
+        samples=11,
+        workers=1,
+        initial={"theta1": THETA_S},
+        output="xarray",
+    )
     assert ds["slip:theta1"].dims == ("mu", "R2")
     assert abs(float(ds["slip:theta1"].sel(mu=0.3, R2=0.5)) - _slip_angle(0.3)) < 1e-9
 
@@ -233,22 +298,38 @@ def test_values_syntax():
     assert list(parse_values("0.1:0.6:6")) == [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
     assert list(parse_values("0.1, 0.2,3")) == [0.1, 0.2, 3.0]
     assert list(parse_values("2")) == [2.0]
-    for bad, msg in [("0.1:1", "A:B:N"), ("a:1:3", "not a number"), ("0:1:x", "integer"),
-                     ("0:1:1", "count >= 2"), ("0.1,,0.2", "not a number"),
-                     ("nan", "finite"), ("__import__('os')", "not a number"), ("", "no values")]:
+    for bad, msg in [
+        ("0.1:1", "A:B:N"),
+        ("a:1:3", "not a number"),
+        ("0:1:x", "integer"),
+        ("0:1:1", "count >= 2"),
+        ("0.1,,0.2", "not a number"),
+        ("nan", "finite"),
+        ("__import__('os')", "not a number"),
+        ("", "no values"),
+    ]:
         with pytest.raises(SweepError, match=msg):
             parse_values(bad, "mu")
 
 
-@pytest.mark.parametrize("kw, msg", [
-    ({"params": {"R3": [1.0]}}, r"unknown parameter `R3`; known: m, g, R1, R2, mu:rolling, mu"),
-    ({"measures": ["liftof"]}, r"unknown measure 'liftof'; known: liftoff, slip"),
-    ({"measures": ["max:lambda:contakt"]}, r"unknown series `lambda:contakt`; known: .*"
-                                           r"lambda:contact"),
-    ({"measures": ["slip:friction"]}, r"unknown constraint `friction`; known: contact, rolling"),
-    ({"initial": {"theta3": 0.1}}, r"unknown coordinate `theta3`; known: r, theta1"),
-    ({"params": {"mu": "0.1:0.5"}}, r"parameter `mu`: range '0.1:0.5' must be A:B:N"),
-])
+@pytest.mark.parametrize(
+    "kw, msg",
+    [
+        ({"params": {"R3": [1.0]}}, r"unknown parameter `R3`; known: m, g, R1, R2, mu:rolling, mu"),
+        ({"measures": ["liftof"]}, r"unknown measure 'liftof'; known: liftoff, slip"),
+        (
+            {"measures": ["max:lambda:contakt"]},
+            r"unknown series `lambda:contakt`; known: .*"
+            r"lambda:contact",
+        ),
+        (
+            {"measures": ["slip:friction"]},
+            r"unknown constraint `friction`; known: contact, rolling",
+        ),
+        ({"initial": {"theta3": 0.1}}, r"unknown coordinate `theta3`; known: r, theta1"),
+        ({"params": {"mu": "0.1:0.5"}}, r"parameter `mu`: range '0.1:0.5' must be A:B:N"),
+    ],
+)
 def test_bad_input_is_named(kw, msg):
     args = {"params": {"mu": [0.3]}, "measures": ["slip"], "t_end": 1.0, "workers": 1}
     args.update(kw)
@@ -256,11 +337,31 @@ def test_bad_input_is_named(kw, msg):
         run_sweep("cylinder", **args)
 
 
+@pytest.mark.slow
 def test_cli_table_plot_and_errors(tmp_path, capsys):
     out, png = tmp_path / "s.csv", tmp_path / "s.png"
-    rc = main(["sweep", "cylinder", "--param", "mu=0.2:0.4:3", "--measure", "slip",
-               "--initial", "theta1=0.01", "--t-end", "2.7", "--samples", "11",
-               "--workers", "1", "--out", str(out), "--plot", str(png)])
+    rc = main(
+        [
+            "sweep",
+            "cylinder",
+            "--param",
+            "mu=0.2:0.4:3",
+            "--measure",
+            "slip",
+            "--initial",
+            "theta1=0.01",
+            "--t-end",
+            "2.7",
+            "--samples",
+            "11",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+            "--plot",
+            str(png),
+        ]
+    )
     text = capsys.readouterr().out
     assert rc == 0, text
     assert "3 cases (mu: 3): ok 3; ran 3" in text
@@ -277,21 +378,23 @@ def test_cli_table_plot_and_errors(tmp_path, capsys):
     assert rc == 2 and "--resume needs --out" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_dead_worker_keeps_finished_rows_and_resume_completes(tmp_path):
     import multiprocessing
+
     if multiprocessing.get_start_method() != "fork":
         pytest.skip("needs fork start method to plant the crash in the worker processes")
     import os
     import signal
+
     params = {"mu": [0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5]}
 
     def kill_a_worker(done, total):
-        if done == 2:            # a worker process dies (as with a segfault or OOM kill)
+        if done == 2:  # a worker process dies (as with a segfault or OOM kill)
             os.kill(multiprocessing.active_children()[0].pid, signal.SIGKILL)
 
     out = tmp_path / "t.csv"
-    run = _cylinder(params, ["slip"], out=out, workers=2, progress=kill_a_worker,
-                    engine="scipy")
+    run = _cylinder(params, ["slip"], out=out, workers=2, progress=kill_a_worker, engine="scipy")
     assert "BrokenProcessPool" in run.stopped and len(run.rows) < 8
     with open(out, newline="") as fh:
         kept = {int(r["case"]) for r in csv.DictReader(fh)}

@@ -32,8 +32,9 @@ THETA_S = 0.01
 def _slip_angle(mu: float, ths: float = THETA_S) -> float:
     """sin th = mu (7 cos th - 4 cos ths): the energy integral's slip angle (test_sweep)."""
     top = math.acos(4 / 7 * math.cos(ths))
-    return brentq(lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(ths)),
-                  ths, top, xtol=1e-15)
+    return brentq(
+        lambda th: math.sin(th) - mu * (7 * math.cos(th) - 4 * math.cos(ths)), ths, top, xtol=1e-15
+    )
 
 
 def _cylinder(jit=False):
@@ -49,17 +50,19 @@ def _batch(ns, **kw):
     return P, Y0, integrate_events(ns, Y0, 3.0, params=P, **kw)
 
 
+@pytest.mark.slow
 def test_cylinder_events_match_simulate_and_the_energy_integral():
     ns = _cylinder()
     P, Y0, res = _batch(ns)
     assert res.status == ["end"] * len(GRID) and not res.fallback.any()
     for (mu, R2), y0, events, y_end in zip(GRID, Y0, res.events, res.y):
-        traj = simulate(ns, 3.0, params={"mu": mu, "R2": R2}, q0=y0[:3], qd0=y0[3:],
-                        samples=11)
+        traj = simulate(ns, 3.0, params={"mu": mu, "R2": R2}, q0=y0[:3], qd0=y0[3:], samples=11)
         assert traj.status == "ok"
-        assert [(e.kind, e.constraint) for e in events] == \
-               [(e.kind, e.constraint) for e in traj.events] == \
-               [("slip", "rolling"), ("lift-off", "contact")]
+        assert (
+            [(e.kind, e.constraint) for e in events]
+            == [(e.kind, e.constraint) for e in traj.events]
+            == [("slip", "rolling"), ("lift-off", "contact")]
+        )
         for a, b in zip(events, traj.events):
             assert abs(a.t - b.t) < 1e-9
             assert all(abs(a.coordinates[k] - b.coordinates[k]) < 1e-9 for k in a.coordinates)
@@ -70,6 +73,7 @@ def test_cylinder_events_match_simulate_and_the_energy_integral():
         assert np.max(np.abs(y_end - np.concatenate((traj.final_q, traj.final_qd)))) < 1e-7
 
 
+@pytest.mark.slow
 def test_the_loop_stops_once_the_wanted_events_are_found():
     ns = _cylinder()
     _, _, res = _batch(ns, want=[("slip", None), ("lift-off", "contact")], to_end=False)
@@ -79,6 +83,7 @@ def test_the_loop_stops_once_the_wanted_events_are_found():
     assert all([e.kind for e in evs] == ["slip"] for evs in slip_only.events)
 
 
+@pytest.mark.slow
 def test_parameters_and_starts_as_case_by_case():
     ns = _cylinder()
     P, Y0, _ = _batch(ns, want=[("slip", None)], to_end=False)
@@ -98,6 +103,7 @@ def test_parameters_and_starts_as_case_by_case():
         parameter_rows(top, ["nope"], [[1.0]])
 
 
+@pytest.mark.slow
 def test_sweep_engines_give_the_same_rows():
     params = {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}
     measures = ["slip", "liftoff", "final:theta1", "final:r'"]
@@ -113,13 +119,14 @@ def test_sweep_engines_give_the_same_rows():
             if isinstance(a[k], float) and k.startswith(("slip", "liftoff")):
                 assert abs(a[k] - b[k]) < 1e-9, k
             elif isinstance(a[k], float):
-                assert abs(a[k] - b[k]) < 1e-7, k       # final: the last sample
+                assert abs(a[k] - b[k]) < 1e-7, k  # final: the last sample
             else:
                 assert a[k] == b[k]
         assert abs(a["slip:theta1"] - _slip_angle(a["mu"])) < 1e-9
     # a measure the loop cannot give: every case by simulate
-    run = run_sweep("cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python",
-                    **kw)
+    run = run_sweep(
+        "cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python", **kw
+    )
     assert run.backend == "this process"
     with pytest.raises(SweepError, match="engine must be one of auto, compiled, python, scipy"):
         run_sweep("cylinder", {"mu": [0.3]}, ["slip"], engine="fast", **kw)
@@ -135,6 +142,7 @@ BALL = {
 }
 
 
+@pytest.mark.slow
 def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
     ball = lamech.from_dict(BALL)
     ns = compile_system(ball)
@@ -147,20 +155,25 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
     assert lift.kind == "lift-off" and abs(lift.t - math.asin(9.81 / 20) / 3) < 1e-9
     # the sweep of a system with t in it runs simulate (which also looks inside its steps
     # for a force that rises and falls; the loop does not)
-    params = {"A": [5.0, 20.0, 30.0]}                  # 5 < m g: stays on the floor
+    params = {"A": [5.0, 20.0, 30.0]}  # 5 < m g: stays on the floor
     kw = dict(t_end=3.0, samples=11, workers=1, max_step=0.01)
     fast = run_sweep(ball, params, ["liftoff", "contact"], engine="python", **kw)
     slow = run_sweep(ball, params, ["liftoff", "contact"], engine="scipy", **kw)
     assert fast.backend == "this process" and fast.rows == slow.rows
     assert math.isnan(fast.rows[0]["liftoff:t"]) and fast.rows[1]["contact:t"] > 0
     # a ball dropped from h: the loop applies the impact itself, as simulate does
-    drop = lamech.from_dict({**BALL, "parameters": {"m": 1.0, "g": 9.81, "h": 1.0},
-                             "coordinates": {"y": {"initial": "h", "velocity": 0}},
-                             "forces": {"y": "0"}})
+    drop = lamech.from_dict(
+        {
+            **BALL,
+            "parameters": {"m": 1.0, "g": 9.81, "h": 1.0},
+            "coordinates": {"y": {"initial": "h", "velocity": 0}},
+            "forces": {"y": "0"},
+        }
+    )
     params = {"h": [0.5, 1.0]}
     fast = run_sweep(drop, params, ["contact", "final:y'"], engine="python", **kw)
     slow = run_sweep(drop, params, ["contact", "final:y'"], engine="scipy", **kw)
-    assert fast.backend == "the compiled loop with events (Python)"     # none left to simulate
+    assert fast.backend == "the compiled loop with events (Python)"  # none left to simulate
     for a, b in zip(fast.rows, slow.rows):
         assert a.keys() == b.keys() and a["status"] == b["status"] == "ok"
         for k in a:
@@ -168,23 +181,25 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
                 assert abs(a[k] - b[k]) <= 1e-9, (k, a[k], b[k])
     assert abs(fast.rows[1]["contact:t"] - math.sqrt(2 / 9.81)) < 1e-9
     # only a lift-off wanted, and there is none: the loop runs to the end, nothing left
-    only = run_sweep(drop, params, ["liftoff"], engine="python", t_end=0.2, samples=11,
-                     workers=1)
+    only = run_sweep(drop, params, ["liftoff"], engine="python", t_end=0.2, samples=11, workers=1)
     assert only.backend == "the compiled loop with events (Python)"
     assert all(math.isnan(r["liftoff:t"]) for r in only.rows)
 
 
+@pytest.mark.slow
 def test_inputs_that_switch_are_refused():
     ball = lamech.from_dict({**BALL, "forces": {"y": "A*step(t - 1)"}})
     with pytest.raises(ValueError, match="inputs that switch"):
         integrate_events(compile_system(ball), [[0.0, 0.0]], 2.0)
     # the sweep runs such a system by simulate
-    run = run_sweep(ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1,
-                    max_step=0.01)
+    run = run_sweep(
+        ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1, max_step=0.01
+    )
     assert run.backend == "this process" and abs(run.rows[0]["liftoff:t"] - 1) < 1e-9
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_numba_loop_gives_the_python_loop_numbers():
     py = _cylinder()
@@ -200,11 +215,18 @@ def test_numba_loop_gives_the_python_loop_numbers():
     assert jit_is_cached(jit, "ev_run_one")
     # the sweep: numba when its loop is cached (it is now), over two threads
     kw = dict(t_end=2.9, samples=11, initial={"theta1": THETA_S})
-    run = run_sweep("cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"],
-                    workers=2, **kw)
+    run = run_sweep(
+        "cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"], workers=2, **kw
+    )
     assert run.backend == "the compiled loop with events (numba, 2 threads)"
-    ref = run_sweep("cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"],
-                    workers=1, engine="python", **kw)
+    ref = run_sweep(
+        "cylinder",
+        {"mu": [0.1, 0.45], "R2": [0.3, 0.8]},
+        ["slip", "liftoff"],
+        workers=1,
+        engine="python",
+        **kw,
+    )
     for x, y in zip(run.rows, ref.rows):
         assert abs(x["slip:t"] - y["slip:t"]) < 1e-12
         assert abs(x["liftoff:theta1"] - y["liftoff:theta1"]) < 1e-12
@@ -213,9 +235,14 @@ def test_numba_loop_gives_the_python_loop_numbers():
 def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
     # sqrt of a negative number once y > h: the Python loop raises; simulate stops the run
     # with its reason, and the sweep's row says so, as before
-    ball = lamech.from_dict({**BALL, "parameters": {**BALL["parameters"], "h": 0.05},
-                             "coordinates": {"y": {"initial": 0, "velocity": 2}},
-                             "forces": {"y": "A - sqrt(h - y)"}})
+    ball = lamech.from_dict(
+        {
+            **BALL,
+            "parameters": {**BALL["parameters"], "h": 0.05},
+            "coordinates": {"y": {"initial": 0, "velocity": 2}},
+            "forces": {"y": "A - sqrt(h - y)"},
+        }
+    )
     kw = dict(t_end=1.0, samples=11, workers=1, max_step=0.01)
     fast = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="python", **kw)
     slow = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="scipy", **kw)
@@ -223,6 +250,7 @@ def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
     assert fast.rows == slow.rows and fast.rows[0]["status"] == "failed"
 
 
+@pytest.mark.slow
 def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
     # a disk set down sliding (s' = v0, theta' = 0) on a level floor: kinetic friction
     # mu m g slows the slide and spins the disk up until s' = R theta', at t = v0/(3 mu g)
@@ -230,14 +258,16 @@ def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
     vals = np.array([[0.0, 0.1], [0.0, 0.3], [0.3, 0.1]])
     P = parameter_rows(ns, ["alpha", "mu"], vals)
     Y0 = initial_states(ns, P, [("s'", 2.0), ("theta'", 0.0)])
-    Y0[2, 3:] = [0.0, 0.0, 5.0]     # on the slope, spinning forward: slips backward first
+    Y0[2, 3:] = [0.0, 0.0, 5.0]  # on the slope, spinning forward: slips backward first
     res = integrate_events(ns, Y0, 2.0, params=P)
     assert res.status == ["end"] * 3
     for (alpha, mu), y0, events in zip(vals, Y0, res.events):
-        traj = simulate(ns, 2.0, params={"alpha": alpha, "mu": mu}, q0=y0[:3], qd0=y0[3:],
-                        samples=11)
-        assert [(e.kind, e.constraint) for e in events] == \
-               [(e.kind, e.constraint) for e in traj.events]
+        traj = simulate(
+            ns, 2.0, params={"alpha": alpha, "mu": mu}, q0=y0[:3], qd0=y0[3:], samples=11
+        )
+        assert [(e.kind, e.constraint) for e in events] == [
+            (e.kind, e.constraint) for e in traj.events
+        ]
         assert max(abs(a.t - b.t) for a, b in zip(events, traj.events)) < 1e-9
     assert [e.kind for e in res.events[0]] == ["slip", "stick"]
     assert abs(res.events[0][1].t - 2.0 / (3 * 0.1 * 9.81)) < 1e-9

@@ -51,6 +51,7 @@ def test_a_failed_run_restores_the_limits_too(chain, two_threads):
     assert _blas_threads() == [2]
 
 
+@pytest.mark.slow
 def test_a_run_inside_a_run_keeps_the_outer_run_at_one_thread(chain, two_threads):
     seen: list[list[int]] = []
 
@@ -64,6 +65,7 @@ def test_a_run_inside_a_run_keeps_the_outer_run_at_one_thread(chain, two_threads
     assert _blas_threads() == [2]
 
 
+@pytest.mark.slow
 def test_overlapping_runs_in_threads_restore_the_limits_at_the_end(chain, two_threads):
     """Run a (a thread) starts, run b (the main thread) starts, a ends, b ends: both run
     at one thread, b also after a ended, and the limits are back after b (restoring per

@@ -87,6 +87,7 @@ def test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted(M, m, L, free_f
     assert shape["X"] / shape["theta"] == pytest.approx(-m * L / (M + m), rel=1e-12)
 
 
+@pytest.mark.slow
 def test_cli_modes_of_the_cart_pendulum_at_the_inverted_position(tmp_path, capsys):
     path = tmp_path / "cart.toml"
     path.write_text(_cart_pendulum(2.0, 1.0, 1.0), encoding="utf-8")
@@ -116,6 +117,7 @@ def test_a_parameters_name_as_an_initial_value_is_its_value(command, by_name, by
     assert "Traceback" not in named.err and named.out == numbered.out
 
 
+@pytest.mark.slow
 def test_a_parameters_name_as_a_point_of_modes_is_its_value(capsys):
     assert main(["modes", "pendulum", "--at", "theta=theta0"]) == 0
     named = capsys.readouterr()
@@ -125,6 +127,7 @@ def test_a_parameters_name_as_a_point_of_modes_is_its_value(capsys):
     assert "--at theta=m*x" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_the_report_without_matplotlib_is_written_and_says_it_has_no_plots(
     tmp_path, monkeypatch, capsys
 ):
@@ -141,6 +144,7 @@ def test_the_report_without_matplotlib_is_written_and_says_it_has_no_plots(
 
 
 # ----- item 7: the Python API answers misuse with what to pass --------------------------
+@pytest.mark.slow
 def test_a_problem_may_be_named_by_its_file_or_example_in_every_api_function(tmp_path):
     by_name = lamech.solve("pendulum")
     assert by_name.multipliers == lamech.solve(lamech.load("pendulum")).multipliers
@@ -254,6 +258,7 @@ def _corrections(derivation) -> list[str]:
     return [n for s in derivation.steps for n in s.notes if n.startswith(CORRECTION)]
 
 
+@pytest.mark.slow
 def test_the_lecture_corrections_are_in_the_lectures_problems_only():
     assert len(_corrections(lamech.steps(lamech.solve("pendulum")))) == 2
     # the lecture's pendulum with other numbers is still the lecture's
@@ -333,6 +338,7 @@ def _degree_warnings(notes) -> list[str]:
     return [n for n in notes if "If " in n and "degrees were meant" in n]
 
 
+@pytest.mark.slow
 def test_an_angle_of_whole_degrees_written_as_radians_is_said_once(capsys):
     disk = lamech.problem.example_path("incline_disk").read_text(encoding="utf-8")
     system = lamech.loads(disk.replace("alpha = 0.5", "alpha = 30"))
@@ -365,6 +371,7 @@ def test_friction_on_a_bilateral_normal_is_said_to_mean_little():
     assert not any("bilateral" in n for n in lamech.load("cylinder").notes)
 
 
+@pytest.mark.slow
 def test_a_force_named_on_one_of_the_two_bodies_it_joins_says_which_to_name():
     text = lamech.problem.example_path("moving_support").read_text(encoding="utf-8")
     one = lamech.solve(lamech.loads(text.replace('body = ["bob", "cart"]', 'body = "bob"')))

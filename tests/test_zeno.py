@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,44 +25,11 @@ import lamech
 from lamech.numeric import Status, compile_system, numba_available, simulate
 
 G = 9.81
+HERE = Path(__file__).parent
 
-BALL = """
-title = "Ball bouncing on a floor"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.8
-[coordinates]
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*y'^2"
-V = "m*g*y"
-[[constraints]]
-name = "floor"
-f = "y"
-unilateral = true
-restitution = "e"
-"""
+BALL = (HERE / "problems" / "ball.toml").read_text(encoding="utf-8").replace("e = 0.5", "e = 0.8")
 
-INCLINE = """
-title = "Ball bouncing on a frictionless incline"
-[parameters]
-m = 1.0
-g = 9.81
-e = 0.7
-alpha = 0.3
-[coordinates]
-x = { initial = 0, velocity = 0 }
-y = { initial = 1, velocity = 0 }
-[lagrangian]
-T = "m/2*(x'^2 + y'^2)"
-V = "m*g*y"
-[[constraints]]
-name = "incline"
-f = "y + x*tan(alpha)"
-unilateral = true
-restitution = "e"
-"""
+INCLINE = (HERE / "problems" / "ball_on_incline.toml").read_text(encoding="utf-8")
 
 
 def _cylinder_over_a_floor(e: float) -> str:
@@ -100,7 +68,9 @@ def _check_sequence(tr, name, t1, v1, a_n, e, gap_velocity):
     return rest
 
 
-@pytest.mark.parametrize("e", [0.5, 0.8, 0.9])
+@pytest.mark.parametrize(
+    "e", [0.5, pytest.param(0.8, marks=pytest.mark.slow), pytest.param(0.9, marks=pytest.mark.slow)]
+)
 def test_a_bouncing_ball_rests_on_the_floor_from_the_accumulation_time(e):
     h = 1.0
     tr = simulate(lamech.loads(BALL.replace("e = 0.8", f"e = {e}")), 10.0, samples=10001)
@@ -109,17 +79,18 @@ def test_a_bouncing_ball_rests_on_the_floor_from_the_accumulation_time(e):
     rest = _check_sequence(tr, "floor", t1, G * t1, G, e, lambda c: c["y'"])
     assert rest.t == pytest.approx(t1 * (1 + e) / (1 - e), abs=1e-9)
     assert abs(tr.final_q[0]) <= 1e-9 and abs(tr.final_qd[0]) <= 1e-9
-    assert tr.coordinate("y").min() >= -1e-9                 # never through the floor
+    assert tr.coordinate("y").min() >= -1e-9  # never through the floor
     after = tr.t > rest.t
     assert np.allclose(tr.multiplier("floor")[after], G, rtol=1e-12)
     assert np.all(np.abs(tr.coordinate("y")[after]) <= 1e-9)
 
 
+@pytest.mark.slow
 def test_a_ball_on_an_incline_rests_from_the_accumulation_time_and_slides():
     e, alpha, h = 0.7, 0.3, 1.0
     tr = simulate(lamech.loads(INCLINE), 10.0, samples=2001)
     assert tr.status == "ok", tr.message
-    t1 = math.sqrt(2 * h / G)                     # the gap f = y + x tan(alpha): f'' = -g
+    t1 = math.sqrt(2 * h / G)  # the gap f = y + x tan(alpha): f'' = -g
 
     def gap_velocity(c):
         return c["y'"] + c["x'"] * math.tan(alpha)
@@ -141,10 +112,12 @@ def test_a_ball_on_an_incline_rests_from_the_accumulation_time_and_slides():
     assert np.allclose(tr.multiplier("incline")[after], G * math.cos(alpha) ** 2, rtol=1e-10)
 
 
+@pytest.mark.slow
 def test_the_cylinder_lands_on_a_floor_and_comes_to_rest_on_it():
     e, R2, H = 0.5, 0.5, 1.0
-    tr = simulate(lamech.loads(_cylinder_over_a_floor(e)), 10.0, initial={"theta1": 0.01},
-                  samples=2001)
+    tr = simulate(
+        lamech.loads(_cylinder_over_a_floor(e)), 10.0, initial={"theta1": 0.01}, samples=2001
+    )
     assert tr.status == "ok", tr.message
     kinds = [(ev.kind, ev.constraint) for ev in tr.events]
     assert kinds[:3] == [("slip", "rolling"), ("lift-off", "contact"), ("impact", "floor")]
@@ -154,7 +127,7 @@ def test_the_cylinder_lands_on_a_floor_and_comes_to_rest_on_it():
     x0, y0 = r * math.sin(th), r * math.cos(th)
     vx = rd * math.sin(th) + r * thd * math.cos(th)
     vy = rd * math.cos(th) - r * thd * math.sin(th)
-    drop = y0 - (R2 - H)                           # the centre's height over its rest
+    drop = y0 - (R2 - H)  # the centre's height over its rest
     tau = (vy + math.sqrt(vy**2 + 2 * G * drop)) / G
     t1, v1 = tr.events[1].t + tau, G * tau - vy
     first = _impacts(tr, "floor")[0].coordinates
@@ -252,6 +225,7 @@ def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetr
 
 
 @pytest.mark.slow
+@pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_a_compiled_system_with_a_function_replaced_runs_the_replacement(tmp_path, monkeypatch):
     # issue 28 item 1: with the ball's compiled form in the cache, the default engine ran
