@@ -34,6 +34,7 @@ exclude_patterns = ["_build", "**/.ipynb_checkpoints"]
 html_theme = "alabaster"
 html_title = f"lamech {release}"
 html_static_path: list[str] = []
+html_theme_options = {"page_width": "1240px", "sidebar_width": "240px"}
 
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"

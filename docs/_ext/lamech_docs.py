@@ -40,16 +40,6 @@ def write_cli(out: Path) -> None:
         _write(out / f"{command or 'lamech'}.txt", cli_help(command))
 
 
-def _description(source: str) -> str:
-    """The example file's leading comment, as prose."""
-    lines = []
-    for line in source.splitlines():
-        if not line.startswith("#"):
-            break
-        lines.append(line[1:].removeprefix(" "))
-    return "\n".join(lines).strip()
-
-
 def _align_body(latex: str) -> str:
     match = re.search(r"\\begin\{align\*\}\n(.*?)\\end\{align\*\}", latex, re.S)
     return match.group(1).rstrip() if match else ""
@@ -75,10 +65,16 @@ def gallery_page(name: str) -> str:
         f"{name}.html`.",
         "",
     ]
-    description = _description(source)
-    if description:
-        parts += ["```text", description, "```", ""]
-    parts += ["## The problem file", "", "```toml", source.rstrip(), "```", ""]
+    parts += [
+        "## The problem file",
+        "",
+        "Its comment says what the problem is and the textbook answer it is checked against.",
+        "",
+        "```toml",
+        source.rstrip(),
+        "```",
+        "",
+    ]
     parts += [f"## `lamech solve {name}`", "", "```text", text.rstrip(), "```", ""]
     if body:
         parts += [
