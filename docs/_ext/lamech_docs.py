@@ -1,8 +1,8 @@
 """Pages written at build time from the library itself, so that they never go stale.
 
 - ``_generated/gallery/<name>.md``: one page per bundled example (``lamech.example_names``):
-  its problem file, ``lamech solve``'s text output and its equations in LaTeX, computed
-  by the library while the docs build.
+  its problem file, ``lamech solve``'s text output, a plot of a simulation and its
+  equations in LaTeX, computed by the library while the docs build.
 - ``_generated/cli/<command>.txt``: ``lamech [<command>] --help`` as the installed
   command prints it (the argument parser is the only source of the CLI reference).
 
@@ -45,7 +45,35 @@ def _align_body(latex: str) -> str:
     return match.group(1).rstrip() if match else ""
 
 
-def gallery_page(name: str) -> str:
+# How long each example is simulated for its plot (default 2 s): the squeezer's motion
+# takes 0.03 s (Hairer and Wanner's reference time), the top spins 20 turns a second,
+# and the lecture's cylinder, started just off the top, slips and leaves by 2.5 s.
+PLOT_T_END = {"andrews_squeezer": 0.03, "heavy_top": 0.5, "cylinder": 3.0}
+PLOT_INITIAL = {"cylinder": {"theta1": 0.01}}
+PLOT_SAMPLES = 301
+
+
+def plot(name: str, system, path: Path) -> str:
+    """Simulate the example, plot its multipliers and coordinates to ``path``; return
+    the command that makes the same plot."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import lamech
+
+    t_end = PLOT_T_END.get(name, 2.0)
+    initial = PLOT_INITIAL.get(name)
+    traj = lamech.simulate(system, t_end, initial=initial, samples=PLOT_SAMPLES)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lamech.plot_trajectory(traj, path)
+    options = "".join(f" --initial {k}={v}" for k, v in (initial or {}).items())
+    return (
+        f"lamech simulate {name}{options} --t-end {t_end:g} --samples {PLOT_SAMPLES} "
+        f"--plot {path.name}"
+    )
+
+
+def gallery_page(name: str, folder: Path | None = None) -> str:
     import lamech
     from lamech.problem import example_path
 
@@ -76,6 +104,17 @@ def gallery_page(name: str) -> str:
         "",
     ]
     parts += [f"## `lamech solve {name}`", "", "```text", text.rstrip(), "```", ""]
+    if folder is not None:
+        command = plot(name, system, folder / f"{name}.png")
+        parts += [
+            "## The motion",
+            "",
+            f"`{command}`: the multipliers (constraint forces) and the coordinates "
+            "against time, with the events.",
+            "",
+            f"![The multipliers and coordinates of {title} against time]({name}.png)",
+            "",
+        ]
     if body:
         parts += [
             f"## The equations (`lamech solve {name} --latex`)",
@@ -108,11 +147,11 @@ def gallery_names() -> list[str]:
 
 def write_gallery(out: Path) -> None:
     names = gallery_names()
-    for old in out.glob("*.md") if out.exists() else []:
+    for old in [*out.glob("*.md"), *out.glob("*.png")] if out.exists() else []:
         if old.stem not in names:
             old.unlink()
     for name in names:
-        _write(out / f"{name}.md", gallery_page(name))
+        _write(out / f"{name}.md", gallery_page(name, out))
 
 
 def generate(app) -> None:
