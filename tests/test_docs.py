@@ -36,8 +36,12 @@ from lamech.cli import main as lamech_main
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 QUICK_GALLERY = "pendulum,cylinder,atwood"
-# Examples that compile with numba, start a Dask cluster or write an animation: slow.
-SLOW = re.compile(r"--engine compiled|--jit\b|jit=True|LocalCluster|scheduler=|--animate")
+# Examples that compile with numba, start a Dask cluster, write an animation or solve a
+# mechanism (5-6 s each): slow.
+SLOW = re.compile(
+    r"--engine compiled|--jit\b|jit=True|LocalCluster|scheduler=|--animate"
+    r"|lamech (solve|simulate) (four_bar|andrews_squeezer)"
+)
 
 
 def _pages() -> list[Path]:
