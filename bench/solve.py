@@ -41,7 +41,7 @@ hol = [eval(e, ns).xreplace(rep) for e in {hol!r}]
 nonhol = [eval(e, ns).xreplace(rep) for e in {nonhol!r}]
 lm = LagrangesMethod(L, q, hol_coneqs=hol or None, nonhol_coneqs=nonhol or None)
 lm.form_lagranges_equations()
-lam = lm.solve_multipliers() if (hol or nonhol) else {}  # none to solve for
+lam = lm.solve_multipliers() if (hol or nonhol) else {{}}  # none to solve for
 for k, v in lam.items():
     print(k, "=", v)
 """
@@ -103,6 +103,9 @@ def bench_solve(lines: list[str], repeats: int = 3, cap: float = 300.0, quick: b
 
     py = sys.executable
     print("\nB9  whole process: lamech solve against SymPy's LagrangesMethod, CPU time")
+    # lamech byte-compiled, as pip leaves SymPy: where PYTHONDONTWRITEBYTECODE is set,
+    # every run would otherwise recompile lamech's modules and not SymPy's
+    subprocess.run([py, "-m", "compileall", "-q", str(ROOT / "lamech")], capture_output=True)
     floor = [child_cpu([py, "-c", "import sympy"], cap) for _ in range(repeats)]
     base = statistics.median([f for f in floor if f is not None])
     lines += ["## B9 whole process: `lamech solve FILE` against SymPy", "",

@@ -124,6 +124,7 @@ FUNCTIONS: dict[str, object] = {
     "sin": sp.sin,
     "cos": sp.cos,
     "tan": sp.tan,
+    "cot": lambda x: 1 / sp.tan(x),  # read as 1/tan: the algebra sees tan alone
     "asin": sp.asin,
     "acos": sp.acos,
     "atan": sp.atan,
@@ -1171,16 +1172,26 @@ class _LatexPrinter(LatexPrinter):
         return tex if exp is None else rf"{tex}^{{{exp}}}"
 
 
+def _cotangents(expr: sp.Basic) -> sp.Basic:
+    """1/tan(x)^n printed as cot(x)^n, as a textbook writes mu >= cot(phi0)/2."""
+    if not isinstance(expr, sp.Basic) or not expr.has(sp.tan):
+        return expr
+    return expr.replace(
+        lambda e: e.is_Pow and isinstance(e.base, sp.tan) and e.exp.is_Integer and e.exp < 0,
+        lambda e: sp.cot(e.base.args[0]) ** (-e.exp),
+    )
+
+
 def latex(expr, **settings) -> str:
     """LaTeX of ``expr`` (``settings`` as for :func:`sympy.latex`), with the grammar's
-    step function printed by name."""
-    return _LatexPrinter(settings).doprint(sp.sympify(expr))
+    step function printed by name and 1/tan as cot."""
+    return _LatexPrinter(settings).doprint(_cotangents(sp.sympify(expr)))
 
 
 _REWRITES = (
     (sp.sec, lambda x: 1 / sp.cos(x)),
     (sp.csc, lambda x: 1 / sp.sin(x)),
-    (sp.cot, lambda x: sp.cos(x) / sp.sin(x)),
+    (sp.cot, lambda x: 1 / sp.tan(x)),
     (sp.asec, lambda x: sp.acos(1 / x)),
     (sp.acsc, lambda x: sp.asin(1 / x)),
     (sp.acot, lambda x: sp.atan(1 / x)),
@@ -1202,7 +1213,7 @@ def grammar_form(expr: sp.Expr) -> sp.Expr:
 
 def to_text(expr: sp.Expr) -> str:
     """Problem-file text for ``expr``: parses back with :func:`parse` to the same value."""
-    expr = grammar_form(sp.sympify(expr))
+    expr = _cotangents(grammar_form(sp.sympify(expr)))
     return TextPrinter().doprint(expr).replace("**", "^")
 
 

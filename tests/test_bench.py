@@ -169,3 +169,24 @@ def test_b7_peers_are_the_ball_and_the_lecture_wheel():
     V = ((0.37 - t) * (1 + t**2))[None, :]
     lin, cub = ev.crossing(V, np.array([4]), np.zeros(1), 0.1)
     assert abs(cub[0] - 0.37) < 1e-14 and 0.3 < lin[0] < 0.4 and abs(lin[0] - 0.37) > 1e-4
+
+
+@pytest.mark.parametrize("name", ["pendulum", "atwood"])
+def test_b9s_sympy_script_runs_and_prints_a_multiplier_per_constraint(name, tmp_path):
+    """B9's SymPy side is a script written from lamech's model (its multipliers are
+    checked against lamech's in test_symbolic_peer_solves_lamechs_problem): it renders,
+    runs, and prints one multiplier per constraint."""
+    import subprocess
+    import sys
+
+    import lamech
+    from bench.solve import sympy_script
+
+    system = lamech.load(name)
+    script = tmp_path / "peer.py"
+    script.write_text(sympy_script(system))
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    printed = [line for line in done.stdout.splitlines() if line.startswith("lam")]
+    assert len(printed) == len(system.constraints), done.stdout

@@ -176,3 +176,90 @@ def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy
         ours = float(sol.multipliers[name].xreplace({**env, **mine, problem.t: 0}).evalf())
         # SymPy's constraint is l1 + ... = 0 with its own multiplier sign convention
         assert abs(abs(ours) - abs(theirs)) <= 1e-8 * (1 + abs(theirs))
+    # The report prints the long multipliers with named common subexpressions: each
+    # definition parses with the ones above it, and the printed form equals the whole
+    # multiplier at a random state; the text is shorter than SymPy's raw multipliers,
+    # and the JSON keeps the whole expression.
+    from lamech.expr import parse
+
+    text = lamech.to_text(sol)
+    assert "Named subexpressions" in text
+    # SymPy's raw multipliers print as 132,000 and 94,000 characters (issue 30; printing
+    # them here would take minutes on a busy machine)
+    assert len(text) < 94_000
+    lines = text.splitlines()
+    start = lines.index(next(x for x in lines if x.startswith("Named subexpressions")))
+    names = dict(S)
+    definitions = {}
+    for line in lines[start + 1:]:
+        if not line.startswith("  w"):
+            break
+        w, rhs = line.strip().split(" = ", 1)
+        names[w] = sp.Symbol(w)
+        definitions[names[w]] = parse(rhs, names, "output")
+    rng = np.random.default_rng(7)
+    point = {**env, problem.t: 0.0}
+    point.update({S[f"q{i}"]: v for i, v in zip((1, 2, 3), rng.uniform(-1, 1, 3) + [1.6, 1.0, -4.3])})
+    point.update({S[f"q{i}'"]: v for i, v in zip((1, 2, 3), rng.uniform(-1, 1, 3))})
+    for w, rhs in definitions.items():  # in order: each uses only those before it
+        point[w] = float(rhs.xreplace(point))
+    for name in ("loopx", "loopy"):
+        shown = next(x for x in lines if x.startswith(f"  lambda_{name} = "))
+        form = parse(shown.split(" = ", 1)[1].split("   (=")[0], names, "output")
+        whole = float(sol.multipliers[name].xreplace(point))
+        assert float(form.xreplace(point)) == pytest.approx(whole, rel=1e-9)
+    data = lamech.to_json(sol)
+    assert len(data["multipliers"]["loopx"]) > 100_000  # whole in JSON
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_simplifying_prints_what_is_done_marked_partial():
+    """Issue 30: a first Ctrl-C during a long solve stops the simplification; the solve
+    finishes with what is done (the rest as derived) and prints it, marked partial, and
+    the command ends with 130. stderr is a terminal (a pty), so the solve says which
+    stage it is in, and the signal is sent once it does."""
+    import os
+    import pty
+    import select
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "solve", str(HERE / "problems" / "four_bar_sympy.toml")],
+        stdout=subprocess.PIPE, stderr=slave, text=True)
+    os.close(slave)
+    seen = b""
+    deadline = time.monotonic() + 600
+    while b"solving:" not in seen and time.monotonic() < deadline:
+        ready, _, _ = select.select([master], [], [], 1.0)
+        if ready:
+            try:
+                seen += os.read(master, 4096)
+            except OSError:
+                break
+    assert b"solving:" in seen, seen  # the progress line on a terminal
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=900)
+    err = b""
+    while True:
+        ready, _, _ = select.select([master], [], [], 0.5)
+        if not ready:
+            break
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:
+            break
+        if not chunk:
+            break
+        err += chunk
+    os.close(master)
+    err_text = err.decode(errors="replace")
+    assert "Traceback" not in err_text
+    assert proc.returncode == 130, err_text
+    assert "finishing with what is done" in err_text
+    assert "PARTIAL: interrupted (Ctrl-C)" in out
+    assert "Multipliers (on the constraint manifold)" in out
+    assert "the results above are partial" in err_text

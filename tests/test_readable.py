@@ -94,3 +94,91 @@ def test_the_double_pendulums_tensions_are_written_in_the_angle_between_the_rods
         _, lam = kkt_numeric(dyn, full)
         k = [c.name for c in s.system.constraints].index("rod2")
         assert float(rod2.xreplace(env)) == pytest.approx(lam[k], rel=1e-9)
+
+
+PROBLEMS = __import__("pathlib").Path(__file__).parent / "problems"
+
+
+def test_the_ladder_at_rest_sticks_while_mu_is_at_least_cot_phi0_over_2():
+    """No freedom left (floor, wall and a gripping floor): the ladder stays at rest, so
+    the multipliers keep their initial values, which statics gives (the floor m g, the
+    wall and the friction m g cot(phi0)/2), and the stick condition is an inequality in
+    the parameters, printed as a textbook prints it."""
+    from lamech.symbolic import kkt_numeric
+
+    s = lamech.solve(lamech.load(PROBLEMS / "ladder_at_rest.toml"))
+    pv = {str(k): float(v) for k, v in s.system.parameter_values.items()}
+    m, g, phi0 = pv["m"], pv["g"], pv["phi0"]
+    assert s.initial_multipliers["floor"] == pytest.approx(m * g, rel=1e-12)
+    assert s.initial_multipliers["wall"] == pytest.approx(m * g / np.tan(phi0) / 2, rel=1e-12)
+    assert abs(s.initial_multipliers["grip"]) == pytest.approx(m * g / np.tan(phi0) / 2)
+    # the KKT system solved independently at the initial state says the same
+    state = {**s.system.parameter_values, s.system.t: 0.0}
+    state.update({c.symbol: float(sp.sympify(c.initial).xreplace(s.system.parameter_values))
+                  for c in s.system.coordinates})
+    state.update({c.velocity: 0.0 for c in s.system.coordinates})
+    acc, lam = kkt_numeric(s.dynamics, state)
+    assert np.allclose(acc, 0, atol=1e-12)
+    assert lam[0] == pytest.approx(m * g)
+    verdict = s.slipping["grip"]
+    assert verdict.when == "never" and verdict.condition == "mu >= cot(phi0)/2"
+    assert s.lets_go["floor"].when == "never" and s.lets_go["wall"].when == "never"
+    text = lamech.to_text(s)
+    assert "sticks while mu >= cot(phi0)/2" in text
+    # too little friction: it slips at once, and the same inequality is printed
+    slippery = lamech.solve(_with_mu(0.1))
+    assert slippery.slipping["grip"].when == "at the start"
+    assert slippery.slipping["grip"].condition == "mu >= cot(phi0)/2"
+
+
+def _with_mu(mu: float):
+    text = (PROBLEMS / "ladder_at_rest.toml").read_text().replace("mu = 0.5", f"mu = {mu}")
+    return lamech.loads(text)
+
+
+def test_a_cotangent_prints_as_one_and_parses_back():
+    from lamech.expr import latex, parse, to_text
+
+    S = {n: sp.Symbol(n) for n in ("g", "m", "phi0", "x")}
+    e = parse("g*m/(2*tan(phi0)) - 1/tan(x)^3", S)
+    assert to_text(e) == "g*m*cot(phi0)/2 - cot(x)^3"
+    assert r"\cot" in latex(e)
+    assert sp.simplify(parse(to_text(e), S) - e) == 0
+    assert parse("cot(x)", S) == 1 / sp.tan(S["x"])  # the algebra sees tan alone
+
+
+def test_a_rolling_sphere_on_an_incline_sticks_while_mu_is_at_least_two_sevenths_tan():
+    """A solid sphere (I = 2/5 m R^2) rolling down an incline: the friction needed is
+    (2/7) m g sin(alpha) against m g cos(alpha), so mu >= 2 tan(alpha)/7 for all time."""
+    s = lamech.solve(lamech.loads(SPHERE_ON_INCLINE))
+    m, g, a = (s.symbols[n] for n in ("m", "g", "alpha"))
+    assert sp.simplify(s.multipliers["rolling"] + 2 * m * g * sp.sin(a) / 7) == 0
+    assert s.slipping["rolling"].when == "never"
+    assert s.slipping["rolling"].condition == "mu >= 2*tan(alpha)/7"
+    assert "sticks while mu >= 2*tan(alpha)/7" in lamech.to_text(s)
+
+
+SPHERE_ON_INCLINE = """
+title = "Solid sphere rolling down an incline"
+[parameters]
+m = 1.0
+g = 9.81
+R = 0.2
+alpha = 0.5
+mu = 0.3
+[coordinates]
+s = { initial = 0, velocity = 0 }
+n = { initial = "R", velocity = 0 }
+theta = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*(s'^2 + n'^2) + (2/5*m*R^2)/2*theta'^2"
+V = "m*g*(n*cos(alpha) - s*sin(alpha))"
+[[constraints]]
+name = "contact"
+f = "n - R"
+unilateral = true
+[[constraints]]
+name = "rolling"
+f = "s - R*theta"
+friction = { mu = "mu", normal = "contact" }
+"""

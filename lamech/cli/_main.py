@@ -215,7 +215,7 @@ def _dispatch(args: argparse.Namespace) -> int:
             system = _overridden(system, args.param, getattr(args, "initial", []))
         if getattr(args, "angles", False):
             system = _in_angles(system)
-        with _progress():
+        with _progress(), _first_ctrl_c_finishes() as stop:
             solution = solve(system, budget=getattr(args, "budget", None))
         if command == "modes":
             from ..present import modes_latex, modes_text
@@ -248,7 +248,43 @@ def _dispatch(args: argparse.Namespace) -> int:
         print(to_latex(result), end="")
     else:
         print(to_text(result), end="")
+    if stop[0]:
+        print("lamech: interrupted: the results above are partial", file=sys.stderr)
+        return 130
     return 0
+
+
+@contextlib.contextmanager
+def _first_ctrl_c_finishes():
+    """Within: a first Ctrl-C stops the simplification, so the solve finishes at once
+    with what is done (the rest as derived, the report marked partial); a second one
+    interrupts as usual. Outside the main thread (no signals there), nothing changes."""
+    import signal
+    import threading
+
+    from ..symbolic._normal import interruptible
+
+    with interruptible() as flag:
+        if threading.current_thread() is not threading.main_thread():
+            yield flag
+            return
+
+        def first(signum, frame):
+            if flag[0]:
+                raise KeyboardInterrupt
+            flag[0] = True
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            print(
+                "\nlamech: interrupted: finishing with what is done, untidied "
+                "(Ctrl-C again to stop at once)",
+                file=sys.stderr,
+            )
+
+        previous = signal.signal(signal.SIGINT, first)
+        try:
+            yield flag
+        finally:
+            signal.signal(signal.SIGINT, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

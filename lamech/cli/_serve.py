@@ -17,14 +17,16 @@ expression parser (never ``eval``), and names no files (it has no folder).
 from __future__ import annotations
 
 import argparse
-import asyncio
 import json
 import math
 import secrets
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import asyncio
 
 __all__ = ["add_parser", "run", "make_app"]
 
@@ -196,6 +198,8 @@ def _grid_size(params: dict) -> int:
 
 def _gone_when_disconnected(request) -> tuple[asyncio.Event, asyncio.Task]:
     """An event set when the client of ``request`` (its body read) goes away."""
+    import asyncio
+
     gone = asyncio.Event()
 
     async def listen() -> None:
@@ -220,6 +224,8 @@ def make_app(
     """The Starlette application (also what the tests drive). ``token``: the one
     requests must carry (default: random, in ``app.state.token``); ``port``/``host``:
     where it listens (the Host header must name it; ``port`` None: any port)."""
+    import asyncio
+
     from starlette.applications import Starlette
     from starlette.middleware import Middleware
     from starlette.requests import Request

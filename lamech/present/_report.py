@@ -13,6 +13,7 @@ import sympy as sp
 from ..expr import ExpressionError, latex, parse
 from ..expr import to_text as _expr_text
 from ..symbolic import READABLE_OPS, count_ops
+from ..symbolic._budget import graph_symbols
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
@@ -34,15 +35,72 @@ def _ops(expr) -> int:
     return 0 if expr is None else count_ops(expr)  # remembered from the solve
 
 
-def _shown(expr, value: float | None = None) -> str:
-    """``expr`` as text, or, when longer than :data:`READABLE_OPS` operations, a short
-    summary (its size, its value at the initial state where known): the text report is
-    read, and the full form is in ``--json`` and the Python API."""
-    ops = _ops(expr)
-    if ops <= READABLE_OPS:
-        return _t(expr)
-    at = f"; {value:.12g} at the initial state" if value is not None else ""
-    return f"<closed form of {ops} operations{at}; in full: --json>"
+CSE_OPS = 3_000_000
+"""Beyond this many operations (counted as a tree) a result is summarised, not printed."""
+CSE_CHARS = 40_000
+"""The most characters the named subexpressions of one report may take."""
+
+
+class _Named:
+    """The long results of a report written with named common subexpressions: one
+    SymPy ``cse`` over all of them (the multipliers, accelerations and forces of a
+    mechanism share most of their parts: the four-bar's 270,000-character multipliers
+    come to 3,500 characters of definitions, in a quarter of a second), the names
+    (w1, w2, ...) chosen apart from every name in the results. ``shown`` gives a result
+    in these names, or a summary when the definitions would not fit
+    :data:`CSE_CHARS`; ``definitions`` lists them in order, each using only the ones
+    before it."""
+
+    def __init__(self, exprs: list) -> None:
+        self.reduced: dict[int, sp.Expr] = {}
+        self.definitions: list[tuple[sp.Symbol, sp.Expr]] = []
+        longs = []
+        for e in exprs:
+            if e is not None and READABLE_OPS < _ops(e) <= CSE_OPS and id(e) not in self.reduced:
+                self.reduced[id(e)] = e
+                longs.append(e)
+        if not longs:
+            return
+        taken = {str(x) for x in graph_symbols(longs)}
+        prefix = "w"
+        while any(n.startswith(prefix) for n in taken):
+            prefix += "w"
+        try:
+            reps, rest = sp.cse(
+                longs, symbols=sp.numbered_symbols(prefix, start=1), order="none", list=True
+            )
+        except (RecursionError, TypeError, ValueError):
+            self.reduced = {}
+            return
+        if sum(len(_t(b)) for _, b in reps) > CSE_CHARS:
+            self.reduced = {}
+            return
+        self.definitions = reps
+        self.reduced = {id(e): r for e, r in zip(longs, rest)}
+
+    def get(self, expr):
+        return self.reduced.get(id(expr))
+
+    def shown(self, expr, value: float | None = None) -> str:
+        """``expr`` as text; when longer than :data:`READABLE_OPS` operations, in the
+        named subexpressions, or a short summary (its size, its value at the initial
+        state where known). The full form is in ``--json`` and the Python API."""
+        ops = _ops(expr)
+        if ops <= READABLE_OPS:
+            return _t(expr)
+        at = f"{value:.12g} at the initial state" if value is not None else ""
+        reduced = self.get(expr)
+        if reduced is not None:
+            return _t(reduced) + (f"   (= {at})" if at else "")
+        return f"<closed form of {ops} operations{'; ' + at if at else ''}; in full: --json>"
+
+
+def _long_results(sol) -> list:
+    """The results a report may print in named subexpressions, in report order."""
+    out = [sol.closed.accelerations.get(k) for k in sol.closed.sizes if not isinstance(k, str)]
+    out += list(sol.multipliers.values())
+    out += [e for comps in sol.forces.values() for e in comps.values()]
+    return out
 
 
 def _long_note(sol) -> str | None:
@@ -54,8 +112,9 @@ def _long_note(sol) -> str | None:
     parts = [f"lambda_{k} ({n} operations)" for k, n in long.items()]
     parts += [f"{_t(k)} ({sol.closed.sizes[k]} operations)" for k in long_acc]
     return (
-        "closed forms too long to print in full: " + ", ".join(parts) + f" (over "
-        f"{READABLE_OPS} operations); `lamech solve --json` and the Python API "
+        f"closed forms over {READABLE_OPS} operations: " + ", ".join(parts) + "; printed "
+        "with named common subexpressions (see 'Named subexpressions') where they fit, "
+        "else summarised; `lamech solve --json` and the Python API "
         "(solution.multipliers, solution.reduced_equations) give them whole"
     )
 
@@ -84,6 +143,8 @@ def to_json(sol) -> dict:
         "energy": _json_expr(sol.energy),
         "conserved": [_t(e) for e in sol.conserved],
     }
+    if getattr(sol, "partial", False):
+        out["partial"] = True  # interrupted while simplifying: see "notes"
     if sol.shell is not None:
         out["on_energy_shell"] = {k: _t(v) for k, v in sol.shell.multipliers.items()}
     out["vanishes"] = {k: [r.to_json() for r in v] for k, v in sol.vanishes.items()}
@@ -121,7 +182,9 @@ def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
             lines.append(f"  {k}: {v.when} ({v.reason})")
             if v.condition and (v.when == "at the start" or v.kind == "slips"):
                 holds = "sticks" if v.kind == "slips" else "stays on"
-                lines.append(f"  {pad}  {holds} at the start while {v.condition}")
+                # a constant ratio (or a system at rest in equilibrium) holds for all time
+                when = "" if v.constant else " at the start"
+                lines.append(f"  {pad}  {holds}{when} while {v.condition}")
             if v.hint:
                 lines.append(f"  {pad}  note: {v.hint}")
         elif roots:
@@ -137,7 +200,15 @@ def _condition_lines(sol, table: dict, verdicts: dict) -> list[str]:
 def to_text(sol) -> str:
     """The readable report printed by ``lamech solve``."""
     s = sol.system
+    named = _Named(_long_results(sol))
+    _shown = named.shown
     lines: list[str] = [s.title, "=" * len(s.title), ""]
+    if getattr(sol, "partial", False):
+        lines += [
+            "PARTIAL: interrupted (Ctrl-C) while simplifying; what was not yet tidied is "
+            "shown as derived (see the notes)",
+            "",
+        ]
     # What the loader found suspicious (a T that disagrees with the bodies) comes first:
     # it may invalidate everything below.
     warnings = [n for n in sol.notes if n in s.notes]
@@ -219,8 +290,12 @@ def to_text(sol) -> str:
             if k in sol.closed.sizes:  # lambda_k too long: Q = lambda_k dF/dq' as it stands
                 lam = s.constraints[j].multiplier
                 comps = {q: sol.reduction.apply(sol.A[j, i]) * lam for i, q in enumerate(comps)}
-            body = ", ".join(f"{q}: {_shown(e)}" for q, e in comps.items())
-            lines.append(f"  {k}: {body}")
+            if all(_ops(e) <= READABLE_OPS for e in comps.values()):
+                body = ", ".join(f"{q}: {_t(e)}" for q, e in comps.items())
+                lines.append(f"  {k}: {body}")
+            else:  # one per line
+                lines.append(f"  {k}:")
+                lines += [f"    {q}: {_shown(e)}" for q, e in comps.items()]
     if sol.forces:
         lines += ["", "Cartesian constraint forces (virtual work on the material point)"]
         for k, comps in sol.forces.items():
@@ -234,6 +309,9 @@ def to_text(sol) -> str:
                     else _shown(e)
                 )
                 lines.append(f"    {d} = {value}")
+    if named.definitions:
+        lines += ["", "Named subexpressions (in the results above; each uses only those before it)"]
+        lines += [f"  {_t(w)} = {_t(e)}" for w, e in named.definitions]
     rest = [n for n in sol.notes if n not in s.notes]
     long = _long_note(sol)
     rest += [long] if long else []
@@ -279,13 +357,16 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for name, e in zip(sol.coordinates, sol.equations):
         add(f"EL, {name}", _tex(e, names), "0")
 
+    named = _Named(_long_results(sol))
+
     def tex_or_size(e) -> str:
         ops = _ops(e)
-        return (
-            _tex(e, names)
-            if ops <= READABLE_OPS
-            else rf"\text{{({ops} operations; in full: --json)}}"
-        )
+        if ops <= READABLE_OPS:
+            return _tex(e, names)
+        reduced = named.get(e)
+        if reduced is not None:
+            return _tex(reduced, names)
+        return rf"\text{{({ops} operations; in full: --json)}}"
 
     for e in sol.reduced_equations:
         if _ops(e) <= READABLE_OPS:
@@ -329,6 +410,8 @@ def to_latex(sol, standalone_math: bool = False) -> str:
         for d, e in comps.items():
             if e is not None:
                 add(f"{k} force", rf"F_{{\mathrm{{{d}}}}}", tex_or_size(e))
+    for w, e in named.definitions:
+        add("named subexpression", _tex(w, names), _tex(e, names))
     body = " \\\\\n".join(rows)
     if standalone_math:
         return "$$\\begin{aligned}\n" + body.replace("&&", "&\\quad") + "\n\\end{aligned}$$"

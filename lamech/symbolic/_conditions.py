@@ -83,8 +83,6 @@ def _numeric(system: System, expr: sp.Expr, x: sp.Symbol):
 
 def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
     """The reached range as ordered (start, end) segments; see module docstring."""
-    from scipy.optimize import brentq  # SciPy on use: `import lamech` stays light
-
     coord = shell.coordinate
     pv = system.parameter_values
     x0 = float(sp.sympify(coord.initial).subs(pv))
@@ -116,7 +114,7 @@ def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
         a, b = xs[i - 1], xs[i]
         try:
             if np.isfinite(ks[i]):
-                return brentq(lambda s: K(s), a, b, xtol=1e-14)
+                return _bracketed_root(K, a, b)
         except ValueError:
             pass
         return a
@@ -129,10 +127,50 @@ def _segments(system: System, shell: Shell) -> list[tuple[float, float]]:
     return [(x0, end), (x0, back)]
 
 
+def _bracketed_root(F, a: float, b: float) -> float:
+    """The root of F in [a, b], where F(a) and F(b) differ in sign, to the last bit.
+
+    Written here rather than taken from SciPy: importing ``scipy.optimize`` costs 0.7-1.8 s
+    of CPU (it parses every docstring of the package), more than solving the lecture's
+    cylinder, and only a bracketed root is needed. Regula falsi with the Illinois
+    modification converges superlinearly; a bisection every third step bounds the count
+    of evaluations (about 70 at most), and the answer depends on F alone, never on timing.
+    """
+    fa, fb = float(F(a)), float(F(b))
+    if fa == 0:
+        return float(a)
+    if fb == 0:
+        return float(b)
+    if (fa > 0) == (fb > 0):
+        raise ValueError("F(a) and F(b) must differ in sign")
+    side = 0
+    for step in range(200):
+        if step % 3 == 2 or not (math.isfinite(fa) and math.isfinite(fb)):
+            c = 0.5 * (a + b)
+        else:
+            c = (a * fb - b * fa) / (fb - fa)
+            if not (min(a, b) < c < max(a, b)):
+                c = 0.5 * (a + b)
+        if c in (a, b) or abs(b - a) <= 4e-16 * max(abs(a), abs(b), 1e-300):
+            break
+        fc = float(F(c))
+        if fc == 0:
+            return float(c)
+        if (fc > 0) == (fb > 0):
+            b, fb = c, fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            a, fa = c, fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+    return float(a if abs(fa) < abs(fb) else b)
+
+
 def _roots(F, a: float, b: float) -> list[float]:
     """Sign changes of F on [a, b], refined, ordered from a towards b."""
-    from scipy.optimize import brentq
-
     if a == b:
         return []
     xs = np.linspace(a, b, GRID)
@@ -146,7 +184,7 @@ def _roots(F, a: float, b: float) -> list[float]:
             out.append(float(xs[i]))
         elif y0 * y1 < 0:
             lo, hi = sorted((xs[i], xs[i + 1]))
-            out.append(float(brentq(F, lo, hi, xtol=1e-15, rtol=1e-15)))
+            out.append(_bracketed_root(F, lo, hi))
     return out
 
 
@@ -363,8 +401,11 @@ def lets_go_verdict(
     multiplier: sp.Expr | None,
     roots: list[Root],
     shell_reason: str | None,
+    resting: bool = False,
 ) -> Verdict:
-    """Whether and where unilateral constraint ``name`` lets go (lambda < 0 or = 0)."""
+    """Whether and where unilateral constraint ``name`` lets go (lambda < 0 or = 0).
+    ``resting``: the system stays at its initial state (at rest in equilibrium), so the
+    answer at the start is the answer for all time."""
     kind = "lets go"
     if multiplier is None:
         return Verdict(kind, "not determined", shell_reason or "no closed-form multiplier")
@@ -402,6 +443,15 @@ def lets_go_verdict(
             cond,
             constant=True,
         )
+    if resting and value is not None:
+        return Verdict(
+            kind,
+            "never",
+            f"at rest in equilibrium, {lam_name} keeps its initial value "
+            f"{to_text(lam0)} = {value:.6g} > 0",
+            cond,
+            constant=True,
+        )
     if roots:
         return Verdict(kind, "at the roots", f"{lam_name} = 0 where the motion reaches it", cond)
     if shell_reason is None:
@@ -410,9 +460,15 @@ def lets_go_verdict(
 
 
 def slip_verdict(
-    system: System, name: str, multipliers: dict, roots: list[Root], shell_reason: str | None
+    system: System,
+    name: str,
+    multipliers: dict,
+    roots: list[Root],
+    shell_reason: str | None,
+    resting: bool = False,
 ) -> Verdict:
-    """Whether and where friction constraint ``name`` starts to slip (|lambda| > mu N)."""
+    """Whether and where friction constraint ``name`` starts to slip (|lambda| > mu N);
+    ``resting`` as in :func:`lets_go_verdict`."""
     kind = "slips"
     fr = system.constraint(name).friction
     lf, ln = multipliers.get(name), multipliers.get(fr.normal) if fr else None
@@ -452,11 +508,12 @@ def slip_verdict(
             "initial state: the friction needed exceeds mu N",
             cond,
         )
-    if constant:
+    if constant or resting:
+        why = "the ratio is constant" if constant else "at rest in equilibrium"
         return Verdict(
             kind,
             "never",
-            f"the ratio is constant: {needed} <= mu = {mu_value:.6g}",
+            f"{why}: {needed} <= mu = {mu_value:.6g}",
             cond,
             constant=True,
         )

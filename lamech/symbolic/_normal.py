@@ -165,7 +165,31 @@ budget: an expression past it is given back as it is, at a bounded cost."""
 _CALL: contextvars.ContextVar[list | None] = contextvars.ContextVar("lamech_call", default=None)
 
 
+_STOP: contextvars.ContextVar[list | None] = contextvars.ContextVar("lamech_stop", default=None)
+
+
+@contextlib.contextmanager
+def interruptible() -> Iterator[list]:
+    """A flag (``flag[0]``) that, once set (by a Ctrl-C handler, say), makes every
+    normal form inside the block give up as if the budget had run out: the solve then
+    finishes quickly with what is done and the rest as derived, and says so."""
+    flag = [False]
+    token = _STOP.set(flag)
+    try:
+        yield flag
+    finally:
+        _STOP.reset(token)
+
+
+def interrupted() -> bool:
+    flag = _STOP.get()
+    return bool(flag and flag[0])
+
+
 def _charge(units: int) -> None:
+    flag = _STOP.get()
+    if flag is not None and flag[0]:
+        raise OverBudget("interrupted")
     call = _CALL.get()
     if call is not None:
         call[0] += units

@@ -7,9 +7,17 @@ import functools
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
+import numpy as np
 import sympy as sp
 
-from ..model import System, circle_chart, holding_at_start, initial_values, open_at_start
+from ..model import (
+    System,
+    circle_chart,
+    holding_at_start,
+    initial_values,
+    numeric_matrix,
+    open_at_start,
+)
 from ._budget import count_ops
 from ._conditions import (
     Root,
@@ -23,7 +31,7 @@ from ._conditions import (
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._normal import labelled, normal, work_budget
+from ._normal import interrupted, labelled, normal, work_budget
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
 
 __all__ = ["Solution", "solve"]
@@ -55,6 +63,7 @@ class Solution:
     closes: dict = field(default_factory=dict)  # contact open at the start -> [Root] (f = 0)
     work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_normal.Work)
     untidied: tuple[str, ...] = ()  # results shown as derived: the budget ran out
+    partial: bool = False  # interrupted (Ctrl-C) while simplifying: see the notes
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -169,13 +178,22 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
         sol = _solve(system)
     untidied = tuple(dict.fromkeys(work.untidied))
     notes = sol.notes
-    if untidied:
+    if interrupted():
+        notes += (
+            "partial: interrupted (Ctrl-C) while simplifying; "
+            + (", ".join(untidied) if untidied else "the rest")
+            + " shown as derived, not tidied; run again without interrupting for "
+            "the tidy forms",
+        )
+    elif untidied:
         notes += (
             f"the simplification budget ({work.limit} work units) ran out: "
             f"{', '.join(untidied)} shown as derived, not tidied; a larger budget "
             f"(budget={2 * work.limit}) tidies them",
         )
-    return replace(sol, work=(work.used, work.limit), untidied=untidied, notes=notes)
+    return replace(
+        sol, work=(work.used, work.limit), untidied=untidied, notes=notes, partial=interrupted()
+    )
 
 
 def _solve(system: System) -> Solution:
@@ -198,6 +216,7 @@ def _solve(system: System) -> Solution:
             "[parametrisation] in the file would: " + proposal.toml().replace("\n", "; ")
         )
     initial = {}
+    resting = False  # at rest in equilibrium at the start: the state never changes
     shell: Shell | None
     why: str | None  # the reason there is no shell
     if forms.singular:
@@ -212,8 +231,9 @@ def _solve(system: System) -> Solution:
         # read), or in place of the missing ones
         state = {**system.parameter_values, system.t: 0.0, **initial_values(system)}
         try:
-            _, lam = kkt_numeric(dyn_h, state)
+            acc, lam = kkt_numeric(dyn_h, state)
             initial = {c.name: float(v) for c, v in zip(holding.constraints, lam)}
+            resting = _in_equilibrium(dyn_h, state, acc)
         except DegenerateConstraintsError as exc:
             if forms.skipped:
                 notes.append(str(exc))
@@ -262,6 +282,7 @@ def _solve(system: System) -> Solution:
             closes,
             undecided,
             None if shell else why,
+            resting,
         )
     with labelled("forces"):
         gen = generalized_forces(dyn_h, red, forms.multipliers, forms.manifold)
@@ -326,6 +347,7 @@ def _verdicts(
     closes: dict,
     undecided: set,
     shell_reason: str | None,
+    resting: bool = False,
 ) -> tuple[dict[str, Verdict], dict[str, Verdict]]:
     """Does each unilateral constraint let go, each friction constraint slip: at the
     start, never, at the roots, open at the start, or not determined (see
@@ -349,7 +371,12 @@ def _verdicts(
         if c.unilateral:
             if forms.multipliers:
                 lets_go[c.name] = lets_go_verdict(
-                    system, c.name, forms.multipliers[c.name], vanishes[c.name], shell_reason
+                    system,
+                    c.name,
+                    forms.multipliers[c.name],
+                    vanishes[c.name],
+                    shell_reason,
+                    resting,
                 )
             elif c.name in initial and initial[c.name] < 0:
                 lets_go[c.name] = Verdict(
@@ -359,9 +386,30 @@ def _verdicts(
                 )
         if c.friction is not None and forms.multipliers:
             slipping[c.name] = slip_verdict(
-                system, c.name, forms.multipliers, slips[c.name], shell_reason
+                system, c.name, forms.multipliers, slips[c.name], shell_reason, resting
             )
     return lets_go, slipping
+
+
+def _in_equilibrium(dyn, state: dict, acc) -> bool:
+    """Whether the system is locked at rest: no freedom left (the constraints' Jacobian
+    of full rank), at rest with no acceleration, and nothing in it depending on time.
+    Then it stays at its initial state and every multiplier keeps its initial value (a
+    ladder held by a wall and a rough floor). A system with freedom left, at rest in an
+    equilibrium, is not: the lecture's cylinder released at the top of the other
+    (unstable) is followed as it rolls off, as a nudge would start it."""
+    system = dyn.system
+    n = len(system.coordinates)
+    A = numeric_matrix(dyn.A, state).reshape(dyn.A.rows, n) if dyn.A.rows else np.zeros((0, n))
+    if dyn.A.rows < n or np.linalg.matrix_rank(A) < n:
+        return False
+    if any(abs(state.get(v, 0.0)) > 0 for v in system.qd):
+        return False
+    parts = (dyn.M, dyn.h, dyn.Q, dyn.A, dyn.gamma)
+    if any(system.t in sp.Matrix(p).free_symbols for p in parts):
+        return False
+    scale = 1.0 + max((abs(float(v)) for v in state.values()), default=1.0)
+    return bool(np.all(np.abs(np.asarray(acc, dtype=float)) <= 1e-10 * scale))
 
 
 def _open_verdict(name: str, gap: float, roots: list[Root], undecided: bool) -> Verdict:
