@@ -215,8 +215,9 @@ def test_b9s_sympy_script_runs_and_prints_a_multiplier_per_constraint(name, tmp_
     system = lamech.load(name)
     script = tmp_path / "peer.py"
     script.write_text(sympy_script(system))
-    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
-                          timeout=300)
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=300
+    )
     assert done.returncode == 0, done.stderr
     printed = [line for line in done.stdout.splitlines() if line.startswith("lam")]
     assert len(printed) == len(system.constraints), done.stdout

@@ -32,9 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _lamech(*args) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "lamech", *args], capture_output=True, text=True
-    )
+    return subprocess.run([sys.executable, "-m", "lamech", *args], capture_output=True, text=True)
 
 
 def slip_angle(mu: float) -> float:
@@ -164,8 +162,11 @@ def test_the_file_may_give_a_sliders_range():
 @pytest.mark.parametrize(
     "entry, words",
     [
-        ("nu = [0, 1]", "no slider `nu`: a slider is a parameter given as a number or a "
-         "friction coefficient given as a number; known: R1, R2, g, m, mu"),
+        (
+            "nu = [0, 1]",
+            "no slider `nu`: a slider is a parameter given as a number or a "
+            "friction coefficient given as a number; known: R1, R2, g, m, mu",
+        ),
         ("mu = [0.5, 0.1]", "needs low < high (got [0.5, 0.1])"),
         ('mu = ["a", 1]', "a slider's range is [low, high], two numbers"),
         ("mu = 0.3", "a slider's range is [low, high], two numbers"),
@@ -262,7 +263,8 @@ def test_the_compiled_model_finds_the_roots_python_finds(cylinder, tmp_path):
     El.prototype.querySelectorAll = function (sel) {
       var out = [];
       (function walk(e) { e.children.forEach(function (c) {
-        if (typeof c === "object") { if ("data-value" in c.attrs) out.push(c); walk(c); } }); })(this);
+        if (typeof c === "object") {
+          if ("data-value" in c.attrs) out.push(c); walk(c); } }); })(this);
       return out; };
     var ids = {};
     var window = {addEventListener: function () {}};
@@ -276,7 +278,9 @@ def test_the_compiled_model_finds_the_roots_python_finds(cylinder, tmp_path):
     };
     """
     out = _node(
-        dom + script + """
+        dom
+        + script
+        + """
         var box = ids["live-events"], res = {};
         box.children.forEach(function (e) { res[e.id] = [e.attrs["data-when"],
           Number(e.attrs["data-value"]), e.children.length ? e.children[0].textContent : ""]; });
@@ -459,7 +463,8 @@ def test_serve_sliders_rerun_the_simulation_debounced(chromium):
     port = _free_port()
     server = subprocess.Popen(
         [sys.executable, "-m", "lamech", "serve", "--port", str(port), "--token", "t"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
     )
     try:
         url = f"http://127.0.0.1:{port}/"
@@ -472,10 +477,16 @@ def test_serve_sliders_rerun_the_simulation_debounced(chromium):
         page = chromium.new_page(viewport={"width": 1400, "height": 900})
         outside: list[str] = []
         runs: list[str] = []
-        page.on("request", lambda r: outside.append(r.url)
-                if not r.url.startswith((url, "data:", "about:")) else None)
-        page.on("request", lambda r: runs.append(r.post_data or "")
-                if r.url.endswith("/api/run") else None)
+        page.on(
+            "request",
+            lambda r: (
+                outside.append(r.url) if not r.url.startswith((url, "data:", "about:")) else None
+            ),
+        )
+        page.on(
+            "request",
+            lambda r: runs.append(r.post_data or "") if r.url.endswith("/api/run") else None,
+        )
         page.goto(url + "?token=t")
         text = (ROOT / "lamech" / "examples" / "cylinder.toml").read_text(encoding="utf-8")
         page.fill("#editor", text)
@@ -519,8 +530,9 @@ def test_a_solution_in_a_notebook_has_its_own_sliders(cylinder, launch_file, chr
     assert "$$\\begin{aligned}" in one and '<input type="range"' in one
     assert one.count("<script>") == 1  # no KaTeX: the notebook typesets the math
     doc = tmp_path / "notebook.html"
-    doc.write_text(f"<!DOCTYPE html><meta charset='utf-8'><body>{one}<hr>{two}</body>",
-                   encoding="utf-8")
+    doc.write_text(
+        f"<!DOCTYPE html><meta charset='utf-8'><body>{one}<hr>{two}</body>", encoding="utf-8"
+    )
     page, requested, errors = _open(chromium, doc, "[id^='lamech-live-'][data-updates]")
     roots = page.locator("[id^='lamech-live-']")
     assert roots.count() == 2

@@ -210,7 +210,7 @@ def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy
     start = lines.index(next(x for x in lines if x.startswith("Named subexpressions")))
     names = dict(S)
     definitions = {}
-    for line in lines[start + 1:]:
+    for line in lines[start + 1 :]:
         if not line.startswith("  w"):
             break
         w, rhs = line.strip().split(" = ", 1)
@@ -218,7 +218,9 @@ def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy
         definitions[names[w]] = parse(rhs, names, "output")
     rng = np.random.default_rng(7)
     point = {**env, problem.t: 0.0}
-    point.update({S[f"q{i}"]: v for i, v in zip((1, 2, 3), rng.uniform(-1, 1, 3) + [1.6, 1.0, -4.3])})
+    point.update(
+        {S[f"q{i}"]: v for i, v in zip((1, 2, 3), rng.uniform(-1, 1, 3) + [1.6, 1.0, -4.3])}
+    )
     point.update({S[f"q{i}'"]: v for i, v in zip((1, 2, 3), rng.uniform(-1, 1, 3))})
     for w, rhs in definitions.items():  # in order: each uses only those before it
         point[w] = float(rhs.xreplace(point))
@@ -248,7 +250,10 @@ def test_ctrl_c_while_simplifying_prints_what_is_done_marked_partial():
     master, slave = pty.openpty()
     proc = subprocess.Popen(
         [sys.executable, "-m", "lamech", "solve", str(HERE / "problems" / "four_bar_sympy.toml")],
-        stdout=subprocess.PIPE, stderr=slave, text=True)
+        stdout=subprocess.PIPE,
+        stderr=slave,
+        text=True,
+    )
     os.close(slave)
     seen = b""
     deadline = time.monotonic() + 600

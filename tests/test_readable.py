@@ -136,8 +136,12 @@ def test_the_ladder_at_rest_sticks_while_mu_is_at_least_cot_phi0_over_2():
     assert abs(s.initial_multipliers["grip"]) == pytest.approx(m * g / np.tan(phi0) / 2)
     # the KKT system solved independently at the initial state says the same
     state = {**s.system.parameter_values, s.system.t: 0.0}
-    state.update({c.symbol: float(sp.sympify(c.initial).xreplace(s.system.parameter_values))
-                  for c in s.system.coordinates})
+    state.update(
+        {
+            c.symbol: float(sp.sympify(c.initial).xreplace(s.system.parameter_values))
+            for c in s.system.coordinates
+        }
+    )
     state.update({c.velocity: 0.0 for c in s.system.coordinates})
     acc, lam = kkt_numeric(s.dynamics, state)
     assert np.allclose(acc, 0, atol=1e-12)

@@ -1,4 +1,4 @@
-"""``lamech simulate FILE --t-end T``: the command-line face of :mod:`lamech.simulate`
+"""``lamech simulate FILE --t-end T``: the command-line face of :func:`lamech.simulate`
 (imports are lazy so that ``lamech --help`` stays instant)."""
 
 from __future__ import annotations

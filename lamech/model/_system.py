@@ -140,7 +140,7 @@ class Coordinate:
 
 @dataclass(frozen=True)
 class Friction:
-    """A friction limit: |lambda| <= mu * lambda_normal, ``normal`` a constraint's name."""
+    """A friction limit: ``|lambda| <= mu * lambda_normal``, ``normal`` a constraint's name."""
 
     mu: sp.Expr
     normal: str

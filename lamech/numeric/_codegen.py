@@ -1,6 +1,6 @@
 """Numeric functions of a :class:`~lamech.model.System`, generated from its derivation.
 
-:func:`compile_system` turns :func:`lamech.derive.dynamics` into plain Python source
+:func:`compile_system` turns :func:`lamech.symbolic.dynamics` into plain Python source
 (common subexpressions eliminated in one :func:`sympy.cse` pass over all the matrices of
 a function together), compiles it once, and wraps it in a :class:`NumericSystem`:
 

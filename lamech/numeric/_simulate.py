@@ -115,7 +115,7 @@ def simulate(
     the constraints the problem's own initial state meets: ``initial={"theta1": 0.01}``
     starts the cylinder just off the top, with r and theta2 following. ``params`` may
     also name a friction coefficient (``"mu:<constraint>"``, or ``"mu"`` when there is
-    one). An initial state off the constraints (|f| or |F| > 1e-10 (1 + max |q|)) raises
+    one). An initial state off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max ``|q|``)) raises
     :class:`SimulationError` unless ``project_initial``, which moves it to the nearest
     consistent state (mass-matrix metric) and says what changed in ``notes``. A
     unilateral constraint with f > 0 at the start begins released.
@@ -175,7 +175,7 @@ def simulate(
 
 
 def _degree_notes(ns: NumericSystem, p: np.ndarray, y0: np.ndarray) -> list[str]:
-    """The run's angles that look like degrees (:func:`lamech.model.degree_hints`) at
+    """The run's angles that look like degrees (:func:`lamech.model._hints.degree_hints`) at
     its own parameters and start, those the system's notes do not say already."""
     from ..model._hints import degree_hints
 

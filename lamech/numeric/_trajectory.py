@@ -28,7 +28,7 @@ class Trajectory:
     constraint is off; while a friction constraint slips, its column holds the kinetic
     friction -mu N sign(slip velocity) that replaces its multiplier); ``forces``:
     {"<constraint>:<direction>": (N,)} Cartesian components by virtual work;
-    ``energy`` T + V; ``residual_position`` max |f| and ``residual_velocity`` max |F|
+    ``energy`` T + V; ``residual_position`` max ``|f|`` and ``residual_velocity`` max ``|F|``
     of the active constraints; ``residual`` their max. ``events`` is the log, a list of
     :class:`Event` (``t``, ``kind``, ``constraint``, ``coordinates`` and the details of
     its kind); ``status`` is a :class:`Status` (equal to "ok", "failed" or "interrupted")

@@ -114,7 +114,7 @@ def to_text(result: Any) -> str:
 
 
 def to_json(result: Any) -> dict:
-    """The ``--json`` object of a Solution (schema in the README) or a Trajectory."""
+    """The ``--json`` object of a Solution (schema in docs/reference/json.md) or a Trajectory."""
     if _is_derivation(result):
         return steps_json(result)
     return result.summary() if _is_trajectory(result) else _solution_json(result)

@@ -1,4 +1,4 @@
-"""Animations of a :class:`~lamech.trajectory.Trajectory` (matplotlib).
+"""Animations of a :class:`~lamech.numeric.Trajectory` (matplotlib).
 
 Everything drawn comes from the problem file, for any problem: each body by its
 ``shape`` (a circle with a radius line that turns with ``angle``, a rod along ``angle``,

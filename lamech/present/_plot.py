@@ -1,4 +1,4 @@
-"""Plots of a :class:`~lamech.trajectory.Trajectory` (matplotlib)."""
+"""Plots of a :class:`~lamech.numeric.Trajectory` (matplotlib)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Presenting a :class:`~lamech.solve.Solution`: readable text, LaTeX, and JSON.
+"""Presenting a :class:`~lamech.symbolic.Solution`: readable text, LaTeX, and JSON.
 
 Nothing is computed here; expressions print in the problem-file grammar
 (:func:`lamech.expr.to_text`) so that JSON strings parse back.
@@ -131,7 +131,7 @@ def _initial_text(sol) -> str:
 
 
 def to_json(sol) -> dict:
-    """The ``--json`` object (schema in the README)."""
+    """The ``--json`` object (schema in docs/reference/json.md)."""
     system = sol.system
     out: dict = {
         "title": system.title,

@@ -1,9 +1,9 @@
-"""Issue files (TOML) and plain dicts to a checked :class:`~lamech.model.System`.
+"""Problem files (TOML) and plain dicts to a checked :class:`~lamech.model.System`.
 
 Every problem found is collected and reported at once in a :class:`ProblemFileError`
 naming the file, line, offending text and the fix, so a user mends a file in one pass.
 Expressions go through :func:`lamech.expr.parse` only: nothing in a file is executed.
-See the README's "Issue files" section for the format.
+See the problem-file reference (docs/reference/problem-file.md) for the format.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Parameter sweeps: every combination of parameter values simulated with one compiled
 system, a few numbers measured per case, one row per case; in this process, on local
-worker processes, or on a Dask cluster, with resume (see :mod:`lamech.sweep._run`).
+worker processes, or on a Dask cluster, with resume (see :mod:`lamech.sweeps._run`).
 """
 
 from ._parse import (

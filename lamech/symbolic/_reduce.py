@@ -7,7 +7,7 @@ with two roots, take the branch through the initial state, and skip the coordina
 when the initial state sits on the branch point. Velocity constraints are never used
 for elimination.
 
-The closed forms solve the KKT system of :mod:`lamech.derive` with the eliminated
+The closed forms solve the KKT system of :mod:`lamech.symbolic._derive` with the eliminated
 coordinates substituted: unknowns are the independent accelerations and every
 multiplier; equations the n Euler-Lagrange equations and the acceleration form of the
 constraints not eliminated. Simplification is bounded by expression size
