@@ -823,15 +823,38 @@ def _presentations(space: _Space, num: PolyElement, den: dict, velocities: tuple
     if not velocities:  # lamech's velocities are the symbols written x'
         velocities = tuple(v for v in space.sym_index if v.name.endswith("'"))
     vel_idx = tuple(space.sym_index[v] for v in velocities if v in space.sym_index)
-    dens = []
-    for f, k in sorted(den.items(), key=lambda fk: _poly_key(fk[0])):
-        g = space.reduce(f, towards) if towards == "sin" else f
-        dens.append(_factored(space, g, vel_idx) ** k)
-    D = sp.Mul(*dens)
     content, prim = num.primitive()
     if prim and prim.LC < 0:
         content, prim = -content, -prim
     c = sp.Rational(int(content.numerator), int(content.denominator))
+    # the denominator as irreducible factors (few generators: cheap), each cancelled
+    # where it divides the numerator exactly: the numerator itself is factored only when
+    # small (_factor_list), so a common factor is found by division, not by factoring it
+    pieces: list = []
+    scale = sp.Integer(1)  # the denominator's numeric content, kept in it: 3 (R1 + R2)
+    for f, k in sorted(den.items(), key=lambda fk: _poly_key(fk[0])):
+        g = space.reduce(f, towards) if towards == "sin" else f
+        if 1 < len(g) <= FACTOR_TERMS:
+            _charge(len(g) ** 3)
+            dc, factors = _factor_list(g)
+            scale *= sp.Rational(int(dc.numerator), int(dc.denominator)) ** k
+            pieces += [(h, e * k) for h, e in factors]
+        else:
+            pieces.append((g, k))
+    kept = []
+    # a numerator factored in full (small) meets its denominator in SymPy's product, as
+    # it always did; a larger one is divided by each factor here
+    divide = len(prim) > FACTOR_TERMS or _gens_used(prim) > FACTOR_GENS
+    for h, e in pieces:
+        while divide and e and prim and not h.is_ground:
+            q, r = divmod(prim, h)
+            if r:
+                break
+            _charge(len(prim) * len(h))
+            prim, e = q, e - 1
+        if e:
+            kept.append((h, e))
+    D = sp.Mul(scale, *[_shown_factor(space, h, vel_idx) ** e for h, e in kept])
     yield c * space.to_expr(prim) / D
     if len(prim) <= FACTOR_TERMS:
         yield _factored(space, prim, vel_idx, c, 1 / D)
@@ -859,6 +882,16 @@ def _collected(space: _Space, p: PolyElement, vel_idx: tuple) -> sp.Expr:
     return sp.Add(*terms)
 
 
+def _shown_factor(space: _Space, f: PolyElement, vel_idx: tuple) -> sp.Expr:
+    """One factor as printed: collected by the velocities where that is shorter."""
+    e = space.to_expr(f)
+    if vel_idx and len(f) > 2 and any(m[i] for m in f for i in vel_idx):
+        grouped = _collected(space, f, vel_idx)
+        if _ops(grouped) <= _ops(e):
+            e = grouped
+    return e
+
+
 def _factored(space: _Space, p: PolyElement, vel_idx: tuple = (), *more: sp.Expr) -> sp.Expr:
     """``p`` as a product of its irreducible factors (when short), each collected by the
     velocities (``vel_idx``) where that is shorter; else expanded. Multiplied by ``more``
@@ -869,22 +902,41 @@ def _factored(space: _Space, p: PolyElement, vel_idx: tuple = (), *more: sp.Expr
     _charge(len(p) ** 3)
     coeff, factors = _factor_list(p)
     parts: list = [sp.Rational(int(coeff.numerator), int(coeff.denominator)), *more]
-    for f, k in factors:
-        e = space.to_expr(f)
-        if vel_idx and len(f) > 2 and any(m[i] for m in f for i in vel_idx):
-            grouped = _collected(space, f, vel_idx)
-            if _ops(grouped) <= _ops(e):
-                e = grouped
-        parts.append(e**k)
+    parts += [_shown_factor(space, f, vel_idx) ** k for f, k in factors]
     return sp.Mul(*parts)
+
+
+FACTOR_GENS = 8
+"""Polynomials in more generators than this are split only into their monomial and
+numeric content and the rest (SymPy's multivariate factorisation costs 0.1 s on ten
+terms in eleven generators, a double pendulum's numerators, and rarely finds a factor
+there that the denominators and the content do not already show)."""
+
+
+def _gens_used(p: PolyElement) -> int:
+    monoms = list(p.keys())
+    return sum(1 for i in range(p.ring.ngens) if any(m[i] for m in monoms))
 
 
 @functools.lru_cache(maxsize=4096)
 def _factor_list(p: PolyElement) -> tuple:
     """``p.factor_list()``, remembered: the rings of :class:`_Space` are SymPy's cached
     rings of positional generator names, so the same polynomial recurs across calls, and
-    its factors do not depend on what the generators stand for."""
-    return p.factor_list()
+    its factors do not depend on what the generators stand for. Past
+    :data:`FACTOR_GENS` generators, the content alone (see there)."""
+    monoms = list(p.keys())
+    if _gens_used(p) <= FACTOR_GENS:
+        return p.factor_list()
+    ring = p.ring
+    g = tuple(min(m[i] for m in monoms) for i in range(ring.ngens))
+    content, prim = p.primitive()
+    if prim.LC < 0:
+        content, prim = -content, -prim
+    rest = ring({tuple(a - b for a, b in zip(m, g)): c for m, c in prim.items()})
+    factors = [(ring.gens[i], k) for i, k in enumerate(g) if k]
+    if rest != 1:
+        factors.append((rest, 1))
+    return content, factors
 
 
 def _ops(e: sp.Expr) -> int:
