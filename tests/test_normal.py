@@ -231,6 +231,14 @@ def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy
         assert float(form.xreplace(point)) == pytest.approx(whole, rel=1e-9)
     data = lamech.to_json(sol)
     assert len(data["multipliers"]["loopx"]) > 100_000  # whole in JSON
+    # the Cartesian forces (1.5 million operations each as a tree) in named
+    # subexpressions: each definition parses with the ones before it
+    assert data["subexpressions"]
+    names = dict(S)
+    for w, rhs in data["subexpressions"].items():
+        names[w] = sp.Symbol(w)
+        parse(rhs, names, "output")
+    assert parse(data["forces"]["loopx"]["x"], names, "output").free_symbols
 
 
 @pytest.mark.slow

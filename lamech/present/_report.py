@@ -6,6 +6,7 @@ Nothing is computed here; expressions print in the problem-file grammar
 
 from __future__ import annotations
 
+import math
 import re
 
 import sympy as sp
@@ -23,6 +24,10 @@ CONVENTION = (
 
 
 def _t(expr) -> str:
+    return _t_whole(expr)
+
+
+def _t_whole(expr) -> str:
     if expr is None:
         return "null"
     try:
@@ -51,12 +56,18 @@ class _Named:
     :data:`CSE_CHARS`; ``definitions`` lists them in order, each using only the ones
     before it."""
 
-    def __init__(self, exprs: list) -> None:
+    def __init__(
+        self,
+        exprs: list,
+        above: int = READABLE_OPS,
+        upto: float = CSE_OPS,
+        chars: float = CSE_CHARS,
+    ) -> None:
         self.reduced: dict[int, sp.Expr] = {}
         self.definitions: list[tuple[sp.Symbol, sp.Expr]] = []
         longs = []
         for e in exprs:
-            if e is not None and READABLE_OPS < _ops(e) <= CSE_OPS and id(e) not in self.reduced:
+            if e is not None and above < _ops(e) <= upto and id(e) not in self.reduced:
                 self.reduced[id(e)] = e
                 longs.append(e)
         if not longs:
@@ -72,7 +83,7 @@ class _Named:
         except (RecursionError, TypeError, ValueError):
             self.reduced = {}
             return
-        if sum(len(_t(b)) for _, b in reps) > CSE_CHARS:
+        if sum(len(_t(b)) for _, b in reps) > chars:
             self.reduced = {}
             return
         self.definitions = reps
@@ -130,9 +141,24 @@ def _initial_text(sol) -> str:
     return "; ".join(parts)
 
 
+JSON_WHOLE_OPS = 300_000
+"""Results up to this many operations are written whole in ``--json``; larger ones (a
+four-bar's Cartesian forces: 1.5 million operations, 4 MB of text and a minute to print
+each) in named subexpressions listed under ``"subexpressions"``."""
+
+
 def to_json(sol) -> dict:
     """The ``--json`` object (schema in docs/reference/json.md)."""
     system = sol.system
+    named = _Named(_long_results(sol), above=JSON_WHOLE_OPS, upto=math.inf, chars=math.inf)
+
+    def _t(expr) -> str:
+        reduced = named.get(expr)
+        return _t_whole(expr if reduced is None else reduced)
+
+    def _json_expr(expr):
+        return None if expr is None else _t(expr)
+
     out: dict = {
         "title": system.title,
         "coordinates": sol.coordinates,
@@ -159,6 +185,8 @@ def to_json(sol) -> dict:
     out["forces"] = {k: {d: _json_expr(e) for d, e in v.items()} for k, v in sol.forces.items()}
     if sol.initial_multipliers:
         out["initial_multipliers"] = sol.initial_multipliers
+    if named.definitions:
+        out["subexpressions"] = {_t_whole(w): _t_whole(e) for w, e in named.definitions}
     out["notes"] = list(sol.notes)
     return out
 
