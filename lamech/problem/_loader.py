@@ -544,7 +544,11 @@ class _Loader:
         value = self.data.get(key)
         if value is None:
             if required:
-                self.problem(key, f"missing section [{key}]; see the README's problem-file format")
+                self.problem(
+                    key,
+                    f"missing section [{key}]; see the problem-file reference "
+                    "(docs/reference/problem-file.md)",
+                )
             return None
         if not isinstance(value, dict):
             self.problem(
