@@ -491,10 +491,14 @@ def _nbi(name: str, function: str) -> bool:
 
 
 def engine_is_cached(function: str = "ev_segment") -> bool:
-    """Whether numba's cache on disk holds the engine's ``function`` (the loop, the same
-    for every system): using it then costs a load, not a compile."""
+    """Whether the engine (the loop, the same for every system) is at hand for the cache
+    folder in force: compiled in this process already, or ``function`` in numba's cache
+    on disk (using it then costs a load, not a compile)."""
+    name = module_key(engine_text(), "engine_")
+    if (str(cache_dir()), name) in _ENGINE:
+        return True
     try:
-        return _nbi(module_key(engine_text(), "engine_"), function)
+        return _nbi(name, function)
     except OSError:
         return False
 
