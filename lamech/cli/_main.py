@@ -27,7 +27,7 @@ def _progress():
     if not sys.stderr.isatty():
         yield
         return
-    from ..symbolic._normal import stage_hook
+    from ..symbolic._work import stage_hook
 
     start = time.monotonic()
     shown = [False]
@@ -262,7 +262,7 @@ def _first_ctrl_c_finishes():
     import signal
     import threading
 
-    from ..symbolic._normal import interruptible
+    from ..symbolic._work import interruptible
 
     with interruptible() as flag:
         if threading.current_thread() is not threading.main_thread():

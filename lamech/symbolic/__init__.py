@@ -22,7 +22,7 @@ from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._modes import Equilibrium, Linear, Mode, Modes, check_modes, modes
 from ._multipliers import multipliers
-from ._normal import DEFAULT_BUDGET, OverBudget, Work, is_zero, normal, to_rational, work_budget
+from ._normal import is_zero, normal, to_rational
 from ._reduce import (
     CLOSED_FORM_LIMIT,
     KKT_OPS,
@@ -36,6 +36,7 @@ from ._reduce import (
 from ._sensitivity import free_parameters, friction_mu, friction_parameters, in_free_parameters
 from ._solution import Solution, readable, solve
 from ._steps import CORRECTION, Derivation, Line, Step, Term, steps
+from ._work import DEFAULT_BUDGET, OverBudget, Work, work_budget
 
 __all__ = [
     "Dynamics",

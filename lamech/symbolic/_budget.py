@@ -1,7 +1,7 @@
 """Bounds of the symbolic path, counted in work, never in time.
 
-A solve runs under one :class:`~lamech.symbolic._normal.Work` budget
-(:func:`~lamech.symbolic._normal.work_budget`): the normal forms of
+A solve runs under one :class:`~lamech.symbolic._work.Work` budget
+(:func:`~lamech.symbolic._work.work_budget`): the normal forms of
 :mod:`lamech.symbolic._normal` charge it by the size of the polynomials they build, and
 every other SymPy call on the path is bounded by the size of its input (operation counts,
 :func:`count_ops`). Nothing depends on a clock, so the same file and options give the
@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import sympy as sp
 
-from ._normal import OverBudget
+from ._work import OverBudget
 
 __all__ = ["within", "count_ops"]
 

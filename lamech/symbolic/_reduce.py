@@ -32,8 +32,9 @@ from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_
 from ._budget import count_ops
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier
-from ._normal import OverBudget, is_zero, labelled, normal, solve_linear
+from ._normal import is_zero, normal, solve_linear
 from ._student import outer_signs, student
+from ._work import OverBudget, labelled
 
 __all__ = [
     "Reduction",
@@ -303,7 +304,7 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
     Small systems (at most :data:`CLOSED_FORM_LIMIT` unknowns and :data:`KKT_OPS`
     operations) are solved with simplification on the way; larger ones by elimination
     pivoted at a generic numeric point, simplified only where short, so every multiplier
-    is delivered, raw where the work budget (:func:`._normal.work_budget`) runs out: the
+    is delivered, raw where the work budget (:func:`._work.work_budget`) runs out: the
     multipliers are tidied first, then the accelerations.
     """
     system = dyn.system

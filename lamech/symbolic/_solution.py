@@ -31,8 +31,9 @@ from ._conditions import (
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._normal import interrupted, labelled, normal, work_budget
+from ._normal import normal
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
+from ._work import interrupted, labelled, work_budget
 
 __all__ = ["Solution", "solve"]
 
@@ -61,7 +62,7 @@ class Solution:
     slipping: dict = field(default_factory=dict)  # friction constraint -> Verdict
     readable_equations: tuple = ()  # the equations as a student would simplify them
     closes: dict = field(default_factory=dict)  # contact open at the start -> [Root] (f = 0)
-    work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_normal.Work)
+    work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_work.Work)
     untidied: tuple[str, ...] = ()  # results shown as derived: the budget ran out
     partial: bool = False  # interrupted (Ctrl-C) while simplifying: see the notes
 
