@@ -23,7 +23,7 @@ version = release = lamech.__version__
 extensions = [
     "myst_parser",
     "sphinx.ext.autodoc",
-    "sphinx.ext.mathjax",
+    "lamech_katex",  # math by the vendored KaTeX, offline (not MathJax from a CDN)
     "numpydoc",
     "lamech_docs",
 ]

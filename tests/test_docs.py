@@ -214,8 +214,13 @@ def _build(tmp_path: Path, gallery: str) -> tuple[subprocess.CompletedProcess, P
     return done, html
 
 
-def test_docs_build_with_warnings_as_errors(tmp_path):
-    done, html = _build(tmp_path, QUICK_GALLERY)
+@pytest.fixture(scope="module")
+def quick_build(tmp_path_factory) -> tuple[subprocess.CompletedProcess, Path]:
+    return _build(tmp_path_factory.mktemp("docs"), QUICK_GALLERY)
+
+
+def test_docs_build_with_warnings_as_errors(quick_build):
+    done, html = quick_build
     assert done.returncode == 0, done.stderr + done.stdout
     assert (html / "index.html").exists()
     page = (html / "_generated" / "gallery" / "cylinder.html").read_text(encoding="utf-8")
@@ -225,6 +230,35 @@ def test_docs_build_with_warnings_as_errors(tmp_path):
     api = (html / "reference" / "api.html").read_text(encoding="utf-8")
     for name in ("lamech.load", "lamech.solve", "lamech.simulate", "lamech.sweep"):
         assert f'id="{name}"' in api, name
+
+
+def test_docs_math_is_rendered_offline_by_the_vendored_katex(quick_build, chromium):
+    done, html = quick_build
+    assert done.returncode == 0, done.stderr + done.stdout
+    built = "".join(p.read_text(encoding="utf-8") for p in html.rglob("*.html"))
+    assert not re.search(r"<script[^>]*src=\"(?:https?:)?//", built)  # nothing from the web
+    assert "mathjax" not in " ".join(re.findall(r"<script[^>]*>", built)).lower()
+    assert (html / "_static" / "katex" / "katex.min.js").exists()
+    requested: list[str] = []
+    errors: list[str] = []
+    page = chromium.new_page()
+
+    def refuse(route):
+        if route.request.url.startswith(("file:", "data:")):
+            route.continue_()
+        else:
+            requested.append(route.request.url)
+            route.abort()
+
+    page.route("**/*", refuse)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto((html / "tutorials" / "student.html").as_uri())
+    page.wait_for_selector("div.math .katex-display", timeout=30_000)
+    # every formula rendered, none left as LaTeX source or as a KaTeX parse error
+    assert page.locator(".math[data-tex]").count() == page.locator(".math .katex").count() > 0
+    assert page.locator(".katex-error").count() == 0
+    assert not requested and not errors
+    page.close()
 
 
 @pytest.mark.slow
