@@ -1390,7 +1390,7 @@ def bench_startup(repeats: int, lines: list[str]) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~4 minutes)")
-    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "B7", "B9",
+    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9",
                                        "symbolic", "solve"],
                     action="append",
                     help="run only these benchmarks (repeatable; symbolic is B5)")
@@ -1407,7 +1407,7 @@ def main(argv=None) -> int:
     global PICTURE
     PICTURE = folder / "work_precision.png"
     want = {{"symbolic": "B5", "solve": "B9"}.get(w, w)
-            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B7", "B9"])}
+            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9"])}
     lines = ["# lamech benchmark results", "",
              f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
              "shared machine are noisy (±20% and more while other work runs): the runs of "
@@ -1434,6 +1434,9 @@ def main(argv=None) -> int:
         from .solve import bench_solve
 
         bench_solve(lines, 1 if args.quick else 3, 60.0 if args.quick else 300.0, args.quick)
+    if "B6" in want:
+        from .sweep import bench_b6
+        bench_b6(lines, 1 if args.quick else 3, args.quick)
     if "B7" in want:
         from .events import bench_b7
         bench_b7(100 if args.quick else 1000, args.quick, lines, 1 if args.quick else 3)

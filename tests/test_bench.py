@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -221,3 +223,15 @@ def test_b9s_sympy_script_runs_and_prints_a_multiplier_per_constraint(name, tmp_
     assert done.returncode == 0, done.stderr
     printed = [line for line in done.stdout.splitlines() if line.startswith("lam")]
     assert len(printed) == len(system.constraints), done.stdout
+
+
+def test_b6_truth_and_the_sympy_scipy_peer_agree_on_the_slip_angle():
+    """B6's truth is the energy integral's root (the cylinder's file: mu = 0.3 slips at
+    33.48 deg from the top); SymPy + SciPy's slip angles, found by solve_ivp's events on
+    LagrangesMethod's multipliers, agree with it."""
+    from bench.sweep import lift_truth, peer, slip_truth
+
+    assert math.degrees(slip_truth(0.3, 0.0)) == pytest.approx(33.48, abs=5e-3)
+    assert math.cos(lift_truth(0.0)) == pytest.approx(4 / 7, abs=1e-15)
+    got = peer(2, 2)
+    assert got["cases"] == 4 and got["slip"] < 1e-8
