@@ -10,8 +10,14 @@ stamp="$venv/.lamech-installed"
 want="$(cat "$here/pyproject.toml" | cksum) $extras"
 if [ ! -f "$stamp" ] || ! grep -qxF -- "$want" "$stamp"; then
     echo "lamech: installing into $venv (first run only) ..." >&2
-    "$venv/bin/python" -m pip install --quiet --upgrade pip >&2
-    "$venv/bin/python" -m pip install --quiet -e "$here$extras" >&2
+    # pip's and setuptools' notices go to a log, shown only when the install fails
+    log="$venv/install.log"
+    if ! { "$venv/bin/python" -m pip install --quiet --upgrade pip \
+           && "$venv/bin/python" -m pip install --quiet -e "$here$extras"; } > "$log" 2>&1; then
+        tail -n 40 "$log" >&2
+        echo "lamech: the install failed (the whole log: $log)" >&2
+        exit 1
+    fi
     # Byte-compile lamech now: where PYTHONDONTWRITEBYTECODE is set (some shells and CI
     # images set it), every run would otherwise recompile its 80 modules (0.5-0.9 s of CPU).
     "$venv/bin/python" -m compileall -q "$here/lamech" > /dev/null 2>&1 || true
