@@ -22,7 +22,7 @@ import pytest
 import lamech
 from lamech.cli import main
 from lamech.numeric import Pace, SimulationError, check_options, simulate
-from lamech.sweeps import SweepError, run_sweep
+from lamech.sweeps import SweepError, sweep
 
 G = 9.81
 HERE = Path(__file__).parent
@@ -411,7 +411,7 @@ def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch, threaded):
 
     monkeypatch.setattr(ProcessPoolExecutor, "submit", counting)
     try:
-        run = run_sweep(
+        run = sweep(
             "pendulum", {"theta0": "0.1:0.5:300"}, ["max:theta"], t_end=0.01, samples=2, workers=2
         )
     finally:
@@ -426,7 +426,7 @@ def _cylinder_sweep(out, params=None, **kw):
     kw.setdefault("t_end", 2.7)
     kw.setdefault("samples", 11)
     kw.setdefault("workers", 1)
-    return run_sweep(
+    return sweep(
         kw.pop("problem", "cylinder"),
         params or {"mu": [0.2, 0.3, 0.4]},
         kw.pop("measures", ["slip"]),

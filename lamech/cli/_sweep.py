@@ -1,5 +1,5 @@
 """``lamech sweep FILE --param NAME=A:B:N ... --measure liftoff --t-end T``: the
-command-line face of :mod:`lamech.sweep` (imports are lazy so that ``lamech --help``
+command-line face of :func:`lamech.sweep` (imports are lazy so that ``lamech --help``
 stays instant)."""
 
 from __future__ import annotations
@@ -134,7 +134,9 @@ def _run(args) -> int:
     from ..outputs import OutputError, check_output
     from ..present import plot_sweep
     from ..problem import ProblemFileError, load
-    from ..sweeps import SweepError, parse_assignment, run_sweep
+    from ..sweeps import SweepError
+    from ..sweeps._parse import parse_assignment
+    from ..sweeps._run import execute
     from ..symbolic import DegenerateConstraintsError
     from ._args import refuse_overwriting_input
     from ._simulate import PLOT_FORMATS
@@ -166,7 +168,7 @@ def _run(args) -> int:
                     "pyarrow pandas; or write a .csv"
                 ) from None
         with noting(stopped_by):
-            result = run_sweep(
+            result = execute(
                 load(args.problem, data_dir=args.data_dir) if args.data_dir else args.problem,
                 params,
                 args.measure or ["liftoff"],
@@ -252,7 +254,7 @@ def _total(result) -> int:
 def _print_csv(result) -> None:
     import csv
 
-    from ..sweeps import format_value
+    from ..sweeps._table import format_value
 
     w = csv.writer(sys.stdout, lineterminator="\n")
     w.writerow(result.columns)

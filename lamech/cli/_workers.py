@@ -166,11 +166,12 @@ def _sweep(conn, text: str, options: dict) -> dict:
     matplotlib.use("Agg")
     from ..present import sweep_html
     from ..problem import ProblemFileError, loads
-    from ..sweeps import SweepError, run_sweep
+    from ..sweeps import SweepError
+    from ..sweeps._run import execute
 
     try:
         system = loads(text, name="problem.toml")
-        run = run_sweep(
+        run = execute(
             system,
             options["params"],
             options["measures"],

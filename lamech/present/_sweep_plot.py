@@ -8,12 +8,12 @@ import os
 import numpy as np
 
 from ..outputs import write_output
-from ..sweeps import SweepError, SweepRun
+from ..sweeps import SweepError, SweepResult
 
 __all__ = ["plot_sweep"]
 
 
-def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> None:
+def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -> None:
     """A line plot per measure column over one swept parameter, a heat map over two."""
     from matplotlib.figure import Figure  # no pyplot: the caller's backend is untouched
 
