@@ -147,7 +147,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from .numeric import SimulationError, Trajectory, compile_system, integrate_batch, simulate
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
-    from .sweeps import SweepError, SweepResult, run_sweep, sweep
+    from .sweeps import SweepError, SweepResult, sweep
+    from .sweeps import run_sweep as run_sweep  # deprecated
     from .symbolic import (
         DegenerateConstraintsError,
         Dynamics,

@@ -439,15 +439,16 @@ def _cylinder_sweep(out, params=None, **kw):
 @pytest.mark.parametrize(
     "change, said",
     [
-        ({"t_end": 3.0}, "--t-end differs: the table was made with 2.7, this sweep has 3;"),
-        ({"samples": 21}, "--samples differs: the table was made with 11, this sweep has 21"),
-        ({"rtol": 1e-9}, "--rtol differs: the table was made with 1e-11, this sweep has 1e-09"),
-        ({"method": "Radau"}, "--method differs: the table was made with DOP853, this sweep has"),
-        ({"initial": {"theta1": 0.02}}, "--initial differs: the table was made with theta1=0.01"),
-        ({"max_step": 0.1}, "--max-step differs: the table was made with none (the default)"),
+        ({"t_end": 3.0}, "`t_end=` differs: the table was made with 2.7, this sweep has 3;"),
+        ({"samples": 21}, "`samples=` differs: the table was made with 11, this sweep has 21"),
+        ({"rtol": 1e-9}, "`rtol=` differs: the table was made with 1e-11, this sweep has 1e-09"),
+        ({"method": "Radau"}, "`method=` differs: the table was made with DOP853, this sweep has"),
+        ({"initial": {"theta1": 0.02}}, "`initial=` differs: the table was made with theta1=0.01"),
+        ({"max_step": 0.1}, "`max_step=` differs: the table was made with none (the default)"),
         (
             {"params": {"mu": [0.2, 0.3, 0.45]}},
-            "--param mu differs: the table was made with 0.2,0.3,0.4, this sweep has 0.2,0.3,0.45",
+            "`params=` `mu` differs: the table was made with 0.2,0.3,0.4, "
+            "this sweep has 0.2,0.3,0.45",
         ),
     ],
 )
@@ -458,7 +459,7 @@ def test_a_resume_with_other_options_is_refused_naming_the_option(tmp_path, chan
     with pytest.raises(SweepError) as exc:
         _cylinder_sweep(out, resume=True, **change)
     assert said in str(exc.value)
-    assert "run without --resume to start a new table" in str(exc.value)
+    assert "run without `resume=True` to start a new table" in str(exc.value)
     assert out.read_text() == made  # the table is left as it was
 
 

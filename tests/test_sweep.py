@@ -134,10 +134,20 @@ def test_interrupted_sweep_keeps_finished_rows(tmp_path):
 def test_resume_refuses_a_table_of_another_sweep(tmp_path):
     out = tmp_path / "t.csv"
     _cylinder({"mu": [0.2, 0.3]}, ["slip"], out=out)
-    with pytest.raises(SweepError, match="--param mu differs: the table was made with 0.2,0.3"):
+    with pytest.raises(SweepError, match="`params=` `mu` differs: the table was made with 0.2,0.3"):
         _cylinder({"mu": [0.2, 0.35]}, ["slip"], out=out, resume=True)
-    with pytest.raises(SweepError, match="--measure differs: the table was made with slip"):
+    with pytest.raises(SweepError, match="`measures=` differs: the table was made with slip"):
         _cylinder({"mu": [0.2, 0.3]}, ["liftoff"], out=out, resume=True)
+
+
+def test_the_command_names_its_flags_where_the_library_names_arguments(tmp_path, capsys):
+    out = tmp_path / "t.csv"
+    _cylinder({"mu": [0.2, 0.3]}, ["slip"], out=out)
+    sweep = ["sweep", "cylinder", "--param", "mu=0.2,0.3", "--t-end", "2.7", "--out", str(out)]
+    assert main([*sweep, "--measure", "liftoff", "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "--measure differs: the table was made with slip, this sweep has liftoff" in err
+    assert "or run without --resume to start a new table" in err and "=`" not in err
 
 
 @pytest.mark.slow

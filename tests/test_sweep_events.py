@@ -124,9 +124,7 @@ def test_sweep_engines_give_the_same_rows():
                 assert a[k] == b[k]
         assert abs(a["slip:theta1"] - _slip_angle(a["mu"])) < 1e-9
     # a measure the loop cannot give: every case by simulate
-    run = sweep(
-        "cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python", **kw
-    )
+    run = sweep("cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python", **kw)
     assert run.backend == "this process"
     with pytest.raises(SweepError, match="engine must be one of auto, compiled, python, scipy"):
         sweep("cylinder", {"mu": [0.3]}, ["slip"], engine="fast", **kw)
@@ -192,9 +190,7 @@ def test_inputs_that_switch_are_refused():
     with pytest.raises(ValueError, match="inputs that switch"):
         integrate_events(compile_system(ball), [[0.0, 0.0]], 2.0)
     # the sweep runs such a system by simulate
-    run = sweep(
-        ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1, max_step=0.01
-    )
+    run = sweep(ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1, max_step=0.01)
     assert run.backend == "this process" and abs(run.rows[0]["liftoff:t"] - 1) < 1e-9
 
 

@@ -11,6 +11,7 @@ import sys
 from ._args import add_tolerance_options, positive_float, positive_int, shown_name
 from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
+from ._terms import in_flags
 
 __all__ = ["add_parser", "run"]
 
@@ -186,10 +187,10 @@ def _run(args) -> int:
                 engine=args.engine,
             )
     except ProblemFileError as exc:
-        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)
         return 2
     except (SweepError, DegenerateConstraintsError, OutputError) as exc:
-        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
     except OSError as exc:
         print(f"lamech: {exc}", file=sys.stderr)
@@ -226,7 +227,8 @@ def _run(args) -> int:
     failed = [r for r in result.rows if r["status"] != "ok"]
     for r in failed[:3]:
         where = ", ".join(f"{n} = {r[n]:g}" for n in result.parameters)
-        print(f"  case {r['case']} ({where}): {r['status']}: {r['message']}", file=sys.stderr)
+        message = in_flags(r["message"])
+        print(f"  case {r['case']} ({where}): {r['status']}: {message}", file=sys.stderr)
     if len(failed) > 3:
         print(
             f"  ... and {len(failed) - 3} more (see the status and message columns)",

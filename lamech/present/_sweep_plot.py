@@ -94,7 +94,7 @@ def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -
         title += "   grey: no such event" + ("; red hatched: run failed" if failed.any() else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110), flag="--plot")
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110), flag="`path=`")
 
 
 def _edges(x: np.ndarray) -> np.ndarray:

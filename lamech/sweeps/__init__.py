@@ -7,7 +7,8 @@ processes, or on a Dask cluster, with resume (see :mod:`lamech.sweeps._run`).
 from .._moved import moved
 from ._parse import Measure, SweepError
 from ._result import SweepResult
-from ._run import run_sweep, sweep  # run_sweep: deprecated, warns when called
+from ._run import run_sweep as run_sweep  # deprecated: warns when called
+from ._run import sweep
 
 __all__ = ["sweep", "SweepResult", "SweepError", "Measure"]
 

@@ -61,7 +61,7 @@ class SweepResult:
     >>> res = lamech.sweep("cylinder", {"mu": [0.2, 0.4]}, "slip", t_end=2.7,
     ...                    initial={"theta1": 0.01}, samples=11)
     >>> res
-    <SweepResult: 2 cases (mu: 2); ok 2; columns case, mu, slip:t, slip:r, slip:theta1, slip:theta2, status, message>
+    <SweepResult: 2 cases (mu: 2); ok 2; columns case, mu, slip:t, slip:r, ...>
     >>> res.column("slip:theta1").round(4)
     array([0.4669, 0.6596])
     """

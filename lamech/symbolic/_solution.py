@@ -220,7 +220,8 @@ def _solve(system: System) -> Solution:
         angles = ", ".join(proposal.coordinates)
         notes.append(
             f"{circles} {'is a circle' if len(proposal.constraints) == 1 else 'are circles'}"
-            f" (or spheres): `--angles` gives every result in {angles}, as this "
+            " (or spheres): `with_chart(system, circle_chart(system))` (from lamech.model)"
+            f" gives every result in {angles}, as this "
             "[parametrisation] in the file would: " + proposal.toml().replace("\n", "; ")
         )
     initial = {}
