@@ -40,7 +40,9 @@ def moved(
         where, instead = names[name]
         module, _, attr = where.partition(":")
         warnings.warn(
-            f"{package}.{name} is deprecated: {instead}", DeprecationWarning, stacklevel=2
+            f"{package}.{name} is deprecated: {instead} ({package}.{module}.{attr or name})",
+            DeprecationWarning,
+            stacklevel=2,
         )
         return getattr(importlib.import_module(f"{package}.{module}"), attr or name)
 

@@ -14,7 +14,8 @@ import sympy as sp
 import lamech
 from lamech.cli import main
 from lamech.problem import chain_toml
-from lamech.symbolic import closed_forms, dynamics, eliminate
+from lamech.symbolic import dynamics, eliminate
+from lamech.symbolic._reduce import closed_forms
 
 CARTESIAN = """
 title = "Double pendulum, Cartesian"

@@ -21,7 +21,9 @@ import pytest
 
 import lamech
 from lamech.cli import main
-from lamech.numeric import Pace, SimulationError, check_options, simulate
+from lamech.numeric import SimulationError, simulate
+from lamech.numeric._options import check_options
+from lamech.numeric._pace import Pace
 from lamech.sweeps import SweepError, sweep
 
 G = 9.81

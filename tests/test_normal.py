@@ -15,7 +15,8 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.symbolic import is_zero, normal, to_rational, work_budget
+from lamech.symbolic._normal import is_zero, normal, to_rational
+from lamech.symbolic._work import work_budget
 
 HERE = Path(__file__).parent
 th, ph, q1, q2, q3, x = sp.symbols("theta phi q1 q2 q3 x")

@@ -15,15 +15,15 @@ from scipy.optimize import brentq
 import lamech
 from lamech.numeric import (
     compile_system,
-    consistent_initial,
     initial_states,
     integrate_events,
-    jit_is_cached,
     numba_available,
     parameter_rows,
     simulate,
-    with_friction_parameters,
 )
+from lamech.numeric._batch import jit_is_cached
+from lamech.numeric._initial import consistent_initial
+from lamech.numeric._params import with_friction_parameters
 from lamech.sweeps import SweepError, sweep
 
 THETA_S = 0.01

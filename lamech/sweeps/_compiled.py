@@ -49,13 +49,8 @@ def _compiled_measures(plan: Plan, ns) -> tuple[list, bool] | None:
 def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[list, str]:
     """The cases ``todo`` by the compiled loop with events, in chunks of :data:`CHUNK`, each
     row recorded as its chunk ends; returns (the cases left to simulate, the backend)."""
-    from ..numeric import (
-        initial_states,
-        integrate_events,
-        jit_is_cached,
-        numba_available,
-        parameter_rows,
-    )
+    from ..numeric import initial_states, integrate_events, numba_available, parameter_rows
+    from ..numeric._batch import jit_is_cached
 
     how = _compiled_measures(plan, ns)
     if how is None:

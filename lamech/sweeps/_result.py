@@ -153,7 +153,7 @@ class SweepResult:
     def _repr_html_(self) -> str:
         # Jupyter's display protocol: the one import against the layer order (sweeps ->
         # present), declared in the import-linter contract.
-        from ..present import sweep_html
+        from ..present._notebook import sweep_html
 
         return sweep_html(self)
 

@@ -31,7 +31,7 @@ numba-compiled when it is installed and the system's loop is in the cache on dis
 sweep has at least :data:`COMPILED_CASES` cases (the first compile of a problem costs
 about a minute), else the same loop as Python; impacts are applied in it. A case whose
 run meets what that loop leaves to the simulator (a failure, more than 64 events, an
-impact it cannot apply: see :data:`lamech.numeric.EVENT_FALLBACKS`) and every case of
+impact it cannot apply: see :data:`lamech.numeric._batch.FALLBACKS`) and every case of
 any other sweep runs
 :func:`lamech.numeric.simulate`, as before (``engine="scipy"`` for all cases). Both
 give the same event times (to about 1e-14 on the cylinder; the tests hold them to 1e-9).
@@ -58,8 +58,8 @@ from typing import Any
 import numpy as np
 
 from ..model import System
-from ..numeric import friction_names, with_friction_parameters
 from ..numeric._engines import engine_name
+from ..numeric._params import friction_names, with_friction_parameters
 from ._case import COMPILED, Plan, run_case
 from ._compiled import run_compiled
 from ._dask import run_dask
@@ -205,7 +205,8 @@ def execute(
     did not finish: interrupted (``result.interrupted``) or stopped (``result.stopped``),
     the rows done so far in it. For the command line and the server, which report a
     partial sweep themselves; :func:`sweep` raises instead."""
-    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, check_options
+    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError
+    from ..numeric._options import check_options
     from ..problem import as_system
 
     system = as_system(problem, "sweep", "problem")

@@ -144,7 +144,7 @@ class Solution:
     def _repr_html_(self) -> str:
         # Jupyter prefers HTML to LaTeX: the LaTeX results, and beside them the report
         # page's sliders (the same exception to the layer order as _repr_latex_)
-        from ..present import solution_html
+        from ..present._notebook import solution_html
 
         return solution_html(self)
 
@@ -159,7 +159,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     """Derive equations, multipliers, integrals, vanishing/slip points and forces.
 
     ``budget`` bounds the work of simplification, in units counted by the normal forms
-    (:mod:`lamech.symbolic._normal`; :data:`~lamech.symbolic.DEFAULT_BUDGET` by default),
+    (:mod:`lamech.symbolic._normal`; :data:`~lamech.symbolic._work.DEFAULT_BUDGET` by default),
     never in time: the same system and budget give the same results, written the same
     way, on any machine and in any thread. The multipliers straight from the KKT solve
     are always delivered; tidying goes to the multipliers first, then the conditions,
