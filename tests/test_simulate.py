@@ -24,10 +24,10 @@ from lamech.numeric import (
     SimulationError,
     Status,
     compile_system,
+    consistent_initial,
     numba_available,
     simulate,
 )
-from lamech.numeric._initial import consistent_initial
 
 G = 9.81
 HERE = Path(__file__).parent

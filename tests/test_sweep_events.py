@@ -15,6 +15,7 @@ from scipy.optimize import brentq
 import lamech
 from lamech.numeric import (
     compile_system,
+    consistent_initial,
     initial_states,
     integrate_events,
     numba_available,
@@ -22,7 +23,6 @@ from lamech.numeric import (
     simulate,
 )
 from lamech.numeric._batch import jit_is_cached
-from lamech.numeric._initial import consistent_initial
 from lamech.numeric._params import with_friction_parameters
 from lamech.sweeps import SweepError, sweep
 

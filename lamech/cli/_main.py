@@ -316,8 +316,7 @@ def _overridden(system, param_pairs, initial_pairs):
     expressions of parameters (the safe parser); held initial values move the other
     coordinates onto the constraints exactly as ``lamech simulate --initial`` does."""
     from ..model import ModelError, with_values
-    from ..numeric import compile_system
-    from ..numeric._initial import consistent_initial
+    from ..numeric import compile_system, consistent_initial
 
     friction = {
         name: text

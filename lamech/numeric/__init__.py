@@ -18,6 +18,7 @@ from ._batch import (
 )
 from ._codegen import NumericSystem, compile_system, numba_available
 from ._events import Event, EventKind, FrictionState, Status
+from ._initial import consistent_initial
 from ._jitcache import cache_dir as jit_cache_dir
 from ._options import DEFAULT_ATOL, DEFAULT_RTOL, METHODS, SimulationError
 from ._simulate import simulate
@@ -41,6 +42,7 @@ __all__ = [
     "EventBatchResult",
     "parameter_rows",
     "initial_states",
+    "consistent_initial",
     "DEFAULT_RTOL",
     "DEFAULT_ATOL",
     "METHODS",
@@ -54,7 +56,6 @@ __getattr__ = moved(
     {
         "EVENT_FALLBACKS": ("_batch:FALLBACKS", _INTERNAL),
         "jit_is_cached": ("_batch", _INTERNAL),
-        "consistent_initial": ("_initial", _INTERNAL),
         "kkt_solve_numpy": ("_kkt", _INTERNAL),
         "IMPLICIT": ("_options", _INTERNAL),
         "MAX_STEPS": ("_options", _INTERNAL),

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import System
-from ..numeric._initial import consistent_initial
+from ..numeric import consistent_initial
 from ._parse import EVENT_MEASURES, Measure
 
 __all__ = ["Plan", "COMPILED", "numeric_system", "measure_values", "run_case"]
