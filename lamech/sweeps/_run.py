@@ -2,9 +2,11 @@
 measured per case, one row per case.
 
 The system is compiled once (:func:`lamech.numeric.compile_system`) and every case only
-passes a different parameter vector ``p`` to the same generated functions. Cases run in
-this process, in local worker processes (:class:`concurrent.futures.ProcessPoolExecutor`)
-or on a Dask cluster (``dask.distributed``); each worker compiles the system once.
+passes a different parameter vector ``p`` to the same generated functions. This module
+makes the grid, checks the input, keeps the table (:mod:`._table`) and hands the cases
+to a backend: the compiled loop with events in this process (:mod:`._compiled`), local
+worker processes (:mod:`._local`) or a Dask cluster (:mod:`._dask`), each worker
+compiling the system once and running a case as :mod:`._case` says.
 
 Measures (the text a user writes, and the columns it gives):
 
