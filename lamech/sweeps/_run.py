@@ -209,7 +209,7 @@ def execute(
     partial sweep themselves; :func:`sweep` raises instead."""
     from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError
     from ..numeric._options import check_options
-    from ..problem import as_system
+    from ..problem._coerce import as_system
 
     system = as_system(problem, "sweep", "problem")
     if isinstance(measures, str):

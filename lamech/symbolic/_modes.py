@@ -176,7 +176,7 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
     :func:`~lamech.symbolic.solve` takes it). ``at`` ({independent coordinate: value},
     finite numbers) linearises about that configuration at rest instead of searching for
     equilibria (a note says when it is not one)."""
-    from ..problem import as_system
+    from ..problem._coerce import as_system
     from ._solution import solve
 
     if at is not None:

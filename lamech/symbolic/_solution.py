@@ -175,7 +175,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     ``system``: a System, or a problem file's path or a bundled example's name
     (``solve("pendulum")`` is ``solve(lamech.load("pendulum"))``); another type is a
     TypeError."""
-    from ..problem import as_system
+    from ..problem._coerce import as_system
 
     system = as_system(system, "solve")
     if budget is not None and (
