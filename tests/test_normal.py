@@ -1,4 +1,4 @@
-"""The symbolic path's normal forms (lamech.symbolic.normal, is_zero): exact zero recognition
+"""The symbolic path's normal forms (normal, is_zero of the symbolic layer): exact zero recognition
 modulo sin^2 + cos^2 = 1, bounded by counted work (never by a clock), and the same
 bytes on every run, in any thread and under any hash seed."""
 
