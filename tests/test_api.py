@@ -27,18 +27,19 @@ def test_every_name_a_face_exports_resolves_without_a_warning(package):
 @pytest.mark.parametrize(
     "package, name, home",
     [
-        ("lamech.symbolic", "tidy", "lamech.symbolic._reduce"),
-        ("lamech.symbolic", "kkt_numeric", "lamech.symbolic._derive"),
-        ("lamech.numeric", "check_options", "lamech.numeric._options"),
-        ("lamech.numeric", "EVENT_FALLBACKS", "lamech.numeric._batch:FALLBACKS"),
-        ("lamech.present", "sweep_html", "lamech.present._notebook"),
-        ("lamech.problem", "as_system", "lamech.problem._coerce"),
-        ("lamech.sweeps", "SweepRun", "lamech.sweeps._result:SweepResult"),
-        ("lamech.sweeps", "parse_values", "lamech.sweeps._parse"),
+        ("lamech.symbolic", "tidy", "_reduce"),
+        ("lamech.symbolic", "kkt_numeric", "_derive"),
+        ("lamech.numeric", "check_options", "_options"),
+        ("lamech.numeric", "EVENT_FALLBACKS", "_batch:FALLBACKS"),
+        ("lamech.present", "sweep_html", "_notebook"),
+        ("lamech.problem", "as_system", "_coerce"),
+        ("lamech.sweeps", "SweepRun", "_result:SweepResult"),
+        ("lamech.sweeps", "parse_values", "_parse"),
     ],
 )
 def test_a_name_that_left_a_face_warns_and_says_where_it_lives(package, name, home):
     module, _, attr = home.partition(":")
+    module = f"{package}.{module}"  # its private module
     where = f"{module}.{attr or name}"
     with pytest.warns(DeprecationWarning, match=rf"{package}\.{name} is deprecated: .*\({where}\)"):
         value = getattr(importlib.import_module(package), name)
