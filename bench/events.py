@@ -356,7 +356,8 @@ def bench_b7(count: int, quick: bool, lines: list[str], repeats: int = 3) -> Non
     MuJoCo's finest steps), ``repeats`` interleaved rounds."""
     import mujoco
 
-    from lamech.numeric import compile_system, jit_is_cached
+    from lamech.numeric import compile_system
+    from lamech.numeric._batch import jit_is_cached
 
     from .run import interleave
 

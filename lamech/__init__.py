@@ -63,8 +63,9 @@ _PUBLIC = {
     "integrate_batch": "numeric",
     # sweep
     "sweep": "sweeps",
-    "run_sweep": "sweeps",
+    "SweepResult": "sweeps",
     "SweepError": "sweeps",
+    "run_sweep": "sweeps",  # deprecated: warns when called; use sweep
     # present
     "to_text": "present",
     "to_latex": "present",
@@ -88,6 +89,7 @@ __all__ = [
     "SimulationError",
     "Solution",
     "SweepError",
+    "SweepResult",
     "System",
     "Trajectory",
     "animate",
@@ -101,7 +103,6 @@ __all__ = [
     "modes",
     "multipliers",
     "plot_trajectory",
-    "run_sweep",
     "simulate",
     "solve",
     "steps",
@@ -146,7 +147,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from .numeric import SimulationError, Trajectory, compile_system, integrate_batch, simulate
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
-    from .sweeps import SweepError, run_sweep, sweep
+    from .sweeps import SweepError, SweepResult, sweep
+    from .sweeps import run_sweep as run_sweep  # deprecated
     from .symbolic import (
         DegenerateConstraintsError,
         Dynamics,

@@ -8,7 +8,7 @@ The KKT system of :mod:`lamech.model` at one state,
 with G = A unless a slipping friction row moves its kinetic force into the column of
 its normal multiplier. :func:`kkt_matrix` and :func:`kkt_rhs` are the one place that
 assembles it with NumPy: :func:`solve_kkt` solves it (the simulator, the impact
-impulses, :func:`lamech.symbolic.kkt_numeric`), :func:`min_norm_correction` solves the
+impulses, :func:`lamech.symbolic._derive.kkt_numeric`), :func:`min_norm_correction` solves the
 same matrix for the projection onto the constraints. :func:`gauss_inplace` and
 :func:`cholesky_inplace` are plain loops that numba compiles for the hot path
 (:mod:`lamech.numeric`, whose compiled KKT solve assembles the same matrix in loops) and

@@ -46,9 +46,12 @@ def _what(mode: int) -> str | None:
 
 
 def check_output(
-    path: str | os.PathLike, formats: Iterable[str], flag: str = "--out", stdout: bool = False
+    path: str | os.PathLike, formats: Iterable[str], flag: str = "`path=`", stdout: bool = False
 ) -> Path | None:
     """The path to write, checked; None for ``-`` (standard output) when ``stdout``.
+
+    ``flag`` names the path in a message: the library's argument (`` `path=` ``, what
+    :func:`lamech.plot_trajectory` and the others call it), or the command's flag.
 
     Raises
     ------
@@ -91,7 +94,7 @@ def _file_mode() -> int:
 
 @contextmanager
 def atomic_output(
-    path: str | os.PathLike, formats: Iterable[str] | None = None, flag: str = "--out"
+    path: str | os.PathLike, formats: Iterable[str] | None = None, flag: str = "`path=`"
 ) -> Iterator[Path]:
     """A temporary path in ``path``'s folder, with its suffix (matplotlib picks a format
     by it), to write; renamed over ``path`` when the block ends without error, removed
@@ -121,7 +124,7 @@ def write_output(
     path: str | os.PathLike,
     content: str | bytes | Callable[[Path], None],
     formats: Iterable[str] | None = None,
-    flag: str = "--out",
+    flag: str = "`path=`",
 ) -> None:
     """Write ``content`` (text, bytes, or a function writing the temporary path it is
     given) to ``path`` by :func:`atomic_output`."""

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.present import Scene, animate
+from lamech.present import animate
+from lamech.present._animate import Scene
 
 PIL = pytest.importorskip("PIL.Image", reason="Pillow (a matplotlib dependency) missing")
 

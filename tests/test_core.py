@@ -15,13 +15,9 @@ import sympy as sp
 import lamech
 from lamech.expr import parse
 from lamech.problem import chain_toml
-from lamech.symbolic import (
-    CLOSED_FORM_LIMIT,
-    DegenerateConstraintsError,
-    dynamics,
-    eliminate,
-    kkt_numeric,
-)
+from lamech.symbolic import DegenerateConstraintsError, dynamics, eliminate
+from lamech.symbolic._derive import kkt_numeric
+from lamech.symbolic._reduce import CLOSED_FORM_LIMIT
 
 FALLING_CLOCK = """
 title = "Bead on a rod whose end is driven: x = a cos(w t)"

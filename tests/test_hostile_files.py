@@ -54,7 +54,7 @@ def _refusal(tree, csv: str) -> str:
 @pytest.mark.parametrize("csv", ["../outside/.env", "{tree}/outside/.env", "/etc/passwd"])
 def test_a_file_outside_the_problems_folder_is_refused_unread(tree, csv):
     text = _refusal(tree, csv.format(tree=tree))
-    assert "outside the problem file's folder" in text and "--data-dir" in text
+    assert "outside the problem file's folder" in text and "with `data_dir=`" in text
 
 
 def test_whether_a_path_outside_exists_is_not_told(tree):
@@ -90,7 +90,7 @@ def test_data_dir_widens_the_folder(tree, capsys):
     system = lamech.load(path, data_dir=tree / "data")
     assert "tau" in str(system.forces)
     assert main(["solve", str(path)]) == 2
-    assert "--data-dir" in capsys.readouterr().err
+    assert "holds it with --data-dir" in capsys.readouterr().err  # the library's data_dir=
     assert main(["solve", str(path), "--data-dir", str(tree / "data")]) == 0
     # the wider folder is not everything: the secret stays out
     path.write_text(PROBLEM.format(csv="../outside/.env"))

@@ -21,8 +21,10 @@ import pytest
 
 import lamech
 from lamech.cli import main
-from lamech.numeric import Pace, SimulationError, check_options, simulate
-from lamech.sweeps import SweepError, run_sweep
+from lamech.numeric import SimulationError, simulate
+from lamech.numeric._options import check_options
+from lamech.numeric._pace import Pace
+from lamech.sweeps import SweepError, sweep
 
 G = 9.81
 HERE = Path(__file__).parent
@@ -411,7 +413,7 @@ def test_a_sweep_submits_a_few_cases_ahead_not_all(monkeypatch, threaded):
 
     monkeypatch.setattr(ProcessPoolExecutor, "submit", counting)
     try:
-        run = run_sweep(
+        run = sweep(
             "pendulum", {"theta0": "0.1:0.5:300"}, ["max:theta"], t_end=0.01, samples=2, workers=2
         )
     finally:
@@ -426,7 +428,7 @@ def _cylinder_sweep(out, params=None, **kw):
     kw.setdefault("t_end", 2.7)
     kw.setdefault("samples", 11)
     kw.setdefault("workers", 1)
-    return run_sweep(
+    return sweep(
         kw.pop("problem", "cylinder"),
         params or {"mu": [0.2, 0.3, 0.4]},
         kw.pop("measures", ["slip"]),
@@ -439,15 +441,16 @@ def _cylinder_sweep(out, params=None, **kw):
 @pytest.mark.parametrize(
     "change, said",
     [
-        ({"t_end": 3.0}, "--t-end differs: the table was made with 2.7, this sweep has 3;"),
-        ({"samples": 21}, "--samples differs: the table was made with 11, this sweep has 21"),
-        ({"rtol": 1e-9}, "--rtol differs: the table was made with 1e-11, this sweep has 1e-09"),
-        ({"method": "Radau"}, "--method differs: the table was made with DOP853, this sweep has"),
-        ({"initial": {"theta1": 0.02}}, "--initial differs: the table was made with theta1=0.01"),
-        ({"max_step": 0.1}, "--max-step differs: the table was made with none (the default)"),
+        ({"t_end": 3.0}, "`t_end=` differs: the table was made with 2.7, this sweep has 3;"),
+        ({"samples": 21}, "`samples=` differs: the table was made with 11, this sweep has 21"),
+        ({"rtol": 1e-9}, "`rtol=` differs: the table was made with 1e-11, this sweep has 1e-09"),
+        ({"method": "Radau"}, "`method=` differs: the table was made with DOP853, this sweep has"),
+        ({"initial": {"theta1": 0.02}}, "`initial=` differs: the table was made with theta1=0.01"),
+        ({"max_step": 0.1}, "`max_step=` differs: the table was made with none (the default)"),
         (
             {"params": {"mu": [0.2, 0.3, 0.45]}},
-            "--param mu differs: the table was made with 0.2,0.3,0.4, this sweep has 0.2,0.3,0.45",
+            "`params=` `mu` differs: the table was made with 0.2,0.3,0.4, "
+            "this sweep has 0.2,0.3,0.45",
         ),
     ],
 )
@@ -458,7 +461,7 @@ def test_a_resume_with_other_options_is_refused_naming_the_option(tmp_path, chan
     with pytest.raises(SweepError) as exc:
         _cylinder_sweep(out, resume=True, **change)
     assert said in str(exc.value)
-    assert "run without --resume to start a new table" in str(exc.value)
+    assert "run without `resume=True` to start a new table" in str(exc.value)
     assert out.read_text() == made  # the table is left as it was
 
 

@@ -70,15 +70,32 @@ def test_examples_lists_every_bundled_problem_with_its_title():
 
 
 def test_tests_use_public_names_only():
+    """Tests use what a module declares: no underscore name, and from a private module
+    (plumbing that the sub-packages' faces leave out, e.g. ``lamech.symbolic._normal``)
+    only the names its ``__all__`` lists; no ``lamech.x._y`` reached by attribute."""
+    import ast
+    import importlib
+
     private = re.compile(
-        r"from lamech[\w.]* import [^\n#]*\b_(?!_)\w|lamech(\.\w+)*\._(?!_)\w|"
-        r"import lamech[\w.]*\._(?!_)|from bench[\w.]* import [^\n#]*\b_(?!_)\w"
+        r"lamech(\.\w+)*\._(?!_)\w|import lamech[\w.]*\._(?!_)|"
+        r"from bench[\w.]* import [^\n#]*\b_(?!_)\w"
     )
     for path in sorted((ROOT / "tests").glob("*.py")):
         if path.name == "test_layout.py":
             continue
-        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-            assert not private.search(line), f"{path.name}:{number}: {line.strip()}"
+        text = path.read_text(encoding="utf-8")
+        for node in ast.walk(ast.parse(text)):
+            if not isinstance(node, ast.ImportFrom) or not (node.module or "").startswith("lamech"):
+                continue
+            names = [a.name for a in node.names]
+            where = f"{path.name}:{node.lineno}: from {node.module} import {', '.join(names)}"
+            assert not [n for n in names if n.startswith("_")], where
+            if any(part.startswith("_") for part in node.module.split(".")):
+                declared = getattr(importlib.import_module(node.module), "__all__", ())
+                assert set(names) <= set(declared), f"{where}: not in its __all__"
+        for number, line in enumerate(text.splitlines(), 1):
+            if not line.lstrip().startswith("from lamech"):
+                assert not private.search(line), f"{path.name}:{number}: {line.strip()}"
 
 
 def _tool(name: str) -> str:

@@ -25,8 +25,9 @@ import sympy as sp
 from scipy.optimize import brentq
 
 import lamech
-from lamech.present import LiveError, live_model, to_javascript
-from lamech.symbolic import free_parameters, solve
+from lamech.present._live import LiveError, live_model, to_javascript
+from lamech.symbolic import solve
+from lamech.symbolic._sensitivity import free_parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 

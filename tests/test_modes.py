@@ -173,7 +173,9 @@ def test_cli_modes_text_json_and_bad_at(capsys):
     assert "not an equilibrium: at rest there the accelerations are theta'' = -9.81" in out
     assert main(["modes", "pendulum", "--at", "phi=1"]) == 2
     err = capsys.readouterr().err
-    assert "--at phi: not an independent coordinate or its velocity; these are: theta" in err
+    assert "--at: `phi` is not an independent coordinate or its velocity; these are: theta" in err
+    with pytest.raises(ValueError, match=r"`at=`: `phi` is not an independent coordinate"):
+        lamech.modes(lamech.load("pendulum"), at={"phi": 1.0})
 
 
 # SymPy's documented example (doc/src/modules/physics/mechanics/linearize.rst, "Nonminimal
@@ -411,7 +413,8 @@ def test_the_spherical_pendulum_rests_at_every_azimuth_and_its_pole_is_singular(
 
 @pytest.mark.slow
 def test_the_tangent_check_reports_a_disagreement(solved_example):
-    from lamech.symbolic import Mode, check_modes
+    from lamech.symbolic import Mode
+    from lamech.symbolic._modes import check_modes
 
     sol = solved_example("pendulum")
     down = _by_position(lamech.modes(sol), theta=0.0)

@@ -18,7 +18,8 @@ import sympy as sp
 
 import lamech
 from lamech.model import holding_at_start, probe_states
-from lamech.symbolic import DegenerateConstraintsError, dynamics, kkt_numeric, multipliers
+from lamech.symbolic import DegenerateConstraintsError, dynamics, multipliers
+from lamech.symbolic._derive import kkt_numeric
 
 
 def at(expr: sp.Expr, env: dict) -> complex:

@@ -1,4 +1,4 @@
-"""The symbolic path's normal forms (lamech.symbolic.normal, is_zero): exact zero recognition
+"""The symbolic path's normal forms (normal, is_zero of the symbolic layer): exact zero recognition
 modulo sin^2 + cos^2 = 1, bounded by counted work (never by a clock), and the same
 bytes on every run, in any thread and under any hash seed."""
 
@@ -15,7 +15,8 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.symbolic import is_zero, normal, to_rational, work_budget
+from lamech.symbolic._normal import is_zero, normal, to_rational
+from lamech.symbolic._work import work_budget
 
 HERE = Path(__file__).parent
 th, ph, q1, q2, q3, x = sp.symbols("theta phi q1 q2 q3 x")

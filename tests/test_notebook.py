@@ -28,7 +28,7 @@ def test_a_trajectory_shows_its_summary_and_plot():
 
 
 def test_a_sweep_shows_a_table_and_a_plot():
-    run = lamech.run_sweep(
+    run = lamech.sweep(
         "cylinder", {"mu": [0.2, 0.3, 0.4]}, ["slip"], t_end=2.7, samples=11, workers=1
     )
     page = run._repr_html_()

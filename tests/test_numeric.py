@@ -217,7 +217,7 @@ def test_numpy_schur_solve_matches_full_kkt():
     """NumPy's Schur-complement path (taken for a diagonal M above 32 unknowns) equals the
     full KKT solve: all rows, a slipping row folded into its normal, no rows; and a zero
     M_ii sends it to the full matrix."""
-    from lamech.numeric import kkt_solve_numpy
+    from lamech.numeric._kkt import kkt_solve_numpy
 
     rng = np.random.default_rng(11)
     n, m = 30, 10

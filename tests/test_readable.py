@@ -94,7 +94,7 @@ def test_the_double_pendulums_tensions_are_written_in_the_angle_between_the_rods
     """The double pendulum with strings as constraints: the second rod's tension over
     m1 + m2 sin^2(theta1 - theta2), as a textbook writes it, and equal to the KKT
     system solved numerically at random states."""
-    from lamech.symbolic import kkt_numeric
+    from lamech.symbolic._derive import kkt_numeric
 
     s = lamech.solve(lamech.load("double_pendulum"))
     S = s.symbols
@@ -126,7 +126,7 @@ def test_the_ladder_at_rest_sticks_while_mu_is_at_least_cot_phi0_over_2():
     the multipliers keep their initial values, which statics gives (the floor m g, the
     wall and the friction m g cot(phi0)/2), and the stick condition is an inequality in
     the parameters, printed as a textbook prints it."""
-    from lamech.symbolic import kkt_numeric
+    from lamech.symbolic._derive import kkt_numeric
 
     s = lamech.solve(lamech.load(PROBLEMS / "ladder_at_rest.toml"))
     pv = {str(k): float(v) for k, v in s.system.parameter_values.items()}

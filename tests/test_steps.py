@@ -20,7 +20,8 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.symbolic import CORRECTION, Derivation, Term
+from lamech.symbolic import Derivation
+from lamech.symbolic._steps import CORRECTION, Term
 
 SLOW = {
     "andrews_squeezer",

@@ -18,13 +18,13 @@ from lamech.numeric import (
     consistent_initial,
     initial_states,
     integrate_events,
-    jit_is_cached,
     numba_available,
     parameter_rows,
     simulate,
-    with_friction_parameters,
 )
-from lamech.sweeps import SweepError, run_sweep
+from lamech.numeric._batch import jit_is_cached
+from lamech.numeric._params import with_friction_parameters
+from lamech.sweeps import SweepError, sweep
 
 THETA_S = 0.01
 
@@ -108,8 +108,8 @@ def test_sweep_engines_give_the_same_rows():
     params = {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}
     measures = ["slip", "liftoff", "final:theta1", "final:r'"]
     kw = dict(t_end=2.9, samples=11, workers=1, initial={"theta1": THETA_S})
-    fast = run_sweep("cylinder", params, measures, engine="python", **kw)
-    slow = run_sweep("cylinder", params, measures, engine="scipy", **kw)
+    fast = sweep("cylinder", params, measures, engine="python", **kw)
+    slow = sweep("cylinder", params, measures, engine="scipy", **kw)
     assert fast.backend == "the compiled loop with events (Python)"
     assert slow.backend == "this process"
     assert fast.counts == slow.counts == {"ok": 4}
@@ -124,12 +124,10 @@ def test_sweep_engines_give_the_same_rows():
                 assert a[k] == b[k]
         assert abs(a["slip:theta1"] - _slip_angle(a["mu"])) < 1e-9
     # a measure the loop cannot give: every case by simulate
-    run = run_sweep(
-        "cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python", **kw
-    )
+    run = sweep("cylinder", {"mu": [0.3]}, ["slip", "max:lambda:contact"], engine="python", **kw)
     assert run.backend == "this process"
     with pytest.raises(SweepError, match="engine must be one of auto, compiled, python, scipy"):
-        run_sweep("cylinder", {"mu": [0.3]}, ["slip"], engine="fast", **kw)
+        sweep("cylinder", {"mu": [0.3]}, ["slip"], engine="fast", **kw)
 
 
 BALL = {
@@ -157,8 +155,8 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
     # for a force that rises and falls; the loop does not)
     params = {"A": [5.0, 20.0, 30.0]}  # 5 < m g: stays on the floor
     kw = dict(t_end=3.0, samples=11, workers=1, max_step=0.01)
-    fast = run_sweep(ball, params, ["liftoff", "contact"], engine="python", **kw)
-    slow = run_sweep(ball, params, ["liftoff", "contact"], engine="scipy", **kw)
+    fast = sweep(ball, params, ["liftoff", "contact"], engine="python", **kw)
+    slow = sweep(ball, params, ["liftoff", "contact"], engine="scipy", **kw)
     assert fast.backend == "this process" and fast.rows == slow.rows
     assert math.isnan(fast.rows[0]["liftoff:t"]) and fast.rows[1]["contact:t"] > 0
     # a ball dropped from h: the loop applies the impact itself, as simulate does
@@ -171,8 +169,8 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
         }
     )
     params = {"h": [0.5, 1.0]}
-    fast = run_sweep(drop, params, ["contact", "final:y'"], engine="python", **kw)
-    slow = run_sweep(drop, params, ["contact", "final:y'"], engine="scipy", **kw)
+    fast = sweep(drop, params, ["contact", "final:y'"], engine="python", **kw)
+    slow = sweep(drop, params, ["contact", "final:y'"], engine="scipy", **kw)
     assert fast.backend == "the compiled loop with events (Python)"  # none left to simulate
     for a, b in zip(fast.rows, slow.rows):
         assert a.keys() == b.keys() and a["status"] == b["status"] == "ok"
@@ -181,7 +179,7 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
                 assert abs(a[k] - b[k]) <= 1e-9, (k, a[k], b[k])
     assert abs(fast.rows[1]["contact:t"] - math.sqrt(2 / 9.81)) < 1e-9
     # only a lift-off wanted, and there is none: the loop runs to the end, nothing left
-    only = run_sweep(drop, params, ["liftoff"], engine="python", t_end=0.2, samples=11, workers=1)
+    only = sweep(drop, params, ["liftoff"], engine="python", t_end=0.2, samples=11, workers=1)
     assert only.backend == "the compiled loop with events (Python)"
     assert all(math.isnan(r["liftoff:t"]) for r in only.rows)
 
@@ -192,9 +190,7 @@ def test_inputs_that_switch_are_refused():
     with pytest.raises(ValueError, match="inputs that switch"):
         integrate_events(compile_system(ball), [[0.0, 0.0]], 2.0)
     # the sweep runs such a system by simulate
-    run = run_sweep(
-        ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1, max_step=0.01
-    )
+    run = sweep(ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1, max_step=0.01)
     assert run.backend == "this process" and abs(run.rows[0]["liftoff:t"] - 1) < 1e-9
 
 
@@ -215,11 +211,11 @@ def test_numba_loop_gives_the_python_loop_numbers():
     assert jit_is_cached(jit, "ev_run_one")
     # the sweep: numba when its loop is cached (it is now), over two threads
     kw = dict(t_end=2.9, samples=11, initial={"theta1": THETA_S})
-    run = run_sweep(
+    run = sweep(
         "cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"], workers=2, **kw
     )
     assert run.backend == "the compiled loop with events (numba, 2 threads)"
-    ref = run_sweep(
+    ref = sweep(
         "cylinder",
         {"mu": [0.1, 0.45], "R2": [0.3, 0.8]},
         ["slip", "liftoff"],
@@ -244,8 +240,8 @@ def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():
         }
     )
     kw = dict(t_end=1.0, samples=11, workers=1, max_step=0.01)
-    fast = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="python", **kw)
-    slow = run_sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="scipy", **kw)
+    fast = sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="python", **kw)
+    slow = sweep(ball, {"A": [30.0]}, ["liftoff", "contact"], engine="scipy", **kw)
     assert "by simulate" in fast.backend
     assert fast.rows == slow.rows and fast.rows[0]["status"] == "failed"
 
@@ -276,8 +272,8 @@ def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
     assert [e.kind for e in res.events[2]] == ["slip", "slip"]
     kw = dict(t_end=2.0, samples=11, workers=1, initial={"s'": 2.0, "theta'": 0.0})
     grid = {"alpha": [0.0, 0.3], "mu": [0.1, 0.3]}
-    fast = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="python", **kw)
-    slow = run_sweep("incline_disk", grid, ["stick", "final:s"], engine="scipy", **kw)
+    fast = sweep("incline_disk", grid, ["stick", "final:s"], engine="python", **kw)
+    slow = sweep("incline_disk", grid, ["stick", "final:s"], engine="scipy", **kw)
     assert fast.backend == "the compiled loop with events (Python)"
     for a, b in zip(fast.rows, slow.rows):
         assert a["status"] == b["status"] == "ok"

@@ -226,10 +226,10 @@ def test_more_samples_than_memory_holds_are_refused_before_the_run(options, mess
 
 
 def test_a_sweeps_single_measure_may_be_a_string():
-    kw = {"t_end": 0.6, "samples": 3, "workers": 1, "progress": False, "output": "records",
+    kw = {"t_end": 0.6, "samples": 3, "workers": 1, "progress": False,
           "initial": {"theta1": 0.01}}  # fmt: skip
-    one = lamech.sweep("cylinder", {"mu": [0.5]}, "liftoff", **kw)
-    listed = lamech.sweep("cylinder", {"mu": [0.5]}, ["liftoff"], **kw)
+    one = lamech.sweep("cylinder", {"mu": [0.5]}, "liftoff", **kw).rows
+    listed = lamech.sweep("cylinder", {"mu": [0.5]}, ["liftoff"], **kw).rows
     assert list(one[0]) == list(listed[0]) and "liftoff:t" in one[0]
     assert one[0]["status"] == listed[0]["status"] == "ok"
     with pytest.raises(TypeError, match="sweep: params must be a dict"):
@@ -253,7 +253,7 @@ def test_a_typo_in_a_bodys_position_is_the_only_problem_reported(tmp_path, capsy
 
 
 def _corrections(derivation) -> list[str]:
-    from lamech.symbolic import CORRECTION
+    from lamech.symbolic._steps import CORRECTION
 
     return [n for s in derivation.steps for n in s.notes if n.startswith(CORRECTION)]
 

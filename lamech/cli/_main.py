@@ -16,6 +16,7 @@ from ._report import add_parser as add_report
 from ._serve import add_parser as add_serve
 from ._simulate import add_parser as add_simulate  # light: argparse only
 from ._sweep import add_parser as add_sweep
+from ._terms import in_flags
 
 DEFAULT_PROBLEM = "cylinder"
 
@@ -226,16 +227,16 @@ def _dispatch(args: argparse.Namespace) -> int:
             if args.json:
                 print(json.dumps(found.to_json(), indent=2, ensure_ascii=False))
             elif args.latex:
-                print(modes_latex(found), end="")
+                print(in_flags(modes_latex(found)), end="")
             else:
-                print(modes_text(found), end="")
+                print(in_flags(modes_text(found)), end="")
             return 0
     except ProblemFileError as exc:
-        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)
         return 2
     except (DegenerateConstraintsError, ValueError) as exc:
         text = "\n".join(printable(line) for line in str(exc).split("\n"))
-        print(f"lamech: {printable(str(problem))}: {text}", file=sys.stderr)
+        print(f"lamech: {printable(str(problem))}: {in_flags(text)}", file=sys.stderr)
         return 2
     result: object = solution
     if getattr(args, "steps", False):
@@ -245,9 +246,9 @@ def _dispatch(args: argparse.Namespace) -> int:
     if getattr(args, "json", False):
         print(json.dumps(to_json(result), indent=2, ensure_ascii=False))
     elif getattr(args, "latex", False):
-        print(to_latex(result), end="")
+        print(in_flags(to_latex(result)), end="")
     else:
-        print(to_text(result), end="")
+        print(in_flags(to_text(result)), end="")
     if stop[0]:
         print("lamech: interrupted: the results above are partial", file=sys.stderr)
         return 130

@@ -15,6 +15,7 @@ from ._args import (
     shown_name,
 )
 from ._files import add_data_dir
+from ._terms import in_flags
 
 __all__ = ["add_parser", "run"]
 
@@ -106,10 +107,10 @@ def run(args: argparse.Namespace) -> int:
         sol = solve(system)
         derivation = steps(sol)
     except ProblemFileError as exc:
-        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)
         return 2
     except (DegenerateConstraintsError, ModelError, ValueError) as exc:
-        print(f"lamech: {name}: {exc}", file=sys.stderr)
+        print(f"lamech: {name}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
     traj, note = None, ""
     if initial and not args.no_simulate:

@@ -20,6 +20,7 @@ from ._args import (
 )
 from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
+from ._terms import in_flags
 
 __all__ = ["add_parser", "run"]
 
@@ -274,10 +275,10 @@ def _run(args, phase: list[str]) -> int:
     try:
         system = load(args.problem, data_dir=args.data_dir)
     except ProblemFileError as exc:
-        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)
         return 2
     except DegenerateConstraintsError as exc:
-        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
     for note in system.notes:  # a T that disagrees with the bodies: say it first
         print(f"lamech: warning: {note}", file=sys.stderr)
@@ -303,7 +304,7 @@ def _run(args, phase: list[str]) -> int:
             raise ValueError("give the end time: --t-end T (or --mode K, which has a default)")
         _check_output_size(args, len(system.coordinates))
     except ValueError as exc:
-        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
     progress = _Progress(args.t_end, bar=sys.stderr.isatty() and not args.json)
     stopped_by: list[BaseException] = []
@@ -328,7 +329,7 @@ def _run(args, phase: list[str]) -> int:
             )
     except SimulationError as exc:
         progress.close()
-        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
     progress.close()
     if traj.status == "interrupted" and stopped_by:
@@ -344,7 +345,10 @@ def _run(args, phase: list[str]) -> int:
     if traj.status == "failed" and traj.steps == 0:
         # Nothing was integrated (a massless body nothing ties, a singular KKT matrix at
         # the initial state): an error in the problem, said in one line; no outputs.
-        print(f"lamech: {shown_name(args.problem)}: cannot start: {traj.message}", file=sys.stderr)
+        print(
+            f"lamech: {shown_name(args.problem)}: cannot start: {in_flags(traj.message)}",
+            file=sys.stderr,
+        )
         return 2
     from ..present import to_text, trajectory_csv
 
@@ -405,7 +409,7 @@ def _run(args, phase: list[str]) -> int:
     else:
         if released:
             print(released, file=summary)
-        print(to_text(traj), end="", file=summary)
+        print(in_flags(to_text(traj)), end="", file=summary)
         if args.out and not to_stdout:
             print(f"  wrote {shown_name(args.out)}", file=summary)
         if args.plot:

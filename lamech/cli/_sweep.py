@@ -1,5 +1,5 @@
 """``lamech sweep FILE --param NAME=A:B:N ... --measure liftoff --t-end T``: the
-command-line face of :mod:`lamech.sweep` (imports are lazy so that ``lamech --help``
+command-line face of :func:`lamech.sweep` (imports are lazy so that ``lamech --help``
 stays instant)."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import sys
 from ._args import add_tolerance_options, positive_float, positive_int, shown_name
 from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
+from ._terms import in_flags
 
 __all__ = ["add_parser", "run"]
 
@@ -134,7 +135,9 @@ def _run(args) -> int:
     from ..outputs import OutputError, check_output
     from ..present import plot_sweep
     from ..problem import ProblemFileError, load
-    from ..sweeps import SweepError, parse_assignment, run_sweep
+    from ..sweeps import SweepError
+    from ..sweeps._parse import parse_assignment
+    from ..sweeps._run import execute
     from ..symbolic import DegenerateConstraintsError
     from ._args import refuse_overwriting_input
     from ._simulate import PLOT_FORMATS
@@ -166,7 +169,7 @@ def _run(args) -> int:
                     "pyarrow pandas; or write a .csv"
                 ) from None
         with noting(stopped_by):
-            result = run_sweep(
+            result = execute(
                 load(args.problem, data_dir=args.data_dir) if args.data_dir else args.problem,
                 params,
                 args.measure or ["liftoff"],
@@ -184,10 +187,10 @@ def _run(args) -> int:
                 engine=args.engine,
             )
     except ProblemFileError as exc:
-        print(f"lamech: error in problem file\n{exc}", file=sys.stderr)
+        print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)
         return 2
     except (SweepError, DegenerateConstraintsError, OutputError) as exc:
-        print(f"lamech: {shown_name(args.problem)}: {exc}", file=sys.stderr)
+        print(f"lamech: {shown_name(args.problem)}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
     except OSError as exc:
         print(f"lamech: {exc}", file=sys.stderr)
@@ -224,7 +227,8 @@ def _run(args) -> int:
     failed = [r for r in result.rows if r["status"] != "ok"]
     for r in failed[:3]:
         where = ", ".join(f"{n} = {r[n]:g}" for n in result.parameters)
-        print(f"  case {r['case']} ({where}): {r['status']}: {r['message']}", file=sys.stderr)
+        message = in_flags(r["message"])
+        print(f"  case {r['case']} ({where}): {r['status']}: {message}", file=sys.stderr)
     if len(failed) > 3:
         print(
             f"  ... and {len(failed) - 3} more (see the status and message columns)",
@@ -252,7 +256,7 @@ def _total(result) -> int:
 def _print_csv(result) -> None:
     import csv
 
-    from ..sweeps import format_value
+    from ..sweeps._table import format_value
 
     w = csv.writer(sys.stdout, lineterminator="\n")
     w.writerow(result.columns)

@@ -79,7 +79,8 @@ def _work(kind: str, text: str, options: dict) -> dict:
     from ..numeric import SimulationError, simulate
     from ..present import report_page
     from ..problem import ProblemFileError, loads
-    from ..symbolic import DegenerateConstraintsError, is_angle, solve, steps
+    from ..symbolic import DegenerateConstraintsError, solve, steps
+    from ..symbolic._conditions import is_angle
 
     try:
         system = loads(text, name="problem.toml")  # text: no folder, so it names no files
@@ -135,7 +136,7 @@ def _simulated(system, options: dict) -> dict:
     its events and status, without solving again or making a page."""
     from ..model import ModelError, with_values
     from ..numeric import SimulationError, simulate
-    from ..symbolic import is_angle
+    from ..symbolic._conditions import is_angle
 
     params = options.get("params") or {}
     try:
@@ -164,13 +165,14 @@ def _sweep(conn, text: str, options: dict) -> dict:
     import matplotlib
 
     matplotlib.use("Agg")
-    from ..present import sweep_html
+    from ..present._notebook import sweep_html
     from ..problem import ProblemFileError, loads
-    from ..sweeps import SweepError, run_sweep
+    from ..sweeps import SweepError
+    from ..sweeps._run import execute
 
     try:
         system = loads(text, name="problem.toml")
-        run = run_sweep(
+        run = execute(
             system,
             options["params"],
             options["measures"],

@@ -7,65 +7,63 @@ with its typed :class:`Event` log and :class:`Status`.
 SciPy is imported by the simulator only when a simulation runs.
 """
 
-from ._batch import FALLBACKS as EVENT_FALLBACKS
+from .._moved import moved
 from ._batch import (
     BatchResult,
     EventBatchResult,
     initial_states,
     integrate_batch,
     integrate_events,
-    jit_is_cached,
     parameter_rows,
 )
 from ._codegen import NumericSystem, compile_system, numba_available
 from ._events import Event, EventKind, FrictionState, Status
 from ._initial import consistent_initial
 from ._jitcache import cache_dir as jit_cache_dir
-from ._kkt import kkt_solve_numpy
-from ._options import (
-    DEFAULT_ATOL,
-    DEFAULT_RTOL,
-    IMPLICIT,
-    MAX_STEPS,
-    METHODS,
-    SimulationError,
-    check_options,
-)
-from ._pace import PILOT_SECONDS, Pace
-from ._params import friction_names, with_friction_parameters
+from ._options import DEFAULT_ATOL, DEFAULT_RTOL, METHODS, SimulationError
 from ._simulate import simulate
 from ._trajectory import Trajectory
 
 __all__ = [
-    "NumericSystem",
-    "compile_system",
-    "numba_available",
-    "jit_cache_dir",
-    "kkt_solve_numpy",
     "simulate",
-    "SimulationError",
-    "DEFAULT_RTOL",
-    "DEFAULT_ATOL",
-    "check_options",
-    "METHODS",
-    "IMPLICIT",
-    "MAX_STEPS",
-    "Pace",
-    "PILOT_SECONDS",
-    "consistent_initial",
-    "friction_names",
-    "with_friction_parameters",
     "Trajectory",
+    "SimulationError",
     "Event",
     "EventKind",
     "FrictionState",
     "Status",
+    "compile_system",
+    "NumericSystem",
+    "numba_available",
+    "jit_cache_dir",
     "integrate_batch",
     "BatchResult",
     "integrate_events",
     "EventBatchResult",
-    "EVENT_FALLBACKS",
     "parameter_rows",
     "initial_states",
-    "jit_is_cached",
+    "consistent_initial",
+    "DEFAULT_RTOL",
+    "DEFAULT_ATOL",
+    "METHODS",
 ]
+
+# The plumbing this face exported before: lamech's own code imports it from the private
+# modules; other code still finds it here, with a DeprecationWarning.
+_INTERNAL = "internal to lamech.numeric"
+__getattr__ = moved(
+    __name__,
+    {
+        "EVENT_FALLBACKS": ("_batch:FALLBACKS", _INTERNAL),
+        "jit_is_cached": ("_batch", _INTERNAL),
+        "kkt_solve_numpy": ("_kkt", _INTERNAL),
+        "IMPLICIT": ("_options", _INTERNAL),
+        "MAX_STEPS": ("_options", _INTERNAL),
+        "check_options": ("_options", _INTERNAL),
+        "PILOT_SECONDS": ("_pace", _INTERNAL),
+        "Pace": ("_pace", _INTERNAL),
+        "friction_names": ("_params", _INTERNAL),
+        "with_friction_parameters": ("_params", _INTERNAL),
+    },
+)
+del moved

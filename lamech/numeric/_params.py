@@ -21,7 +21,7 @@ def numeric_system(
 ) -> tuple[NumericSystem, np.ndarray]:
     """(compiled system, parameter vector with ``params`` {name: value} applied); a
     friction coefficient named in ``params`` becomes a parameter first. ``system`` may
-    also be a problem file's path or an example's name (:func:`lamech.problem.as_system`).
+    also be a problem file's path or an example's name (:func:`lamech.problem._coerce.as_system`).
     Raises :class:`SimulationError` for unknown names, values that are not finite
     numbers, and values the problem's own checks refuse (a parameter's sign, which the
     derivation assumed; a mass, a restitution out of range): those of
@@ -31,7 +31,7 @@ def numeric_system(
             f"simulate: params must be a dict {{name: value}}; got {type(params).__name__}"
         )
     if not isinstance(system, NumericSystem):
-        from ..problem import as_system
+        from ..problem._coerce import as_system
 
         system = as_system(system, "simulate")
     _check_finite(params or {})

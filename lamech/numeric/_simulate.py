@@ -481,7 +481,7 @@ def _check_penetration(run: Run, t: float, y: np.ndarray, met: int | None = None
         raise _Penetrated(
             f"`{name}` was passed through at t = {t:.12g}: f = {f[j]:.3g} < -{depth:.3g} "
             f"(the tolerance) while it was released, {where}. Try a tighter rtol/atol or a "
-            "smaller --max-step, and check that f is continuous"
+            "smaller `max_step=`, and check that f is continuous"
         )
 
 
@@ -513,7 +513,7 @@ def _check_conditioning(run: Run, acc: Accel, t: float, y: np.ndarray, steps: in
             f"(condition number {cond:.3g}): a singular "
             "configuration (dependent constraints) or a motion without "
             "inertia; forces there are not determined. Try "
-            "starting elsewhere, a shorter --t-end, or removing "
+            "starting elsewhere, a shorter `t_end=`, or removing "
             "a redundant constraint"
         )
 
@@ -542,7 +542,7 @@ def diagnose_failure(run: Run, t: float, y: np.ndarray, msg, method: str = "DOP8
         if fastest < 1e-6 * max(abs(t), 1.0):
             extra = (
                 f"; the system is stiff here (its fastest time scale is {fastest:.3g} s): "
-                "try method Radau or BDF (--method Radau)"
+                'try method Radau or BDF (`method="Radau"`)'
             )
     return (
         f"step size collapsed at t = {t:.12g} ({msg}){extra}; try a looser rtol/atol, "

@@ -46,7 +46,7 @@ def initial_mode(
             "the initial state violates the constraints: "
             + "; ".join(bad)
             + " (tolerance 1e-10 (1 + max |q|)); fix the initial values "
-            "or use project_initial=True (--project-initial)"
+            "or use `project_initial=True`"
         )
     y2, _ = run.project(t0, y)
     names = setup.ns.coordinate_names

@@ -115,7 +115,7 @@ class Trajectory:
         # Jupyter's display protocol calls this on the object itself: the one import of
         # this module against the layer order (numeric -> present), declared as an
         # exception in the import-linter contract; elsewhere, lamech.present.
-        from ..present import trajectory_html
+        from ..present._notebook import trajectory_html
 
         return trajectory_html(self)
 

@@ -382,14 +382,14 @@ def animate(
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / rate, blit=False)
     if suffix in (".gif", ".mp4"):  # a temporary file renamed when complete
         writer = animation.PillowWriter if suffix == ".gif" else animation.FFMpegWriter
-        with atomic_output(path, FORMATS, "--animate") as tmp:
+        with atomic_output(path, FORMATS, "`path=`") as tmp:
             anim.save(str(tmp), writer=writer(fps=fps_arg), dpi=dpi)
     else:
         with matplotlib.rc_context(
             {"animation.frame_format": "jpeg", "animation.embed_limit": 200.0}
         ):
             page = anim.to_jshtml(fps=fps_arg, default_mode="once")
-        write_output(path, offline_page(page), FORMATS, "--animate")
+        write_output(path, offline_page(page), FORMATS, "`path=`")
     return path
 
 

@@ -2,7 +2,7 @@
 re-evaluated in the browser as the reader moves a parameter (offline, no server).
 
 What is compiled (:func:`live_model`), every expression in the free parameters
-(:func:`lamech.symbolic.free_parameters`: a parameter written as an expression of
+(:func:`lamech.symbolic._sensitivity.free_parameters`: a parameter written as an expression of
 others follows them; a friction coefficient written as a number gets a slider of its
 own) and the shell's coordinate x: the initial x0 and x0', the speed x'^2(x) on the
 energy shell and its slope, each multiplier on the shell with its derivatives by x and
@@ -29,7 +29,8 @@ import sympy as sp
 from sympy.printing.jscode import JavascriptCodePrinter
 
 from ..expr import to_text
-from ..symbolic import free_parameters, friction_mu, in_free_parameters, is_angle
+from ..symbolic._conditions import is_angle
+from ..symbolic._sensitivity import free_parameters, friction_mu, in_free_parameters
 
 __all__ = ["LiveError", "to_javascript", "live_model", "live_section"]
 

@@ -1,5 +1,5 @@
 """Jupyter's faces of results: a :class:`~lamech.numeric.Trajectory` shows its summary
-and its force plot inline, a :class:`~lamech.sweeps.SweepRun` a table and a plot, and
+and its force plot inline, a :class:`~lamech.SweepResult` a table and a plot, and
 :func:`animation` an inline player (a :class:`~lamech.symbolic.Solution` already renders
 as LaTeX with dotted velocities). Images are embedded as data URIs, so a saved notebook
 keeps them."""

@@ -71,4 +71,4 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     if traj.status != "ok":
         fig.text(0.01, 0.005, f"{traj.status}: {traj.message}"[:160], fontsize=7, color="red")
     fig.tight_layout()
-    write_output(path, lambda tmp: fig.savefig(str(tmp), dpi=120), flag="--plot")
+    write_output(path, lambda tmp: fig.savefig(str(tmp), dpi=120), flag="`path=`")

@@ -13,8 +13,8 @@ import sympy as sp
 
 from ..expr import ExpressionError, latex, parse
 from ..expr import to_text as _expr_text
-from ..symbolic import READABLE_OPS, count_ops
-from ..symbolic._budget import graph_symbols
+from ..symbolic._budget import count_ops, graph_symbols
+from ..symbolic._reduce import READABLE_OPS
 
 __all__ = ["to_text", "to_latex", "to_json"]
 

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..symbolic import READABLE_OPS, Derivation, Term
+from ..symbolic import Derivation
+from ..symbolic._reduce import READABLE_OPS
+from ..symbolic._steps import Term
 from ._report import _t, _tex, _tex_text, latex_names
 
 __all__ = ["steps_text", "steps_latex", "steps_json"]

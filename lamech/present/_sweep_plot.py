@@ -8,12 +8,12 @@ import os
 import numpy as np
 
 from ..outputs import write_output
-from ..sweeps import SweepError, SweepRun
+from ..sweeps import SweepError, SweepResult
 
 __all__ = ["plot_sweep"]
 
 
-def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> None:
+def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -> None:
     """A line plot per measure column over one swept parameter, a heat map over two."""
     from matplotlib.figure import Figure  # no pyplot: the caller's backend is untouched
 
@@ -94,7 +94,7 @@ def plot_sweep(run: SweepRun, path: str | os.PathLike, max_panels: int = 9) -> N
         title += "   grey: no such event" + ("; red hatched: run failed" if failed.any() else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110), flag="--plot")
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110), flag="`path=`")
 
 
 def _edges(x: np.ndarray) -> np.ndarray:

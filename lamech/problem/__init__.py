@@ -11,9 +11,9 @@ first use of one of its names.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from .._moved import moved
 from ._examples import example_names, example_path, example_title
 
 __all__ = [
@@ -26,7 +26,6 @@ __all__ = [
     "ProblemFileError",
     "Issue",
     "chain_toml",
-    "as_system",
 ]
 
 _LAZY = {
@@ -36,20 +35,14 @@ _LAZY = {
     "ProblemFileError": "_loader",
     "Issue": "_loader",
     "chain_toml": "_generated",
-    "as_system": "_coerce",
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'lamech.problem' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"lamech.problem.{module}"), name)
-    globals()[name] = value
-    return value
+# as_system (a System from a System, a path or an example's name) is plumbing: lamech
+# imports it from ._coerce; here it warns.
+__getattr__ = moved(__name__, {"as_system": ("_coerce", "internal to lamech.problem")}, _LAZY)
 
 
 if TYPE_CHECKING:
-    from ._coerce import as_system
     from ._generated import chain_toml
     from ._loader import Issue, ProblemFileError, from_dict, load, loads

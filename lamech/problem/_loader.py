@@ -233,7 +233,7 @@ def _read_table(
         return (
             f"`{printable(file)}` is outside the problem file's folder (symlinks "
             "followed); put the table beside the problem file, or name the folder that "
-            "holds it with --data-dir DIR"
+            "holds it with `data_dir=`"
         )
     try:
         if not path.is_file():

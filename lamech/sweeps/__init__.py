@@ -1,33 +1,30 @@
 """Parameter sweeps: every combination of parameter values simulated with one compiled
-system, a few numbers measured per case, one row per case; in this process, on local
-worker processes, or on a Dask cluster, with resume (see :mod:`lamech.sweeps._run`).
+system, a few numbers measured per case, one row per case (:func:`sweep`, giving a
+:class:`SweepResult`); in this process by the compiled loop with events, on local worker
+processes, or on a Dask cluster, with resume (see :mod:`lamech.sweeps._run`).
 """
 
-from ._parse import (
-    EVENT_MEASURES,
-    MAX_CASES,
-    SERIES_MEASURES,
-    Measure,
-    SweepError,
-    parse_assignment,
-    parse_measure,
-    parse_values,
-)
-from ._run import SweepRun, run_sweep, sweep, sweepable_names
-from ._table import format_value
+from .._moved import moved
+from ._parse import Measure, SweepError
+from ._result import SweepResult
+from ._run import run_sweep as run_sweep  # deprecated: warns when called
+from ._run import sweep
 
-__all__ = [
-    "sweep",
-    "run_sweep",
-    "SweepRun",
-    "SweepError",
-    "Measure",
-    "parse_values",
-    "parse_assignment",
-    "parse_measure",
-    "sweepable_names",
-    "format_value",
-    "EVENT_MEASURES",
-    "SERIES_MEASURES",
-    "MAX_CASES",
-]
+__all__ = ["sweep", "SweepResult", "SweepError", "Measure"]
+
+_INTERNAL = "internal to lamech.sweeps"
+__getattr__ = moved(
+    __name__,
+    {
+        "SweepRun": ("_result:SweepResult", "renamed lamech.SweepResult"),
+        "parse_values": ("_parse", _INTERNAL),
+        "parse_assignment": ("_parse", _INTERNAL),
+        "parse_measure": ("_parse", _INTERNAL),
+        "sweepable_names": ("_run", _INTERNAL),
+        "format_value": ("_table", _INTERNAL),
+        "EVENT_MEASURES": ("_parse", _INTERNAL),
+        "SERIES_MEASURES": ("_parse", _INTERNAL),
+        "MAX_CASES": ("_parse", _INTERNAL),
+    },
+)
+del moved

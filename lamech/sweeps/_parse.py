@@ -81,7 +81,7 @@ def parse_values(text: str, name: str = "value") -> np.ndarray:
     return np.array(values, dtype=float)
 
 
-def parse_assignment(text: str, what: str = "--param") -> tuple[str, str]:
+def parse_assignment(text: str, what: str) -> tuple[str, str]:
     """``"NAME=VALUE"`` -> (NAME, VALUE), both stripped."""
     name, sep, value = str(text).partition("=")
     if not sep or not name.strip() or not value.strip():

@@ -33,17 +33,18 @@ STATUSES = ("ok", "failed", "error")
 
 OPTIONS = {
     "problem_sha256": "the problem",
-    "parameters": "--param",
-    "measures": "--measure",
-    "t_end": "--t-end",
-    "initial": "--initial",
-    "samples": "--samples",
-    "rtol": "--rtol",
-    "atol": "--atol",
-    "max_step": "--max-step",
-    "method": "--method",
+    "parameters": "`params=`",
+    "measures": "`measures=`",
+    "t_end": "`t_end=`",
+    "initial": "`initial=`",
+    "samples": "`samples=`",
+    "rtol": "`rtol=`",
+    "atol": "`atol=`",
+    "max_step": "`max_step=`",
+    "method": "`method=`",
 }
-"""What a resume must match, and the option that sets it."""
+"""What a resume must match, and the argument of :func:`lamech.sweep` that sets it (the
+command line names its flag: :mod:`lamech.cli._terms`)."""
 
 
 def format_value(x) -> str:
@@ -93,7 +94,7 @@ class Table:
             raise SweepError(
                 f"{self.path} is being written by another lamech sweep ({holder}); two "
                 "sweeps on one table would mix their rows: wait for it, or choose another "
-                "--out"
+                "`out=`"
             ) from None
         fh.seek(0)
         fh.truncate()
@@ -113,7 +114,7 @@ class Table:
         """Rows already in the table (resume), every status, checked: made by a sweep
         with these options (the record beside it), undamaged, on this sweep's grid."""
         if self.path is None:
-            raise SweepError("resume needs an output table (out=... / --out)")
+            raise SweepError("`resume=True` needs an output table (`out=`)")
         journal = self.journal
         assert journal is not None  # set from path, which is not None
         if journal.exists():
@@ -150,7 +151,7 @@ class Table:
         """SweepError unless the record beside the table says it was made with this
         sweep's options (naming the first that differs)."""
         assert self.record is not None
-        again = "; run without --resume to start a new table"
+        again = "; run without `resume=True` to start a new table"
         try:
             with open(self.record, encoding="utf-8") as fh:
                 made = json.load(fh)
@@ -179,15 +180,15 @@ class Table:
             if key == "parameters" and isinstance(then, dict) and isinstance(now, dict):
                 for name in list(now) + [n for n in then if n not in now]:
                     if then.get(name) != now.get(name):
-                        option = f"--param {name}"
+                        option = f"`params=` `{name}`"
                         then, now = then.get(name), now.get(name)
                         break
                 else:
-                    option, then, now = "--param (the order of the names)", list(then), list(now)
+                    option, then, now = "`params=` (the order of the names)", list(then), list(now)
             raise SweepError(
                 f"cannot resume from {source}: {option} differs: the table was made with "
                 f"{_shown(then)}, this sweep has {_shown(now)}; give the same options (the "
-                f"table's are in {self.record.name}), or run without --resume to start a "
+                f"table's are in {self.record.name}), or run without `resume=True` to start a "
                 "new table"
             )
 
@@ -274,7 +275,7 @@ class Table:
             return
         self.journal.parent.mkdir(parents=True, exist_ok=True)
         assert self.record is not None
-        write_output(self.record, json.dumps(self.spec, indent=1) + "\n", (".json",))
+        write_output(self.record, json.dumps(self.spec, indent=1) + "\n", (".json",), "`out=`")
         self._fh = open(self.journal, "w", newline="", encoding="utf-8")
         self._writer = csv.writer(self._fh, lineterminator="\n")
         self._writer.writerow(self.columns)
@@ -301,7 +302,9 @@ class Table:
             import pandas as pd
 
             frame = pd.DataFrame(rows, columns=self.columns)
-            write_output(self.path, lambda tmp: frame.to_parquet(tmp, index=False), (".parquet",))
+            write_output(
+                self.path, lambda tmp: frame.to_parquet(tmp, index=False), (".parquet",), "`out=`"
+            )
             assert self.journal is not None  # set from path, which is not None
             self.journal.unlink(missing_ok=True)
             return
@@ -310,10 +313,10 @@ class Table:
         w.writerow(self.columns)
         for row in rows:
             w.writerow([format_value(row[c]) for c in self.columns])
-        write_output(self.path, out.getvalue(), (".csv",))
+        write_output(self.path, out.getvalue(), (".csv",), "`out=`")
 
 
-_MEND = ": mend or delete that line, or run without --resume to start a new table"
+_MEND = ": mend or delete that line, or run without `resume=True` to start a new table"
 
 
 def _number(x) -> str:

@@ -7,89 +7,79 @@ pure function of a :class:`~lamech.model.System`; the sign convention is stated 
 :mod:`lamech.model`.
 """
 
-from ._budget import count_ops
-from ._conditions import (
-    Root,
-    Verdict,
-    is_angle,
-    lets_go_verdict,
-    slip_points,
-    slip_verdict,
-    vanishing_points,
-)
-from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
+from .._moved import moved
+from ._conditions import Root, slip_points, vanishing_points
+from ._derive import DegenerateConstraintsError, Dynamics, dynamics
 from ._forces import cartesian_forces, generalized_forces
 from ._integrals import Integrals, Shell, energy_shell, integrals
-from ._modes import Equilibrium, Linear, Mode, Modes, check_modes, modes
+from ._modes import Equilibrium, Mode, Modes, modes
 from ._multipliers import multipliers
-from ._normal import is_zero, normal, to_rational
-from ._reduce import (
-    CLOSED_FORM_LIMIT,
-    KKT_OPS,
-    READABLE_OPS,
-    ClosedForms,
-    Reduction,
-    closed_forms,
-    eliminate,
-    tidy,
-)
-from ._sensitivity import free_parameters, friction_mu, friction_parameters, in_free_parameters
-from ._solution import Solution, readable, solve
-from ._steps import CORRECTION, Derivation, Line, Step, Term, steps
-from ._work import DEFAULT_BUDGET, OverBudget, Work, work_budget
+from ._reduce import Reduction, eliminate
+from ._solution import Solution, solve
+from ._steps import Derivation, steps
 
 __all__ = [
-    "Dynamics",
-    "dynamics",
-    "kkt_numeric",
-    "multipliers",
-    "DegenerateConstraintsError",
-    "Reduction",
-    "eliminate",
-    "ClosedForms",
-    "closed_forms",
-    "tidy",
-    "CLOSED_FORM_LIMIT",
-    "KKT_OPS",
-    "READABLE_OPS",
-    "DEFAULT_BUDGET",
-    "Work",
-    "work_budget",
-    "OverBudget",
-    "normal",
-    "is_zero",
-    "to_rational",
-    "count_ops",
-    "Integrals",
-    "integrals",
-    "Shell",
-    "energy_shell",
-    "Root",
-    "Verdict",
-    "lets_go_verdict",
-    "slip_verdict",
-    "vanishing_points",
-    "slip_points",
-    "is_angle",
-    "free_parameters",
-    "friction_parameters",
-    "friction_mu",
-    "in_free_parameters",
-    "generalized_forces",
-    "cartesian_forces",
-    "Solution",
     "solve",
-    "readable",
+    "Solution",
+    "multipliers",
+    "dynamics",
+    "Dynamics",
+    "DegenerateConstraintsError",
     "modes",
     "Modes",
     "Equilibrium",
     "Mode",
-    "Linear",
-    "check_modes",
     "steps",
     "Derivation",
-    "Step",
-    "Line",
-    "Term",
-    "CORRECTION",
+    "eliminate",
+    "Reduction",
+    "integrals",
+    "Integrals",
+    "energy_shell",
+    "Shell",
+    "vanishing_points",
+    "slip_points",
+    "Root",
+    "generalized_forces",
+    "cartesian_forces",
 ]
+
+# The plumbing this face exported before: lamech's own code imports it from the private
+# modules; other code still finds it here, with a DeprecationWarning.
+_INTERNAL = "internal to lamech.symbolic"
+__getattr__ = moved(
+    __name__,
+    {
+        "count_ops": ("_budget", _INTERNAL),
+        "Verdict": ("_conditions", _INTERNAL),
+        "is_angle": ("_conditions", _INTERNAL),
+        "lets_go_verdict": ("_conditions", _INTERNAL),
+        "slip_verdict": ("_conditions", _INTERNAL),
+        "kkt_numeric": ("_derive", _INTERNAL),
+        "Linear": ("_modes", _INTERNAL),
+        "check_modes": ("_modes", _INTERNAL),
+        "is_zero": ("_normal", _INTERNAL),
+        "normal": ("_normal", _INTERNAL),
+        "to_rational": ("_normal", _INTERNAL),
+        "CLOSED_FORM_LIMIT": ("_reduce", _INTERNAL),
+        "ClosedForms": ("_reduce", _INTERNAL),
+        "KKT_OPS": ("_reduce", _INTERNAL),
+        "READABLE_OPS": ("_reduce", _INTERNAL),
+        "closed_forms": ("_reduce", _INTERNAL),
+        "tidy": ("_reduce", _INTERNAL),
+        "free_parameters": ("_sensitivity", _INTERNAL),
+        "friction_mu": ("_sensitivity", _INTERNAL),
+        "friction_parameters": ("_sensitivity", _INTERNAL),
+        "in_free_parameters": ("_sensitivity", _INTERNAL),
+        "readable": ("_solution", _INTERNAL),
+        "CORRECTION": ("_steps", _INTERNAL),
+        "Line": ("_steps", _INTERNAL),
+        "Step": ("_steps", _INTERNAL),
+        "Term": ("_steps", _INTERNAL),
+        "DEFAULT_BUDGET": ("_work", _INTERNAL),
+        "OverBudget": ("_work", _INTERNAL),
+        "Work": ("_work", _INTERNAL),
+        "work_budget": ("_work", _INTERNAL),
+    },
+)
+del moved

@@ -69,7 +69,7 @@ def dynamics(system: System) -> Dynamics:
     """Derive M, h, Q, A, gamma and the Euler-Lagrange equations (pure, no simplification).
     ``system`` as :func:`~lamech.symbolic.solve` takes it."""
     if not isinstance(system, System):
-        from ..problem import as_system
+        from ..problem._coerce import as_system
 
         system = as_system(system, "dynamics")
     q, qd, qdd = system.q, system.qd, system.qdd

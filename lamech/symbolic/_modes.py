@@ -176,7 +176,7 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
     :func:`~lamech.symbolic.solve` takes it). ``at`` ({independent coordinate: value},
     finite numbers) linearises about that configuration at rest instead of searching for
     equilibria (a note says when it is not one)."""
-    from ..problem import as_system
+    from ..problem._coerce import as_system
     from ._solution import solve
 
     if at is not None:
@@ -215,13 +215,13 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         unknown = sorted(set(at) - allowed)
         if unknown:
             raise ValueError(
-                f"--at {unknown[0]}: not an independent coordinate or its velocity; "
+                f"`at=`: `{unknown[0]}` is not an independent coordinate or its velocity; "
                 "these are: " + ", ".join(names)
             )
         missing = [n for n in names if n not in at]
         if missing:
             raise ValueError(
-                "--at must give every independent coordinate; missing: " + ", ".join(missing)
+                "`at=` must give every independent coordinate; missing: " + ", ".join(missing)
             )
         speeds = {v: _snapped(float(at[n + "'"])) for v, n in zip(ud, names) if n + "'" in at}
         points = [({s: _snapped(float(at[n])) for s, n in zip(u, names)}, None)]
@@ -300,7 +300,7 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
     if not eqs:
         return [], (
             "every configuration is an equilibrium (no force acts at rest); "
-            "give a point with --at to linearise about it"
+            "give a point with `at=` to linearise about it"
         )
     if len(u) > SOLVE_UNKNOWNS or sum(sp.count_ops(e) for e in eqs) > SOLVE_OPS:
         return _numeric_equilibria(eqs, u, system)  # too large for SymPy: numbers
@@ -318,7 +318,7 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
         if set(sol) != set(u):
             free = [str(x) for x in u if x not in sol]
             return [], (
-                "a continuum of equilibria (free: " + ", ".join(free) + "); give a point with --at"
+                "a continuum of equilibria (free: " + ", ".join(free) + "); give a point with `at=`"
             )
         point = {x: _principal(tidy(sol[x]), x, system) for x in u}
         key = _numeric_point(point, system, u)
@@ -408,7 +408,7 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
         None
         if points
         else "no equilibrium found numerically (from a grid of starting points); "
-        "give a point with --at"
+        "give a point with `at=`"
     )
     return points, reason
 

@@ -68,7 +68,7 @@ def multipliers(system: System | Dynamics) -> dict[str, sp.Expr]:
         allow that has no inertia).
     """
     if not isinstance(system, (Dynamics, System)):
-        from ..problem import as_system
+        from ..problem._coerce import as_system
 
         system = as_system(system, "multipliers")
     dyn = system if isinstance(system, Dynamics) else dynamics(holding_at_start(system))

@@ -144,7 +144,7 @@ class Solution:
     def _repr_html_(self) -> str:
         # Jupyter prefers HTML to LaTeX: the LaTeX results, and beside them the report
         # page's sliders (the same exception to the layer order as _repr_latex_)
-        from ..present import solution_html
+        from ..present._notebook import solution_html
 
         return solution_html(self)
 
@@ -159,7 +159,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     """Derive equations, multipliers, integrals, vanishing/slip points and forces.
 
     ``budget`` bounds the work of simplification, in units counted by the normal forms
-    (:mod:`lamech.symbolic._normal`; :data:`~lamech.symbolic.DEFAULT_BUDGET` by default),
+    (:mod:`lamech.symbolic._normal`; :data:`~lamech.symbolic._work.DEFAULT_BUDGET` by default),
     never in time: the same system and budget give the same results, written the same
     way, on any machine and in any thread. The multipliers straight from the KKT solve
     are always delivered; tidying goes to the multipliers first, then the conditions,
@@ -175,7 +175,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     ``system``: a System, or a problem file's path or a bundled example's name
     (``solve("pendulum")`` is ``solve(lamech.load("pendulum"))``); another type is a
     TypeError."""
-    from ..problem import as_system
+    from ..problem._coerce import as_system
 
     system = as_system(system, "solve")
     if budget is not None and (
@@ -220,7 +220,8 @@ def _solve(system: System) -> Solution:
         angles = ", ".join(proposal.coordinates)
         notes.append(
             f"{circles} {'is a circle' if len(proposal.constraints) == 1 else 'are circles'}"
-            f" (or spheres): `--angles` gives every result in {angles}, as this "
+            " (or spheres): `with_chart(system, circle_chart(system))` (from lamech.model)"
+            f" gives every result in {angles}, as this "
             "[parametrisation] in the file would: " + proposal.toml().replace("\n", "; ")
         )
     initial = {}

@@ -30,7 +30,7 @@ from ..model import System, contact_partial_velocities, holding_at_start
 from ._derive import dynamics
 from ._reduce import READABLE_OPS, SIMPLIFY_OPS, _probe, tidy
 
-__all__ = ["Term", "Line", "Step", "Derivation", "steps"]
+__all__ = ["Term", "Line", "Step", "Derivation", "steps", "CORRECTION"]
 
 STEP_OPS = 4 * SIMPLIFY_OPS
 """Equations longer than this skip the by-hand solution for the multipliers (the closed
