@@ -9,6 +9,7 @@ velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
 """
 
+from ._base import FIELDS, ConstraintKind, ModelError, SceneryKind, ShapeKind, name_problem
 from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart, with_chart
 from ._checks import (
     INITIAL_TOLERANCE,
@@ -37,21 +38,8 @@ from ._kinematics import (
     time_derivative,
     velocity_form,
 )
-from ._rules import FIELDS, name_problem
-from ._system import (
-    Body,
-    Constraint,
-    ConstraintKind,
-    Coordinate,
-    ForceSpec,
-    Friction,
-    ModelError,
-    Parameter,
-    Scenery,
-    SceneryKind,
-    ShapeKind,
-    System,
-)
+from ._parts import Body, Constraint, Coordinate, ForceSpec, Friction, Parameter, Scenery
+from ._system import System
 from ._values import with_values
 
 __all__ = [
