@@ -9,6 +9,7 @@ velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
 """
 
+from ._assemble import assemble, skeleton, split_lagrangian
 from ._base import FIELDS, ConstraintKind, ModelError, SceneryKind, ShapeKind, name_problem
 from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart, with_chart
 from ._checks import (
@@ -38,7 +39,18 @@ from ._kinematics import (
     time_derivative,
     velocity_form,
 )
-from ._parts import Body, Constraint, Coordinate, ForceSpec, Friction, Parameter, Scenery
+from ._loads import AppliedForce, Load, Spring, Torque, load_terms
+from ._parts import (
+    Body,
+    Constraint,
+    Coordinate,
+    ForceSpec,
+    Friction,
+    Parameter,
+    Scenery,
+    coordinate,
+    parameter,
+)
 from ._system import System
 from ._values import with_values
 
@@ -86,4 +98,14 @@ __all__ = [
     "massless",
     "without_inertia",
     "with_values",
+    "parameter",
+    "coordinate",
+    "AppliedForce",
+    "Torque",
+    "Spring",
+    "Load",
+    "load_terms",
+    "assemble",
+    "skeleton",
+    "split_lagrangian",
 ]

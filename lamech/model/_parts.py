@@ -13,6 +13,7 @@ from typing import Any
 
 import sympy as sp
 
+from ..expr import TimeDerivative
 from ._base import (
     ConstraintKind,
     Issues,
@@ -30,6 +31,8 @@ from ._base import (
 )
 
 __all__ = [
+    "parameter",
+    "coordinate",
     "Parameter",
     "Coordinate",
     "Friction",
@@ -209,6 +212,54 @@ class Scenery:
 
 
 # ----- parts on their own --------------------------------------------------------------
+def parameter(name: str, value: float | sp.Expr) -> Parameter:
+    """A parameter of numeric ``value``, its symbol as a problem file makes it: positive
+    when the value is, negative when it is negative, real at 0 (the sign is part of the
+    derivation: sqrt(R^2) = R). A float is taken as the decimal written (0.05 is 1/20,
+    as the parser reads it)."""
+    if isinstance(value, sp.Basic):
+        exact = value
+    elif isinstance(value, float):
+        exact = sp.Rational(repr(value))
+    else:
+        exact = sp.sympify(value)
+    try:
+        number = float(exact)
+    except (TypeError, ValueError):
+        raise ModelError(
+            [(f"parameters.{name}", "parameter() takes a number; build a Parameter for more")]
+        ) from None
+    if number > 0:
+        symbol = sp.Symbol(name, positive=True)
+    elif number < 0:
+        symbol = sp.Symbol(name, negative=True)
+    else:
+        symbol = sp.Symbol(name, real=True)
+    return Parameter(name, symbol, exact, number)
+
+
+def coordinate(
+    name: str, initial: float | sp.Expr = 0, velocity: float | sp.Expr = 0, keep: bool = False
+) -> Coordinate:
+    """A coordinate as a problem file makes it: the real symbol ``name``, its velocity
+    ``name'`` and acceleration ``name''`` (they print with dots in LaTeX), its initial
+    value and velocity (numbers, floats taken as the decimal written, or expressions of
+    the parameters)."""
+
+    def exact(x: float | sp.Expr) -> sp.Expr:
+        return sp.Rational(repr(x)) if isinstance(x, float) else sp.sympify(x)
+
+    return Coordinate(
+        name,
+        sp.Symbol(name, real=True),
+        TimeDerivative(name + "'", real=True),
+        TimeDerivative(name + "''", real=True),
+        exact(initial),
+        exact(velocity),
+        keep,
+    )
+
+
 def parameter_issues(p: Parameter) -> Issues:
     where = f"parameters.{p.name}"
     out: Issues = []
