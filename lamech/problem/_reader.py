@@ -5,6 +5,7 @@ and placing the issues it finds, and the shapes TOML gives (tables, lists, matri
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -83,7 +84,9 @@ class Reader:
             return ("parametrisation", None, key)
         return (None, None, None)
 
-    def make(self, cls: type, *args: Any, part: str | None = None, **kwargs: Any) -> Any:
+    def make(
+        self, cls: Callable[..., Any], *args: Any, part: str | None = None, **kwargs: Any
+    ) -> Any:
         """``cls(*args, **kwargs)``, a part of the model that checks itself; None (and its
         issues reported) when the model refuses it."""
         try:
@@ -184,3 +187,10 @@ class Reader:
         if any(x is None for r in rows for x in r):
             return None
         return tuple(tuple(r) for r in rows)
+
+    def _body_names(self) -> list[str]:
+        """The names the file gives its bodies (parsed or not)."""
+        raw = self.data.get("bodies")
+        if not isinstance(raw, list):
+            return []
+        return [b["name"] for b in raw if isinstance(b, dict) and isinstance(b.get("name"), str)]

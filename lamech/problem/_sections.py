@@ -89,13 +89,6 @@ class PartsReader(Reader):
                     out.append(body)
         return out
 
-    def _body_names(self) -> list[str]:
-        """The names the file gives its bodies (parsed or not)."""
-        raw = self.data.get("bodies")
-        if not isinstance(raw, list):
-            return []
-        return [b["name"] for b in raw if isinstance(b, dict) and isinstance(b.get("name"), str)]
-
     def _rotation(self, value, where: str, loc: tuple):
         """``["z:psi", "x:theta", "z:phi"]``: turns (axis, angle expression)."""
         if not isinstance(value, list) or not value:
