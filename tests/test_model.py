@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -22,6 +23,8 @@ from lamech.model import (
     Parameter,
     ShapeKind,
     System,
+    coordinate,
+    with_values,
 )
 
 PENDULUM = """\
@@ -231,6 +234,28 @@ def test_replace_checks_again():
         dataclasses.replace(system, bodies=(heavy,))
     with pytest.raises(ModelError, match="only holonomic constraints"):
         dataclasses.replace(system.constraints[0], kind=ConstraintKind.VELOCITY)
+
+
+def test_a_copy_is_checked_again_only_where_it_changed(monkeypatch):
+    """A copy re-runs only the checks that read a field it changed: a new title, source or
+    note runs no check at the numbers of the initial state (counted by the SVDs of the
+    constraints' Jacobian that look for dependent constraints there); new parameter
+    values, a fresh system with other numbers, run them again."""
+    system = pendulum()
+    svd, calls = np.linalg.svd, []
+
+    def counted(*args, **kwargs):
+        calls.append(args[0].shape)
+        return svd(*args, **kwargs)
+
+    monkeypatch.setattr(np.linalg, "svd", counted)
+    copy = dataclasses.replace(system, title="again", source="elsewhere", notes=("a note",))
+    assert copy.notes == ("a note",) + system.notes and calls == []
+    assert with_values(system, parameters={"g": 9.7}).parameter_values[g] == 9.7
+    assert calls, "new values are checked again"
+    calls.clear()
+    fresh = pendulum(coordinates=(system.coordinates[0], coordinate("theta", 0.25)))
+    assert fresh.initial_state[th] == sp.Rational(1, 4) and calls
 
 
 @pytest.mark.parametrize(

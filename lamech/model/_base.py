@@ -17,6 +17,9 @@ from __future__ import annotations
 
 import keyword
 import re
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Hashable, Sequence
 from enum import Enum
 from typing import Any
 
@@ -31,6 +34,7 @@ __all__ = [
     "SceneryKind",
     "FIELDS",
     "name_problem",
+    "Memo",
 ]
 
 Issues = list[tuple[str, str]]
@@ -185,3 +189,53 @@ def is_expr(value: Any) -> bool:
 
 def is_bool(value: Any) -> bool:
     return isinstance(value, bool)
+
+
+class Memo:
+    """Results remembered by the values they were computed from, for a System's checks:
+    each entry is keyed on the values of the fields its computation reads (compared by
+    value, as the frozen parts are), so that a copy made with ``dataclasses.replace``
+    computes again only what reads a field it changed. The oldest entries are dropped
+    beyond ``size``; thread-safe."""
+
+    def __init__(self, size: int = 1024):
+        self._data: OrderedDict[Hashable, Any] = OrderedDict()
+        self._size = size
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def key(name: str, obj: Any, fields: Sequence[str]) -> tuple | None:
+        """(name, the values of ``obj``'s ``fields``), or None when one of them cannot be
+        a key (an unhashable value, which the checks themselves report)."""
+        key = (name, *(getattr(obj, f) for f in fields))
+        try:
+            hash(key)
+        except TypeError:
+            return None
+        return key
+
+    def get(self, key: tuple | None, compute: Callable[[], Any]) -> Any:
+        """The value remembered for ``key``, else ``compute()`` (remembered when ``key``
+        is not None; an exception is not)."""
+        if key is None:
+            return compute()
+        with self._lock:
+            if key in self._data:
+                self._data.move_to_end(key)
+                return self._data[key]
+        value = compute()
+        self.put(key, value)
+        return value
+
+    def put(self, key: tuple | None, value: Any) -> None:
+        if key is None:
+            return
+        with self._lock:
+            self._data[key] = value
+            self._data.move_to_end(key)
+            while len(self._data) > self._size:
+                self._data.popitem(last=False)
+
+    def __contains__(self, key: object) -> bool:
+        with self._lock:
+            return key in self._data

@@ -26,12 +26,19 @@ from typing import Any
 
 import sympy as sp
 
-from ._base import ModelError, as_tuple
+from ._base import Memo, ModelError, as_tuple
 from ._chart import Chart, chart_initial
 from ._checks import initial_values
 from ._hints import hints, is_hint
 from ._parts import Body, Constraint, Coordinate, Parameter, Scenery
-from ._whole import system_issues
+from ._whole import CHART, system_issues
+
+_REMEMBERED = Memo()
+"""What the checks found clean, the hints and the placed charts, by the values read."""
+_HINTED = ("parameters", "coordinates", "constraints", "bodies", "T", "V", "forces")
+"""The fields the hints read (:mod:`._hints`)."""
+_PLACED = ("chart", "parameters", "coordinates", "t")
+"""The fields placing a chart reads (:func:`lamech.model._chart.chart_initial`)."""
 
 __all__ = ["System"]
 
@@ -62,22 +69,32 @@ class System:
     sliders: tuple[tuple[str, float, float], ...] = ()  # (name, low, high): [sliders]
 
     def __post_init__(self) -> None:
-        # Every check, once per construction (``dataclasses.replace`` included): the
-        # rules are in lamech.model._whole.
+        # Every check for values not found clean before: a copy (dataclasses.replace,
+        # with_values) is checked again only in the groups of rules that read a field it
+        # changed (the groups and their fields: lamech.model._whole).
         as_tuple(
             self, "parameters", "coordinates", "constraints", "bodies", "forces", "notes", "scenery"
         )
-        ModelError.check(system_issues(self))
+        ModelError.check(system_issues(self, _REMEMBERED))
         if self.chart is not None:
             self._place_chart()
         # the warnings about these values (a 30 that is meant in degrees), said once:
         # those about a system's earlier values (dataclasses.replace) are dropped
         kept = [n for n in self.notes if not is_hint(n)]
-        object.__setattr__(self, "notes", tuple(dict.fromkeys(kept + hints(self))))
+        found = _REMEMBERED.get(Memo.key("hints", self, _HINTED), lambda: tuple(hints(self)))
+        object.__setattr__(self, "notes", tuple(dict.fromkeys(kept + list(found))))
 
     def _place_chart(self) -> None:
         """Give the chart's coordinates the initial values that reproduce this system's
         initial state (so ``dataclasses.replace`` with new values moves them too)."""
+        key = Memo.key("placed", self, _PLACED)
+        chart = _REMEMBERED.get(key, self._placed_chart)
+        object.__setattr__(self, "chart", chart)
+        # the chart as placed is placed, and its rules found clean as the one given
+        _REMEMBERED.put(Memo.key("placed", self, _PLACED), chart)
+        _REMEMBERED.put(Memo.key("chart", self, CHART), True)
+
+    def _placed_chart(self) -> Chart:
         state = {k: v for k, v in initial_values(_without_chart(self)).items()}
         found = chart_initial(self, state)
         if isinstance(found, str):
@@ -93,7 +110,7 @@ class System:
             )
             for c in self.chart.coordinates
         )
-        object.__setattr__(self, "chart", Chart(coords, self.chart.map))
+        return Chart(coords, self.chart.map)
 
     # ----- views -----------------------------------------------------------------
     @property

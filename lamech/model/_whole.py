@@ -9,6 +9,7 @@ the numbers of the initial state follows in :mod:`._start`, and a chart's rules 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,7 +17,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from ..expr import FUNCTIONS, Table, not_differentiable
-from ._base import FIELDS, ConstraintKind, Issues, is_expr, not_expr
+from ._base import FIELDS, ConstraintKind, Issues, Memo, is_expr, not_expr
 from ._chart import chart_issues
 from ._checks import massless, value
 from ._parts import (
@@ -95,10 +96,25 @@ class _Scope:
         return None
 
 
-def system_issues(s: System) -> Issues:
-    """Everything wrong with ``s`` as a whole. The checks at numbers that cost most (the
-    initial state, dependent constraints) run only when everything else is right."""
+FORM = (
+    *("parameters", "coordinates", "constraints", "bodies", "scenery"),
+    *("t", "T", "V", "gravity", "forces"),
+)
+"""The fields the rules of the form read (names, expressions, structure, values)."""
+START = ("parameters", "coordinates", "constraints", "bodies", "t", "T", "V", "forces")
+"""The fields the rules at the initial state read (:mod:`._start`)."""
+CHART = ("parameters", "coordinates", "constraints", "t", "chart")
+"""The fields a chart's rules read (:func:`lamech.model._chart.chart_issues`)."""
 
+
+def system_issues(s: System, clean: Memo | None = None) -> Issues:
+    """Everything wrong with ``s`` as a whole. The checks at numbers that cost most (the
+    initial state, dependent constraints) run only when everything else is right.
+
+    ``clean`` remembers each group of rules (:data:`FORM`, :data:`START`, :data:`CHART`)
+    found clean for the values of the fields it reads; a group is skipped for values
+    found clean before (a copy that changed other fields), and run for any other.
+    """
     out: Issues = []
     for label, items, cls in (
         ("parameters", s.parameters, Parameter),
@@ -113,18 +129,31 @@ def system_issues(s: System) -> Issues:
         return out
     if not isinstance(s.t, sp.Symbol):
         return [("t", "t must be a SymPy Symbol")]
-    out += _name_issues(s)
+    groups: list[tuple[str, tuple[str, ...], Callable[[System], Issues]]] = [
+        ("form", FORM, _form_issues),
+        ("start", START, lambda s: initial_issues(s) + dependent_issues(s)),
+    ]
+    if s.chart is not None:
+        groups.append(("chart", CHART, chart_issues))
+    for name, fields, rules in groups:
+        key = None if clean is None else clean.key(name, s, fields)
+        if key is not None and clean is not None and key in clean:
+            continue
+        out = rules(s)
+        if out:
+            return out
+        if clean is not None:
+            clean.put(key, True)
+    return []
+
+
+def _form_issues(s: System) -> Issues:
+    out = _name_issues(s)
     scope = _Scope(s)
     out += _expression_issues(s, scope)
     out += _structure_issues(s, scope)
     out += _value_issues(s, scope)
-    if out:
-        return out
-    out = initial_issues(s) + dependent_issues(s)
-    if out or s.chart is None:
-        return out
-
-    return chart_issues(s)
+    return out
 
 
 def _name_issues(s: System) -> Issues:
