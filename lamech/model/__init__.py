@@ -7,6 +7,12 @@ The canonical equations, stated once (see :mod:`lamech.model._system`)::
 with F_j = df_j/dt for a holonomic constraint f_j(q, t) = 0 and F_j = g_j for a
 velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
+
+A System is read from a problem file by :mod:`lamech.problem`, or built in Python from its
+parts (:func:`parameter`, :func:`coordinate`, :class:`Body`, :class:`Constraint`, ...);
+:func:`assemble` then does the modelling a file's sections imply: T and V from the bodies
+where they are not given, an L split into T and V, and the applied loads
+(:class:`AppliedForce`, :class:`Torque`, :class:`Spring`) as generalized forces.
 """
 
 from ._assemble import assemble, skeleton, split_lagrangian
