@@ -105,10 +105,11 @@ class Torque:
 @dataclass(frozen=True)
 class Spring:
     """A linear spring of stiffness ``k`` and natural length ``length`` (0: a zero-length
-    spring, energy k |d|^2 / 2), with a damper ``damping``, between the points ``start``
+    spring, energy ``k d.d / 2``), with a damper ``damping``, between the points ``start``
     and ``end`` (each 2 or 3 expressions in the coordinates and t, so either end may move
-    with the bodies). k, length and damping are expressions of the parameters. Its
-    energy k (|d| - L0)^2 / 2 joins V, the damper's force -c d|d|/dt d|d|/dq_r joins Q."""
+    with the bodies; d = end - start). k, length and damping are expressions of the
+    parameters. The energy ``k (|d| - L0)^2 / 2`` joins V, the damper's generalized force
+    ``-c (d|d|/dt) d|d|/dq_r`` joins Q."""
 
     start: tuple[sp.Expr, ...]
     end: tuple[sp.Expr, ...]
