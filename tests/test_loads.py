@@ -284,3 +284,24 @@ def test_a_system_built_in_python_is_the_file_s(text, build):
     assert built.V.has(built.symbols["k"]) and any(Q != 0 for Q in built.forces)
     lam_loaded, lam_built = lamech.solve(loaded).multipliers, lamech.solve(built).multipliers
     assert lam_built == lam_loaded and all(lam != 0 for lam in lam_built.values())
+
+
+def test_assemble_refuses_loads_the_file_would():
+    """A load built in Python is held to a file's rules: its expressions in the symbols
+    their field allows, its body one of the bodies."""
+    from lamech.model import AppliedForce, Body, ModelError, Spring, assemble, coordinate, parameter
+
+    m, k = parameter("m", 2.0), parameter("k", 50.0)
+    x = coordinate("x", initial=0.1)
+    zero = sp.Integer(0)
+    block = Body("block", m.symbol, (x.symbol, zero))
+    cases = [
+        (Spring((zero, zero), (x.symbol, zero), k.symbol * x.symbol), "spring.k", "coordinates"),
+        (AppliedForce("block", (sp.Symbol("Q"), zero), name="push"), "force", "unknown name `Q`"),
+        (AppliedForce("blok", (k.symbol, zero), name="push"), "body", "one of the [[bodies]]"),
+    ]
+    for load, field, message in cases:
+        with pytest.raises(ModelError) as info:
+            assemble("t", (m, k), (x,), bodies=(block,), loads=(load,))
+        ((where, said),) = info.value.issues
+        assert where == f"loads[1] `{load.name}` {field}" and message in said

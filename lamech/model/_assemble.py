@@ -27,11 +27,12 @@ from typing import Any
 import sympy as sp
 
 from ..expr import to_text
-from ._base import ModelError
+from ._base import Issues, ModelError
 from ._kinematics import body_energy
-from ._loads import Load, load_terms
+from ._loads import AppliedForce, Load, Spring, Torque, load_terms
 from ._parts import Body, Constraint, Coordinate, Parameter
 from ._system import System
+from ._whole import Scope
 
 __all__ = ["assemble", "skeleton", "split_lagrangian", "energy_notes"]
 
@@ -154,6 +155,7 @@ def assemble(
     T, V = _energies(frame, bodies, gravity, T, V, L)
     Q = _forces(coordinates, forces)
     if loads:
+        ModelError.check(_load_issues(frame, loads))
         extra_Q, extra_V = load_terms(frame, bodies, loads)
         Q = [f + q for f, q in zip(Q, extra_Q)]
         V = V + extra_V
@@ -232,6 +234,33 @@ def _forces(
         else:
             out[by_name[name]] = value
     ModelError.check(issues)
+    return out
+
+
+def _load_issues(frame: System, loads: Sequence[Load]) -> Issues:
+    """Each load's expressions in the symbols their field allows (a problem file's parser
+    allows no other): a force in the velocities, points in the positions, a spring's
+    constants in the parameters."""
+    scope = Scope(frame)
+    out: Issues = []
+    for i, load in enumerate(loads):
+        where = f"loads[{i + 1}] `{getattr(load, 'name', '')}`"
+        fields: list[tuple[str, str, tuple]] = []
+        if isinstance(load, AppliedForce):
+            fields = [("forces", "force", load.force), ("at", "at", load.at or ())]
+        elif isinstance(load, Torque):
+            tau = load.torque
+            fields = [("forces", "torque", tau if isinstance(tau, tuple) else (tau,))]
+        elif isinstance(load, Spring):
+            fields = [("at", "spring.from", load.start), ("at", "spring.to", load.end)]
+            fields += [
+                ("spring", f"spring.{name}", (getattr(load, name),))
+                for name in ("k", "length", "damping")
+            ]
+        for field, label, exprs in fields:
+            problem = next((p for e in exprs if (p := scope.problem(e, field))), None)
+            if problem is not None:
+                out.append((f"{where} {label}", problem))
     return out
 
 

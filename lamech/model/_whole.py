@@ -35,7 +35,7 @@ from ._start import dependent_issues, initial_issues
 if TYPE_CHECKING:  # pragma: no cover
     from ._system import System
 
-__all__ = ["system_issues"]
+__all__ = ["system_issues", "Scope"]
 
 
 _PLURAL = {
@@ -48,7 +48,7 @@ _PLURAL = {
 
 
 # ----- the whole -----------------------------------------------------------------------
-class _Scope:
+class Scope:
     """The declared symbols of a system and what each field may contain."""
 
     def __init__(self, s: System):
@@ -149,7 +149,7 @@ def system_issues(s: System, clean: Memo | None = None) -> Issues:
 
 def _form_issues(s: System) -> Issues:
     out = _name_issues(s)
-    scope = _Scope(s)
+    scope = Scope(s)
     out += _expression_issues(s, scope)
     out += _structure_issues(s, scope)
     out += _value_issues(s, scope)
@@ -199,7 +199,7 @@ def _name_issues(s: System) -> Issues:
     return out
 
 
-def _expression_issues(s: System, scope: _Scope) -> Issues:
+def _expression_issues(s: System, scope: Scope) -> Issues:
     """Each expression contains only what its field allows."""
     out: Issues = []
     wrong: set[str] = set()
@@ -309,7 +309,7 @@ def _no_velocity_issue(s: System) -> tuple[str, str]:
     return ("lagrangian.T", "T has no velocity in it; write velocities as x'")
 
 
-def _structure_issues(s: System, scope: _Scope) -> Issues:
+def _structure_issues(s: System, scope: Scope) -> Issues:
 
     out: Issues = []
     qd = s.qd
@@ -433,7 +433,7 @@ def _impossible_inertia(b: Body, at_parameters) -> str | None:
     return None
 
 
-def _value_issues(s: System, scope: _Scope) -> Issues:
+def _value_issues(s: System, scope: Scope) -> Issues:
     """Masses and inertias >= 0 (a massless pulley, rod or attachment point is an
     idealisation the KKT system allows when the constraints give its motion to something
     with inertia; when they do not, :func:`_massless_issues` names the coordinate),
