@@ -50,6 +50,8 @@ class System:
     ``T`` and ``V`` are in coordinates, velocities, parameters and ``t``; ``forces`` is
     Q^nc, one entry per coordinate. ``notes`` carries warnings found while loading (a T
     that disagrees with the bodies' kinematics); ``scenery`` is drawn, never simulated.
+    A System takes T, V and the forces as given: :func:`lamech.model.assemble` makes them
+    from bodies, an L and applied loads, as a problem file's sections do.
     """
 
     title: str
