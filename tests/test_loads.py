@@ -229,9 +229,17 @@ spring = { from = [0, 0], to = ["x", "R"], k = "k", length = "L0", damping = "c"
 
 def _slider() -> lamech.System:
     """SLIDER, built in Python (lamech.model.assemble)."""
-    from lamech.model import AppliedForce, Body, Constraint, Spring, assemble, coordinate, parameter
+    from lamech.model import (
+        AppliedForce,
+        Body,
+        Constraint,
+        Spring,
+        assemble,
+        coordinate,
+        parameters,
+    )
 
-    params = [parameter(n, v) for n, v in zip("m g k h F P".split(), (1.0, 9.81, 5, 0.5, 2, 1))]
+    params = parameters(dict(zip("m g k h F P".split(), (1.0, 9.81, 5, 0.5, 2, 1))))
     m, g, k, h, F, P = (p.symbol for p in params)
     coords = [coordinate("x", 0.3), coordinate("y", 0)]
     x, y = (c.symbol for c in coords)

@@ -24,6 +24,7 @@ from lamech.model import (
     ShapeKind,
     System,
     coordinate,
+    parameters,
     with_values,
 )
 
@@ -234,6 +235,17 @@ def test_replace_checks_again():
         dataclasses.replace(system, bodies=(heavy,))
     with pytest.raises(ModelError, match="only holonomic constraints"):
         dataclasses.replace(system.constraints[0], kind=ConstraintKind.VELOCITY)
+
+
+def test_parameters_are_made_as_a_file_makes_them():
+    """lamech.model.parameters: values in dependency order, each symbol signed as its
+    value, a float as the decimal written; the file's [parameters] give the same."""
+    text = PENDULUM.replace("l = 1.0", 'I = "m*l^2/12"\nl = 1.0\nd = -0.5')
+    made = parameters({"m": 1.0, "g": 9.81, "I": m * ell**2 / 12, "l": 1.0, "d": -0.5})
+    assert made == lamech.loads(text).parameters
+    assert made[2].numeric == pytest.approx(1 / 12) and made[4].symbol.is_negative
+    with pytest.raises(ModelError, match="in a cycle"):
+        parameters({"a": sp.Symbol("b"), "b": sp.Symbol("a")})
 
 
 def test_a_copy_is_checked_again_only_where_it_changed(monkeypatch):

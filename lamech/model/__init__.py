@@ -56,6 +56,9 @@ from ._parts import (
     Scenery,
     coordinate,
     parameter,
+    parameter_numbers,
+    parameters,
+    signed_symbol,
 )
 from ._system import System
 from ._values import with_values
@@ -105,6 +108,9 @@ __all__ = [
     "without_inertia",
     "with_values",
     "parameter",
+    "parameters",
+    "parameter_numbers",
+    "signed_symbol",
     "coordinate",
     "AppliedForce",
     "Torque",

@@ -6,8 +6,8 @@ This is the modelling a problem file's sections imply (:mod:`lamech.problem` par
 file and calls :func:`assemble`); a system built in Python gets the same by calling it:
 
 >>> import sympy as sp
->>> from lamech.model import Body, Spring, assemble, coordinate, parameter
->>> m, k = parameter("m", 2.0), parameter("k", 50.0)
+>>> from lamech.model import Body, Spring, assemble, coordinate, parameters
+>>> m, k = parameters({"m": 2.0, "k": 50.0})
 >>> x = coordinate("x", initial=0.1)
 >>> s = assemble(
 ...     "Mass on a spring", (m, k), (x,),

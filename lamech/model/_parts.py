@@ -8,6 +8,7 @@ system is in :mod:`._whole`.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,6 +33,9 @@ from ._base import (
 
 __all__ = [
     "parameter",
+    "parameters",
+    "parameter_numbers",
+    "signed_symbol",
     "coordinate",
     "Parameter",
     "Coordinate",
@@ -212,30 +216,94 @@ class Scenery:
 
 
 # ----- parts on their own --------------------------------------------------------------
+def parameter_numbers(values: Mapping[str, sp.Expr]) -> tuple[dict[str, float], list[str]]:
+    """({name: number}, names in a cycle) of parameters whose ``values`` are expressions of
+    each other (in Symbols named as the parameters), evaluated in dependency order. A cycle
+    is returned, not looped on; a value that is not finite is NaN, and 1 stands in for it
+    in the values that use it (a Parameter reports it)."""
+    numeric: dict[str, float] = {}
+    pending = dict(values)
+    while pending:
+        progress = False
+        for n, e in list(pending.items()):
+            if {str(s) for s in e.free_symbols} <= set(numeric):
+                env = {
+                    s: numeric[str(s)] if math.isfinite(numeric[str(s)]) else 1.0
+                    for s in e.free_symbols
+                }
+                try:
+                    numeric[n] = float(e.subs(env).evalf(30))
+                except (TypeError, ValueError):
+                    numeric[n] = float("nan")
+                del pending[n]
+                progress = True
+        if not progress:
+            return numeric, sorted(pending)
+    return numeric, []
+
+
+def signed_symbol(name: str, value: float) -> sp.Symbol:
+    """A parameter's symbol: positive when its value is, negative when it is negative, real
+    at 0 or NaN (the sign is part of the derivation: sqrt(R^2) = R)."""
+    if value > 0:
+        return sp.Symbol(name, positive=True)
+    if value < 0:
+        return sp.Symbol(name, negative=True)
+    return sp.Symbol(name, real=True)
+
+
+def _exact(value: Any) -> Any:
+    """A float as the decimal written (0.05 is 1/20, as the parser reads it); a number
+    as a SymPy number; anything else as it is (a SymPy expression, or what the checks
+    report)."""
+    if isinstance(value, float):
+        return sp.Rational(repr(value))
+    if isinstance(value, int) and not isinstance(value, bool):
+        return sp.Integer(value)
+    return value
+
+
+def parameters(values: Mapping[str, float | sp.Expr]) -> tuple[Parameter, ...]:
+    """Parameters as a problem file's ``[parameters]`` makes them: each value a number (a
+    float taken as the decimal written) or an expression of the others (in any Symbols
+    named as them), evaluated in dependency order, and each symbol signed as its value
+    (:func:`signed_symbol`).
+
+    Raises
+    ------
+    ModelError
+        An unknown name in a value, values that refer to each other in a cycle, or what
+        a :class:`Parameter` refuses (a value that is not a finite number).
+    """
+    exact = {n: _exact(v) for n, v in values.items()}
+    issues: Issues = []
+    for n, e in exact.items():
+        if not is_expr(e):
+            issues.append((f"parameters.{n}", not_expr(e, "the value")))
+        elif unknown := sorted(str(s) for s in e.free_symbols if str(s) not in exact):
+            known = ", ".join(exact)
+            issues.append((f"parameters.{n}", f"unknown name `{unknown[0]}`; known: {known}"))
+    ModelError.check(issues)
+    real = {n: sp.Symbol(n, real=True) for n in exact}
+    exprs = {n: e.xreplace({s: real[str(s)] for s in e.free_symbols}) for n, e in exact.items()}
+    numeric, cycle = parameter_numbers(exprs)
+    if cycle:
+        raise ModelError([("parameters", _cycle(cycle))])
+    final = {real[n]: signed_symbol(n, numeric[n]) for n in exprs}
+    return tuple(Parameter(n, final[real[n]], exprs[n].xreplace(final), numeric[n]) for n in exprs)
+
+
+def _cycle(names: list[str]) -> str:
+    return (
+        f"parameter values refer to each other in a cycle ({', '.join(names)}); give at "
+        "least one of them a number"
+    )
+
+
 def parameter(name: str, value: float | sp.Expr) -> Parameter:
-    """A parameter of numeric ``value``, its symbol as a problem file makes it: positive
-    when the value is, negative when it is negative, real at 0 (the sign is part of the
-    derivation: sqrt(R^2) = R). A float is taken as the decimal written (0.05 is 1/20,
-    as the parser reads it)."""
-    if isinstance(value, sp.Basic):
-        exact = value
-    elif isinstance(value, float):
-        exact = sp.Rational(repr(value))
-    else:
-        exact = sp.sympify(value)
-    try:
-        number = float(exact)
-    except (TypeError, ValueError):
-        raise ModelError(
-            [(f"parameters.{name}", "parameter() takes a number; build a Parameter for more")]
-        ) from None
-    if number > 0:
-        symbol = sp.Symbol(name, positive=True)
-    elif number < 0:
-        symbol = sp.Symbol(name, negative=True)
-    else:
-        symbol = sp.Symbol(name, real=True)
-    return Parameter(name, symbol, exact, number)
+    """One parameter of a numeric ``value`` (:func:`parameters` for values that are
+    expressions of each other)."""
+    return parameters({name: value})[0]
 
 
 def coordinate(
@@ -245,17 +313,13 @@ def coordinate(
     ``name'`` and acceleration ``name''`` (they print with dots in LaTeX), its initial
     value and velocity (numbers, floats taken as the decimal written, or expressions of
     the parameters)."""
-
-    def exact(x: float | sp.Expr) -> sp.Expr:
-        return sp.Rational(repr(x)) if isinstance(x, float) else sp.sympify(x)
-
     return Coordinate(
         name,
         sp.Symbol(name, real=True),
         TimeDerivative(name + "'", real=True),
         TimeDerivative(name + "''", real=True),
-        exact(initial),
-        exact(velocity),
+        _exact(initial),
+        _exact(velocity),
         keep,
     )
 

@@ -29,6 +29,8 @@ from ..model import (
     assemble,
     coordinate,
     name_problem,
+    parameter_numbers,
+    signed_symbol,
     skeleton,
     time_derivative,
 )
@@ -394,41 +396,16 @@ class _Loader(PartsReader):
             )
             if e is not None:
                 exprs[n] = e
-        numeric: dict[str, float] = {}
-        # Resolve values in dependency order; a cycle is reported, not looped on. A value
-        # that is not finite is the model's to report; 1 stands in for it meanwhile.
-        pending = dict(exprs)
-        while pending:
-            progress = False
-            for n, e in list(pending.items()):
-                deps = {str(s) for s in e.free_symbols}
-                if deps <= set(numeric):
-                    env = {
-                        symbols[d]: numeric[d] if math.isfinite(numeric[d]) else 1.0 for d in deps
-                    }
-                    try:
-                        numeric[n] = float(e.subs(env).evalf(30))
-                    except (TypeError, ValueError):
-                        numeric[n] = float("nan")
-                    del pending[n]
-                    progress = True
-            if not progress:
-                cyc = ", ".join(sorted(pending))
-                self.problem(
-                    "parameters",
-                    f"parameter values refer to each other in a cycle "
-                    f"({cyc}); give at least one of them a number",
-                    ("parameters", None, sorted(pending)[0]),
-                )
-                break
-        final = {}
-        for n in raw:
-            v = numeric.get(n, float("nan"))
-            final[symbols[n]] = (
-                sp.Symbol(n, positive=True)
-                if v > 0
-                else (sp.Symbol(n, negative=True) if v < 0 else sp.Symbol(n, real=True))
+        # values in dependency order (the model's rule); a cycle is reported at its line
+        numeric, cycle = parameter_numbers(exprs)
+        if cycle:
+            self.problem(
+                "parameters",
+                f"parameter values refer to each other in a cycle ({', '.join(cycle)}); "
+                "give at least one of them a number",
+                ("parameters", None, cycle[0]),
             )
+        final = {symbols[n]: signed_symbol(n, numeric.get(n, float("nan"))) for n in raw}
         out = []
         for n in raw:
             p = None
