@@ -161,3 +161,155 @@ spring = { from = [0, 0], to = ["r*sin(theta)", "-r*cos(theta)"], k = "F", lengt
     # m g cos(theta) along the rod, is that much less
     lam = lamech.solve(system).initial_multipliers["rod"]
     assert lam == pytest.approx(9.81 * math.cos(0.2) - 2 * 0.5, rel=1e-9)
+
+
+SLIDER = """
+title = "Slider on a rail, a spring and a push"
+[parameters]
+m = 1.0
+g = 9.81
+k = 5.0
+h = 0.5
+F = 2.0
+P = 1.0
+[coordinates]
+x = { initial = 0.3, velocity = 0 }
+y = { initial = 0, velocity = 0 }
+[[constraints]]
+name = "rail"
+f = "y"
+[[bodies]]
+name = "slider"
+mass = "m"
+position = ["x", "y"]
+[gravity]
+acceleration = "g"
+[[loads]]
+name = "spring"
+spring = { from = [0, "h"], to = ["x", "y"], k = "k" }
+[[loads]]
+name = "push"
+body = "slider"
+force = ["F", "-P"]
+"""
+
+WHEEL = """
+title = "Wheel on a track: L given, a motor, a damped spring"
+[parameters]
+m = 2.0
+R = 0.5
+k = 40.0
+L0 = 0.25
+c = 0.3
+tau = 1.5
+[coordinates]
+x = { initial = 0.5, velocity = -0.1 }
+phi = { initial = 0, velocity = 0.2 }
+[lagrangian]
+L = "m/2*x'^2 + m*R^2/4*phi'^2"
+[[constraints]]
+name = "rolling"
+velocity = "x' + R*phi'"
+[[bodies]]
+name = "wheel"
+mass = "m"
+position = ["x", "R"]
+angle = "phi"
+inertia = "m*R^2/2"
+shape = { circle = "R" }
+[[loads]]
+name = "motor"
+body = "wheel"
+torque = "tau"
+[[loads]]
+name = "tether"
+spring = { from = [0, 0], to = ["x", "R"], k = "k", length = "L0", damping = "c" }
+"""
+
+
+def _slider() -> lamech.System:
+    """SLIDER, built in Python (lamech.model.assemble)."""
+    from lamech.model import (
+        AppliedForce,
+        Body,
+        Constraint,
+        Spring,
+        assemble,
+        coordinate,
+        parameters,
+    )
+
+    params = parameters(dict(zip("m g k h F P".split(), (1.0, 9.81, 5, 0.5, 2, 1))))
+    m, g, k, h, F, P = (p.symbol for p in params)
+    coords = [coordinate("x", 0.3), coordinate("y", 0)]
+    x, y = (c.symbol for c in coords)
+    zero = sp.Integer(0)
+    return assemble(
+        "Slider on a rail, a spring and a push",
+        params,
+        coords,
+        [Constraint("rail", y)],
+        bodies=[Body("slider", m, (x, y))],
+        gravity=g,
+        loads=[
+            Spring((zero, h), (x, y), k, name="spring"),
+            AppliedForce("slider", (F, -P), name="push"),
+        ],
+    )
+
+
+def _wheel() -> lamech.System:
+    """WHEEL, built in Python: L split into T and V, a torque, a damped spring."""
+    from lamech.model import Body, Constraint, Spring, Torque, assemble, coordinate, parameter
+
+    values = {"m": 2.0, "R": 0.5, "k": 40, "L0": 0.25, "c": 0.3, "tau": 1.5}
+    params = [parameter(n, v) for n, v in values.items()]
+    m, R, k, L0, c, tau = (p.symbol for p in params)
+    coords = [coordinate("x", 0.5, velocity=-0.1), coordinate("phi", 0, velocity=0.2)]
+    (x, xd), (phi, phid) = ((q.symbol, q.velocity) for q in coords)
+    return assemble(
+        "Wheel on a track: L given, a motor, a damped spring",
+        params,
+        coords,
+        [Constraint("rolling", xd + R * phid, kind="velocity")],
+        L=m / 2 * xd**2 + m * R**2 / 4 * phid**2,
+        bodies=[Body("wheel", m, (x, R), angle=phi, inertia=m * R**2 / 2, shape=("circle", R))],
+        loads=[
+            Torque("wheel", tau, name="motor"),
+            Spring((sp.Integer(0),) * 2, (x, R), k, length=L0, damping=c, name="tether"),
+        ],
+    )
+
+
+@pytest.mark.parametrize(("text", "build"), [(SLIDER, _slider), (WHEEL, _wheel)])
+def test_a_system_built_in_python_is_the_file_s(text, build):
+    """lamech.model.assemble models as the loader does: the same System (T and V from the
+    bodies or L split, the loads' forces and energy) and the same multipliers."""
+    import dataclasses
+
+    loaded, built = lamech.loads(text), build()
+    assert dataclasses.replace(loaded, source=None) == built
+    assert built.V.has(built.symbols["k"]) and any(Q != 0 for Q in built.forces)
+    lam_loaded, lam_built = lamech.solve(loaded).multipliers, lamech.solve(built).multipliers
+    assert lam_built == lam_loaded and all(lam != 0 for lam in lam_built.values())
+
+
+def test_assemble_refuses_loads_the_file_would():
+    """A load built in Python is held to a file's rules: its expressions in the symbols
+    their field allows, its body one of the bodies."""
+    from lamech.model import AppliedForce, Body, ModelError, Spring, assemble, coordinate, parameter
+
+    m, k = parameter("m", 2.0), parameter("k", 50.0)
+    x = coordinate("x", initial=0.1)
+    zero = sp.Integer(0)
+    block = Body("block", m.symbol, (x.symbol, zero))
+    cases = [
+        (Spring((zero, zero), (x.symbol, zero), k.symbol * x.symbol), "spring.k", "coordinates"),
+        (AppliedForce("block", (sp.Symbol("Q"), zero), name="push"), "force", "unknown name `Q`"),
+        (AppliedForce("blok", (k.symbol, zero), name="push"), "body", "one of the [[bodies]]"),
+    ]
+    for load, field, message in cases:
+        with pytest.raises(ModelError) as info:
+            assemble("t", (m, k), (x,), bodies=(block,), loads=(load,))
+        ((where, said),) = info.value.issues
+        assert where == f"loads[1] `{load.name}` {field}" and message in said

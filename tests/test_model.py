@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -22,6 +23,9 @@ from lamech.model import (
     Parameter,
     ShapeKind,
     System,
+    coordinate,
+    parameters,
+    with_values,
 )
 
 PENDULUM = """\
@@ -231,6 +235,39 @@ def test_replace_checks_again():
         dataclasses.replace(system, bodies=(heavy,))
     with pytest.raises(ModelError, match="only holonomic constraints"):
         dataclasses.replace(system.constraints[0], kind=ConstraintKind.VELOCITY)
+
+
+def test_parameters_are_made_as_a_file_makes_them():
+    """lamech.model.parameters: values in dependency order, each symbol signed as its
+    value, a float as the decimal written; the file's [parameters] give the same."""
+    text = PENDULUM.replace("l = 1.0", 'I = "m*l^2/12"\nl = 1.0\nd = -0.5')
+    made = parameters({"m": 1.0, "g": 9.81, "I": m * ell**2 / 12, "l": 1.0, "d": -0.5})
+    assert made == lamech.loads(text).parameters
+    assert made[2].numeric == pytest.approx(1 / 12) and made[4].symbol.is_negative
+    with pytest.raises(ModelError, match="in a cycle"):
+        parameters({"a": sp.Symbol("b"), "b": sp.Symbol("a")})
+
+
+def test_a_copy_is_checked_again_only_where_it_changed(monkeypatch):
+    """A copy re-runs only the checks that read a field it changed: a new title, source or
+    note runs no check at the numbers of the initial state (counted by the SVDs of the
+    constraints' Jacobian that look for dependent constraints there); new parameter
+    values, a fresh system with other numbers, run them again."""
+    system = pendulum()
+    svd, calls = np.linalg.svd, []
+
+    def counted(*args, **kwargs):
+        calls.append(args[0].shape)
+        return svd(*args, **kwargs)
+
+    monkeypatch.setattr(np.linalg, "svd", counted)
+    copy = dataclasses.replace(system, title="again", source="elsewhere", notes=("a note",))
+    assert copy.notes == ("a note",) + system.notes and calls == []
+    assert with_values(system, parameters={"g": 9.7}).parameter_values[g] == 9.7
+    assert calls, "new values are checked again"
+    calls.clear()
+    fresh = pendulum(coordinates=(system.coordinates[0], coordinate("theta", 0.25)))
+    assert fresh.initial_state[th] == sp.Rational(1, 4) and calls
 
 
 @pytest.mark.parametrize(

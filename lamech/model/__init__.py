@@ -7,8 +7,16 @@ The canonical equations, stated once (see :mod:`lamech.model._system`)::
 with F_j = df_j/dt for a holonomic constraint f_j(q, t) = 0 and F_j = g_j for a
 velocity constraint; a unilateral constraint holds on the side f_j >= 0, where
 lambda_j >= 0 pushes the system back.
+
+A System is read from a problem file by :mod:`lamech.problem`, or built in Python from its
+parts (:func:`parameter`, :func:`coordinate`, :class:`Body`, :class:`Constraint`, ...);
+:func:`assemble` then does the modelling a file's sections imply: T and V from the bodies
+where they are not given, an L split into T and V, and the applied loads
+(:class:`AppliedForce`, :class:`Torque`, :class:`Spring`) as generalized forces.
 """
 
+from ._assemble import assemble, skeleton, split_lagrangian
+from ._base import FIELDS, ConstraintKind, ModelError, SceneryKind, ShapeKind, name_problem
 from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart, with_chart
 from ._checks import (
     INITIAL_TOLERANCE,
@@ -37,21 +45,22 @@ from ._kinematics import (
     time_derivative,
     velocity_form,
 )
-from ._rules import FIELDS, name_problem
-from ._system import (
+from ._loads import AppliedForce, Load, Spring, Torque, load_terms
+from ._parts import (
     Body,
     Constraint,
-    ConstraintKind,
     Coordinate,
     ForceSpec,
     Friction,
-    ModelError,
     Parameter,
     Scenery,
-    SceneryKind,
-    ShapeKind,
-    System,
+    coordinate,
+    parameter,
+    parameter_numbers,
+    parameters,
+    signed_symbol,
 )
+from ._system import System
 from ._values import with_values
 
 __all__ = [
@@ -98,4 +107,17 @@ __all__ = [
     "massless",
     "without_inertia",
     "with_values",
+    "parameter",
+    "parameters",
+    "parameter_numbers",
+    "signed_symbol",
+    "coordinate",
+    "AppliedForce",
+    "Torque",
+    "Spring",
+    "Load",
+    "load_terms",
+    "assemble",
+    "skeleton",
+    "split_lagrangian",
 ]

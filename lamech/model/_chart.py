@@ -23,13 +23,15 @@ c free of them: r = c + R (sin theta, -cos theta), the angle from the downward v
 
 from __future__ import annotations
 
+import dataclasses
 import random
 from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
 
-from ..expr import TimeDerivative
+from ..expr import TimeDerivative, to_text
+from ._parts import Coordinate
 
 __all__ = [
     "Chart",
@@ -291,8 +293,6 @@ class ChartProposal:
     map: tuple[tuple[str, sp.Expr], ...]
 
     def toml(self) -> str:
-        from ..expr import to_text
-
         lines = [
             "[parametrisation]",
             "coordinates = [" + ", ".join(f'"{n}"' for n in self.coordinates) + "]",
@@ -432,10 +432,6 @@ def satisfied_by_chart(system) -> list[str]:
 
 def with_chart(system, proposal: ChartProposal):
     """``system`` with the proposed chart applied (results then in its angles)."""
-    import dataclasses
-
-    from ._system import Coordinate
-
     new = tuple(
         Coordinate(
             n,

@@ -8,13 +8,15 @@ evaluating user text.
 from __future__ import annotations
 
 import dataclasses
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import sympy as sp
 
 from ._kinematics import constraint_jacobian, time_derivative
-from ._system import System
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._system import System
 
 __all__ = [
     "INITIAL_TOLERANCE",

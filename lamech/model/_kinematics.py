@@ -4,10 +4,14 @@ energy of its bodies, and the partial velocities of their material points."""
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 import sympy as sp
 
-from ._system import Body, System
+from ._parts import Body
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._system import System
 
 __all__ = [
     "time_derivative",

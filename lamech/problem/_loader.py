@@ -9,48 +9,34 @@ See the problem-file reference (docs/reference/problem-file.md) for the format.
 from __future__ import annotations
 
 import math
-import random
 import re
 import stat
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import sympy as sp
 
-from ..expr import (
-    MAX_NUMBER_DIGITS,
-    RESERVED,
-    ExpressionError,
-    TimeDerivative,
-    parse,
-    printable,
-    tabulated,
-    to_text,
-)
+from ..expr import MAX_NUMBER_DIGITS, RESERVED, printable, tabulated, to_text
 from ..model import (
     FIELDS,
     Body,
     Chart,
-    Constraint,
-    ConstraintKind,
     Coordinate,
-    ForceSpec,
-    Friction,
-    ModelError,
     Parameter,
-    Scenery,
-    ShapeKind,
     System,
     angular_velocity,
-    body_energy,
-    body_rotation,
+    assemble,
+    coordinate,
     name_problem,
-    partial_velocities,
+    parameter_numbers,
+    signed_symbol,
+    skeleton,
     time_derivative,
 )
 from ._examples import example_names, example_path
+from ._files import LIMITS, MAX_BYTES, Issue, ProblemFileError, read_table, repeated_key
+from ._sections import PartsReader
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -59,10 +45,6 @@ else:  # pragma: no cover
 
 __all__ = ["ProblemFileError", "Issue", "load", "loads", "from_dict"]
 
-# A model's `where` for a part in a system (constraints[2] `rolling` friction.mu) and for
-# a part checked on its own (constraint `rolling` unilateral).
-_PART_IN_SYSTEM = re.compile(r"^(constraints|bodies|scenery)\[(\d+)\] `[^`]*`(?: (\S+))?")
-_PART_ALONE = re.compile(r"^(?:constraint|body|scenery) `[^`]*`")
 _KNOWN_SECTIONS = {
     "title",
     "parameters",
@@ -79,235 +61,6 @@ _KNOWN_SECTIONS = {
     "inputs",
     "sliders",
 }
-
-
-@dataclass(frozen=True)
-class Issue:
-    """One thing wrong in a problem file: where (``where`` like ``constraints[2].f``,
-    ``line``), what (``message``, with the fix) and the offending ``text``."""
-
-    where: str
-    message: str
-    line: int | None = None
-    text: str | None = None
-
-    def format(self, source: str) -> str:
-        """``file:line: where: message`` and the offending line; control characters
-        (from a file name, a key, a title) escaped, never sent to the terminal raw."""
-        source, where, message = printable(source), printable(self.where), printable(self.message)
-        head = f"{source}:{self.line}:" if self.line else f"{source}:"
-        out = f"{head} {where}: {message}" if where else f"{head} {message}"
-        if self.text:
-            out += f"\n    {printable(self.text)}"
-        return out
-
-
-_KEY_LINE = re.compile(r"""^\s*("[^"]*"|'[^']*'|[A-Za-z0-9_.\-]+)\s*=""")
-_TABLE_LINE = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?")
-
-
-def _repeated_key(text: str) -> tuple[int, str, int] | None:
-    """(line, key, first line) of a key repeated within one table, for the message only.
-
-    tomllib says "Cannot overwrite a value", sometimes "at end of document": this scan
-    finds which key and where. The file is still parsed by tomllib alone.
-    """
-    seen: dict[str, int] = {}
-    tables: dict[str, int] = {}
-    for number, line in enumerate(text.splitlines(), 1):
-        if m := _TABLE_LINE.match(line):
-            name = m.group(1)
-            if not line.lstrip().startswith("[[") and name in tables:
-                return number, f"[{name}]", tables[name]
-            tables[name] = number
-            seen = {}
-        elif m := _KEY_LINE.match(line):
-            key = m.group(1).strip("\"'")
-            if key in seen:
-                return number, key, seen[key]
-            seen[key] = number
-    return None
-
-
-class ProblemFileError(ValueError):
-    """A problem file (or dict) cannot be used; ``problems`` lists everything wrong."""
-
-    def __init__(self, source: str, problems: list[Issue]):
-        self.source = source
-        self.problems = list(problems)
-        super().__init__("\n".join(p.format(source) for p in problems))
-
-
-class _Lines:
-    """Find the line of a key in TOML text (tomllib keeps no positions)."""
-
-    _HEADER = re.compile(r"^\s*(\[\[?)\s*([A-Za-z0-9_.\"' -]+?)\s*\]\]?\s*(#.*)?$")
-
-    def __init__(self, text: str | None):
-        self.lines = text.splitlines() if text else []
-
-    def find(self, table: str | None, index: int | None, key: str | None) -> int | None:
-        """Line (1-based) of ``key`` in ``[table]`` (the ``index``-th ``[[table]]``)."""
-        if not self.lines:
-            return None
-        current: tuple[str, int | None] | None = None
-        count, header_line = -1, None
-        key_re = None
-        if key:
-            # a key with control characters is written with TOML escapes (\u001b)
-            spelled = {key, *(_toml_escaped(key, form) for form in ("\\u{:04x}", "\\u{:04X}"))}
-            either = "|".join(re.escape(k) for k in sorted(spelled))
-            key_re = re.compile(r"^\s*[\"']?(?:" + either + r")[\"']?\s*=")
-        for i, line in enumerate(self.lines, start=1):
-            m = self._HEADER.match(line)
-            if m:
-                name = m.group(2).strip()
-                if m.group(1) == "[[":
-                    count = count + 1 if name == table else count
-                    current = (name, count)
-                else:
-                    current = (name, None)
-                if current == (table, index) and key is None:
-                    return i
-                if current == (table, index):
-                    header_line = i
-                continue
-            in_table = (current == (table, index)) if table else current is None
-            if in_table and key_re and key_re.match(line):
-                return i
-        return header_line
-
-
-def _toml_escaped(key: str, form: str) -> str:
-    return "".join(c if c.isprintable() else form.format(ord(c)) for c in key)
-
-
-MAX_BYTES = 1_000_000
-"""The largest problem file read (bytes); a larger one, or an endless one, is refused."""
-LIMITS = {
-    "parameters": 500,
-    "coordinates": 200,
-    "constraints": 200,
-    "bodies": 200,
-    "scenery": 1000,
-    "loads": 1000,
-}
-"""The most entries of each section a problem file may have: 20,000 coordinates fit in
-a 369 kB file, but their 20000 x 20000 symbolic mass matrix takes minutes to build."""
-
-
-MAX_TABLE_ROWS = 2000
-"""Rows of a tabulated input (each row is a switch the generated code evaluates)."""
-
-
-def _inside(path: Path, folders: tuple[Path, ...]) -> bool:
-    """Whether ``path``, symlinks followed, lies in one of ``folders``."""
-    try:
-        real = path.resolve()
-    except (OSError, RuntimeError):  # a symlink loop
-        return False
-    return any(real.is_relative_to(f) for f in folders)
-
-
-def _read_table(
-    folders: tuple[Path, ...] | None, spec: dict
-) -> tuple[list[float], list[float]] | str:
-    """(times, values) of an ``[inputs]`` table, or what is wrong with it. The file is
-    named relative to the problem file and must lie, symlinks followed, in one of
-    ``folders`` (the problem file's, and ``--data-dir``'s); at most 1 MB of it is read.
-    Nothing of a file that is not a table of numbers is ever quoted, and a path outside
-    the folders is refused before it is looked at (whether it exists is not told)."""
-    import csv
-    import io
-
-    file = spec["csv"]
-    if not isinstance(file, str) or not file or "\0" in file:
-        return "csv must be a file name"
-    if not folders:
-        return (
-            "a problem given as text (not loaded from a file) names no files; save it "
-            "as a .toml file beside its table and load that"
-        )
-    path = folders[0] / file
-    if not _inside(path, folders):
-        return (
-            f"`{printable(file)}` is outside the problem file's folder (symlinks "
-            "followed); put the table beside the problem file, or name the folder that "
-            "holds it with `data_dir=`"
-        )
-    try:
-        if not path.is_file():
-            return f"no such file `{printable(file)}` (a csv path is relative to the problem file)"
-        with path.open("rb") as fh:
-            raw = fh.read(MAX_BYTES + 1)
-        if len(raw) > MAX_BYTES:
-            return f"`{printable(file)}` is too large (over 1 MB)"
-        rows = list(csv.reader(io.StringIO(raw.decode("utf-8-sig"))))
-    except OSError as exc:
-        return f"cannot read `{printable(file)}`: {exc.strerror or 'error'}"
-    except (UnicodeDecodeError, csv.Error):
-        return (
-            f"`{printable(file)}` is not a table of numbers (not UTF-8 CSV text); give a "
-            "CSV file: a header row of names, then rows of numbers"
-        )
-    rows = [r for r in rows if any(c.strip() for c in r)]
-    if len(rows) < 3:
-        return f"`{printable(file)}` needs a header row and two or more rows of numbers"
-    header = [c.strip() for c in rows[0]]
-    for line, row in enumerate(rows[1:], start=2):
-        if len(row) != len(header) or not all(_number(c) for c in row):
-            # not a table: nothing of it is quoted (it may be anything, a .env file)
-            return (
-                f"`{printable(file)}` is not a table of numbers: row {line}: not "
-                f"{_COUNT.get(len(header), len(header))} numbers (as many as the header's "
-                "names); give a "
-                "CSV file: a header row of names, then rows of numbers"
-            )
-    time_name = spec.get("time", header[0])
-    column = spec.get("column")
-    if column is None:
-        if len(header) != 2:
-            return f'`{printable(file)}` has {len(header)} columns: say which with column = "..."'
-        column = header[1]
-    for what, key in (("time", time_name), ("column", column)):
-        if not isinstance(key, str) or key not in header:
-            return (
-                f"{what} `{printable(str(key))}` is not a column of `{printable(file)}`; "
-                "its columns: " + ", ".join(printable(h) for h in header)
-            )
-    ti, vi = header.index(time_name), header.index(column)
-    times: list[float] = []
-    values: list[float] = []
-    for line, row in enumerate(rows[1:], start=2):
-        try:
-            tv, vv = float(row[ti]), float(row[vi])
-        except (IndexError, ValueError):
-            return (
-                f"`{printable(file)}` row {line}: not two numbers in columns {time_name}, {column}"
-            )
-        if not (math.isfinite(tv) and math.isfinite(vv)):
-            return f"`{printable(file)}` row {line}: not a finite number"
-        if times and tv <= times[-1]:
-            return (
-                f"`{printable(file)}` row {line}: the times must increase ({tv:g} after "
-                f"{times[-1]:g})"
-            )
-        times.append(tv)
-        values.append(vv)
-    if len(times) > MAX_TABLE_ROWS:
-        return f"`{printable(file)}` has {len(times)} rows; at most {MAX_TABLE_ROWS} (resample it)"
-    return times, values
-
-
-_COUNT = {1: "one", 2: "two", 3: "three", 4: "four"}
-
-
-def _number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
 
 
 def load(path: str | Path, data_dir: str | Path | None = None) -> System:
@@ -378,7 +131,7 @@ def _parse(text: str, name: str, folders: tuple[Path, ...] | None) -> System:
         bare = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
         hint = "check quoting (expressions go in double quotes) and that each line is `key = value`"
         if "overwrite" in bare or "twice" in bare:
-            found = _repeated_key(text)
+            found = repeated_key(text)
             if found:
                 line, key, first = found
                 bare = f"`{key}` is defined twice (first on line {first})"
@@ -423,149 +176,11 @@ def from_dict(data: dict[str, Any], name: str = "<dict>", text: str | None = Non
     return _Loader(data, name, text).build()
 
 
-class _Loader:
-    """Parses a problem (TOML shapes, expressions) into the model's parts; the model
-    checks them (:mod:`lamech.model`), and each issue it finds is reported here with the
-    file's line."""
+class _Loader(PartsReader):
+    """Parses a problem (TOML shapes, expressions) into the model's parts and calls the
+    model to assemble them (:func:`lamech.model.assemble`); the model checks them, and
+    each issue it finds is reported here with the file's line."""
 
-    def __init__(
-        self, data: Any, name: str, text: str | None, folders: tuple[Path, ...] | None = None
-    ):
-        self.data = data
-        self.source = name
-        self.folders = folders  # where named files may be; None: no files
-        self.lines = _Lines(text)
-        self.problems: list[Issue] = []
-        self.t = sp.Symbol("t", real=True)
-        self.scopes: dict[str, dict[str, sp.Expr]] = {}
-        self.spin_hints: dict[str, str] = {}  # body: why `body.wx` means nothing
-
-    # ----- reporting -----------------------------------------------------------------
-    def problem(
-        self, where: str, message: str, loc: tuple = (None, None, None), text: str | None = None
-    ) -> None:
-        line = self.lines.find(*loc)
-        if text is None and line and self.lines.lines:
-            text = self.lines.lines[line - 1].strip()
-        self.problems.append(Issue(where, message, line, text))
-
-    def model_problems(self, error: ModelError, part: str | None = None) -> None:
-        """Report the issues the model found, each at its line. ``part`` (like
-        ``constraints[2] `rolling```) places the issues of a part checked on its own
-        (``constraint `rolling` unilateral``, ``friction.mu``)."""
-        for where, message in error.issues:
-            if part is not None:
-                where, n = _PART_ALONE.subn(part, where, count=1)
-                where = where if n else f"{part} {where}"
-            self.problem(where, message, self._locate(where))
-
-    def _locate(self, where: str) -> tuple:
-        """The location tuple (table, index, key) of a model's ``where``."""
-        if m := _PART_IN_SYSTEM.match(where):
-            table, i, field = m.group(1), int(m.group(2)) - 1, m.group(3)
-            key = field.split(".")[0] if field else None
-            if table == "constraints" and key in (None, "kind", "multiplier"):
-                raw = self.data.get("constraints")
-                spec = raw[i] if isinstance(raw, list) and i < len(raw) else {}
-                key = "velocity" if isinstance(spec, dict) and "velocity" in spec else "f"
-            return (table, i, key)
-        head, _, rest = where.partition(".")
-        if head in ("parameters", "forces"):
-            return (head, None, rest or None)
-        if head == "coordinates":
-            name = re.sub(r"\.(initial|velocity|keep)$", "", rest)
-            return (head, None, name or None)
-        if head == "lagrangian":
-            table = self.data.get("lagrangian")
-            table = table if isinstance(table, dict) else {}
-            return ("lagrangian", None, rest if rest in table else "L" if "L" in table else None)
-        if head == "gravity":
-            return ("gravity", None, "acceleration")
-        if head == "bodies":
-            return ("bodies", 0, "position")
-        if head.startswith("parametrisation"):
-            key = rest if rest and " " not in rest else None
-            return ("parametrisation", None, key)
-        return (None, None, None)
-
-    def make(self, cls: type, *args: Any, part: str | None = None, **kwargs: Any) -> Any:
-        """``cls(*args, **kwargs)``, a part of the model that checks itself; None (and its
-        issues reported) when the model refuses it."""
-        try:
-            return cls(*args, **kwargs)
-        except ModelError as exc:
-            self.model_problems(exc, part)
-            return None
-
-    def expr(
-        self,
-        value: Any,
-        names: dict[str, sp.Expr],
-        where: str,
-        loc: tuple,
-        what: str,
-        hints: dict[str, str] | None = None,
-    ) -> sp.Expr | None:
-        if isinstance(value, sp.Basic):
-            return self._sympy_value(value, names, where, loc)
-        try:
-            return parse(value, names, what, hints=hints)
-        except ExpressionError as exc:
-            shown = str(value) if len(str(value)) <= 120 else str(value)[:117] + "..."
-            col = f" (column {exc.column})" if exc.column else ""
-            self.problem(where, exc.message + col, loc, None if self.lines.lines else shown)
-            return None
-
-    def field(self, value: Any, field: str, where: str, loc: tuple) -> sp.Expr | None:
-        """Parse ``value`` as the model's ``field`` (a key of :data:`lamech.model.FIELDS`):
-        with the names that field may contain, named in messages as the model does."""
-        scope, what = FIELDS[field]
-        hints = self.spin_hints
-        if scope != "velocities":  # a body's angular velocity is a velocity
-            hints = {b: f"angular velocities are not allowed in {what}" for b in self._body_names()}
-        return self.expr(value, self.scopes[scope], where, loc, what, hints)
-
-    def _sympy_value(
-        self, value: sp.Basic, names: dict[str, sp.Expr], where: str, loc: tuple
-    ) -> sp.Expr | None:
-        by_name = {str(s): s for s in value.free_symbols}
-        unknown = sorted(n for n in by_name if n not in names)
-        if unknown:
-            self.problem(
-                where,
-                f"unknown name `{unknown[0]}`; known: "
-                + ", ".join(sorted(n for n in names if "'" not in n and "." not in n)),
-                loc,
-            )
-            return None
-        return value.xreplace({s: names[n] for n, s in by_name.items()})
-
-    def table(self, key: str, required: bool = False) -> dict | None:
-        value = self.data.get(key)
-        if value is None:
-            if required:
-                self.problem(
-                    key,
-                    f"missing section [{key}]; see the problem-file reference "
-                    "(docs/reference/problem-file.md)",
-                )
-            return None
-        if not isinstance(value, dict):
-            self.problem(
-                key,
-                f"[{key}] must be a table (`[{key}]` followed by `name = ...` "
-                f"lines), not {type(value).__name__}",
-                (None, None, key),
-            )
-            return None
-        return value
-
-    def fail_if_any(self) -> None:
-        if self.problems:
-            # the model may see again what the loader reported: each issue once
-            raise ProblemFileError(self.source, list(dict.fromkeys(self.problems)))
-
-    # ----- build -------------------------------------------------------------------
     def build(self) -> System:
         if not isinstance(self.data, dict):
             raise ProblemFileError(self.source, [Issue("", "a problem must be a table")])
@@ -617,51 +232,38 @@ class _Loader:
         self.scopes.update(positions=positions, velocities=velocities)
         for name, value in self._inputs(positions).items():
             positions[name] = velocities[name] = value
-        # The coordinates and parameters alone (checked as such), for the kinematics of
-        # the bodies: T is a stand-in (time derivatives need only q and t).
-        skeleton = self.make(
-            System,
-            title=title,
-            parameters=tuple(params),
-            coordinates=tuple(coords),
-            T=sum((c.velocity**2 for c in coords), sp.Integer(0)),
-            V=sp.Integer(0),
-            constraints=(),
-            t=self.t,
-        )
-        if skeleton is None:
+        # The coordinates and parameters alone (checked as such): the bodies' angular
+        # velocities, named in T and the forces, are found on it.
+        frame = self.make(skeleton, title, tuple(params), tuple(coords), self.t)
+        if frame is None:
             self.fail_if_any()
 
         gravity = self._gravity()
         bodies = self._bodies()
-        self._angular_velocities(skeleton, bodies)
-        T, V = self._lagrangian(skeleton, bodies, gravity)
+        self._angular_velocities(frame, bodies)
+        energies = self._lagrangian(bodies)
         constraints = self._constraints()
         forces = self._forces(coords)
-        if skeleton is not None and "loads" in self.data:
-            extra_Q, extra_V = self._loads(skeleton, bodies)
-            forces = [f + q for f, q in zip(forces, extra_Q)]
-            V = V + extra_V
+        loads = self._loads()
         scenery = self._scenery()
         sliders = self._sliders(params, constraints)
         self.fail_if_any()
-        notes = self._compare_energy(skeleton, bodies, gravity, T, V)
         chart = self._chart(coords)
         self.fail_if_any()
+        # the modelling (T and V from the bodies, L split, the loads' forces) is the model's
         system = self.make(
-            System,
-            title=title,
-            parameters=tuple(params),
-            coordinates=tuple(coords),
-            T=T,
-            V=V,
-            constraints=tuple(constraints),
+            assemble,
+            title,
+            tuple(params),
+            tuple(coords),
+            tuple(constraints),
+            **energies,
             bodies=tuple(bodies),
             gravity=gravity,
             forces=tuple(forces),
+            loads=tuple(loads),
             t=self.t,
             source=self.source,
-            notes=tuple(notes),
             scenery=tuple(scenery),
             chart=chart,
             sliders=tuple(sliders),
@@ -695,16 +297,7 @@ class _Loader:
             if problem is not None:
                 self.problem("parametrisation.coordinates", problem, loc)
                 continue
-            new.append(
-                Coordinate(
-                    n,
-                    sp.Symbol(n, real=True),
-                    TimeDerivative(n + "'", real=True),
-                    TimeDerivative(n + "''", real=True),
-                    sp.Integer(0),
-                    sp.Integer(0),
-                )
-            )
+            new.append(coordinate(n))
         by_name = {c.name: c for c in coords}
         scope = dict(self.scopes["positions"])
         scope.update({c.name: c.symbol for c in new})
@@ -768,7 +361,7 @@ class _Loader:
             if extra:
                 self.problem(where, f"unknown key `{extra[0]}`; known: csv, column, time", loc)
                 continue
-            read = _read_table(self.folders, spec)
+            read = read_table(self.folders, spec)
             if isinstance(read, str):
                 self.problem(where, read, loc)
                 read = ([0.0, 1.0], [0.0, 0.0])  # a stand-in: its uses are no further error
@@ -803,41 +396,16 @@ class _Loader:
             )
             if e is not None:
                 exprs[n] = e
-        numeric: dict[str, float] = {}
-        # Resolve values in dependency order; a cycle is reported, not looped on. A value
-        # that is not finite is the model's to report; 1 stands in for it meanwhile.
-        pending = dict(exprs)
-        while pending:
-            progress = False
-            for n, e in list(pending.items()):
-                deps = {str(s) for s in e.free_symbols}
-                if deps <= set(numeric):
-                    env = {
-                        symbols[d]: numeric[d] if math.isfinite(numeric[d]) else 1.0 for d in deps
-                    }
-                    try:
-                        numeric[n] = float(e.subs(env).evalf(30))
-                    except (TypeError, ValueError):
-                        numeric[n] = float("nan")
-                    del pending[n]
-                    progress = True
-            if not progress:
-                cyc = ", ".join(sorted(pending))
-                self.problem(
-                    "parameters",
-                    f"parameter values refer to each other in a cycle "
-                    f"({cyc}); give at least one of them a number",
-                    ("parameters", None, sorted(pending)[0]),
-                )
-                break
-        final = {}
-        for n in raw:
-            v = numeric.get(n, float("nan"))
-            final[symbols[n]] = (
-                sp.Symbol(n, positive=True)
-                if v > 0
-                else (sp.Symbol(n, negative=True) if v < 0 else sp.Symbol(n, real=True))
+        # values in dependency order (the model's rule); a cycle is reported at its line
+        numeric, cycle = parameter_numbers(exprs)
+        if cycle:
+            self.problem(
+                "parameters",
+                f"parameter values refer to each other in a cycle ({', '.join(cycle)}); "
+                "give at least one of them a number",
+                ("parameters", None, cycle[0]),
             )
+        final = {symbols[n]: signed_symbol(n, numeric.get(n, float("nan"))) for n in raw}
         out = []
         for n in raw:
             p = None
@@ -895,18 +463,9 @@ class _Loader:
             # the file is still read and its errors are reported with this one
             q0 = sp.Integer(0) if q0 is None else q0
             v0 = sp.Integer(0) if v0 is None else v0
-            coordinate = self.make(
-                Coordinate,
-                name,
-                sp.Symbol(name, real=True),
-                TimeDerivative(name + "'", real=True),
-                TimeDerivative(name + "''", real=True),
-                q0,
-                v0,
-                keep if isinstance(keep, bool) else False,
-            )
-            if coordinate is not None:
-                out.append(coordinate)
+            made = self.make(coordinate, name, q0, v0, keep if isinstance(keep, bool) else False)
+            if made is not None:
+                out.append(made)
         return out
 
     def _gravity(self) -> sp.Expr | None:
@@ -926,78 +485,6 @@ class _Loader:
             "gravity.acceleration",
             ("gravity", None, "acceleration"),
         )
-
-    def _bodies(self) -> list[Body]:
-        raw = self.data.get("bodies", [])
-        if not isinstance(raw, list):
-            self.problem(
-                "bodies",
-                "bodies are an array of tables: each starts with `[[bodies]]`",
-                (None, None, "bodies"),
-            )
-            return []
-        out = []
-        for i, spec in enumerate(raw):
-            loc0 = ("bodies", i, None)
-            if not isinstance(spec, dict):
-                self.problem(f"bodies[{i + 1}]", "must be a table", loc0)
-                continue
-            name = spec.get("name", f"body{i + 1}")
-            where = f"bodies[{i + 1}] `{name}`"
-            before = len(self.problems)
-            keys = {"name", "mass", "position", "angle", "inertia", "shape"}
-            keys |= {"rotation", "rotation_frame", "orientation"}
-            extra = set(spec) - keys
-            if extra:
-                self.problem(
-                    where,
-                    f"unknown key `{sorted(extra)[0]}`; a body takes name, mass, position, "
-                    "angle, inertia, shape, and in space rotation, rotation_frame or "
-                    "orientation",
-                    loc0,
-                )
-            if "mass" not in spec:
-                self.problem(where, "missing `mass`", loc0)
-                continue
-            parts: dict[str, Any] = {}
-            for key in ("mass", "angle"):
-                if key in spec:
-                    parts[key] = self.field(spec[key], key, f"{where} {key}", ("bodies", i, key))
-            if "inertia" in spec:
-                parts["inertia"] = self._inertia(spec["inertia"], where, ("bodies", i, "inertia"))
-            if "rotation" in spec:
-                parts["rotation"] = self._rotation(
-                    spec["rotation"], where, ("bodies", i, "rotation")
-                )
-            if "rotation_frame" in spec:
-                parts["rotation_frame"] = spec["rotation_frame"]
-            if "orientation" in spec:
-                parts["orientation"] = self._matrix(
-                    spec["orientation"],
-                    "angle",
-                    f"{where} orientation",
-                    ("bodies", i, "orientation"),
-                )
-            parts["position"] = self._vector(
-                spec.get("position"), "position", f"{where} position", ("bodies", i, "position")
-            )
-            shape = spec.get("shape")
-            if isinstance(shape, dict) and "axis" in shape:  # in space: the rod's or axle's
-                parts["shape_axis"] = shape["axis"]
-                shape = {k: v for k, v in shape.items() if k != "axis"}
-            parts["shape"] = self._shape(shape, where, ("bodies", i, "shape"))
-            if len(self.problems) == before:
-                body = self.make(Body, name, part=where, **parts)
-                if body is not None:
-                    out.append(body)
-        return out
-
-    def _body_names(self) -> list[str]:
-        """The names the file gives its bodies (parsed or not)."""
-        raw = self.data.get("bodies")
-        if not isinstance(raw, list):
-            return []
-        return [b["name"] for b in raw if isinstance(b, dict) and isinstance(b.get("name"), str)]
 
     def _angular_velocities(self, skeleton: System, bodies: list[Body]) -> None:
         """``top.wx, top.wy, top.wz`` (world axes) and ``top.w1, top.w2, top.w3`` (the
@@ -1026,62 +513,6 @@ class _Loader:
                     f"{body.name} does not turn: a point mass has no angular velocity "
                     "(give a body in space a `rotation` or `orientation`)"
                 )
-
-    def _rotation(self, value, where: str, loc: tuple):
-        """``["z:psi", "x:theta", "z:phi"]``: turns (axis, angle expression)."""
-        if not isinstance(value, list) or not value:
-            self.problem(
-                f"{where} rotation",
-                'give a list of turns "axis:angle", e.g. ["z:psi", "x:theta", "z:phi"]',
-                loc,
-            )
-            return None
-        turns = []
-        for item in value:
-            axis, sep, angle = str(item).partition(":") if isinstance(item, str) else ("", "", "")
-            axis = axis.strip().lower()
-            if not sep or axis not in ("x", "y", "z") or not angle.strip():
-                self.problem(
-                    f"{where} rotation",
-                    f'each turn is "axis:angle" with axis x, y or z (e.g. "z:psi"); got {item!r}',
-                    loc,
-                )
-                return None
-            expr = self.field(angle.strip(), "angle", f"{where} rotation", loc)
-            if expr is None:
-                return None
-            turns.append((axis, expr))
-        return tuple(turns)
-
-    def _matrix(self, value, field: str, where: str, loc: tuple):
-        """3 rows of 3 expressions."""
-        if not (
-            isinstance(value, list)
-            and len(value) == 3
-            and all(isinstance(r, list) and len(r) == 3 for r in value)
-        ):
-            self.problem(where, "must be 3 rows of 3 expressions", loc)
-            return None
-        rows = [[self.field(x, field, where, loc) for x in r] for r in value]
-        if any(x is None for r in rows for x in r):
-            return None
-        return tuple(tuple(r) for r in rows)
-
-    def _inertia(self, value, where: str, loc: tuple):
-        """One moment, the 3 principal moments, or 3 rows of 3 (the tensor)."""
-        if isinstance(value, list) and value and all(isinstance(r, list) for r in value):
-            return self._matrix(value, "inertia", f"{where} inertia", loc)
-        if isinstance(value, list):
-            if len(value) != 3:
-                self.problem(
-                    f"{where} inertia",
-                    "give one moment, the 3 principal moments, or 3 rows of 3 (the tensor)",
-                    loc,
-                )
-                return None
-            parts = [self.field(x, "inertia", f"{where} inertia", loc) for x in value]
-            return None if any(p is None for p in parts) else tuple(parts)
-        return self.field(value, "inertia", f"{where} inertia", loc)
 
     def _sliders(self, params: list[Parameter], constraints: list) -> list:
         """``[sliders]``: ``NAME = [low, high]``, the range of the report's slider of a
@@ -1127,262 +558,39 @@ class _Loader:
             out.append((name, low, high))
         return out
 
-    def _scenery(self) -> list[Scenery]:
-        """``[[scenery]]``: drawn geometry, each entry a point, a line or a circle."""
-        raw = self.data.get("scenery", [])
-        forms = (
-            "point = [x, y], line = [[x1, y1], [x2, y2], ...] "
-            'or circle = { center = [x, y], radius = "R" }'
-        )
-        if not isinstance(raw, list):
-            self.problem(
-                "scenery",
-                "scenery is an array of tables: each starts with `[[scenery]]`",
-                (None, None, "scenery"),
-            )
-            return []
-        out = []
-        for i, spec in enumerate(raw):
-            loc0 = ("scenery", i, None)
-            if not isinstance(spec, dict):
-                self.problem(f"scenery[{i + 1}]", "must be a table", loc0)
-                continue
-            name = spec.get("name", f"scenery{i + 1}")
-            where = f"scenery[{i + 1}] `{name}`"
-            extra = sorted(set(spec) - {"name", "point", "line", "circle"})
-            kinds = [k for k in ("point", "line", "circle") if k in spec]
-            if extra:
-                self.problem(
-                    where, f"unknown key `{extra[0]}`; a scenery entry takes name and {forms}", loc0
-                )
-                continue
-            if len(kinds) != 1:
-                self.problem(where, f"give exactly one of {forms}", loc0)
-                continue
-            kind = kinds[0]
-            value, loc, at = spec[kind], ("scenery", i, kind), f"{where} {kind}"
-            before, radius = len(self.problems), None
-            if kind == "circle":
-                if not isinstance(value, dict) or set(value) != {"center", "radius"}:
-                    self.problem(at, 'a circle is { center = [x, y], radius = "R" }', loc)
-                    continue
-                radius = self.field(value["radius"], "scenery", at, loc)
-                points = [value["center"]]
-            elif kind == "line":
-                if not isinstance(value, list) or not all(isinstance(p, list) for p in value):
-                    self.problem(at, "a line is a list of points: [[x1, y1], [x2, y2], ...]", loc)
-                    continue
-                points = value
-            else:
-                points = [value]
-            if not all(isinstance(p, list) for p in points):
-                self.problem(at, "a point is a list of 2 or 3 expressions: [x, y]", loc)
-                continue
-            parsed = [tuple(self.field(x, "scenery", at, loc) for x in p) for p in points]
-            if len(self.problems) == before:
-                item = self.make(Scenery, str(name), kind, tuple(parsed), radius, part=where)
-                if item is not None:
-                    out.append(item)
-        return out
-
-    def _shape(self, spec, where, loc) -> tuple | None:
-        if spec is None:
-            return (ShapeKind.POINT, None)
-        if not isinstance(spec, dict) or len(spec) != 1:
-            self.problem(
-                where,
-                'shape is one of { circle = "R" }, { rod = "l" }, { point = true } (in space '
-                'with axis = "x", "y" or "z": the rod\'s body axis, the circle\'s axle)',
-                loc,
-            )
-            return None
-        ((kind, value),) = spec.items()
-        if kind == ShapeKind.POINT or kind not in [k.value for k in ShapeKind]:
-            return (kind, None)  # an unknown kind is the model's to report
-        size = self.field(value, "shape", where + " shape", loc)
-        return None if size is None else (kind, size)
-
-    def _vector(self, value, field, where, loc) -> tuple | None:
-        """A list of expressions (its length is the model's to check)."""
-        if value is None:
-            self.problem(where, "missing (a list of 2 or 3 expressions)", loc)
-            return None
-        items = value if isinstance(value, (list, tuple)) else [value]
-        parts = [self.field(v, field, where, loc) for v in items]
-        if any(p is None for p in parts):
-            return None
-        return tuple(parts)
-
-    def _lagrangian(self, skeleton, bodies, gravity):
+    def _lagrangian(self, bodies: list[Body]) -> dict[str, sp.Expr]:
+        """``[lagrangian]``: {"T": ..., "V": ...} or {"L": ...}, what the file gives (the
+        model makes the rest from the bodies, :func:`lamech.model.assemble`)."""
         table = self.table("lagrangian")
         loc = ("lagrangian", None, None)
-        if table is not None:
-            extra = set(table) - {"T", "V", "L"}
-            if extra:
+        described = bool(bodies) or bool(self.data.get("bodies"))  # bodies with problems: said
+        if table is None:
+            if not described:
                 self.problem(
-                    "lagrangian", f"unknown key `{sorted(extra)[0]}`; give T and V, or L", loc
+                    "lagrangian",
+                    "missing [lagrangian] (T and V, or L) and no [[bodies]] to compute them from",
+                    (None, None, None),
                 )
-            if "L" in table and ("T" in table or "V" in table):
-                self.problem("lagrangian", "give either L, or T and V, not both", loc)
-                return sp.Integer(0), sp.Integer(0)
-            if "L" in table:
-                L = self.field(table["L"], "L", "lagrangian.L", ("lagrangian", None, "L"))
-                if L is None:
-                    return sp.Integer(0), sp.Integer(0)
-                # Split L into T (terms with velocities) and V (the rest, negated).
-                qd = skeleton.qd
-                poly = sp.expand(L)
-                T = sum((a for a in sp.Add.make_args(poly) if a.has(*qd)), sp.Integer(0))
-                return T, sp.expand(T - L)
-            if "T" not in table:
-                if not bodies and self.data.get("bodies"):
-                    return sp.Integer(0), sp.Integer(0)  # the bodies' problems are said
-                if not bodies:
-                    self.problem(
-                        "lagrangian",
-                        "missing T (the kinetic energy); give T and V, "
-                        "or L, or describe [[bodies]]",
-                        loc,
-                    )
-                    return sp.Integer(0), sp.Integer(0)
-                T = body_energy(skeleton, tuple(bodies), gravity)[0]
-            else:
-                T = self.field(table["T"], "T", "lagrangian.T", ("lagrangian", None, "T"))
-            V = sp.Integer(0)
-            if "V" in table:
-                V = self.field(table["V"], "V", "lagrangian.V", ("lagrangian", None, "V"))
-            elif gravity is not None and bodies:
-                V = body_energy(skeleton, tuple(bodies), gravity)[1]
-            if T is None or V is None:
-                return sp.Integer(0), sp.Integer(0)
-            return T, V
-        if not bodies and self.data.get("bodies"):
-            return sp.Integer(0), sp.Integer(0)  # bodies given, with problems said above
-        if not bodies:
+            return {}
+        extra = set(table) - {"T", "V", "L"}
+        if extra:
+            self.problem("lagrangian", f"unknown key `{sorted(extra)[0]}`; give T and V, or L", loc)
+        if "L" in table and ("T" in table or "V" in table):
+            self.problem("lagrangian", "give either L, or T and V, not both", loc)
+            return {}
+        if "T" not in table and "L" not in table and not described:
             self.problem(
                 "lagrangian",
-                "missing [lagrangian] (T and V, or L) and no [[bodies]] to compute them from",
-                (None, None, None),
+                "missing T (the kinetic energy); give T and V, or L, or describe [[bodies]]",
+                loc,
             )
-            return sp.Integer(0), sp.Integer(0)
-        return body_energy(skeleton, tuple(bodies), gravity)
-
-    def _constraints(self) -> list[Constraint]:
-        raw = self.data.get("constraints", [])
-        if not isinstance(raw, list):
-            self.problem(
-                "constraints",
-                "constraints are an array of tables: each starts with `[[constraints]]`",
-                (None, None, "constraints"),
-            )
-            return []
-        out = []
-        for i, spec in enumerate(raw):
-            loc0 = ("constraints", i, None)
-            if not isinstance(spec, dict):
-                self.problem(f"constraints[{i + 1}]", "must be a table", loc0)
-                continue
-            name = spec.get("name", f"c{i + 1}")
-            where = f"constraints[{i + 1}] `{name}`"
-            before = len(self.problems)
-            extra = set(spec) - {
-                "name",
-                "f",
-                "velocity",
-                "unilateral",
-                "friction",
-                "force",
-                "restitution",
-            }
-            if extra:
-                self.problem(
-                    where,
-                    f"unknown key `{sorted(extra)[0]}`; a constraint takes "
-                    "name, f or velocity, unilateral, friction, force, restitution",
-                    loc0,
+        out = {}
+        for key in ("T", "V", "L"):
+            if key in table:
+                out[key] = self.field(
+                    table[key], key, f"lagrangian.{key}", ("lagrangian", None, key)
                 )
-            if ("f" in spec) == ("velocity" in spec):
-                self.problem(
-                    where,
-                    "give exactly one of `f` (holonomic, f(q, t) = 0) or "
-                    "`velocity` (linear in the velocities, a(q,t).q' + b = 0)",
-                    loc0,
-                )
-                continue
-            key = "f" if "f" in spec else "velocity"
-            kind = ConstraintKind.HOLONOMIC if key == "f" else ConstraintKind.VELOCITY
-            e = self.field(spec[key], key, f"{where} {key}", ("constraints", i, key))
-            friction = self._friction(spec.get("friction"), where, ("constraints", i, "friction"))
-            force = self._force_spec(spec.get("force"), where, ("constraints", i, "force"))
-            restitution = self.field(
-                spec.get("restitution", 0),
-                "restitution",
-                f"{where} restitution",
-                ("constraints", i, "restitution"),
-            )
-            if len(self.problems) == before:
-                constraint = self.make(
-                    Constraint,
-                    name,
-                    e,
-                    kind,
-                    spec.get("unilateral", False),
-                    friction,
-                    force,
-                    restitution,
-                    part=where,
-                )
-                if constraint is not None:
-                    out.append(constraint)
         return out
-
-    def _friction(self, spec, where, loc) -> Friction | None:
-        if spec is None:
-            return None
-        if not isinstance(spec, dict) or set(spec) != {"mu", "normal"}:
-            self.problem(
-                where,
-                'friction is { mu = <coefficient>, normal = "<name of the normal constraint>" }',
-                loc,
-            )
-            return None
-        mu = self.field(spec["mu"], "mu", where + " friction.mu", loc)
-        return None if mu is None else self.make(Friction, mu, spec["normal"], part=where)
-
-    def _force_spec(self, spec, where, loc) -> ForceSpec | None:
-        if spec is None:
-            return None
-        if (
-            not isinstance(spec, dict)
-            or not {"body", "at"} <= set(spec)
-            or set(spec) - {"body", "at", "along"}
-        ):
-            self.problem(
-                where,
-                'force is { body = "<body>" (or ["a", "b"]), at = [x, y], '
-                "along = { name = [dx, dy] } }",
-                loc,
-            )
-            return None
-        before = len(self.problems)
-        names = spec["body"] if isinstance(spec["body"], list) else [spec["body"]]
-        at = self._vector(spec["at"], "at", where + " force.at", loc)
-        along = []
-        raw_along = spec.get("along", {})
-        if not isinstance(raw_along, dict):
-            self.problem(
-                where,
-                "force.along is a table of named directions, e.g. "
-                '{ normal = ["sin(x)", "cos(x)"] }',
-                loc,
-            )
-            return None
-        for dname, vec in raw_along.items():
-            v = self._vector(vec, "along", where + f" force.along.{dname}", loc)
-            along.append((dname, v))
-        if len(self.problems) > before:
-            return None
-        return self.make(ForceSpec, tuple(names), at, tuple(along), part=where)
 
     def _forces(self, coords) -> list[sp.Expr]:
         table = self.table("forces") or {}
@@ -1400,212 +608,3 @@ class _Loader:
             if e is not None:
                 out[by_name[name]] = e
         return out
-
-    def _loads(self, skeleton: System, bodies: list[Body]) -> tuple[list, sp.Expr]:
-        """``[[loads]]``: forces at material points, torques on bodies, springs and
-        dampers between points, as generalized forces by virtual work (Q_q = F . dr_P/dq,
-        tau . domega/dq'); a spring's energy k (d - L0)^2 / 2 joins V, its damper
-        -c d' dd/dq joins Q."""
-        n = len(skeleton.coordinates)
-        Q = [sp.Integer(0)] * n
-        V_extra = sp.Integer(0)
-        raw = self.data.get("loads", [])
-        if not isinstance(raw, list):
-            self.problem(
-                "loads",
-                "loads are an array of tables: each starts with `[[loads]]`",
-                (None, None, "loads"),
-            )
-            return Q, V_extra
-        by_name = {b.name: b for b in bodies}
-        kinds = ("force", "torque", "spring")
-        for i, spec in enumerate(raw):
-            loc0 = ("loads", i, None)
-            if not isinstance(spec, dict):
-                self.problem(f"loads[{i + 1}]", "must be a table", loc0)
-                continue
-            name = spec.get("name", f"load{i + 1}")
-            where = f"loads[{i + 1}] `{name}`"
-            given = [k for k in kinds if k in spec]
-            extra = sorted(set(spec) - {"name", "body", "at", "frame", *kinds})
-            if extra or len(given) != 1:
-                self.problem(
-                    where,
-                    (f"unknown key `{extra[0]}`; " if extra else "")
-                    + "a load is one of: force = [Fx, Fy(, Fz)] with body and at (a point of "
-                    "the body; default its centre), torque with body, or spring = { from = "
-                    '[...], to = [...], k = "k", length = "L0", damping = "c" }',
-                    loc0,
-                )
-                continue
-            frame = spec.get("frame", "world")
-            if frame not in ("world", "body"):
-                self.problem(where, 'frame is "world" (default) or "body"', ("loads", i, "frame"))
-                continue
-            if given[0] == "spring":
-                got = self._spring(skeleton, spec["spring"], where, ("loads", i, "spring"))
-                if got is not None:
-                    V_extra += got[0]
-                    Q = [a + b for a, b in zip(Q, got[1])]
-                continue
-            body = by_name.get(spec.get("body", ""))
-            if body is None:
-                self.problem(
-                    where,
-                    f"`body` must name one of the [[bodies]] ({', '.join(by_name) or 'none'})",
-                    ("loads", i, "body"),
-                )
-                continue
-            dim = len(body.position)
-            R = body_rotation(body)
-            if frame == "body" and R is None and body.angle is None:
-                self.problem(where, "a point mass has no body frame", ("loads", i, "frame"))
-                continue
-            if given[0] == "force":
-                F = self._vector(spec["force"], "forces", f"{where} force", ("loads", i, "force"))
-                at = (
-                    self._vector(spec["at"], "at", f"{where} at", ("loads", i, "at"))
-                    if "at" in spec
-                    else body.position
-                )
-                if F is None or at is None:
-                    continue
-                if len(F) != dim or len(at) != dim:
-                    self.problem(
-                        where,
-                        f"force and at need {dim} components, as the body's position",
-                        ("loads", i, "force"),
-                    )
-                    continue
-                Fw = sp.Matrix(F)
-                if frame == "body":
-                    Fw = (R if R is not None else _planar_turn(body.angle)) * Fw
-                J = partial_velocities(skeleton, body, tuple(at))
-                Q = [Q[k] + (Fw.T * J[:, k])[0] for k in range(n)]
-            else:
-                loc = ("loads", i, "torque")
-                value = spec["torque"]
-                if dim == 2:
-                    tau = self.field(value, "forces", f"{where} torque", loc)
-                    if tau is None:
-                        continue
-                    if body.angle is None:
-                        self.problem(where, "a torque needs a body that turns (an angle)", loc)
-                        continue
-                    Q = [
-                        Q[k] + tau * sp.diff(body.angle, c.symbol)
-                        for k, c in enumerate(skeleton.coordinates)
-                    ]
-                    continue
-                vec = self._vector(value, "forces", f"{where} torque", loc)
-                if vec is None:
-                    continue
-                spin = angular_velocity(skeleton, body)
-                if spin is None or len(vec) != 3:
-                    self.problem(
-                        where,
-                        "a torque in space needs 3 components and a body "
-                        "with a rotation or orientation",
-                        loc,
-                    )
-                    continue
-                tw = sp.Matrix(vec)
-                if frame == "body" and R is not None:
-                    tw = R * tw
-                Q = [
-                    Q[k] + (tw.T * spin[0].diff(c.velocity))[0]
-                    for k, c in enumerate(skeleton.coordinates)
-                ]
-        return Q, V_extra
-
-    def _spring(self, skeleton: System, spec, where: str, loc: tuple):
-        """(energy, generalized damping forces) of a spring (and damper) between two
-        points given as expressions (each may move with the coordinates)."""
-        if not isinstance(spec, dict) or not {"from", "to", "k"} <= set(spec):
-            self.problem(
-                where,
-                'spring = { from = [...], to = [...], k = "k", length = "L0", '
-                'damping = "c" } (length and damping optional)',
-                loc,
-            )
-            return None
-        a = self._vector(spec["from"], "at", f"{where} spring.from", loc)
-        b = self._vector(spec["to"], "at", f"{where} spring.to", loc)
-        k = self.field(spec["k"], "spring", f"{where} spring.k", loc)
-        L0 = self.field(spec.get("length", 0), "spring", f"{where} spring.length", loc)
-        c = self.field(spec.get("damping", 0), "spring", f"{where} spring.damping", loc)
-        if a is None or b is None or k is None or L0 is None or c is None:
-            return None
-        if len(a) != len(b):
-            self.problem(where, "from and to need the same number of components", loc)
-            return None
-        d = sp.Matrix(b) - sp.Matrix(a)
-        length = sp.sqrt(sum(x**2 for x in d)) if L0 != 0 else None
-        if length is None:  # a zero-length spring: k |d|^2 / 2, no square root
-            energy = k * sum(x**2 for x in d) / 2
-            rate = sum(x * time_derivative(x, skeleton) for x in d)  # |d| |d|'
-            Q = [
-                -c * rate * sum(x * sp.diff(x, q.symbol) for x in d) / sum(x**2 for x in d)
-                if c != 0
-                else sp.Integer(0)
-                for q in skeleton.coordinates
-            ]
-            return energy, Q
-        energy = k * (length - L0) ** 2 / 2
-        rate = time_derivative(length, skeleton)
-        Q = [
-            -c * rate * sp.diff(length, q.symbol) if c != 0 else sp.Integer(0)
-            for q in skeleton.coordinates
-        ]
-        return energy, Q
-
-    # ----- notes ---------------------------------------------------------------------
-    def _compare_energy(self, skeleton, bodies, gravity, T, V) -> list[str]:
-        table = self.data.get("lagrangian")
-        if not bodies or not isinstance(table, dict):
-            return []
-        Tb, Vb = body_energy(skeleton, tuple(bodies), gravity)
-        notes = []
-        checks = [("T", T, Tb)]
-        if gravity is not None:
-            checks.append(("V", V, Vb))
-        for label, given, kin in checks:
-            if "L" in table or (label not in table):
-                continue
-            if _numerically_equal(given, kin, skeleton):
-                continue
-            diff = sp.simplify(given - kin) if sp.count_ops(given - kin) < 200 else given - kin
-            if label == "T":
-                notes.append(
-                    f"[lagrangian] T differs from the kinetic energy of [[bodies]] by "
-                    f"{to_text(diff)}; check for a missing term (T is used as given)"
-                )
-            else:
-                notes.append(
-                    f"[lagrangian] V differs from the gravitational energy of "
-                    f"[[bodies]] by {to_text(diff)} (fine if that is a spring or "
-                    "other potential; V is used as given)"
-                )
-        return notes
-
-
-def _planar_turn(angle: sp.Expr) -> sp.Matrix:
-    """The plane rotation by ``angle`` (a planar body's frame)."""
-    return sp.Matrix([[sp.cos(angle), -sp.sin(angle)], [sp.sin(angle), sp.cos(angle)]])
-
-
-def _numerically_equal(a: sp.Expr, b: sp.Expr, system: System, tries: int = 3) -> bool:
-    """Compare two expressions at a few seeded random states (parameters at their values)."""
-    rng = random.Random(1234)
-    symbols = sorted(a.free_symbols | b.free_symbols, key=str)
-    pv = system.parameter_values
-    for _ in range(tries):
-        env = {s: sp.sympify(pv.get(s, rng.uniform(0.3, 1.3))) for s in symbols}
-        try:
-            # xreplace, not subs: a plain swap of symbols for numbers, ten times faster
-            da, db = complex(a.xreplace(env).evalf()), complex(b.xreplace(env).evalf())
-        except (TypeError, ValueError):
-            return False
-        if abs(da - db) > 1e-9 * (1 + abs(da) + abs(db)):
-            return False
-    return True
