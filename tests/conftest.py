@@ -145,13 +145,38 @@ SLOW_CASES = {
 }
 
 
+COLLECTED = pytest.StashKey[dict]()
+"""The cases this process collected, by test (``SLOW_CASES``'s keys and ids), before
+``-m`` or ``-k`` deselected any: what tests/test_slow_cases.py checks the list against."""
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker)."""
+    """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker), and
+    keep the ids collected (``COLLECTED``)."""
+    collected: dict[str, set] = {}
     for item in items:
         test, _, case = item.nodeid.removeprefix("tests/").partition("[")
+        collected.setdefault(test, set()).add(case[:-1])
         if case[:-1] in SLOW_CASES.get(test, ()):
             item.add_marker(pytest.mark.slow)
+    config.stash[COLLECTED] = collected
+
+
+@pytest.fixture(scope="session")
+def slow_cases_collected(request):
+    """(``SLOW_CASES``, the cases collected by test, the files collected whole): the
+    files named with ``::`` on the command line, or all under ``--lf``, were collected in
+    part only, so their tests' absence says nothing."""
+    config = request.config
+    collected = config.stash.get(COLLECTED, {})
+    files = {test.partition("::")[0] for test in collected}
+    if config.getoption("lf", False) or config.getoption("failedfirst", False):
+        files = set()
+    for arg in config.args:
+        if "::" in arg:
+            files.discard(os.path.basename(arg.partition("::")[0]))
+    return SLOW_CASES, collected, files
 
 
 @pytest.fixture(scope="session")
