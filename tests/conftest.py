@@ -79,9 +79,6 @@ SLOW_CASES = {
         "spherical_pendulum: tension on the shell",
         "wedge: normal force on the block",
     },
-    "test_readme.py::test_python_snippet_prints_what_its_comments_say": {
-        "snippet0",
-    },
     "test_rolling.py::test_the_rolling_disc_accelerates_as_sympys_kanes_method_says": {
         "rolling_disc",
     },
