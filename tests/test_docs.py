@@ -214,6 +214,7 @@ def _build(tmp_path: Path, gallery: str) -> tuple[subprocess.CompletedProcess, P
     return done, html
 
 
+@pytest.mark.slow
 def test_docs_build_with_warnings_as_errors(tmp_path):
     done, html = _build(tmp_path, QUICK_GALLERY)
     assert done.returncode == 0, done.stderr + done.stdout
