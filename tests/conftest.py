@@ -152,20 +152,6 @@ SLOW_CASES = {
 }
 
 
-# The files whose tests share what a module's fixture or cache computed (a solve, a server,
-# a model in SymPy): each file's tests go to one pytest-xdist worker (`--dist loadgroup`
-# in pyproject.toml), which computes it once instead of once per worker.
-SHARED_BY_FILE = {
-    "test_animate3d.py",
-    "test_chart.py",
-    "test_closed_forms.py",
-    "test_examples.py",
-    "test_live.py",
-    "test_massless.py",
-    "test_serve_http.py",
-    "test_steps.py",
-}
-
 COLLECTED = pytest.StashKey[dict]()
 """The cases this process collected, by test (``SLOW_CASES``'s keys and ids), before
 ``-m`` or ``-k`` deselected any: what tests/test_slow_cases.py checks the list against."""
@@ -173,18 +159,14 @@ COLLECTED = pytest.StashKey[dict]()
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker), group
-    the tests of each file of ``SHARED_BY_FILE``, and keep the ids collected
-    (``COLLECTED``)."""
+    """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker), and
+    keep the ids collected (``COLLECTED``)."""
     collected: dict[str, set] = {}
     for item in items:
         test, _, case = item.nodeid.removeprefix("tests/").partition("[")
         collected.setdefault(test, set()).add(case[:-1])
         if case[:-1] in SLOW_CASES.get(test, ()):
             item.add_marker(pytest.mark.slow)
-        file = test.partition("::")[0]
-        if file in SHARED_BY_FILE:
-            item.add_marker(pytest.mark.xdist_group(file))
     config.stash[COLLECTED] = collected
 
 

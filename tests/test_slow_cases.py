@@ -42,12 +42,3 @@ def test_every_slow_case_names_a_collected_test(slow_cases_collected):
         for case in sorted(cases - collected.get(test, set()))
     ]
     assert not stale, "SLOW_CASES in tests/conftest.py names cases no test has: " + ", ".join(stale)
-
-
-def test_the_files_grouped_by_worker_exist():
-    from conftest import SHARED_BY_FILE
-
-    missing = sorted(f for f in SHARED_BY_FILE if not (ROOT / "tests" / f).is_file())
-    assert not missing, "SHARED_BY_FILE in tests/conftest.py names no such file: " + ", ".join(
-        missing
-    )
