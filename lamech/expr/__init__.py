@@ -19,8 +19,8 @@ magnitude and realness (``exp(exp(20))``, ``asin(2)``), and expressions by the n
 terms they would expand to (``(a + b + c + d + e)^64``).
 
 The modules, each importing only those after it: :mod:`._parse` (the text's checks and
-:func:`parse`), :mod:`._build` (the whitelist walk), :mod:`._bounds` (sizes of numbers,
-the zero test), :mod:`._inputs` (the inputs' vocabulary: :class:`Table`,
+:func:`parse`), :mod:`._build` (the whitelist walk), :mod:`._bounds` (sizes of numbers
+and of expansions, the zero test), :mod:`._inputs` (the inputs' vocabulary: :class:`Table`,
 :func:`switch_form`, :func:`not_differentiable`), :mod:`._print` (:func:`to_text`,
 :func:`latex`, :func:`printable`) and :mod:`._grammar` (the limits, the functions,
 :class:`ExpressionError`). Import the names from here.

@@ -1,6 +1,6 @@
-"""What the parser bounds numbers with: the digits of exact powers, magnitudes, the
-zero test of a divisor by evaluation (:func:`identically_zero`), and the short forms
-of numbers and text its messages show."""
+"""What the parser bounds with: the digits of exact powers, magnitudes, the number of
+terms an expression would expand to, the zero test of a divisor by evaluation
+(:func:`identically_zero`), and the short forms of numbers and text its messages show."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import sympy as sp
 
 from ._grammar import (
     _SYMPY_FAILURES,
+    MAX_TERMS,
 )
 from ._inputs import Table
 
@@ -101,3 +102,45 @@ def _plain_complex(number: sp.Expr) -> str:
     re_part, im_part = number.as_real_imag()
     sign = "-" if im_part < 0 else "+"
     return f"{float(re_part):.6g} {sign} {abs(float(im_part)):.6g} i"
+
+
+def _terms(e: sp.Expr, cache: dict) -> int:
+    """An upper bound on the number of terms of ``sympy.expand(e)`` (capped just
+    above MAX_TERMS, so that the numbers stay small); functions count one each.
+    ``cache`` holds the counts of the subexpressions seen (one per parse)."""
+    known = cache.get(e)
+    if known is not None:
+        return known
+    if e.is_Add:
+        n = sum(_terms(a, cache) for a in e.args)
+    elif e.is_Mul:
+        n = 1
+        for a in e.args:
+            n = min(n * _terms(a, cache), MAX_TERMS + 1)
+    elif e.is_Pow:
+        n = _power_terms(e.args[0], e.args[1], cache)
+    else:
+        n = 1
+    n = min(n, MAX_TERMS + 1)
+    cache[e] = n
+    return n
+
+
+def _power_terms(base: sp.Expr, exponent: sp.Expr, cache: dict) -> int:
+    if not exponent.is_Rational or base.is_Number:
+        return 1
+    k = abs(exponent.p) // exponent.q  # expand keeps the fractional part whole
+    if k <= 1:
+        return _terms(base, cache) if k == 1 else 1
+    if base.is_Mul:
+        n = 1
+        for f in base.args:
+            n = min(n * _power_terms(f, exponent, cache), MAX_TERMS + 1)
+        return n
+    if base.is_Pow and base.args[1].is_Rational:
+        return _power_terms(base.args[0], base.args[1] * k, cache)
+    t = _terms(base, cache)
+    if t <= 1:
+        return 1
+    # monomials of degree k in t terms (a multinomial): C(k + t - 1, t - 1)
+    return min(math.comb(k + t - 1, t - 1), MAX_TERMS + 1) if k <= 10**4 else MAX_TERMS + 1

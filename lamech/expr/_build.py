@@ -18,6 +18,7 @@ from ._bounds import (
     _plain_complex,
     _power_digits,
     _short,
+    _terms,
     identically_zero,
 )
 from ._grammar import (
@@ -385,7 +386,7 @@ class _Builder:
             # a sum of checked constants is no larger than its terms and real like them
             if part.is_number and not (part.is_Rational or part.is_NumberSymbol or part.is_Add):
                 self._check_constant(part, node)
-        terms = self._terms(out)
+        terms = _terms(out, self.terms_cache)
         if terms > MAX_TERMS:
             shown = self.segment(node) or _plain(out)
             raise self.fail(
@@ -458,45 +459,6 @@ class _Builder:
                 "expressions must be real",
                 node,
             )
-
-    def _terms(self, e: sp.Expr) -> int:
-        """An upper bound on the number of terms of ``sympy.expand(e)`` (capped just
-        above MAX_TERMS, so that the numbers stay small); functions count one each."""
-        known = self.terms_cache.get(e)
-        if known is not None:
-            return known
-        if e.is_Add:
-            n = sum(self._terms(a) for a in e.args)
-        elif e.is_Mul:
-            n = 1
-            for a in e.args:
-                n = min(n * self._terms(a), MAX_TERMS + 1)
-        elif e.is_Pow:
-            n = self._power_terms(e.args[0], e.args[1])
-        else:
-            n = 1
-        n = min(n, MAX_TERMS + 1)
-        self.terms_cache[e] = n
-        return n
-
-    def _power_terms(self, base: sp.Expr, exponent: sp.Expr) -> int:
-        if not exponent.is_Rational or base.is_Number:
-            return 1
-        k = abs(exponent.p) // exponent.q  # expand keeps the fractional part whole
-        if k <= 1:
-            return self._terms(base) if k == 1 else 1
-        if base.is_Mul:
-            n = 1
-            for f in base.args:
-                n = min(n * self._power_terms(f, exponent), MAX_TERMS + 1)
-            return n
-        if base.is_Pow and base.args[1].is_Rational:
-            return self._power_terms(base.args[0], base.args[1] * k)
-        t = self._terms(base)
-        if t <= 1:
-            return 1
-        # monomials of degree k in t terms (a multinomial): C(k + t - 1, t - 1)
-        return min(math.comb(k + t - 1, t - 1), MAX_TERMS + 1) if k <= 10**4 else MAX_TERMS + 1
 
     def _Call(self, node: ast.Call) -> sp.Expr:
         if not isinstance(node.func, ast.Name):
