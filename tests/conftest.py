@@ -28,6 +28,9 @@ SLOW_CASES = {
         "122-angular-velocity-in-f",
         "123-angular-velocity-rate",
     },
+    "test_bench.py::test_b9s_sympy_script_runs_and_prints_a_multiplier_per_constraint": {
+        "atwood",
+    },
     "test_core.py::test_chain_tensions_at_rest_against_statics": {
         "2",
     },
@@ -47,6 +50,13 @@ SLOW_CASES = {
         "moving_support",
         "rotating_table",
         "sphere_slide",
+        "spherical_pendulum",
+        "wedge",
+    },
+    "test_examples.py::test_listed_integrals_are_conserved": {
+        "hoop_bead",
+        "ladder",
+        "moving_support",
         "spherical_pendulum",
         "wedge",
     },
@@ -78,9 +88,6 @@ SLOW_CASES = {
         "spherical_pendulum: string tension",
         "spherical_pendulum: tension on the shell",
         "wedge: normal force on the block",
-    },
-    "test_readme.py::test_python_snippet_prints_what_its_comments_say": {
-        "snippet0",
     },
     "test_rolling.py::test_the_rolling_disc_accelerates_as_sympys_kanes_method_says": {
         "rolling_disc",
@@ -145,13 +152,38 @@ SLOW_CASES = {
 }
 
 
+COLLECTED = pytest.StashKey[dict]()
+"""The cases this process collected, by test (``SLOW_CASES``'s keys and ids), before
+``-m`` or ``-k`` deselected any: what tests/test_slow_cases.py checks the list against."""
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker)."""
+    """Mark the cases in ``SLOW_CASES`` slow (before ``-m`` deselects by marker), and
+    keep the ids collected (``COLLECTED``)."""
+    collected: dict[str, set] = {}
     for item in items:
         test, _, case = item.nodeid.removeprefix("tests/").partition("[")
+        collected.setdefault(test, set()).add(case[:-1])
         if case[:-1] in SLOW_CASES.get(test, ()):
             item.add_marker(pytest.mark.slow)
+    config.stash[COLLECTED] = collected
+
+
+@pytest.fixture(scope="session")
+def slow_cases_collected(request):
+    """(``SLOW_CASES``, the cases collected by test, the files collected whole): the
+    files named with ``::`` on the command line, or all under ``--lf``, were collected in
+    part only, so their tests' absence says nothing."""
+    config = request.config
+    collected = config.stash.get(COLLECTED, {})
+    files = {test.partition("::")[0] for test in collected}
+    if config.getoption("lf", False) or config.getoption("failedfirst", False):
+        files = set()
+    for arg in config.args:
+        if "::" in arg:
+            files.discard(os.path.basename(arg.partition("::")[0]))
+    return SLOW_CASES, collected, files
 
 
 @pytest.fixture(scope="session")

@@ -219,6 +219,7 @@ def quick_build(tmp_path_factory) -> tuple[subprocess.CompletedProcess, Path]:
     return _build(tmp_path_factory.mktemp("docs"), QUICK_GALLERY)
 
 
+@pytest.mark.slow
 def test_docs_build_with_warnings_as_errors(quick_build):
     done, html = quick_build
     assert done.returncode == 0, done.stderr + done.stdout
@@ -232,6 +233,7 @@ def test_docs_build_with_warnings_as_errors(quick_build):
         assert f'id="{name}"' in api, name
 
 
+@pytest.mark.slow
 def test_docs_math_is_rendered_offline_by_the_vendored_katex(quick_build, chromium):
     done, html = quick_build
     assert done.returncode == 0, done.stderr + done.stdout

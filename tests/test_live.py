@@ -134,6 +134,7 @@ def test_a_parameter_that_follows_others_is_not_differentiated_by():
     assert root.sensitivity == {"m": 0.0, "g": 0.0, "l": 0.0}
 
 
+@pytest.mark.slow
 def test_sensitivities_in_the_text_and_the_json():
     run = _lamech("solve", "cylinder")
     assert run.returncode == 0, run.stderr
@@ -345,6 +346,7 @@ def _slide(page, name: str, value: float) -> None:
     )
 
 
+@pytest.mark.slow
 def test_moving_mu_moves_the_slip_angle_and_not_the_lift_off(pages, chromium):
     page, requested, errors = _open(chromium, pages["cylinder"])
     assert page.locator("#live input[type=range]").count() == 5
@@ -390,6 +392,7 @@ def test_moving_mu_moves_the_slip_angle_and_not_the_lift_off(pages, chromium):
     assert errors == [] and requested == []
 
 
+@pytest.mark.slow
 def test_a_launch_too_fast_lets_go_at_the_start(pages, chromium, launch_file):
     page, requested, errors = _open(chromium, pages["launch"])
     lift = _event(page, "live-lets-go-contact")
@@ -413,6 +416,7 @@ def test_a_launch_too_fast_lets_go_at_the_start(pages, chromium, launch_file):
     assert json.loads(run.stdout)["lets_go"]["contact"]["when"] == "at the start"
 
 
+@pytest.mark.slow
 def test_the_page_stays_small_and_offline(pages):
     text = pages["cylinder"].read_text(encoding="utf-8")
     assert pages["cylinder"].stat().st_size < 1_000_000
@@ -431,6 +435,7 @@ def slip_angle_from(mu: float, theta0: float) -> float:
     )
 
 
+@pytest.mark.slow
 def test_serve_runs_the_simulation_at_a_sliders_values():
     pytest.importorskip("starlette", reason="lamech[serve] not installed")
     pytest.importorskip("httpx", reason="Starlette's test client needs httpx")
