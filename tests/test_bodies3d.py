@@ -16,7 +16,7 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.model import angular_velocity, body_rotation, partial_velocities
+from lamech.model._kinematics import angular_velocity, body_rotation, partial_velocities
 
 DISC = """
 title = "Disc rolling on a plane, described as a body"

@@ -14,6 +14,7 @@ import sympy as sp
 
 import lamech
 from lamech.expr import parse
+from lamech.model._checks import holding_at_start
 from lamech.problem import chain_toml
 from lamech.symbolic import DegenerateConstraintsError, dynamics, eliminate
 from lamech.symbolic._derive import kkt_numeric
@@ -78,7 +79,7 @@ def test_rheonomic_gamma_and_the_force_that_drives():
 
 def test_numeric_kkt_singular_mass_matrix_is_fine():
     """Double Atwood with a massless pulley: M is singular, the KKT matrix is not."""
-    system = lamech.model.holding_at_start(lamech.load("double_atwood"))  # no open stops
+    system = holding_at_start(lamech.load("double_atwood"))  # no open stops
     d = dynamics(system)
     state = {**system.parameter_values, system.t: 0.0}
     state.update(

@@ -17,7 +17,7 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.model import holding_at_start, probe_states
+from lamech.model._checks import holding_at_start, probe_states
 from lamech.symbolic import DegenerateConstraintsError, dynamics, multipliers
 from lamech.symbolic._derive import kkt_numeric
 

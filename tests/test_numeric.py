@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import lamech
+from lamech.model._checks import holding_at_start
 from lamech.numeric import compile_system, numba_available
 from lamech.problem import chain_toml, loads
 
@@ -147,7 +148,7 @@ def test_structured_kkt_solve_matches_dense(name):
     else:
         # the stops of the Atwood machines (open at the start) can never all close with
         # the strings: "all rows" is a mode of the constraints that hold at the start
-        system = lamech.model.holding_at_start(lamech.load(name))
+        system = holding_at_start(lamech.load(name))
     a = compile_system(system)
     b = compile_system(system, jit=True)
     assert b.jit

@@ -15,36 +15,11 @@ where they are not given, an L split into T and V, and the applied loads
 (:class:`AppliedForce`, :class:`Torque`, :class:`Spring`) as generalized forces.
 """
 
-from ._assemble import assemble, skeleton, split_lagrangian
-from ._base import FIELDS, ConstraintKind, ModelError, SceneryKind, ShapeKind, name_problem
-from ._chart import Chart, ChartProposal, circle_chart, satisfied_by_chart, with_chart
-from ._checks import (
-    INITIAL_TOLERANCE,
-    Inertialess,
-    dependent_constraints,
-    dependent_group,
-    holding_at_start,
-    initial_values,
-    massless,
-    numeric_matrix,
-    open_at_start,
-    probe_states,
-    value,
-    without_inertia,
-)
-from ._kinematics import (
-    angular_velocity,
-    body_energy,
-    body_rotation,
-    constraint_jacobian,
-    contact_partial_velocities,
-    gradient,
-    inertia_matrix,
-    jacobian,
-    partial_velocities,
-    time_derivative,
-    velocity_form,
-)
+from .._moved import moved
+from ._assemble import assemble, split_lagrangian
+from ._base import ConstraintKind, ModelError, SceneryKind, ShapeKind
+from ._chart import Chart, ChartProposal, circle_chart, with_chart
+from ._kinematics import body_energy
 from ._loads import AppliedForce, Load, Spring, Torque, load_terms
 from ._parts import (
     Body,
@@ -56,68 +31,76 @@ from ._parts import (
     Scenery,
     coordinate,
     parameter,
-    parameter_numbers,
     parameters,
-    signed_symbol,
 )
 from ._system import System
 from ._values import with_values
 
 __all__ = [
-    "angular_velocity",
-    "body_rotation",
-    "inertia_matrix",
-    "Parameter",
-    "Chart",
-    "ChartProposal",
-    "circle_chart",
-    "satisfied_by_chart",
-    "with_chart",
-    "Coordinate",
-    "Friction",
-    "ForceSpec",
-    "Constraint",
-    "Body",
-    "Scenery",
-    "SceneryKind",
     "System",
+    "Parameter",
+    "Coordinate",
+    "Constraint",
+    "Friction",
+    "Body",
+    "ForceSpec",
+    "Scenery",
     "ModelError",
     "ConstraintKind",
     "ShapeKind",
-    "FIELDS",
-    "name_problem",
-    "time_derivative",
-    "body_energy",
-    "partial_velocities",
-    "contact_partial_velocities",
-    "velocity_form",
-    "constraint_jacobian",
-    "jacobian",
-    "gradient",
-    "INITIAL_TOLERANCE",
-    "value",
-    "numeric_matrix",
-    "initial_values",
-    "probe_states",
-    "holding_at_start",
-    "open_at_start",
-    "dependent_constraints",
-    "dependent_group",
-    "Inertialess",
-    "massless",
-    "without_inertia",
+    "SceneryKind",
+    "Chart",
+    "ChartProposal",
+    "circle_chart",
+    "with_chart",
     "with_values",
     "parameter",
     "parameters",
-    "parameter_numbers",
-    "signed_symbol",
     "coordinate",
     "AppliedForce",
     "Torque",
     "Spring",
     "Load",
-    "load_terms",
     "assemble",
-    "skeleton",
     "split_lagrangian",
+    "load_terms",
+    "body_energy",
 ]
+
+# The kinematics, the checks and the rules' vocabulary are lamech's own plumbing: they
+# still resolve here, with a DeprecationWarning naming the private module that holds them.
+_INTERNAL = "internal to lamech.model"
+__getattr__ = moved(
+    __name__,
+    {
+        "FIELDS": ("_base", _INTERNAL),
+        "INITIAL_TOLERANCE": ("_checks", _INTERNAL),
+        "Inertialess": ("_checks", _INTERNAL),
+        "angular_velocity": ("_kinematics", _INTERNAL),
+        "body_rotation": ("_kinematics", _INTERNAL),
+        "constraint_jacobian": ("_kinematics", _INTERNAL),
+        "contact_partial_velocities": ("_kinematics", _INTERNAL),
+        "dependent_constraints": ("_checks", _INTERNAL),
+        "dependent_group": ("_checks", _INTERNAL),
+        "gradient": ("_kinematics", _INTERNAL),
+        "holding_at_start": ("_checks", _INTERNAL),
+        "inertia_matrix": ("_kinematics", _INTERNAL),
+        "initial_values": ("_checks", _INTERNAL),
+        "jacobian": ("_kinematics", _INTERNAL),
+        "massless": ("_checks", _INTERNAL),
+        "name_problem": ("_base", _INTERNAL),
+        "numeric_matrix": ("_checks", _INTERNAL),
+        "open_at_start": ("_checks", _INTERNAL),
+        "parameter_numbers": ("_parts", _INTERNAL),
+        "partial_velocities": ("_kinematics", _INTERNAL),
+        "probe_states": ("_checks", _INTERNAL),
+        "satisfied_by_chart": ("_chart", _INTERNAL),
+        "signed_symbol": ("_parts", _INTERNAL),
+        "skeleton": ("_assemble", _INTERNAL),
+        "time_derivative": ("_kinematics", _INTERNAL),
+        "value": ("_checks", _INTERNAL),
+        "velocity_form": ("_kinematics", _INTERNAL),
+        "without_inertia": ("_checks", _INTERNAL),
+    },
+)
+del moved

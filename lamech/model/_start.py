@@ -33,7 +33,7 @@ __all__ = ["initial_issues", "dependent_issues"]
 
 def initial_issues(s: System) -> Issues:
     """The initial state meets every constraint (a unilateral contact may start open, see
-    :func:`~lamech.model.open_at_start`, not on its forbidden side)."""
+    :func:`~lamech.model._checks.open_at_start`, not on its forbidden side)."""
 
     out: Issues = []
     pv = s.parameter_values

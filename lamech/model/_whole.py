@@ -1,5 +1,5 @@
 """The rules a whole system obeys: names declared once, each expression in its field's
-symbols (:data:`~lamech.model.FIELDS`) and differentiable as the derivation needs, the
+symbols (:data:`~lamech.model._base.FIELDS`) and differentiable as the derivation needs, the
 parts fitting together (a friction's normal constraint, a force's bodies, one dimension),
 and values possible at the parameters (masses >= 0, a real inertia). What must hold at
 the numbers of the initial state follows in :mod:`._start`, and a chart's rules in

@@ -51,7 +51,8 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..expr import switch_form, table_knots, to_text
-from ..model import System, contact_partial_velocities
+from ..model import System
+from ..model._kinematics import contact_partial_velocities
 from ..symbolic import Dynamics
 from ..symbolic import dynamics as derive_dynamics
 from ._initial import expression_values

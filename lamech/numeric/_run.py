@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..linalg import kkt_matrix, kkt_rhs
-from ..model import without_inertia
+from ..model._checks import without_inertia
 from ._codegen import NumericSystem
 from ._events import Event, EventKind
 from ._kkt import slip_directions

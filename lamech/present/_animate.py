@@ -89,7 +89,7 @@ class Scene:
     points drawn."""
 
     def __init__(self, traj, system, params, frames: np.ndarray):
-        from ..model import body_rotation
+        from ..model._kinematics import body_rotation
 
         self.traj = traj
         self.frames = frames

@@ -18,22 +18,11 @@ from typing import Any
 import sympy as sp
 
 from ..expr import MAX_NUMBER_DIGITS, RESERVED, printable, tabulated, to_text
-from ..model import (
-    FIELDS,
-    Body,
-    Chart,
-    Coordinate,
-    Parameter,
-    System,
-    angular_velocity,
-    assemble,
-    coordinate,
-    name_problem,
-    parameter_numbers,
-    signed_symbol,
-    skeleton,
-    time_derivative,
-)
+from ..model import Body, Chart, Coordinate, Parameter, System, assemble, coordinate
+from ..model._assemble import skeleton
+from ..model._base import FIELDS, name_problem
+from ..model._kinematics import angular_velocity, time_derivative
+from ..model._parts import parameter_numbers, signed_symbol
 from ._examples import example_names, example_path
 from ._files import LIMITS, MAX_BYTES, Issue, ProblemFileError, read_table, repeated_key
 from ._sections import PartsReader

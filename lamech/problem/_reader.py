@@ -1,5 +1,5 @@
 """The reader's groundwork: reporting an issue at its line, parsing an expression in
-the names a field may contain (:data:`lamech.model.FIELDS`), making a part of the model
+the names a field may contain (:data:`lamech.model._base.FIELDS`), making a part of the model
 and placing the issues it finds, and the shapes TOML gives (tables, lists, matrices)."""
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from typing import Any
 import sympy as sp
 
 from ..expr import ExpressionError, parse
-from ..model import FIELDS, ModelError
+from ..model import ModelError
+from ..model._base import FIELDS
 from ._files import Issue, Lines, ProblemFileError
 
 # A model's `where` for a part in a system (constraints[2] `rolling` friction.mu) and for
@@ -115,7 +116,7 @@ class Reader:
             return None
 
     def field(self, value: Any, field: str, where: str, loc: tuple) -> sp.Expr | None:
-        """Parse ``value`` as the model's ``field`` (a key of :data:`lamech.model.FIELDS`):
+        """Parse ``value`` as the model's ``field`` (a key of :data:`lamech.model._base.FIELDS`):
         with the names that field may contain, named in messages as the model does."""
         scope, what = FIELDS[field]
         hints = self.spin_hints

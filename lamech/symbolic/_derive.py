@@ -30,15 +30,9 @@ import numpy as np
 import sympy as sp
 
 from ..linalg import kkt_matrix, kkt_rhs
-from ..model import (
-    System,
-    constraint_jacobian,
-    dependent_group,
-    gradient,
-    jacobian,
-    numeric_matrix,
-    without_inertia,
-)
+from ..model import System
+from ..model._checks import dependent_group, numeric_matrix, without_inertia
+from ..model._kinematics import constraint_jacobian, gradient, jacobian
 
 __all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError"]
 

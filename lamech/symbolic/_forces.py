@@ -4,7 +4,7 @@ Constraint j's generalized force is Q^(j) = lambda_j dF_j/dq' (the canonical equ
 of :mod:`lamech.model`). If that force is a Cartesian force F acting on the material
 point P of a body (with reaction -F on a second body's material point), virtual work
 gives J^T F = Q^(j) with J = J_Pa - J_Pb the partial velocities
-(:func:`lamech.model.partial_velocities`). lamech reports the minimum-norm F, its
+(:func:`lamech.model._kinematics.partial_velocities`). lamech reports the minimum-norm F, its
 components along the named directions (null where J cannot determine them) and the
 residual |Q^(j) - J^T F|: a nonzero residual means the named point cannot carry that
 constraint's force.
@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from ..model import System, contact_partial_velocities
+from ..model import System
+from ..model._kinematics import contact_partial_velocities
 from ._derive import Dynamics
 from ._reduce import Reduction, angles_of, tidy
 

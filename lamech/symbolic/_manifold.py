@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..model import System, time_derivative
+from ..model import System
+from ..model._kinematics import time_derivative
 from ._budget import count_ops
 from ._student import student
 

@@ -28,7 +28,7 @@ not, M + A^T A is positive definite and the same steps run on it:
     \\tilde M = M + A^T A, \\ \\tilde S = A \\tilde M^{-1} A^T.
 
 Singularity is decided at one seeded numeric state near the initial one
-(:func:`~lamech.model.probe_states`), never by a symbolic zero test.
+(:func:`~lamech.model._checks.probe_states`), never by a symbolic zero test.
 """
 
 from __future__ import annotations
@@ -38,7 +38,8 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
-from ..model import System, holding_at_start, probe_states
+from ..model import System
+from ..model._checks import holding_at_start, probe_states
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics
 
 __all__ = ["multipliers"]

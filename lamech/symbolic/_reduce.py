@@ -28,7 +28,10 @@ try:  # SymPy >= 1.13 keeps it here, and no longer at the top level
 except ImportError:  # pragma: no cover - SymPy 1.12
     from sympy.matrices.common import NonInvertibleMatrixError
 
-from ..model import Coordinate, System, open_at_start, satisfied_by_chart, time_derivative
+from ..model import Coordinate, System
+from ..model._chart import satisfied_by_chart
+from ..model._checks import open_at_start
+from ..model._kinematics import time_derivative
 from ._budget import count_ops
 from ._derive import Dynamics
 from ._manifold import manifold_simplifier

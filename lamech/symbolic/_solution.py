@@ -10,14 +10,8 @@ from functools import cached_property
 import numpy as np
 import sympy as sp
 
-from ..model import (
-    System,
-    circle_chart,
-    holding_at_start,
-    initial_values,
-    numeric_matrix,
-    open_at_start,
-)
+from ..model import System, circle_chart
+from ..model._checks import holding_at_start, initial_values, numeric_matrix, open_at_start
 from ._budget import count_ops
 from ._conditions import (
     Root,

@@ -26,7 +26,9 @@ import numpy as np
 import sympy as sp
 
 from ..expr import ExpressionError, parse
-from ..model import System, contact_partial_velocities, holding_at_start
+from ..model import System
+from ..model._checks import holding_at_start
+from ..model._kinematics import contact_partial_velocities
 from ._derive import dynamics
 from ._reduce import READABLE_OPS, SIMPLIFY_OPS, _probe, tidy
 
