@@ -38,12 +38,13 @@ from __future__ import annotations
 
 import functools
 import os
-import types
 
 import numpy as np
 
 from ._codegen import NumericSystem, numba_available
+from ._events import EventKind
 from ._kernels import STAGES as _S  # DOP853's number of stages, checked in _tableau
+from ._kernels import codes
 from ._threads import one_blas_thread
 
 __all__ = [
@@ -126,21 +127,16 @@ class BatchResult:
 
 
 def _python_namespace(ns: NumericSystem) -> dict:
-    """:mod:`._kernels` as Python, around the system's NumPy functions: its functions with
-    globals of their own, where the KKT solve and the right-hand sides are the NumPy ones
-    of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
+    """The kernels (:mod:`._kernels`) as Python around the system's NumPy functions: one
+    namespace of their functions where the KKT solve and the right-hand sides are the
+    NumPy ones of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
     ``"sy"`` the system record they take."""
-    from . import _kernels
+    from ._kernels import python_namespace
 
-    namespace = dict(vars(_kernels))
-    namespace["prange"] = range
+    namespace = python_namespace()
     namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
     namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
     namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
-    for name, f in vars(_kernels).items():
-        if isinstance(f, types.FunctionType) and f.__module__ == _kernels.__name__:
-            if name not in ("kkt_solve", "rhs_kernel", "accelerations"):
-                namespace[name] = types.FunctionType(f.__code__, namespace, name)
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
     namespace["sy"] = (
         bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
@@ -257,26 +253,13 @@ def integrate_batch(
 
 
 # ----- the loop with events -------------------------------------------------------------
-_EVENT_CODES = {"lift-off": 0, "contact": 1, "impact": 4, "slip": 2, "stick": 3}
-FALLBACKS = {
-    2: "contact",
-    3: "stick",
-    4: "events",
-    5: "step",
-    6: "growth",
-    7: "penetration",
-    8: "graze",
-    9: "settle",
-    10: "start",
-    11: "singular",
-}
+FALLBACKS = dict(codes.FALLBACKS)
 """The statuses of a run the loop with events leaves to :func:`lamech.numeric.simulate`
-(the loop's ``ST_*`` codes; 3, stick, is no longer used): an impact or contact (with
-``impacts``: only one the loop cannot apply, a singular impact matrix or a gap met below
-the surface), more events than recorded,
-a step-size collapse, a blow-up, a penetration, a gap that turns within a step, a mode
-that does not settle, a start off the constraints, a singular KKT
-solve."""
+(the loop's ``ST_*`` codes, :mod:`._kernels.codes`; 3, stick, is no longer used): an
+impact or contact (with ``impacts``: only one the loop cannot apply, a singular impact
+matrix or a gap met below the surface), more events than recorded, a step-size
+collapse, a blow-up, a penetration, a gap that turns within a step, a mode that does
+not settle, a start off the constraints, a singular KKT solve."""
 
 
 class EventBatchResult:
@@ -289,8 +272,8 @@ class EventBatchResult:
 
     def __init__(self, t, y, status, events, steps):
         self.t, self.y, self.events, self.steps = t, y, events, steps
-        self.status = [("end", "found")[s] if s < 2 else FALLBACKS[s] for s in status]
-        self.fallback = np.array([s >= 2 for s in status], dtype=bool)
+        self.status = [codes.STATUS_NAMES[s] for s in status]
+        self.fallback = np.array([s in codes.FALLBACKS for s in status], dtype=bool)
 
 
 _EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
@@ -319,22 +302,12 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     return out
 
 
-_DETAILS = {1: "multiplier", 2: "ratio", 3: "reversal", 4: "initial"}  # the kernels' DT_*
-_IMPACT_DETAILS = {  # DT_IMPACT, DT_ACCUMULATION, DT_IMPULSE: EX's columns 1, 2, 3
-    5: ("impulse", "velocity_before", "restitution"),
-    6: ("restitution", "accumulation"),
-    7: ("impulse",),
-}
-
-
 def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
     """The first ``count`` events a loop with events logged (kinds EK, constraints EJ,
-    times ET, states EY, details EX (code, then up to 3 values)) as
-    :class:`~lamech.numeric.Event`."""
-    from ._events import Event, EventKind
+    times ET, states EY, details EX (code, then up to 3 values: :data:`codes.DETAILS`))
+    as :class:`~lamech.numeric.Event`."""
+    from ._events import Event
 
-    kind_of = {0: EventKind.LIFT_OFF, 1: EventKind.CONTACT, 2: EventKind.SLIP, 3: EventKind.STICK}
-    kind_of[4] = EventKind.IMPACT
     coords, names, n = ns.coordinate_names, ns.constraint_names, ns.n
     out = []
     for e in range(count):
@@ -343,14 +316,15 @@ def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
         values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
         details: dict = {}
         code = int(EX[e, 0])
-        if code in (1, 2):
-            details[_DETAILS[code]] = float(EX[e, 1])
-        elif code in (3, 4):
-            details[_DETAILS[code]] = bool(EX[e, 1]) if code == 3 else True
-        elif code in _IMPACT_DETAILS:
-            for c, name in enumerate(_IMPACT_DETAILS[code]):
+        if code == codes.DT_REVERSAL:
+            details["reversal"] = bool(EX[e, 1])
+        elif code == codes.DT_INITIAL:
+            details["initial"] = True
+        elif code in codes.DETAILS:
+            for c, name in enumerate(codes.DETAILS[code]):
                 details[name] = float(EX[e, 1 + c])
-        out.append(Event(float(ET[e]), kind_of[int(EK[e])], names[EJ[e]], values, **details))
+        kind = codes.EVENT_KINDS[int(EK[e])]
+        out.append(Event(float(ET[e]), kind, names[EJ[e]], values, **details))
     return out
 
 
@@ -550,7 +524,7 @@ def integrate_events(
     names = ns.constraint_names
     wanted = np.array(
         [
-            [_EVENT_CODES[str(k)] for k, _ in want],
+            [codes.EVENT_CODES[EventKind(k)] for k, _ in want],
             [-1 if c is None else names.index(c) for _, c in want],
         ],
         dtype=np.int64,
@@ -559,7 +533,7 @@ def integrate_events(
     m = ns.m
     IM = np.zeros((B, 4, m), dtype=np.int64)
     IM[:, 0, :] = 1  # engaged
-    IM[:, 1, :] = np.where(kinds[2] >= 0, 1, 0)  # friction sticks
+    IM[:, 1, :] = np.where(kinds[2] >= 0, codes.FR_STICK, codes.FR_NONE)  # friction sticks
     IM[:, 2:, :] = 1  # contact and stick events armed
     FM = np.zeros((B, 5, m))
     FM[:, 1, :] = 1.0  # sN

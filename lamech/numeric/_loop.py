@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _kernels as K
 from ._batch import _dense_tableau, _event_functions, _kinds, _tableau, logged_events
 from ._codegen import numba_available
 from ._engines import ENGINES, engine_name
-from ._events import EventKind, FrictionState
+from ._events import EventKind
+from ._kernels.codes import FRICTION, FRICTION_STATES, ST_BUDGET, ST_CONTACT, ST_END
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
 from ._run import Run
@@ -37,9 +37,6 @@ __all__ = ["Loop", "loop_for", "ENGINES", "CHUNK"]
 CHUNK = 2000
 """Steps per call of the loop (a few ms compiled): progress and Ctrl-C between them."""
 
-_FRICTION = {None: K.FR_NONE, FrictionState.STICK: K.FR_STICK, FrictionState.SLIP: K.FR_SLIP}
-_FRICTION[FrictionState.OFF] = K.FR_OFF
-_STATE = {v: k for k, v in _FRICTION.items()}
 CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
 
 
@@ -143,12 +140,12 @@ class Loop:
         checked = [e for e in events if e.accumulation is None]
         for te in sorted({e.t for e in checked}):
             zeno.check(te, [(str(e.kind), e.constraint) for e in checked if e.t == te])
-        self.h = float(fo[0]) if status == K.ST_BUDGET else 0.0
-        if status == K.ST_END:
+        self.h = float(fo[0]) if status == ST_BUDGET else 0.0
+        if status == ST_END:
             return DONE, float(fo[0])
-        if status == K.ST_BUDGET:
+        if status == ST_BUDGET:
             return CONTINUE, float(fo[0])
-        if status == K.ST_CONTACT:
+        if status == ST_CONTACT:
             return CONTACT, int(io[1])
         return HANDBACK, status
 
@@ -168,7 +165,7 @@ def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
     m = mode.kinds.m
     imode = np.zeros((4, m), dtype=np.int64)
     imode[0] = mode.engaged
-    imode[1] = [_FRICTION[s] for s in mode.friction]
+    imode[1] = [FRICTION[s] for s in mode.friction]
     imode[2] = [mode.is_armed(EventKind.CONTACT, j) for j in range(m)]
     imode[3] = [mode.is_armed(EventKind.STICK, j) for j in range(m)]
     fmode = np.full((5, m), np.nan)
@@ -182,7 +179,7 @@ def set_mode(mode, imode: np.ndarray, fmode: np.ndarray) -> None:
     """The :class:`._mode.Mode` of the loop's arrays."""
     m = mode.kinds.m
     mode.engaged = imode[0] == 1
-    mode.friction = [_STATE[int(c)] for c in imode[1]]
+    mode.friction = [FRICTION_STATES[int(c)] for c in imode[1]]
     mode.sigma, mode.sN, mode.offset = (fmode[i].copy() for i in range(3))
     mode.accumulating = {
         j: (float(fmode[4, j]), float(fmode[3, j])) for j in range(m) if not np.isnan(fmode[3, j])
