@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch import _dense_tableau, _event_functions, _kinds, _tableau, logged_events
+from ._batch import _event_functions, _kinds, _tables, logged_events
 from ._codegen import numba_available
 from ._engines import ENGINES, engine_name
 from ._events import EventKind
+from ._kernels import codes
 from ._kernels.codes import FRICTION, FRICTION_STATES, ST_BUDGET, ST_CONTACT, ST_END
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
@@ -87,7 +88,8 @@ class Loop:
         setup = run.setup
         n, m = setup.n, setup.m
         self.run, self.segment = run, segment
-        self.tables = (*_tableau(), *_dense_tableau())
+        self.tables = _tables()
+        self.limits = codes.limits(max_steps=CHUNK)  # to t_end, impacts applied
         self.kinds = _kinds(setup.ns.system)
         self.times = np.ascontiguousarray(times, dtype=float)
         S = len(self.times)
@@ -109,27 +111,34 @@ class Loop:
         setup = run.setup
         opts, n = setup.options, setup.n
         imode, fmode = mode_arrays(run.mode)
-        io = np.array([rec.next, -1, 0, 0], dtype=np.int64)
-        fo = np.array([self.h, at.max_projection])
-        y_out = np.zeros(2 * n)
-        t, status, nev, steps = self.segment(
-            float(at.t), np.ascontiguousarray(at.y, dtype=float), float(self.h), float(t_end),
-            setup.p, float(opts.rtol), float(opts.atol), float(opts.max_step), CHUNK,
-            self.tables, self.kinds, imode, fmode, setup.arm_pos, setup.arm_vel,
-            float(blow_up), INITIAL_TOLERANCE, self.want, self.found, True, True,
-            self.EK, self.EJ, self.ET, self.EY, self.EX, 0,
-            self.times, self.SY, self.SL, self.SR, io, fo, y_out,
+        io = np.zeros(codes.IO_SIZE, dtype=np.int64)
+        io[codes.IO_NEXT], io[codes.IO_CONTACT] = rec.next, -1
+        fo = np.zeros(codes.FO_SIZE)
+        fo[codes.FO_T], fo[codes.FO_H], fo[codes.FO_MOVED] = at.t, self.h, at.max_projection
+        tl = codes.tolerances(
+            rtol=float(opts.rtol), atol=float(opts.atol), t_end=float(t_end),
+            max_step=float(opts.max_step), arm_pos=setup.arm_pos, arm_vel=setup.arm_vel,
+            blow_up=float(blow_up), pen=INITIAL_TOLERANCE,
         )  # fmt: skip
-        for k in range(rec.next, int(io[0])):
+        lg = (self.EK, self.EJ, self.ET, self.EY, self.EX, self.want, self.found)
+        smp = (self.times, self.SY, self.SL, self.SR)
+        state = np.array(at.y, dtype=float)  # the state at t when the call returns
+        t, status, nev, steps = self.segment(
+            setup.p, self.tables, (self.kinds, imode, fmode), tl, self.limits, lg, 0, smp, state,
+            io, fo,
+        )  # fmt: skip
+        for k in range(rec.next, int(io[codes.IO_NEXT])):
             y, r = self.SY[k], self.SR[k]
             sample = Sample(float(self.times[k]), y[:n].copy(), y[n:].copy(), self.SL[k].copy(),
                             float(r[0]), float(r[1]), float(r[2]), float(r[3]))  # fmt: skip
             rec.samples.append(sample)
-        run.evaluations += int(io[2]) + int(io[0]) - rec.next  # a KKT solve a sample
-        rec.next = int(io[0])
+        sampled = int(io[codes.IO_NEXT])
+        # the right-hand sides, and a KKT solve a sample
+        run.evaluations += int(io[codes.IO_EVALUATIONS]) + sampled - rec.next
+        rec.next = sampled
         at.steps += int(steps)
-        at.max_projection = float(fo[1])
-        at.t, at.y = float(t), y_out.copy()
+        at.max_projection = float(fo[codes.FO_MOVED])
+        at.t, at.y = float(t), state
         events = logged_events(setup.ns, self.EK, self.EJ, self.ET, self.EY, self.EX, int(nev))
         run.events.extend(events)
         if any(_dissipative(e) for e in events):
@@ -140,13 +149,14 @@ class Loop:
         checked = [e for e in events if e.accumulation is None]
         for te in sorted({e.t for e in checked}):
             zeno.check(te, [(str(e.kind), e.constraint) for e in checked if e.t == te])
-        self.h = float(fo[0]) if status == ST_BUDGET else 0.0
+        h = float(fo[codes.FO_H])
+        self.h = h if status == ST_BUDGET else 0.0
         if status == ST_END:
-            return DONE, float(fo[0])
+            return DONE, h
         if status == ST_BUDGET:
-            return CONTINUE, float(fo[0])
+            return CONTINUE, h
         if status == ST_CONTACT:
-            return CONTACT, int(io[1])
+            return CONTACT, int(io[codes.IO_CONTACT])
         return HANDBACK, status
 
 

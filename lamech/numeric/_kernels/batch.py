@@ -1,11 +1,14 @@
 """The batch loop of :func:`lamech.numeric.integrate_batch`: DOP853 (:mod:`.dop853`) with
 the projection onto the constraints after every accepted step, every constraint active,
-no events. Without numba the same functions run as Python (``prange`` is ``range``).
+no events: ``tab`` DOP853's tables, ``tl`` the tolerances and t_end (max_step infinite),
+``lim`` the step budget (:mod:`.codes`). Without numba the same functions run as Python
+(``prange`` is ``range``).
 """
 
 import numpy as np
 
-from .dop853 import STAGES, dop853_trial, ev_first_step
+from .codes import LM_MAX_STEPS, TL_T_END
+from .dop853 import STAGES, dop853_step, ev_first_step
 from .kkt import accelerations
 from .project import batch_project
 
@@ -22,55 +25,47 @@ def batch_deriv(sy, t, y, p, out):
         out[n + i] = sol[i]
 
 
-def batch_run_one(sy, y0, p, t_end, rtol, atol, max_steps, A, B, C, E3, E5):
+def batch_run_one(sy, y0, p, tab, tl, lim):
+    """One run from t = 0 to tl[TL_T_END]: (the final state, the steps), or (NaN, -1)
+    where the step size collapsed or the steps ran out."""
     N = y0.shape[0]
     y = y0.copy()
     t = 0.0
+    t_end = tl[TL_T_END]
     K = np.zeros((STAGES + 1, N))
     f = np.zeros(N)
     batch_deriv(sy, t, y, p, f)
-    rows = np.arange(sy[1].shape[0] - 1)  # every constraint active
     none = np.zeros(0, dtype=np.int64)
-    nothing = np.zeros(0)
-    h = ev_first_step(sy, t, y, f, p, rows, none, none, nothing, t_end, np.inf, rtol, atol)
+    # every constraint active, none holonomic by name (the batch projection takes all)
+    act = (np.arange(sy[1].shape[0] - 1), none, none, none, np.zeros(0))
+    h = ev_first_step(sy, t, y, f, p, act, t_end, tl)
     steps = 0
     ynew = np.zeros(N)
     while t < t_end:
-        if steps >= max_steps:
+        if steps >= lim[LM_MAX_STEPS]:
             return y * np.nan, -1
-        h = min(h, t_end - t)
-        if h < 10 * np.abs(np.nextafter(t, np.inf) - t):
+        t, _, h, trials = dop853_step(sy, t, y, f, h, t_end, p, act, tl, tab, K, ynew)
+        if trials <= 0:
             return y * np.nan, -1
-        err = dop853_trial(
-            sy, t, y, f, h, p, rows, none, none, nothing, rtol, atol, A, B, C, E3, E5, K, ynew
-        )
-        if not np.isfinite(err):
-            return y * np.nan, -1
-        if err < 1.0:
-            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-            t = t + h
-            y[:] = ynew
-            batch_project(sy, t, y, p)
-            batch_deriv(sy, t, y, p, f)
-            h = h * factor
-            steps += 1
-        else:
-            h = h * max(0.2, 0.9 * err ** (-1.0 / 8.0))
+        y[:] = ynew
+        batch_project(sy, t, y, p)
+        batch_deriv(sy, t, y, p, f)
+        steps += 1
     return y, steps
 
 
-def batch_run(sy, Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
+def batch_run(sy, Y0, P, tab, tl, lim, out, steps):
     """Every row of Y0 (parameters P) to t_end, over the cores (numba's prange)."""
     for b in prange(Y0.shape[0]):
-        y, s = batch_run_one(sy, Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
+        y, s = batch_run_one(sy, Y0[b], P[b], tab, tl, lim)
         out[b] = y
         steps[b] = s
 
 
-def batch_run_serial(sy, Y0, P, t_end, rtol, atol, max_steps, A, B, C, E3, E5, out, steps):
+def batch_run_serial(sy, Y0, P, tab, tl, lim, out, steps):
     """:func:`batch_run` in one thread, for a batch smaller than the thread count (its own
     function: numba's cache keys a function by its name, not by ``parallel``)."""
     for b in range(Y0.shape[0]):
-        y, s = batch_run_one(sy, Y0[b], P[b], t_end, rtol, atol, max_steps, A, B, C, E3, E5)
+        y, s = batch_run_one(sy, Y0[b], P[b], tab, tl, lim)
         out[b] = y
         steps[b] = s

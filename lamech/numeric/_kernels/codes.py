@@ -13,6 +13,10 @@ time of its impact. Each run ends with a status (``ST_*``); each logged event ha
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from .._events import EventKind, FrictionState
 
 # the kinds of events, watched and logged
@@ -50,7 +54,41 @@ DT_IMPACT = 5  # an impact or contact: impulse, velocity_before, restitution (co
 DT_ACCUMULATION = 6  # a contact at the end of a Zeno sequence: restitution, accumulation
 DT_IMPULSE = 7  # a slip through an impact: its impulse
 
-PREFIXES = ("EV_", "FR_", "ST_", "DT_")
+# the records the kernels pass around (tuples and arrays numba types once for every
+# system; a kernel takes a record, not a dozen loose values):
+#   tab  DOP853's tables (A, B, C, E3, E5, A_EXTRA, C_EXTRA, D);
+#   md   the mode (kinds, imode, fmode), above;
+#   act  the mode's active set (rows, hrows (the holonomic ones), slip_j, slip_k, slip_c);
+#   lg   the event record (kind, j, t, y, x (detail code and 3 values), want, found):
+#        ``want`` (2, w) the (kind, constraint or -1) of the wanted events, ``found`` (w,);
+#   smp  the samples (times TS, states SY, multipliers SL, residuals and energy SR);
+#   tl   the tolerances and bounds, a float64 array indexed by TL_*;
+#   lim  the integer limits and switches, an int64 array indexed by LM_*;
+#   io, fo  ev_segment's counters (IO_*) and clock (FO_*), read and written.
+TL_RTOL = 0
+TL_ATOL = 1
+TL_MAX_STEP = 2
+TL_ARM_POS = 3  # how far a gap must open before its contact may fire again
+TL_ARM_VEL = 4  # how far a slip velocity must grow before its stick may fire again
+TL_BLOW_UP = 5  # max |y| that is a blow-up (ev_run_one: a factor of 1 + max |y0|)
+TL_PEN = 6  # a gap below -TL_PEN (1 + max |q|) is a penetration
+TL_TOL = 7  # the start meets a constraint where |f|, |F| <= TL_TOL (1 + max |q|)
+TL_T_END = 8
+TL_SIZE = 9
+LM_MAX_STEPS = 0
+LM_TO_END = 1  # 1: run to t_end even once every wanted event is found
+LM_IMPACTS = 2  # 1: apply impacts in the loop (else a located contact stops the run)
+LM_SIZE = 3
+IO_NEXT = 0  # the next output time to sample
+IO_CONTACT = 1  # the constraint of a contact left to the simulator (ST_CONTACT)
+IO_EVALUATIONS = 2  # right-hand sides evaluated
+IO_SIZE = 3
+FO_T = 0  # the time: where the segment starts, then where it stopped
+FO_H = 1  # the step size to begin with (0: the initial step's rule), then to go on with
+FO_MOVED = 2  # the largest projection so far
+FO_SIZE = 3
+
+PREFIXES = ("EV_", "FR_", "ST_", "DT_", "TL_", "LM_", "IO_", "FO_")
 
 
 def constants() -> dict[str, int]:
@@ -111,3 +149,30 @@ DETAILS = {
 }
 """The :class:`~lamech.numeric.Event` fields of each detail code, the values in the
 event record's columns 1, 2, 3 (``reversal`` a flag, ``initial`` always True)."""
+
+
+def tolerances(
+    *,
+    rtol: float,
+    atol: float,
+    t_end: float,
+    max_step: float = math.inf,
+    arm_pos: float = 0.0,
+    arm_vel: float = 0.0,
+    blow_up: float = math.inf,
+    pen: float = 0.0,
+    tol: float = 0.0,
+) -> np.ndarray:
+    """The tolerances record ``tl`` (TL_*) of the named values."""
+    tl = np.zeros(TL_SIZE)
+    tl[TL_RTOL], tl[TL_ATOL], tl[TL_T_END], tl[TL_MAX_STEP] = rtol, atol, t_end, max_step
+    tl[TL_ARM_POS], tl[TL_ARM_VEL], tl[TL_BLOW_UP] = arm_pos, arm_vel, blow_up
+    tl[TL_PEN], tl[TL_TOL] = pen, tol
+    return tl
+
+
+def limits(*, max_steps: int, to_end: bool = True, impacts: bool = True) -> np.ndarray:
+    """The limits record ``lim`` (LM_*) of the named values."""
+    lim = np.zeros(LM_SIZE, dtype=np.int64)
+    lim[LM_MAX_STEPS], lim[LM_TO_END], lim[LM_IMPACTS] = max_steps, to_end, impacts
+    return lim

@@ -3,11 +3,13 @@ tableau, error norm and step-size control (``scipy.integrate._ivp.rk``), its ini
 step, and the dense output (the 7th-order interpolant with its 3 extra stages).
 
 ``tab``: DOP853's tables (A, B, C, E3, E5, then the dense output's A_EXTRA, C_EXTRA, D:
-:func:`.._batch._tableau`, :func:`.._batch._dense_tableau`).
+:func:`.._batch._tableau`, :func:`.._batch._dense_tableau`); ``act`` the mode's active set
+and ``tl`` the tolerances (:mod:`.codes`).
 """
 
 import numpy as np
 
+from .codes import TL_ATOL, TL_MAX_STEP, TL_RTOL
 from .kkt import rhs_kernel
 
 STAGES = 12
@@ -15,12 +17,13 @@ STAGES = 12
 
 
 # KERNELS
-def dop853_trial(
-    sy, t, y, f, h, p, rows, slip_j, slip_k, slip_c, rtol, atol, A, B, C, E3, E5, K, ynew
-):
-    """One DOP853 step of size h from (t, y) with y' = f there, on a mode's active rows:
-    the stages into K, the solution into ``ynew``; returns SciPy's error norm (< 1:
-    accept). The one step of both loops, the batch's and the one with events."""
+def dop853_trial(sy, t, y, f, h, p, act, tl, tab, K, ynew):
+    """One DOP853 step of size h from (t, y) with y' = f there, on the mode's active set
+    ``act``: the stages into K, the solution into ``ynew``; returns SciPy's error norm
+    (< 1: accept)."""
+    A, B, C, E3, E5 = tab[0], tab[1], tab[2], tab[3], tab[4]
+    rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
+    rtol, atol = tl[TL_RTOL], tl[TL_ATOL]
     N = y.shape[0]
     K[0] = f
     for s in range(1, STAGES):
@@ -47,8 +50,47 @@ def dop853_trial(
     return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
 
 
-def ev_first_step(sy, t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step, rtol, atol):
-    """scipy's select_initial_step for DOP853 (error estimator order 7)."""
+def dop853_step(sy, t, y, f, h_abs, bound, p, act, tl, tab, K, ynew):
+    """One accepted DOP853 step from (t, y), y' = f there, trying ``h_abs`` first and
+    ending at ``bound`` at the latest, the solution into ``ynew``: SciPy's step-size
+    control (``max_step`` tl[TL_MAX_STEP]; a rejected step shrinks by 0.9 err^(-1/8), to
+    no less than 0.2 of it, also where err is NaN; an accepted one grows by at most 10,
+    and not at all right after a rejection). The step of both loops. (t_new, h, the next
+    step size, trials); trials <= 0 (minus the trials made) where the step size fell
+    below 10 units in the last place of t (a collapse: no step taken)."""
+    min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+    if h_abs > tl[TL_MAX_STEP]:
+        h_abs = tl[TL_MAX_STEP]
+    elif h_abs < min_step:
+        h_abs = min_step
+    rejected = False
+    trials = 0
+    while True:
+        if h_abs < min_step:
+            return t, 0.0, h_abs, -trials
+        t_new = t + h_abs
+        if t_new > bound:
+            t_new = bound
+        h = t_new - t
+        h_abs = abs(h)
+        err = dop853_trial(sy, t, y, f, h, p, act, tl, tab, K, ynew)
+        trials += 1
+        if err < 1.0:
+            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+            if rejected:
+                factor = min(1.0, factor)
+            return t_new, h, h_abs * factor, trials
+        shrink = 0.9 * err ** (-1.0 / 8.0)
+        if not shrink > 0.2:  # also NaN, as max(0.2, nan) in scipy
+            shrink = 0.2
+        h_abs *= shrink
+        rejected = True
+
+
+def ev_first_step(sy, t, y, f, p, act, t_end, tl):
+    """scipy's select_initial_step for DOP853 (error estimator order 7), on the mode's
+    active set ``act``, towards ``t_end``."""
+    rtol, atol = tl[TL_RTOL], tl[TL_ATOL]
     interval = abs(t_end - t)
     if interval == 0.0:
         return 0.0
@@ -57,17 +99,19 @@ def ev_first_step(sy, t, y, f, p, rows, slip_j, slip_k, slip_c, t_end, max_step,
     d1 = np.sqrt(np.mean((f / scale) ** 2))
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, interval)
-    f1 = rhs_kernel(sy, t + h0, y + h0 * f, p, rows, slip_j, slip_k, slip_c)
+    f1 = rhs_kernel(sy, t + h0, y + h0 * f, p, act[0], act[2], act[3], act[4])
     d2 = np.sqrt(np.mean(((f1 - f) / scale) ** 2)) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
         h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    return min(100.0 * h0, h1, interval, max_step)
+    return min(100.0 * h0, h1, interval, tl[TL_MAX_STEP])
 
 
-def ev_dense(s, t_old, h, y_old, F):
-    """DOP853's dense output at s (scipy's Dop853DenseOutput)."""
+def ev_dense(s, dn):
+    """DOP853's dense output at s (scipy's Dop853DenseOutput) of the step ``dn`` (t_old,
+    h, y_old, F: :func:`ev_dense_stages`)."""
+    t_old, h, y_old, F = dn
     x = (s - t_old) / h
     y = np.zeros(y_old.shape[0])
     P = F.shape[0]
@@ -81,17 +125,17 @@ def ev_dense(s, t_old, h, y_old, F):
     return y
 
 
-def ev_dense_stages(sy, t, y, ynew, h, p, rows, slip_j, slip_k, slip_c, K, AX, CX, D, F):
+def ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F):
     """The step's dense output into F: the 3 more stages of scipy's _dense_output_impl."""
+    AX, CX, D = tab[5], tab[6], tab[7]
     N = y.shape[0]
     for s in range(STAGES + 1, D.shape[1]):
         dy = np.zeros(N)
         for k in range(s):
             if AX[s - STAGES - 1, k] != 0.0:
                 dy += AX[s - STAGES - 1, k] * K[k]
-        K[s] = rhs_kernel(
-            sy, t + CX[s - STAGES - 1] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c
-        )
+        K[s] = rhs_kernel(sy, t + CX[s - STAGES - 1] * h, y + h * dy, p, act[0], act[2],
+                          act[3], act[4])  # fmt: skip
     F[0] = ynew - y
     F[1] = h * K[0] - F[0]
     F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])

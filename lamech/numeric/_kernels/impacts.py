@@ -17,18 +17,22 @@ from .codes import (
     FR_STICK,
     ST_CONTACT,
     ST_EVENTS,
+    TL_ARM_POS,
+    TL_ARM_VEL,
 )
 from .kkt import constraints, dynamics, kkt_solve, restitution
 from .modes import ev_log, ev_mode
 
 
 # KERNELS
-def ev_impulses(sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, extra, sj2, sc2):
+def ev_impulses(M, A, b, v, mu, act, j, target, extra, through):
     """(q'+, impulses (m,): NaN where none) of _switch._impulses' solve: the velocity
-    jump on the active rows, j (its velocity form brought to ``target`` - b_j) and the
-    rows ``extra``; the mode's slips and the friction rows ``sj2`` slipping through the
-    impact on j (signs ``sc2``) take mu times their normal's impulse. NaN where the
-    matrix is singular."""
+    jump on the active rows (the mode's active set ``act``), j (its velocity form brought
+    to ``target`` - b_j) and the rows ``extra``; the mode's slips and the friction rows
+    ``through`` = (sj2, sc2) slipping through the impact on j (signs sc2) take mu times
+    their normal's impulse. NaN where the matrix is singular."""
+    rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
+    sj2, sc2 = through
     n = M.shape[0]
     m = A.shape[0]
     na = rows.shape[0]
@@ -72,11 +76,7 @@ def ev_impulses(sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, ext
     return x[:n].copy(), imp
 
 
-def ev_impact(
-    sy,
-    t, y, p, j, kinds, imode, fmode, arm_pos, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y,
-    ev_x, nev,
-):  # fmt: skip
+def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
     """Released unilateral j closes its gap at (t, y) (_switch.impact): the impulse on
     the active rows and j gives F_j+ = -e F_j-; it bounces (EV_IMPACT, the contact
     disarmed) or, when e = 0 or the bounce is too small to resolve, engages (EV_CONTACT)
@@ -85,7 +85,10 @@ def ev_impact(
     accumulation time in fmode[3, j] (the impact's time in fmode[4, j]) for
     :func:`ev_accumulated`. y's velocities jump in place. (count, 0), or (count,
     ST_CONTACT) with nothing changed where the simulator must apply it (a singular
-    matrix), or (0, ST_EVENTS)."""
+    matrix), or (0, ST_EVENTS). ``md`` the mode, ``lg`` the event record."""
+    kinds, imode, fmode = md
+    arm_pos, arm_vel = tl[TL_ARM_POS], tl[TL_ARM_VEL]
+    ev_x = lg[4]
     n = y.shape[0] // 2
     m = kinds.shape[1]
     q = y[:n].copy()
@@ -95,7 +98,8 @@ def ev_impact(
     Fm = b[j]
     for c in range(n):
         Fm += A[j, c] * v[c]
-    rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
+    act = ev_mode(kinds, imode, fmode)
+    rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
     M, rhs, Ad, gam, mu = dynamics(sy, t, q, v, p)
     qdd = kkt_solve(sy, M, rhs, Ad, gam, mu, rows, slip_j, slip_k, slip_c)[:n].copy()
     if not np.all(np.isfinite(qdd)):
@@ -121,9 +125,7 @@ def ev_impact(
     target = (0.0 if engage else -e * Fm) - b[j]
     none_i = np.zeros(0, dtype=np.int64)
     none_f = np.zeros(0)
-    vp, imp = ev_impulses(
-        sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, frows, none_i, none_f
-    )
+    vp, imp = ev_impulses(M, A, b, v, mu, act, j, target, frows, (none_i, none_f))
     if not np.all(np.isfinite(vp)):
         return nev, ST_CONTACT
     trial = imp.copy()
@@ -147,9 +149,7 @@ def ev_impact(
             stay[nst] = i
             nst += 1
     if ns2 > 0:
-        vp, imp = ev_impulses(
-            sy, M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, target, stay, sj2, sc2
-        )
+        vp, imp = ev_impulses(M, A, b, v, mu, act, j, target, stay, (sj2, sc2))
         if not np.all(np.isfinite(vp)):
             return nev, ST_CONTACT
     rest = -1.0
@@ -163,11 +163,7 @@ def ev_impact(
             a_n += A[j, c] * qdd2[c]
         if a_n < 0.0:
             rest = 2.0 * e * abs(Fm) / (-a_n * (1.0 - e))
-            vb, imb = ev_impulses(
-                sy,
-                M, A, b, v, mu, rows, slip_j, slip_k, slip_c, j, -e * Fm - b[j], none_i,
-                none_i, none_f,
-            )  # fmt: skip
+            vb, imb = ev_impulses(M, A, b, v, mu, act, j, -e * Fm - b[j], none_i, (none_i, none_f))
             if not np.all(np.isfinite(vb)):
                 return nev, ST_CONTACT
             ib = imb[j]
@@ -176,16 +172,14 @@ def ev_impact(
     y[n:] = vp
     if not engage:
         imode[2, j] = 0
-        nev = ev_log(EV_IMPACT, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
-                     DT_IMPACT, imp[j], nev)  # fmt: skip
+        nev = ev_log(lg, EV_IMPACT, j, t, y, DT_IMPACT, imp[j], nev)
         if nev < 0:
             return 0, ST_EVENTS
         ev_x[nev - 1, 2] = Fm
         ev_x[nev - 1, 3] = e
         return nev, 0
     if rest >= 0.0:
-        nev = ev_log(EV_IMPACT, j, t, yb, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
-                     DT_IMPACT, ib, nev)  # fmt: skip
+        nev = ev_log(lg, EV_IMPACT, j, t, yb, DT_IMPACT, ib, nev)
         if nev < 0:
             return 0, ST_EVENTS
         ev_x[nev - 1, 2] = Fm
@@ -210,8 +204,7 @@ def ev_impact(
         imode[3, i] = 0
     ev_mode(kinds, imode, fmode)
     if rest < 0.0:
-        nev = ev_log(EV_CONTACT, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
-                     DT_IMPACT, imp[j], nev)  # fmt: skip
+        nev = ev_log(lg, EV_CONTACT, j, t, y, DT_IMPACT, imp[j], nev)
         if nev < 0:
             return 0, ST_EVENTS
         ev_x[nev - 1, 2] = Fm
@@ -221,8 +214,7 @@ def ev_impact(
         fmode[4, j] = t
     for s in range(ns2):
         i = sj2[s]
-        nev = ev_log(EV_SLIP, i, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
-                     DT_IMPULSE, imp[i], nev)  # fmt: skip
+        nev = ev_log(lg, EV_SLIP, i, t, y, DT_IMPULSE, imp[i], nev)
         if nev < 0:
             return 0, ST_EVENTS
     return nev, 0
@@ -238,9 +230,11 @@ def ev_bound(t_end, fmode):
     return bound
 
 
-def ev_accumulated(sy, t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev):
-    """Log EV_CONTACT for each constraint whose bounces have accumulated by t, in the
-    order of their accumulation times (_simulate._accumulated); the new count, or -1."""
+def ev_accumulated(sy, t, y, p, fmode, lg, nev):
+    """Log EV_CONTACT in ``lg`` for each constraint whose bounces have accumulated by t, in
+    the order of their accumulation times (_simulate._accumulated); the new count, or
+    -1."""
+    ev_x = lg[4]
     n = y.shape[0] // 2
     while True:
         jn = -1
@@ -251,8 +245,7 @@ def ev_accumulated(sy, t, y, p, fmode, want, found, ev_kind, ev_j, ev_t, ev_y, e
             return nev
         fmode[3, jn] = np.nan
         e = restitution(sy, t, y[:n].copy(), p)[jn]
-        nev = ev_log(EV_CONTACT, jn, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x,
-                     DT_ACCUMULATION, e, nev)  # fmt: skip
+        nev = ev_log(lg, EV_CONTACT, jn, t, y, DT_ACCUMULATION, e, nev)
         if nev < 0:
             return -1
         ev_x[nev - 1, 2] = t - fmode[4, jn]

@@ -18,6 +18,8 @@ from .codes import (
     ST_EVENTS,
     ST_SETTLE,
     ST_SINGULAR,
+    TL_ARM_POS,
+    TL_ARM_VEL,
 )
 from .dop853 import ev_dense
 from .kkt import constraints, dynamics, kkt_solve
@@ -110,9 +112,10 @@ def ev_watch(kinds, imode):
     return wk[:nw].copy(), wj[:nw].copy()
 
 
-def ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c):
+def ev_lam(sy, t, y, p, m, act):
     """(q'', lambda (m,): NaN where inactive, the kinetic friction where slipping, mu)
-    on the mode's rows (Run.kkt)."""
+    on the mode's active set ``act`` (Run.kkt)."""
+    rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
     n = y.shape[0] // 2
     q = y[:n].copy()
     v = y[n:].copy()
@@ -126,20 +129,22 @@ def ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c):
     return sol[:n].copy(), lam, mu
 
 
-def ev_values(
-    sy, t, y, p, wk, wj, kinds, imode, fmode, rows, slip_j, slip_k, slip_c, arm_pos, arm_vel
-):
-    """The watched events' functions at (t, y) (_detect.event_values): lambda_j of an
-    engaged unilateral (lift-off), f_j of a released one (contact), mu sN N - |lambda_j| of
-    sticking friction (slip), sigma s_j of slipping friction (stick); a disarmed contact
-    or stick shifted up by its threshold."""
+def ev_values(sy, t, y, p, watch, md, act, tl):
+    """The watched events' functions at (t, y) (_detect.event_values; ``watch`` (kinds,
+    constraints): :func:`ev_watch`): lambda_j of an engaged unilateral (lift-off), f_j of
+    a released one (contact), mu sN N - |lambda_j| of sticking friction (slip), sigma s_j
+    of slipping friction (stick); a disarmed contact or stick shifted up by its
+    threshold."""
+    wk, wj = watch
+    kinds, imode, fmode = md
+    arm_pos, arm_vel = tl[TL_ARM_POS], tl[TL_ARM_VEL]
     nw = wk.shape[0]
     out = np.empty(nw)
     if nw == 0:
         return out
     n = y.shape[0] // 2
     m = kinds.shape[1]
-    qdd, lam, mu = ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c)
+    qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
     f, A, b = constraints(sy, t, y[:n].copy(), p)
     for i in range(nw):
         kind = wk[i]
@@ -158,69 +163,17 @@ def ev_values(
     return out
 
 
-def ev_brent(
-    sy,
-    i,
-    xa,
-    xb,
-    t_old,
-    h,
-    y_old,
-    F,
-    p,
-    wk,
-    wj,
-    kinds,
-    imode,
-    fmode,
-    rows,
-    slip_j,
-    slip_k,
-    slip_c,
-    arm_pos,
-    arm_vel,
-):
-    """Where event i's function crosses zero on the dense output in [xa, xb]: Brent's
-    method as scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200
-    iterations: _detect._root); xb where the ends have one sign."""
+def ev_brent(sy, i, xa, xb, dn, p, watch, md, act, tl):
+    """Where event i's function (:func:`ev_values`) crosses zero on the dense output
+    ``dn`` (:func:`.dop853.ev_dense`) in [xa, xb]: Brent's method as
+    scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200 iterations:
+    _detect._root); xb where the ends have one sign."""
     xtol = 1e-15 * max(1.0, abs(xb))
     rtol = 4.0 * 2.220446049250313e-16
     xpre = xa
     xcur = xb
-    fpre = ev_values(
-        sy,
-        xpre,
-        ev_dense(xpre, t_old, h, y_old, F),
-        p,
-        wk,
-        wj,
-        kinds,
-        imode,
-        fmode,
-        rows,
-        slip_j,
-        slip_k,
-        slip_c,
-        arm_pos,
-        arm_vel,
-    )[i]
-    fcur = ev_values(
-        sy,
-        xcur,
-        ev_dense(xcur, t_old, h, y_old, F),
-        p,
-        wk,
-        wj,
-        kinds,
-        imode,
-        fmode,
-        rows,
-        slip_j,
-        slip_k,
-        slip_c,
-        arm_pos,
-        arm_vel,
-    )[i]
+    fpre = ev_values(sy, xpre, ev_dense(xpre, dn), p, watch, md, act, tl)[i]
+    fcur = ev_values(sy, xcur, ev_dense(xcur, dn), p, watch, md, act, tl)[i]
     if fpre == 0.0:
         return xpre
     if fcur == 0.0:
@@ -270,29 +223,15 @@ def ev_brent(
             xcur += scur
         else:
             xcur += delta if sbis > 0.0 else -delta
-        fcur = ev_values(
-            sy,
-            xcur,
-            ev_dense(xcur, t_old, h, y_old, F),
-            p,
-            wk,
-            wj,
-            kinds,
-            imode,
-            fmode,
-            rows,
-            slip_j,
-            slip_k,
-            slip_c,
-            arm_pos,
-            arm_vel,
-        )[i]
+        fcur = ev_values(sy, xcur, ev_dense(xcur, dn), p, watch, md, act, tl)[i]
     return xcur
 
 
-def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, value, nev):
-    """Record event (kind, j) at (t, y) with its detail (``code``: DT_*, ``value``); mark
-    the wanted events it is; the new count, or -1 when the record is full."""
+def ev_log(lg, kind, j, t, y, code, value, nev):
+    """Record event (kind, j) at (t, y) in the event record ``lg`` with its detail
+    (``code``: DT_*, ``value``); mark the wanted events it is; the new count, or -1 when
+    the record is full."""
+    ev_kind, ev_j, ev_t, ev_y, ev_x, want, found = lg
     if nev >= ev_kind.shape[0]:
         return -1
     ev_kind[nev] = kind
@@ -309,18 +248,20 @@ def ev_log(kind, j, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, code, va
     return nev + 1
 
 
-def ev_settle(
-    sy, t, y, p, kinds, imode, fmode, arm_vel, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, nev
-):
-    """Make the mode consistent at (t, y), in place (_switch.settle): release the
+def ev_settle(sy, t, y, p, md, tl, lg, nev):
+    """Make the mode ``md`` consistent at (t, y), in place (_switch.settle): release the
     unilateral constraint pulling hardest, else let the friction furthest beyond mu N
-    slip, logging each; (count, 0) or (count, ST_EVENTS / ST_SETTLE / ST_SINGULAR)."""
+    slip, logging each in ``lg``; (count, 0) or (count, ST_EVENTS / ST_SETTLE /
+    ST_SINGULAR)."""
+    kinds, imode, fmode = md
+    arm_vel = tl[TL_ARM_VEL]
     n = y.shape[0] // 2
     m = kinds.shape[1]
     for _ in range(4 * m + 4):
-        rows, hrows, slip_j, slip_k, slip_c = ev_mode(kinds, imode, fmode)
-        ev_project(sy, t, y, p, rows, hrows, fmode[2])
-        qdd, lam, mu = ev_lam(sy, t, y, p, m, rows, slip_j, slip_k, slip_c)
+        act = ev_mode(kinds, imode, fmode)
+        rows = act[0]
+        ev_project(sy, t, y, p, rows, act[1], fmode[2])
+        qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
         if not np.all(np.isfinite(qdd)):
             return nev, ST_SINGULAR
         scale = 0.0
@@ -344,10 +285,7 @@ def ev_settle(
             imode[0, jw] = 0
             imode[2, jw] = 0
             fmode[3, jw] = np.nan  # Mode.release
-            nev = ev_log(
-                EV_LIFT_OFF, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, DT_MULTIPLIER,
-                worst, nev,
-            )  # fmt: skip
+            nev = ev_log(lg, EV_LIFT_OFF, jw, t, y, DT_MULTIPLIER, worst, nev)
             if nev < 0:
                 return 0, ST_EVENTS
             continue
@@ -373,10 +311,7 @@ def ev_settle(
                 fmode[0, jw] = np.copysign(1.0, s)
             imode[1, jw] = FR_SLIP
             imode[3, jw] = 0
-            nev = ev_log(
-                EV_SLIP, jw, t, y, want, found, ev_kind, ev_j, ev_t, ev_y, ev_x, DT_RATIO, ratio,
-                nev,
-            )  # fmt: skip
+            nev = ev_log(lg, EV_SLIP, jw, t, y, DT_RATIO, ratio, nev)
             if nev < 0:
                 return 0, ST_EVENTS
             continue
