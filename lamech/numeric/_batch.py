@@ -548,7 +548,7 @@ def integrate_events(
     FM[:, 1, :] = 1.0  # sN
     FM[:, 3:, :] = np.nan  # no accumulation pending
     opts = Options.given(rtol, atol, max_step)
-    arm = max(100.0 * opts.atol, 1e-13)  # Setup.of
+    arm = opts.arm
     EK = np.zeros((B, max_events), dtype=np.int64)
     EJ = np.zeros((B, max_events), dtype=np.int64)
     ET = np.zeros((B, max_events))

@@ -1,4 +1,4 @@
-"""``simulate`` on the loop with events (:func:`._kernels.ev_segment`): the same DOP853
+"""``simulate`` on the loop with events (:func:`._kernels.loop.ev_segment`): the same DOP853
 loop, projection, event location and mode changes as the sweeps' loop
 (:func:`lamech.numeric.integrate_events`), here with the output times sampled inside it
 (state, lambda from the mode's KKT solve, residuals and energy).

@@ -93,6 +93,13 @@ class Options:
         if self.method not in METHODS:
             raise SimulationError(f"unknown method {self.method!r}; one of {', '.join(METHODS)}")
 
+    @property
+    def arm(self) -> float:
+        """How far a gap or a slip velocity must move from zero before its contact or
+        stick event may fire again (and the slip speed below which a slip starts from
+        rest): 100 atol, at least 1e-13. The simulator's and the loops'."""
+        return max(100.0 * self.atol, 1e-13)
+
     @classmethod
     def given(cls, rtol=None, atol=None, max_step=None, method=None) -> Options:
         """The options with those given (not None), the defaults for the others."""

@@ -95,7 +95,7 @@ def ev_project(sy, t, y, p, rows, hrows, offset):
 
 def batch_project(sy, t, y, p):
     """Positions onto f = 0 (Gauss-Newton, minimum norm), then velocities onto
-    A v + b = 0; in place. The compiled twin of :mod:`._project` with
+    A v + b = 0; in place. The compiled twin of :mod:`.._project` with
     the Euclidean metric, at most PROJECTION_ITERATIONS Gauss-Newton steps."""
     n = y.shape[0] // 2
     q = y[:n].copy()
