@@ -4,6 +4,7 @@ tests use only public names."""
 
 from __future__ import annotations
 
+import ast
 import json
 import re
 import shutil
@@ -124,3 +125,89 @@ def test_the_version_is_in_one_place():
     assert 'dynamic = ["version"]' in text and "lamech._version.__version__" in text
     assert re.fullmatch(r"\d+\.\d+\.\d+", lamech.__version__)
     assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License")
+
+
+# ----- the numeric layer's kernels (issue 31) ----------------------------------------
+KERNELS = ROOT / "lamech" / "numeric" / "_kernels"
+
+
+def test_the_kernels_codes_are_defined_once_and_the_compiled_module_reads_the_same_values():
+    """The loop's integer codes (issue 31): one definition, read by the compiled module
+    and by Python's maps of the results."""
+    from lamech.numeric import EVENT_FALLBACKS, EventKind, FrictionState
+    from lamech.numeric._kernels import MODULES, codes, kernel_text
+
+    text = kernel_text()
+    assigned = dict(re.findall(r"^([A-Z][A-Z_]+) = (\d+)$", text, flags=re.M))
+    values = codes.constants()
+    assert {k: int(v) for k, v in assigned.items()} == values
+    # no module of the kernels spells a code as a number of its own
+    for module in MODULES:
+        source = Path(module.__file__).read_text(encoding="utf-8")
+        assert not re.search(r"^(EV|FR|ST|DT|TL|LM|IO|FO)_[A-Z_]+ = ", source, flags=re.M)
+    # the maps Python reads the results by cover every code, in both directions
+    events = {v for k, v in values.items() if k.startswith("EV_")}
+    assert set(codes.EVENT_KINDS) == events
+    assert {codes.EVENT_CODES[k] for k in codes.EVENT_KINDS.values()} == events
+    assert set(codes.FRICTION) == {None, *FrictionState}
+    assert {codes.FRICTION_STATES[c] for c in codes.FRICTION.values()} == {None, *FrictionState}
+    statuses = {v for k, v in values.items() if k.startswith("ST_")} - {codes.ST_BUDGET}
+    assert set(codes.STATUS_NAMES) == statuses and EVENT_FALLBACKS == codes.FALLBACKS
+    assert EventKind.SWITCH not in codes.EVENT_CODES  # the loop has no input switches
+    details = {v for k, v in values.items() if k.startswith("DT_")} - {codes.DT_NONE}
+    assert set(codes.DETAILS) == details
+
+
+def test_no_kernel_takes_more_than_a_dozen_parameters_and_no_module_is_long():
+    """A kernel takes records (tuples and arrays), not dozens of loose values."""
+    for path in sorted(KERNELS.glob("*.py")):
+        source = path.read_text(encoding="utf-8")
+        assert len(source.splitlines()) < 600, path.name
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.FunctionDef):
+                count = len(node.args.args) + len(node.args.kwonlyargs)
+                assert count <= 12, (path.name, node.name, count)
+
+
+def _stepper(rate: float):
+    """The kernels as Python with y' = -rate y for the right-hand side."""
+    from lamech.numeric._kernels import python_namespace
+
+    ns = python_namespace()
+    ns["rhs_kernel"] = lambda sy, t, y, p, rows, sj, sk, sc: -rate * y
+    return ns
+
+
+def _step(ns, h_abs: float, rate: float):
+    """One step of the loops' stepper from y = 1 at t = 0, trying ``h_abs`` first."""
+    import numpy as np
+
+    from lamech.numeric._batch import _tables
+    from lamech.numeric._kernels import codes
+
+    y = np.array([1.0])
+    tl = codes.tolerances(rtol=1e-8, atol=1e-10, t_end=10.0)
+    act = (np.zeros(0, dtype=np.int64),) * 4 + (np.zeros(0),)
+    K, ynew = np.zeros((16, 1)), np.zeros(1)
+    out = ns["dop853_step"](None, 0.0, y, -rate * y, h_abs, 10.0, None, act, tl, _tables(), K, ynew)
+    return out, ynew
+
+
+def test_the_one_step_control_does_not_grow_a_step_right_after_a_rejection():
+    """The batch loop and the loop with events step with one DOP853 step control, with
+    SciPy's rule that a step does not grow right after a rejection."""
+    import numpy as np
+
+    rate = 1.0
+    ns = _stepper(rate)
+    (t_new, h, h_next, trials), y = _step(ns, 1e-3, rate)
+    assert trials == 1 and h == 1e-3 and h_next > 1.5 * h  # accepted: it grows
+    assert abs(y[0] - np.exp(-h)) <= 1e-14
+    (t_new, h, h_next, trials), y = _step(ns, 5.0, rate)
+    assert trials > 1 and 0 < h < 5.0  # rejected first, then accepted: it does not grow
+    assert h_next <= h and t_new == h
+    assert abs(y[0] - np.exp(-h)) <= 1e-7
+    # both loops step with it: neither spells the control of its own
+    for name in ("batch.py", "loop.py"):
+        source = (KERNELS / name).read_text(encoding="utf-8")
+        assert "dop853_step(" in source and "err ** (-1.0 / 8.0)" not in source

@@ -18,18 +18,20 @@ step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
 compiled twin of the simulator's projection (:mod:`lamech.numeric._project`), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
-and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is the
-``BATCH`` part of :mod:`._kernels`, compiled with the system's kernels (and cached on
-disk with them, :mod:`._jitcache`) by ``compile_system(system, jit=True)``; without
-numba the same Python functions run uncompiled: the same numbers, slowly.
+and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is
+:mod:`._kernels.batch` on the stepper of :mod:`._kernels.dop853` (the loop with events'
+too), compiled once per machine with the other kernels (and cached on disk,
+:mod:`._jitcache`) and run on a system from ``compile_system(system, jit=True)``;
+without numba the same Python functions run uncompiled: the same numbers, slowly.
 
 :func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
-DOP853 loop carrying the simulator's contact and friction mode (``ev_*`` in the
-``BATCH`` part), the watched events located by Brent's method on DOP853's dense output,
-lift-off, slip and stick applied in the loop, and a status that hands what it does not mirror
-(impacts and contacts, failures) to :func:`lamech.numeric.simulate`; with
-:func:`parameter_rows` and :func:`initial_states`, the case-by-case parameter vectors
-and consistent starts computed for a whole batch at once. Its projection is the
+DOP853 loop carrying the simulator's contact and friction mode (:mod:`._kernels.loop`,
+:mod:`._kernels.modes`, :mod:`._kernels.impacts`), the watched events located by Brent's
+method on DOP853's dense output, lift-off, slip and stick applied in the loop, and a
+status that hands what it does not mirror (impacts and contacts, failures) to
+:func:`lamech.numeric.simulate`; with :func:`parameter_rows` and :func:`initial_states`,
+the case-by-case parameter vectors and consistent starts computed for a whole batch at
+once. Its projection is the
 simulator's (mass-matrix metric), so that its event times are the simulator's to about
 1e-14 (the tests hold them to 1e-9).
 """
@@ -38,12 +40,14 @@ from __future__ import annotations
 
 import functools
 import os
-import types
 
 import numpy as np
 
 from ._codegen import NumericSystem, numba_available
+from ._events import EventKind
 from ._kernels import STAGES as _S  # DOP853's number of stages, checked in _tableau
+from ._kernels import codes
+from ._options import Options
 from ._threads import one_blas_thread
 
 __all__ = [
@@ -110,6 +114,11 @@ def _dense_tableau():
     )
 
 
+def _tables() -> tuple:
+    """DOP853's tables as the loops take them (``tab``: :mod:`._kernels.dop853`)."""
+    return (*_tableau(), *_dense_tableau())
+
+
 class BatchResult:
     """Final states of a batch: ``q`` (B, n), ``qd`` (B, n), ``lambdas`` (B, m),
     ``steps`` (B,) accepted steps, ``ok`` (B,) False where a run failed (step-size
@@ -126,21 +135,16 @@ class BatchResult:
 
 
 def _python_namespace(ns: NumericSystem) -> dict:
-    """:mod:`._kernels` as Python, around the system's NumPy functions: its functions with
-    globals of their own, where the KKT solve and the right-hand sides are the NumPy ones
-    of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
+    """The kernels (:mod:`._kernels`) as Python around the system's NumPy functions: one
+    namespace of their functions where the KKT solve and the right-hand sides are the
+    NumPy ones of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
     ``"sy"`` the system record they take."""
-    from . import _kernels
+    from ._kernels import python_namespace
 
-    namespace = dict(vars(_kernels))
-    namespace["prange"] = range
+    namespace = python_namespace()
     namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
     namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
     namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
-    for name, f in vars(_kernels).items():
-        if isinstance(f, types.FunctionType) and f.__module__ == _kernels.__name__:
-            if name not in ("kkt_solve", "rhs_kernel", "accelerations"):
-                namespace[name] = types.FunctionType(f.__code__, namespace, name)
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
     namespace["sy"] = (
         bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
@@ -186,8 +190,8 @@ def integrate_batch(
     t_end: float,
     *,
     params=None,
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
+    rtol: float | None = None,
+    atol: float | None = None,
     max_steps: int = 1_000_000,
 ) -> BatchResult:
     """Integrate every row of ``y0s`` ((B, 2n): positions then velocities, consistent
@@ -198,6 +202,7 @@ def integrate_batch(
     of lengths or masses in one compiled loop); parameters defined by expressions of the
     overridden ones follow them, as in :meth:`NumericSystem.parameter_vector`.
 
+    ``rtol``, ``atol``: by default those of :class:`~._options.Options` (the simulator's).
     ``ns`` from ``compile_system(system, jit=True)`` runs compiled (numba); otherwise the
     same loop runs as Python. Only for systems whose constraints are all bilateral and
     without friction limits (raises ValueError otherwise): there are no events here.
@@ -210,8 +215,7 @@ def integrate_batch(
         )
     if not (t_end > 0 and np.isfinite(t_end)):
         raise ValueError(f"t_end must be a positive finite number, got {t_end}")
-    if not (0 < rtol < 1 and atol > 0):
-        raise ValueError("need 0 < rtol < 1 and atol > 0")
+    opts = Options.given(rtol, atol)  # checked: a SimulationError is a ValueError
     Y0 = np.ascontiguousarray(np.atleast_2d(np.asarray(y0s, dtype=float)))
     if Y0.shape[1] != 2 * ns.n:
         raise ValueError(
@@ -247,9 +251,8 @@ def integrate_batch(
     # nothing from OpenBLAS's helper threads and wait on them when a core is busy; under
     # numba's parallel loop they would only compete with its threads for the cores.
     with one_blas_thread():
-        run_batch(
-            Y0, P, float(t_end), float(rtol), float(atol), int(max_steps), *_tableau(), out, steps
-        )
+        tl = codes.tolerances(rtol=float(opts.rtol), atol=float(opts.atol), t_end=float(t_end))
+        run_batch(Y0, P, _tables(), tl, codes.limits(max_steps=int(max_steps)), out, steps)
         for b in range(Y0.shape[0]):
             if np.all(np.isfinite(out[b])):
                 lam[b] = ns.accelerations(float(t_end), out[b].copy(), P[b].copy())[n:]
@@ -257,26 +260,13 @@ def integrate_batch(
 
 
 # ----- the loop with events -------------------------------------------------------------
-_EVENT_CODES = {"lift-off": 0, "contact": 1, "impact": 4, "slip": 2, "stick": 3}
-FALLBACKS = {
-    2: "contact",
-    3: "stick",
-    4: "events",
-    5: "step",
-    6: "growth",
-    7: "penetration",
-    8: "graze",
-    9: "settle",
-    10: "start",
-    11: "singular",
-}
+FALLBACKS = dict(codes.FALLBACKS)
 """The statuses of a run the loop with events leaves to :func:`lamech.numeric.simulate`
-(the loop's ``ST_*`` codes; 3, stick, is no longer used): an impact or contact (with
-``impacts``: only one the loop cannot apply, a singular impact matrix or a gap met below
-the surface), more events than recorded,
-a step-size collapse, a blow-up, a penetration, a gap that turns within a step, a mode
-that does not settle, a start off the constraints, a singular KKT
-solve."""
+(the loop's ``ST_*`` codes, :mod:`._kernels.codes`; 3, stick, is no longer used): an
+impact or contact (with ``impacts``: only one the loop cannot apply, a singular impact
+matrix or a gap met below the surface), more events than recorded, a step-size
+collapse, a blow-up, a penetration, a gap that turns within a step, a mode that does
+not settle, a start off the constraints, a singular KKT solve."""
 
 
 class EventBatchResult:
@@ -289,8 +279,8 @@ class EventBatchResult:
 
     def __init__(self, t, y, status, events, steps):
         self.t, self.y, self.events, self.steps = t, y, events, steps
-        self.status = [("end", "found")[s] if s < 2 else FALLBACKS[s] for s in status]
-        self.fallback = np.array([s >= 2 for s in status], dtype=bool)
+        self.status = [codes.STATUS_NAMES[s] for s in status]
+        self.fallback = np.array([s in codes.FALLBACKS for s in status], dtype=bool)
 
 
 _EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
@@ -319,22 +309,12 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     return out
 
 
-_DETAILS = {1: "multiplier", 2: "ratio", 3: "reversal", 4: "initial"}  # the kernels' DT_*
-_IMPACT_DETAILS = {  # DT_IMPACT, DT_ACCUMULATION, DT_IMPULSE: EX's columns 1, 2, 3
-    5: ("impulse", "velocity_before", "restitution"),
-    6: ("restitution", "accumulation"),
-    7: ("impulse",),
-}
-
-
 def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
     """The first ``count`` events a loop with events logged (kinds EK, constraints EJ,
-    times ET, states EY, details EX (code, then up to 3 values)) as
-    :class:`~lamech.numeric.Event`."""
-    from ._events import Event, EventKind
+    times ET, states EY, details EX (code, then up to 3 values: :data:`codes.DETAILS`))
+    as :class:`~lamech.numeric.Event`."""
+    from ._events import Event
 
-    kind_of = {0: EventKind.LIFT_OFF, 1: EventKind.CONTACT, 2: EventKind.SLIP, 3: EventKind.STICK}
-    kind_of[4] = EventKind.IMPACT
     coords, names, n = ns.coordinate_names, ns.constraint_names, ns.n
     out = []
     for e in range(count):
@@ -343,14 +323,15 @@ def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
         values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
         details: dict = {}
         code = int(EX[e, 0])
-        if code in (1, 2):
-            details[_DETAILS[code]] = float(EX[e, 1])
-        elif code in (3, 4):
-            details[_DETAILS[code]] = bool(EX[e, 1]) if code == 3 else True
-        elif code in _IMPACT_DETAILS:
-            for c, name in enumerate(_IMPACT_DETAILS[code]):
+        if code == codes.DT_REVERSAL:
+            details["reversal"] = bool(EX[e, 1])
+        elif code == codes.DT_INITIAL:
+            details["initial"] = True
+        elif code in codes.DETAILS:
+            for c, name in enumerate(codes.DETAILS[code]):
                 details[name] = float(EX[e, 1 + c])
-        out.append(Event(float(ET[e]), kind_of[int(EK[e])], names[EJ[e]], values, **details))
+        kind = codes.EVENT_KINDS[int(EK[e])]
+        out.append(Event(float(ET[e]), kind, names[EJ[e]], values, **details))
     return out
 
 
@@ -486,8 +467,8 @@ def integrate_events(
     t_end: float,
     *,
     params=None,
-    rtol: float = 1e-11,
-    atol: float = 1e-12,
+    rtol: float | None = None,
+    atol: float | None = None,
     max_step: float | None = None,
     want=(),
     to_end: bool = True,
@@ -535,6 +516,8 @@ def integrate_events(
     (Newton's law with restitution, the contact's friction sticking or slipping through
     the impact, the Zeno accumulation's ``contact`` at its time), events ``"impact"``
     and ``"contact"`` with their details; ``max_events`` must then hold the bounces.
+    ``rtol``, ``atol``, ``max_step``: by default those of :class:`~._options.Options` (the
+    simulator's).
     """
     from ._options import BLOW_UP, INITIAL_TOLERANCE
 
@@ -550,7 +533,7 @@ def integrate_events(
     names = ns.constraint_names
     wanted = np.array(
         [
-            [_EVENT_CODES[str(k)] for k, _ in want],
+            [codes.EVENT_CODES[EventKind(k)] for k, _ in want],
             [-1 if c is None else names.index(c) for _, c in want],
         ],
         dtype=np.int64,
@@ -559,12 +542,13 @@ def integrate_events(
     m = ns.m
     IM = np.zeros((B, 4, m), dtype=np.int64)
     IM[:, 0, :] = 1  # engaged
-    IM[:, 1, :] = np.where(kinds[2] >= 0, 1, 0)  # friction sticks
+    IM[:, 1, :] = np.where(kinds[2] >= 0, codes.FR_STICK, codes.FR_NONE)  # friction sticks
     IM[:, 2:, :] = 1  # contact and stick events armed
     FM = np.zeros((B, 5, m))
     FM[:, 1, :] = 1.0  # sN
     FM[:, 3:, :] = np.nan  # no accumulation pending
-    arm = max(100.0 * atol, 1e-13)  # Setup.of
+    opts = Options.given(rtol, atol, max_step)
+    arm = opts.arm
     EK = np.zeros((B, max_events), dtype=np.int64)
     EJ = np.zeros((B, max_events), dtype=np.int64)
     ET = np.zeros((B, max_events))
@@ -576,17 +560,19 @@ def integrate_events(
     NEV = np.zeros(B, dtype=np.int64)
     STEPS = np.zeros(B, dtype=np.int64)
     run = _event_functions(ns, jit)
-    consts = (
-        float(t_end), float(rtol), float(atol), float(np.inf if max_step is None else max_step),
-        int(max_steps), (*_tableau(), *_dense_tableau()), kinds,
+    tl = codes.tolerances(
+        rtol=float(opts.rtol), atol=float(opts.atol), t_end=float(t_end),
+        max_step=float(opts.max_step), arm_pos=arm, arm_vel=arm,
+        blow_up=BLOW_UP, pen=INITIAL_TOLERANCE, tol=INITIAL_TOLERANCE,
     )  # fmt: skip
-    rest = (arm, arm, BLOW_UP, INITIAL_TOLERANCE, INITIAL_TOLERANCE, wanted, bool(to_end),
-            bool(impacts))  # fmt: skip
-    per_run = (Y0, P, IM, FM, EK, EJ, ET, EY, EX, YOUT, TOUT, STATUS, NEV, STEPS)
+    lim = codes.limits(max_steps=int(max_steps), to_end=bool(to_end), impacts=bool(impacts))
+    tab = _tables()
 
     def part(a: int, b: int) -> None:
-        Y, Pp, I_, F_, K_, J_, T_, EY_, EX_, YO, TO, S_, N_, ST = (x[a:b] for x in per_run)
-        run["ev_run"](Y, Pp, *consts, I_, F_, *rest, K_, J_, T_, EY_, EX_, YO, TO, S_, N_, ST)
+        Y, Pp, I_, F_ = Y0[a:b], P[a:b], IM[a:b], FM[a:b]
+        logs = tuple(x[a:b] for x in (EK, EJ, ET, EY, EX))
+        outs = tuple(x[a:b] for x in (YOUT, TOUT, STATUS, NEV, STEPS))
+        run["ev_run"](Y, Pp, tab, kinds, I_, F_, tl, lim, wanted, logs, outs)
 
     k = 1 if not run["numba"] else max(1, min(int(threads or _cpus()), B))
     # trial states a step rejects may overflow (the Python loop's NumPy warns; numba not)

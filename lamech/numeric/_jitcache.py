@@ -403,7 +403,7 @@ def _entry_arguments(sy: tuple) -> dict:
     """Arguments of the types the callers pass to each of the engine's entry points
     (:mod:`._loop`, :mod:`._batch`, :mod:`._run`): values that are never run, only typed,
     so that the whole engine is compiled at once."""
-    from ._batch import _dense_tableau, _tableau
+    from ._batch import _tables
 
     f1, f2, f3 = np.zeros(2), np.zeros((1, 2)), np.zeros((1, 1, 2))
     i1, i2, i3 = (
@@ -412,20 +412,16 @@ def _entry_arguments(sy: tuple) -> dict:
         np.zeros((1, 4, 1), dtype=np.int64),
     )
     b1 = np.zeros(1, dtype=np.bool_)
-    tab = (*_tableau(), *_dense_tableau())
+    tab = _tables()
     x = 0.0
+    # the records of :mod:`._kernels.codes`: the mode, an event record, the samples
+    md, lg, smp = (i2, i2, f2), (i1, i1, f1, f2, f2, i2, b1), (f1, f2, f2, f2)
     return {
-        "ev_segment": (
-            x, f1, x, x, f1, x, x, x, 1, tab, i2, i2, f2, x, x, x, x, i2, b1, True, True, i1,
-            i1, f1, f2, f2, 0, f1, f2, f2, f2, i1, f1, f1,
-        ),
-        "ev_run": (
-            f2, f2, x, x, x, x, 1, tab, i2, i3, f3, x, x, x, x, x, i2, True, True, i2, i2, f2,
-            f3, f3, f2, f1, i1, i1, i1,
-        ),
+        "ev_segment": (f1, tab, md, f1, i1, lg, 0, smp, f1, i1, f1),
+        "ev_run": (f2, f2, tab, i2, i3, f3, f1, i1, i2, (i2, i2, f2, f3, f3), (f2, f1, i1, i1, i1)),
         "ev_starts": (f2, f2, f2, b1, b1, f1, f1, i2, x),
-        "batch_run": (f2, f2, x, x, x, 1, *tab[:5], f2, i1),
-        "batch_run_serial": (f2, f2, x, x, x, 1, *tab[:5], f2, i1),
+        "batch_run": (f2, f2, tab, f1, i1, f2, i1),
+        "batch_run_serial": (f2, f2, tab, f1, i1, f2, i1),
         "rhs_kernel": (x, f1, f1, i1, i1, i1, f1),
         "accelerations": (x, f1, f1),
         "kkt_solve": (f2, f1, f2, f1, f1, i1, i1, i1, f1),

@@ -1,4 +1,4 @@
-"""``simulate`` on the loop with events (:func:`._kernels.ev_segment`): the same DOP853
+"""``simulate`` on the loop with events (:func:`._kernels.loop.ev_segment`): the same DOP853
 loop, projection, event location and mode changes as the sweeps' loop
 (:func:`lamech.numeric.integrate_events`), here with the output times sampled inside it
 (state, lambda from the mode's KKT solve, residuals and energy).
@@ -23,11 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _kernels as K
-from ._batch import _dense_tableau, _event_functions, _kinds, _tableau, logged_events
+from ._batch import _event_functions, _kinds, _tables, logged_events
 from ._codegen import numba_available
 from ._engines import ENGINES, engine_name
-from ._events import EventKind, FrictionState
+from ._events import EventKind
+from ._kernels import codes
+from ._kernels.codes import FRICTION, FRICTION_STATES, ST_BUDGET, ST_CONTACT, ST_END
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
 from ._run import Run
@@ -37,9 +38,6 @@ __all__ = ["Loop", "loop_for", "ENGINES", "CHUNK"]
 CHUNK = 2000
 """Steps per call of the loop (a few ms compiled): progress and Ctrl-C between them."""
 
-_FRICTION = {None: K.FR_NONE, FrictionState.STICK: K.FR_STICK, FrictionState.SLIP: K.FR_SLIP}
-_FRICTION[FrictionState.OFF] = K.FR_OFF
-_STATE = {v: k for k, v in _FRICTION.items()}
 CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
 
 
@@ -90,7 +88,8 @@ class Loop:
         setup = run.setup
         n, m = setup.n, setup.m
         self.run, self.segment = run, segment
-        self.tables = (*_tableau(), *_dense_tableau())
+        self.tables = _tables()
+        self.limits = codes.limits(max_steps=CHUNK)  # to t_end, impacts applied
         self.kinds = _kinds(setup.ns.system)
         self.times = np.ascontiguousarray(times, dtype=float)
         S = len(self.times)
@@ -112,27 +111,34 @@ class Loop:
         setup = run.setup
         opts, n = setup.options, setup.n
         imode, fmode = mode_arrays(run.mode)
-        io = np.array([rec.next, -1, 0, 0], dtype=np.int64)
-        fo = np.array([self.h, at.max_projection])
-        y_out = np.zeros(2 * n)
-        t, status, nev, steps = self.segment(
-            float(at.t), np.ascontiguousarray(at.y, dtype=float), float(self.h), float(t_end),
-            setup.p, float(opts.rtol), float(opts.atol), float(opts.max_step), CHUNK,
-            self.tables, self.kinds, imode, fmode, setup.arm_pos, setup.arm_vel,
-            float(blow_up), INITIAL_TOLERANCE, self.want, self.found, True, True,
-            self.EK, self.EJ, self.ET, self.EY, self.EX, 0,
-            self.times, self.SY, self.SL, self.SR, io, fo, y_out,
+        io = np.zeros(codes.IO_SIZE, dtype=np.int64)
+        io[codes.IO_NEXT], io[codes.IO_CONTACT] = rec.next, -1
+        fo = np.zeros(codes.FO_SIZE)
+        fo[codes.FO_T], fo[codes.FO_H], fo[codes.FO_MOVED] = at.t, self.h, at.max_projection
+        tl = codes.tolerances(
+            rtol=float(opts.rtol), atol=float(opts.atol), t_end=float(t_end),
+            max_step=float(opts.max_step), arm_pos=setup.arm_pos, arm_vel=setup.arm_vel,
+            blow_up=float(blow_up), pen=INITIAL_TOLERANCE,
         )  # fmt: skip
-        for k in range(rec.next, int(io[0])):
+        lg = (self.EK, self.EJ, self.ET, self.EY, self.EX, self.want, self.found)
+        smp = (self.times, self.SY, self.SL, self.SR)
+        state = np.array(at.y, dtype=float)  # the state at t when the call returns
+        t, status, nev, steps = self.segment(
+            setup.p, self.tables, (self.kinds, imode, fmode), tl, self.limits, lg, 0, smp, state,
+            io, fo,
+        )  # fmt: skip
+        for k in range(rec.next, int(io[codes.IO_NEXT])):
             y, r = self.SY[k], self.SR[k]
             sample = Sample(float(self.times[k]), y[:n].copy(), y[n:].copy(), self.SL[k].copy(),
                             float(r[0]), float(r[1]), float(r[2]), float(r[3]))  # fmt: skip
             rec.samples.append(sample)
-        run.evaluations += int(io[2]) + int(io[0]) - rec.next  # a KKT solve a sample
-        rec.next = int(io[0])
+        sampled = int(io[codes.IO_NEXT])
+        # the right-hand sides, and a KKT solve a sample
+        run.evaluations += int(io[codes.IO_EVALUATIONS]) + sampled - rec.next
+        rec.next = sampled
         at.steps += int(steps)
-        at.max_projection = float(fo[1])
-        at.t, at.y = float(t), y_out.copy()
+        at.max_projection = float(fo[codes.FO_MOVED])
+        at.t, at.y = float(t), state
         events = logged_events(setup.ns, self.EK, self.EJ, self.ET, self.EY, self.EX, int(nev))
         run.events.extend(events)
         if any(_dissipative(e) for e in events):
@@ -143,13 +149,14 @@ class Loop:
         checked = [e for e in events if e.accumulation is None]
         for te in sorted({e.t for e in checked}):
             zeno.check(te, [(str(e.kind), e.constraint) for e in checked if e.t == te])
-        self.h = float(fo[0]) if status == K.ST_BUDGET else 0.0
-        if status == K.ST_END:
-            return DONE, float(fo[0])
-        if status == K.ST_BUDGET:
-            return CONTINUE, float(fo[0])
-        if status == K.ST_CONTACT:
-            return CONTACT, int(io[1])
+        h = float(fo[codes.FO_H])
+        self.h = h if status == ST_BUDGET else 0.0
+        if status == ST_END:
+            return DONE, h
+        if status == ST_BUDGET:
+            return CONTINUE, h
+        if status == ST_CONTACT:
+            return CONTACT, int(io[codes.IO_CONTACT])
         return HANDBACK, status
 
 
@@ -168,7 +175,7 @@ def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
     m = mode.kinds.m
     imode = np.zeros((4, m), dtype=np.int64)
     imode[0] = mode.engaged
-    imode[1] = [_FRICTION[s] for s in mode.friction]
+    imode[1] = [FRICTION[s] for s in mode.friction]
     imode[2] = [mode.is_armed(EventKind.CONTACT, j) for j in range(m)]
     imode[3] = [mode.is_armed(EventKind.STICK, j) for j in range(m)]
     fmode = np.full((5, m), np.nan)
@@ -182,7 +189,7 @@ def set_mode(mode, imode: np.ndarray, fmode: np.ndarray) -> None:
     """The :class:`._mode.Mode` of the loop's arrays."""
     m = mode.kinds.m
     mode.engaged = imode[0] == 1
-    mode.friction = [_STATE[int(c)] for c in imode[1]]
+    mode.friction = [FRICTION_STATES[int(c)] for c in imode[1]]
     mode.sigma, mode.sN, mode.offset = (fmode[i].copy() for i in range(3))
     mode.accumulating = {
         j: (float(fmode[4, j]), float(fmode[3, j])) for j in range(m) if not np.isnan(fmode[3, j])

@@ -60,12 +60,51 @@ class Stop(Exception):
 
 @dataclass(frozen=True)
 class Options:
-    """The integration options of a run (checked by :func:`check_options`)."""
+    """The integration options of a run, the one place their defaults live (``simulate``,
+    ``integrate_batch``, ``integrate_events`` and the sweeps take theirs from here). It
+    checks itself when made: :class:`SimulationError` (a ValueError) names the first bad
+    option, its value and the default. :meth:`given` fills the options a caller left as
+    None with the defaults."""
 
     rtol: float = DEFAULT_RTOL
     atol: float = DEFAULT_ATOL
     max_step: float = math.inf
     method: str = "DOP853"
+
+    def __post_init__(self) -> None:
+        if _bad(self.rtol) or self.rtol <= 0 or self.rtol >= 1:
+            raise SimulationError(
+                f"rtol must be in (0, 1) (got {self.rtol}); default {DEFAULT_RTOL}"
+            )
+        if self.rtol < 1e-14:
+            raise SimulationError(
+                f"rtol {self.rtol} is below 1e-14, which double precision cannot honour; use "
+                "rtol >= 1e-14"
+            )
+        if _bad(self.atol) or self.atol <= 0:
+            raise SimulationError(
+                f"atol must be positive (got {self.atol}); default {DEFAULT_ATOL}"
+            )
+        step = self.max_step
+        if not isinstance(step, (int, float, np.floating, np.integer)) or math.isnan(step):
+            raise SimulationError(f"max_step must be positive (got {step})")
+        if step <= 0:
+            raise SimulationError(f"max_step must be positive (got {step})")
+        if self.method not in METHODS:
+            raise SimulationError(f"unknown method {self.method!r}; one of {', '.join(METHODS)}")
+
+    @property
+    def arm(self) -> float:
+        """How far a gap or a slip velocity must move from zero before its contact or
+        stick event may fire again (and the slip speed below which a slip starts from
+        rest): 100 atol, at least 1e-13. The simulator's and the loops'."""
+        return max(100.0 * self.atol, 1e-13)
+
+    @classmethod
+    def given(cls, rtol=None, atol=None, max_step=None, method=None) -> Options:
+        """The options with those given (not None), the defaults for the others."""
+        given = {"rtol": rtol, "atol": atol, "max_step": max_step, "method": method}
+        return cls(**{k: v for k, v in given.items() if v is not None})
 
     def integrator(self):
         """SciPy's integrator class (imported on first use)."""
@@ -86,37 +125,28 @@ def sample_times(t0: float, t_end: float, samples: int | None, dt: float | None)
     return np.linspace(t0, t_end, 1001 if samples is None else int(samples))
 
 
-def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "DOP853") -> None:
-    """Raise :class:`SimulationError` naming the first bad option."""
+def _bad(x) -> bool:
+    """Not a finite real number."""
+    return not isinstance(x, (int, float, np.floating, np.integer)) or not math.isfinite(x)
 
-    def bad(x):
-        return not isinstance(x, (int, float, np.floating, np.integer)) or not math.isfinite(x)
 
-    if bad(t_end) or bad(t0) or t_end <= t0:
+def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "DOP853") -> Options:
+    """The run's :class:`Options` (``max_step`` None: no bound), checked with the times
+    and samples: raise :class:`SimulationError` naming the first bad option."""
+    if _bad(t_end) or _bad(t0) or t_end <= t0:
         raise SimulationError(
             f"t_end must be a finite number after the start time {t0} (got {t_end})"
         )
-    if bad(rtol) or rtol <= 0 or rtol >= 1:
-        raise SimulationError(f"rtol must be in (0, 1) (got {rtol}); default {DEFAULT_RTOL}")
-    if rtol < 1e-14:
-        raise SimulationError(
-            f"rtol {rtol} is below 1e-14, which double precision cannot honour; use rtol >= 1e-14"
-        )
-    if bad(atol) or atol <= 0:
-        raise SimulationError(f"atol must be positive (got {atol}); default {DEFAULT_ATOL}")
-    if max_step is not None and (
-        not isinstance(max_step, (int, float)) or math.isnan(max_step) or max_step <= 0
-    ):
-        raise SimulationError(f"max_step must be positive (got {max_step})")
-    if max_step is not None and max_step < math.inf:
-        _check_max_step(float(max_step), float(t0), float(t_end))
+    options = Options.given(rtol, atol, max_step, method)
+    if options.max_step < math.inf:
+        _check_max_step(float(options.max_step), float(t0), float(t_end))
     if samples is not None and dt is not None:
         raise SimulationError("give samples or dt, not both")
     if samples is not None and (not isinstance(samples, (int, np.integer)) or samples < 2):
         raise SimulationError(
             f"samples counts both ends and must be an integer >= 2 (got {samples})"
         )
-    if dt is not None and (bad(dt) or dt <= 0):
+    if dt is not None and (_bad(dt) or dt <= 0):
         raise SimulationError(f"dt must be a positive number (got {dt})")
     count = samples if samples is not None else ((t_end - t0) / dt + 1 if dt is not None else 0)
     if count > MAX_SAMPLES:
@@ -125,8 +155,7 @@ def check_options(t_end, t0, rtol, atol, max_step, samples, dt, method: str = "D
             f"{what}: more output times than lamech keeps in one run ({MAX_SAMPLES:.0e}, "
             "about 80 MB a column); give fewer samples or a larger dt"
         )
-    if method not in METHODS:
-        raise SimulationError(f"unknown method {method!r}; one of {', '.join(METHODS)}")
+    return options
 
 
 def _check_max_step(max_step: float, t0: float, t_end: float) -> None:

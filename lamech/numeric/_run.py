@@ -38,8 +38,7 @@ class Setup:
 
     @classmethod
     def of(cls, ns: NumericSystem, p: np.ndarray, options: Options) -> Setup:
-        arm = max(100.0 * options.atol, 1e-13)
-        return cls(ns, p, options, ConstraintKinds.of(ns.system), arm, arm)
+        return cls(ns, p, options, ConstraintKinds.of(ns.system), options.arm, options.arm)
 
     @property
     def n(self) -> int:

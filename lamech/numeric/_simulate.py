@@ -68,7 +68,6 @@ from ._options import (
     DEFAULT_RTOL,
     IMPLICIT,
     INITIAL_TOLERANCE,
-    Options,
     Stop,
     check_options,
     sample_times,
@@ -158,11 +157,11 @@ def simulate(
     process: its helper threads only slow these small solves down. The limits in force
     before are restored after the run.
     """
-    check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
+    options = check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
     ns, p = numeric_system(system, params, jit)
     y0 = initial_state(ns, p, initial, q0, qd0)
     times = sample_times(t0, t_end, samples, dt)
-    run = Run(Setup.of(ns, p, Options(rtol, atol, max_step or math.inf, method)))
+    run = Run(Setup.of(ns, p, options))
     loop = loop_for(run, engine, times)
     notes: list[str] = _degree_notes(ns, p, y0)
     # One BLAS thread for the run, entered once (issue 16: with other work on the 2 cores,

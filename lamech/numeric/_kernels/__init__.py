@@ -1,0 +1,95 @@
+"""The kernels of the hot path, as plain Python that numba compiles: one module a concept.
+
+- :mod:`.codes`: the loop's integer codes (events, friction states, statuses, details);
+- :mod:`.kkt`: the system's functions and the KKT solves, the right-hand sides;
+- :mod:`.dop853`: DOP853's step, its step-size control and dense output (both loops');
+- :mod:`.project`: the projections onto the constraints and the consistent starts;
+- :mod:`.modes`: the contact and friction mode, the event functions, their location,
+  the settling of a mode;
+- :mod:`.impacts`: impacts with restitution and the Zeno accumulation;
+- :mod:`.loop`: the loop with events (``simulate`` and ``sweep``);
+- :mod:`.batch`: the batch loop without events (:func:`lamech.numeric.integrate_batch`).
+
+Every kernel takes the system record ``sy`` (:data:`SYSTEM_FIELDS`) first: the system's
+generated functions and its sparsity pattern arrive as arguments, not as module globals,
+so that the same compiled code serves every system. :mod:`.._jitcache` compiles the text
+of these modules, each from its ``KERNELS`` line on, in the order of :data:`MODULES`, as
+one module (:func:`kernel_text`), once per machine (numba's cache on disk), with each
+system's functions as numba cfuncs (first-class functions of one signature);
+:mod:`.._batch` runs the same functions as Python around the NumPy ones
+(:func:`python_namespace`: the same numbers, slowly).
+"""
+
+from __future__ import annotations
+
+import inspect
+import types
+
+from .._project import PROJECTION_ITERATIONS
+from . import batch, codes, dop853, impacts, kkt, loop, modes, project
+from .dop853 import STAGES
+
+__all__ = [
+    "kernel_text",
+    "python_namespace",
+    "SYSTEM_FIELDS",
+    "STAGES",
+    "PROJECTION_ITERATIONS",
+    "MODULES",
+]
+
+MODULES = (kkt, dop853, project, modes, impacts, loop, batch)
+"""The kernels' modules, in the order their text is compiled."""
+
+SYSTEM_FIELDS = (
+    "diagonal",
+    "PTR",
+    "IDX",
+    "CPTR",
+    "CROW",
+    "CPOS",
+    "dynamics",
+    "dynamics_sparse",
+    "constraints",
+    "energy",
+    "restitution",
+)
+"""The system record ``sy`` every kernel takes first, a tuple in this order: whether M
+is diagonal, the sparsity pattern of A (:func:`.._kkt.sparsity`), and the generated
+functions of :mod:`.._codegen` (``dynamics(t, q, v, p)`` -> (M, rhs, A, gamma,
+mu); ``dynamics_sparse`` -> (M's diagonal, rhs, A's nonzeros in CSR order, gamma, mu);
+``constraints(t, q, p)`` -> (f, A, b); ``energy(t, q, v, p)`` -> (T, V) as an array;
+``restitution(t, q, p)`` -> e). Compiled, the functions are the addresses of numba
+cfuncs of one signature for every system (:mod:`.._jitcache`, :mod:`.._fnptr`), so that
+the loop is compiled once, not per system."""
+
+MARK = "\n# KERNELS\n"
+
+
+def _kernels_of(module: types.ModuleType) -> str:
+    """A module's text from its ``KERNELS`` line on."""
+    text = inspect.getsource(module)
+    return text[text.index(MARK) + 1 :]
+
+
+def kernel_text() -> str:
+    """The kernels as one module's text (:func:`.._jitcache.engine_text` compiles it): the
+    codes, then each of :data:`MODULES` from its ``KERNELS`` line on."""
+    parts = [codes.constants_text()] + [_kernels_of(m) for m in MODULES]
+    return "\n\n\n".join(part.strip("\n") for part in parts) + "\n"
+
+
+def python_namespace() -> dict:
+    """The kernels as Python in one namespace, each function's globals that namespace (as
+    in the compiled module, where they all share one): replacing a function there (the
+    NumPy KKT solve for the compiled one) replaces it for every caller."""
+    namespace: dict = {}
+    for module in (codes, *MODULES):
+        namespace.update(
+            (k, v) for k, v in vars(module).items() if not k.startswith("__") and k != "annotations"
+        )
+    for module in MODULES:
+        for name, f in vars(module).items():
+            if isinstance(f, types.FunctionType) and f.__module__ == module.__name__:
+                namespace[name] = types.FunctionType(f.__code__, namespace, name)
+    return namespace

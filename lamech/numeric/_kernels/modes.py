@@ -1,0 +1,329 @@
+"""The contact and friction mode: the active rows, the watched events and their
+functions, an event's location on the dense output (Brent), the event record, and the
+settling of a mode (a constraint that pulls is released, friction beyond mu N slips).
+"""
+
+import numpy as np
+
+from .codes import (
+    DT_MULTIPLIER,
+    DT_RATIO,
+    EV_CONTACT,
+    EV_LIFT_OFF,
+    EV_SLIP,
+    EV_STICK,
+    FR_OFF,
+    FR_SLIP,
+    FR_STICK,
+    ST_EVENTS,
+    ST_SETTLE,
+    ST_SINGULAR,
+    TL_ARM_POS,
+    TL_ARM_VEL,
+)
+from .dop853 import ev_dense
+from .kkt import constraints, dynamics, kkt_solve
+from .project import ev_project
+
+
+# KERNELS
+def ev_active(j, kinds, imode):
+    """Constraint j's row is in the KKT system (Mode.row_active)."""
+    for _ in range(kinds.shape[1] + 1):
+        k = kinds[2, j]
+        if k < 0:
+            if kinds[0, j] == 1:
+                return imode[0, j] == 1
+            return True
+        if imode[1, j] != FR_STICK:
+            return False
+        j = k
+    return False
+
+
+def ev_mode(kinds, imode, fmode):
+    """(rows, hrows, slip_j, slip_k, slip_c) of the mode (Mode.rebuild; friction on a
+    released normal goes off, and sticks again when it engages)."""
+    m = kinds.shape[1]
+    rows = np.empty(m, dtype=np.int64)
+    na = 0
+    for j in range(m):
+        k = kinds[2, j]
+        if k >= 0:
+            if not ev_active(k, kinds, imode):
+                imode[1, j] = FR_OFF
+            elif imode[1, j] == FR_OFF:
+                imode[1, j] = FR_STICK
+            if imode[1, j] == FR_STICK:
+                rows[na] = j
+                na += 1
+        elif ev_active(j, kinds, imode):
+            rows[na] = j
+            na += 1
+    pos = np.full(m, -1, dtype=np.int64)
+    nh = 0
+    for a in range(na):
+        pos[rows[a]] = a
+        if kinds[1, rows[a]] == 1:
+            nh += 1
+    hrows = np.empty(nh, dtype=np.int64)
+    nh = 0
+    for a in range(na):
+        if kinds[1, rows[a]] == 1:
+            hrows[nh] = rows[a]
+            nh += 1
+    ns = 0
+    for j in range(m):
+        if kinds[2, j] >= 0 and imode[1, j] == FR_SLIP:
+            ns += 1
+    slip_j = np.empty(ns, dtype=np.int64)
+    slip_k = np.empty(ns, dtype=np.int64)
+    slip_c = np.empty(ns)
+    ns = 0
+    for j in range(m):
+        if kinds[2, j] >= 0 and imode[1, j] == FR_SLIP:
+            slip_j[ns] = j
+            slip_k[ns] = pos[kinds[2, j]]
+            slip_c[ns] = fmode[1, j] * fmode[0, j]
+            ns += 1
+    return rows[:na].copy(), hrows, slip_j, slip_k, slip_c
+
+
+def ev_watch(kinds, imode):
+    """(kinds, constraints) of the events the mode watches (Mode._watched)."""
+    m = kinds.shape[1]
+    wk = np.empty(2 * m, dtype=np.int64)
+    wj = np.empty(2 * m, dtype=np.int64)
+    nw = 0
+    for j in range(m):
+        if kinds[0, j] == 1:
+            wk[nw] = EV_LIFT_OFF if imode[0, j] == 1 else EV_CONTACT
+            wj[nw] = j
+            nw += 1
+        if kinds[2, j] >= 0:
+            if imode[1, j] == FR_STICK:
+                wk[nw] = EV_SLIP
+                wj[nw] = j
+                nw += 1
+            elif imode[1, j] == FR_SLIP:
+                wk[nw] = EV_STICK
+                wj[nw] = j
+                nw += 1
+    return wk[:nw].copy(), wj[:nw].copy()
+
+
+def ev_lam(sy, t, y, p, m, act):
+    """(q'', lambda (m,): NaN where inactive, the kinetic friction where slipping, mu)
+    on the mode's active set ``act`` (Run.kkt)."""
+    rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
+    n = y.shape[0] // 2
+    q = y[:n].copy()
+    v = y[n:].copy()
+    M, rhs, A, gam, mu = dynamics(sy, t, q, v, p)
+    sol = kkt_solve(sy, M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
+    lam = np.full(m, np.nan)
+    for a in range(rows.shape[0]):
+        lam[rows[a]] = sol[n + a]
+    for s in range(slip_j.shape[0]):
+        lam[slip_j[s]] = -mu[slip_j[s]] * slip_c[s] * sol[n + slip_k[s]]
+    return sol[:n].copy(), lam, mu
+
+
+def ev_values(sy, t, y, p, watch, md, act, tl):
+    """The watched events' functions at (t, y) (_detect.event_values; ``watch`` (kinds,
+    constraints): :func:`ev_watch`): lambda_j of an engaged unilateral (lift-off), f_j of
+    a released one (contact), mu sN N - |lambda_j| of sticking friction (slip), sigma s_j
+    of slipping friction (stick); a disarmed contact or stick shifted up by its
+    threshold."""
+    wk, wj = watch
+    kinds, imode, fmode = md
+    arm_pos, arm_vel = tl[TL_ARM_POS], tl[TL_ARM_VEL]
+    nw = wk.shape[0]
+    out = np.empty(nw)
+    if nw == 0:
+        return out
+    n = y.shape[0] // 2
+    m = kinds.shape[1]
+    qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
+    f, A, b = constraints(sy, t, y[:n].copy(), p)
+    for i in range(nw):
+        kind = wk[i]
+        j = wj[i]
+        if kind == EV_LIFT_OFF:
+            out[i] = lam[j]
+        elif kind == EV_CONTACT:
+            out[i] = f[j] + (0.0 if imode[2, j] == 1 else arm_pos)
+        elif kind == EV_SLIP:
+            out[i] = mu[j] * fmode[1, j] * lam[kinds[2, j]] - abs(lam[j])
+        else:
+            s = b[j]
+            for c in range(n):
+                s += A[j, c] * y[n + c]
+            out[i] = fmode[0, j] * s + (0.0 if imode[3, j] == 1 else arm_vel)
+    return out
+
+
+def ev_brent(sy, i, xa, xb, dn, p, watch, md, act, tl):
+    """Where event i's function (:func:`ev_values`) crosses zero on the dense output
+    ``dn`` (:func:`.dop853.ev_dense`) in [xa, xb]: Brent's method as
+    scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200 iterations:
+    _detect._root); xb where the ends have one sign."""
+    xtol = 1e-15 * max(1.0, abs(xb))
+    rtol = 4.0 * 2.220446049250313e-16
+    xpre = xa
+    xcur = xb
+    fpre = ev_values(sy, xpre, ev_dense(xpre, dn), p, watch, md, act, tl)[i]
+    fcur = ev_values(sy, xcur, ev_dense(xcur, dn), p, watch, md, act, tl)[i]
+    if fpre == 0.0:
+        return xpre
+    if fcur == 0.0:
+        return xcur
+    if (fpre < 0.0) == (fcur < 0.0):
+        return xb
+    xblk = 0.0
+    fblk = 0.0
+    spre = 0.0
+    scur = 0.0
+    for _ in range(200):
+        if fpre != 0.0 and fcur != 0.0 and (fpre < 0.0) != (fcur < 0.0):
+            xblk = xpre
+            fblk = fpre
+            spre = xcur - xpre
+            scur = spre
+        if abs(fblk) < abs(fcur):
+            xpre = xcur
+            xcur = xblk
+            xblk = xpre
+            fpre = fcur
+            fcur = fblk
+            fblk = fpre
+        delta = (xtol + rtol * abs(xcur)) / 2.0
+        sbis = (xblk - xcur) / 2.0
+        if fcur == 0.0 or abs(sbis) < delta:
+            return xcur
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)
+            else:
+                dpre = (fpre - fcur) / (xpre - xcur)
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            if 2.0 * abs(stry) < min(abs(spre), 3.0 * abs(sbis) - delta):
+                spre = scur
+                scur = stry
+            else:
+                spre = sbis
+                scur = sbis
+        else:
+            spre = sbis
+            scur = sbis
+        xpre = xcur
+        fpre = fcur
+        if abs(scur) > delta:
+            xcur += scur
+        else:
+            xcur += delta if sbis > 0.0 else -delta
+        fcur = ev_values(sy, xcur, ev_dense(xcur, dn), p, watch, md, act, tl)[i]
+    return xcur
+
+
+def ev_log(lg, kind, j, t, y, code, value, nev):
+    """Record event (kind, j) at (t, y) in the event record ``lg`` with its detail
+    (``code``: DT_*, ``value``); mark the wanted events it is; the new count, or -1 when
+    the record is full."""
+    ev_kind, ev_j, ev_t, ev_y, ev_x, want, found = lg
+    if nev >= ev_kind.shape[0]:
+        return -1
+    ev_kind[nev] = kind
+    ev_j[nev] = j
+    ev_t[nev] = t
+    ev_y[nev, :] = y
+    ev_x[nev, 0] = code
+    ev_x[nev, 1] = value
+    for c in range(2, ev_x.shape[1]):
+        ev_x[nev, c] = 0.0
+    for w in range(want.shape[1]):
+        if want[0, w] == kind and (want[1, w] < 0 or want[1, w] == j):
+            found[w] = True
+    return nev + 1
+
+
+def ev_settle(sy, t, y, p, md, tl, lg, nev):
+    """Make the mode ``md`` consistent at (t, y), in place (_switch.settle): release the
+    unilateral constraint pulling hardest, else let the friction furthest beyond mu N
+    slip, logging each in ``lg``; (count, 0) or (count, ST_EVENTS / ST_SETTLE /
+    ST_SINGULAR)."""
+    kinds, imode, fmode = md
+    arm_vel = tl[TL_ARM_VEL]
+    n = y.shape[0] // 2
+    m = kinds.shape[1]
+    for _ in range(4 * m + 4):
+        act = ev_mode(kinds, imode, fmode)
+        rows = act[0]
+        ev_project(sy, t, y, p, rows, act[1], fmode[2])
+        qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
+        if not np.all(np.isfinite(qdd)):
+            return nev, ST_SINGULAR
+        scale = 0.0
+        for j in range(m):
+            if np.isfinite(lam[j]):
+                scale = max(scale, abs(lam[j]))
+        scale += 1.0
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            k = kinds[2, j]
+            if k >= 0 and kinds[0, k] == 0 and lam[k] != 0.0:
+                fmode[1, j] = np.copysign(1.0, lam[k])
+        worst = 0.0
+        jw = -1
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            if kinds[0, j] == 1 and lam[j] < -1e-12 * scale and lam[j] < worst:
+                worst = lam[j]
+                jw = j
+        if jw >= 0:
+            imode[0, jw] = 0
+            imode[2, jw] = 0
+            fmode[3, jw] = np.nan  # Mode.release
+            nev = ev_log(lg, EV_LIFT_OFF, jw, t, y, DT_MULTIPLIER, worst, nev)
+            if nev < 0:
+                return 0, ST_EVENTS
+            continue
+        worst = 0.0
+        jw = -1
+        for a in range(rows.shape[0]):
+            j = rows[a]
+            k = kinds[2, j]
+            if k >= 0:
+                excess = abs(lam[j]) - mu[j] * fmode[1, j] * lam[k]
+                if excess > 1e-12 * scale and excess > worst:
+                    worst = excess
+                    jw = j
+        if jw >= 0:
+            ratio = abs(lam[jw]) / max(abs(mu[jw] * lam[kinds[2, jw]]), 1e-300)
+            f, A, b = constraints(sy, t, y[:n].copy(), p)
+            s = b[jw]
+            for c in range(n):
+                s += A[jw, c] * y[n + c]
+            if abs(s) <= arm_vel:
+                fmode[0, jw] = -np.copysign(1.0, lam[jw])
+            else:
+                fmode[0, jw] = np.copysign(1.0, s)
+            imode[1, jw] = FR_SLIP
+            imode[3, jw] = 0
+            nev = ev_log(lg, EV_SLIP, jw, t, y, DT_RATIO, ratio, nev)
+            if nev < 0:
+                return 0, ST_EVENTS
+            continue
+        return nev, 0
+    return nev, ST_SETTLE
+
+
+def ev_all(found, to_end):
+    """Every wanted event found (and no need to go on to t_end)."""
+    if to_end or found.shape[0] == 0:
+        return False
+    for w in range(found.shape[0]):
+        if not found[w]:
+            return False
+    return True
