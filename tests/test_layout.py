@@ -134,7 +134,8 @@ KERNELS = ROOT / "lamech" / "numeric" / "_kernels"
 def test_the_kernels_codes_are_defined_once_and_the_compiled_module_reads_the_same_values():
     """The loop's integer codes (issue 31): one definition, read by the compiled module
     and by Python's maps of the results."""
-    from lamech.numeric import EVENT_FALLBACKS, EventKind, FrictionState
+    from lamech.numeric import EventKind, FrictionState
+    from lamech.numeric._batch import FALLBACKS
     from lamech.numeric._kernels import MODULES, codes, kernel_text
 
     text = kernel_text()
@@ -152,7 +153,7 @@ def test_the_kernels_codes_are_defined_once_and_the_compiled_module_reads_the_sa
     assert set(codes.FRICTION) == {None, *FrictionState}
     assert {codes.FRICTION_STATES[c] for c in codes.FRICTION.values()} == {None, *FrictionState}
     statuses = {v for k, v in values.items() if k.startswith("ST_")} - {codes.ST_BUDGET}
-    assert set(codes.STATUS_NAMES) == statuses and EVENT_FALLBACKS == codes.FALLBACKS
+    assert set(codes.STATUS_NAMES) == statuses and FALLBACKS == codes.FALLBACKS
     assert EventKind.SWITCH not in codes.EVENT_CODES  # the loop has no input switches
     details = {v for k, v in values.items() if k.startswith("DT_")} - {codes.DT_NONE}
     assert set(codes.DETAILS) == details
