@@ -55,3 +55,16 @@ def test_an_initial_state_off_the_constraints_in_both_terms(capsys):
     err = capsys.readouterr().err
     assert err.rstrip().endswith("fix the initial values or use --project-initial")
     assert "project_initial" not in err
+
+
+@pytest.mark.parametrize("command", ["simulate", "sweep"])
+def test_the_help_states_the_library_s_own_default_tolerances(command, capsys):
+    """The command line cannot import the numeric layer to ask (it starts without NumPy),
+    so its help spells the defaults: they must be the library's (one default an option)."""
+    from lamech.numeric._options import DEFAULT_ATOL, DEFAULT_RTOL
+
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"relative tolerance (default {DEFAULT_RTOL:g};" in text
+    assert f"absolute tolerance (default {DEFAULT_ATOL:g})" in text
