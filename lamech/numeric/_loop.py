@@ -169,7 +169,7 @@ def _dissipative(event) -> bool:
 
 
 def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
-    """The loop's (imode (4, m), fmode (5, m)) of a :class:`._mode.Mode` (see
+    """The loop's (imode (4, m), fmode (5, m)) of a :class:`._mode.ContactMode` (see
     :mod:`._kernels`' loop with events): fmode's rows 3 and 4 hold ``accumulating``
     {j: (t_impact, t_acc)} (t_acc, then t_impact; NaN where none)."""
     m = mode.kinds.m
@@ -186,7 +186,7 @@ def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
 
 
 def set_mode(mode, imode: np.ndarray, fmode: np.ndarray) -> None:
-    """The :class:`._mode.Mode` of the loop's arrays."""
+    """The :class:`._mode.ContactMode` of the loop's arrays."""
     m = mode.kinds.m
     mode.engaged = imode[0] == 1
     mode.friction = [FRICTION_STATES[int(c)] for c in imode[1]]

@@ -1,6 +1,6 @@
 """The contact and friction mode of a run, apart from the compiled model's constants (in
 the spirit of MuJoCo's mjModel/mjData): :class:`ConstraintKinds` says what each
-constraint is (fixed for the run), :class:`Mode` what each does now.
+constraint is (fixed for the run), :class:`ContactMode` what each does now.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 
 from ._events import EventKind, FrictionState
 
-__all__ = ["ConstraintKinds", "Mode", "slip_sign"]
+__all__ = ["ConstraintKinds", "ContactMode", "slip_sign"]
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class ConstraintKinds:
         return len(self.normal)
 
 
-class Mode:
+class ContactMode:
     """Which constraints act and how: ``engaged`` (unilateral constraints in contact),
     ``friction`` (:class:`FrictionState` per friction constraint, None for the others),
     ``sigma`` (the sign of each slip velocity), ``sN`` (the sign of a bilateral normal

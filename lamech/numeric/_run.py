@@ -1,6 +1,6 @@
 """One simulation run, in the spirit of MuJoCo's mjModel/mjData: :class:`Setup` holds the
 constants (the compiled system, the parameter vector, the options, the constraints'
-kinds, the event thresholds), :class:`Run` the data that change (the :class:`Mode`, the
+kinds, the event thresholds), :class:`Run` the data that change (the :class:`ContactMode`, the
 projection's metric, the counters and the event log) with the evaluations at a state:
 the KKT solve, the right-hand side, the projection and the residuals."""
 
@@ -16,7 +16,7 @@ from ..model._checks import without_inertia
 from ._codegen import NumericSystem
 from ._events import Event, EventKind
 from ._kkt import slip_directions
-from ._mode import ConstraintKinds, Mode, slip_sign
+from ._mode import ConstraintKinds, ContactMode, slip_sign
 from ._options import Options, Stop
 from ._project import Metric, project_positions, project_velocities
 
@@ -77,7 +77,7 @@ class Run:
 
     def __init__(self, setup: Setup):
         self.setup = setup
-        self.mode = Mode(setup.kinds)
+        self.mode = ContactMode(setup.kinds)
         self.metric = Metric(setup.ns, setup.p)
         self.evaluations = 0
         self.dissipative = False

@@ -192,7 +192,7 @@ def impact(run: Run, t: float, y: np.ndarray, j: int) -> np.ndarray:
     2 e |F_j-| / (|a_n| (1 - e)). The impact is logged as the bounce it is; the motion
     goes on in contact from here (the bounces' heights, below 4 ``arm_pos``, are below
     what the integrator resolves, and their impulses sum to the contact's) and the
-    ``contact`` is logged at the accumulation time (:attr:`Mode.accumulating`)."""
+    ``contact`` is logged at the accumulation time (:attr:`ContactMode.accumulating`)."""
     setup = run.setup
     n = setup.n
     q, v = y[:n], y[n:]

@@ -257,7 +257,7 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
     elif kind == EV_LIFT_OFF:
         imode[0, j] = 0
         imode[2, j] = 0
-        fmode[3, j] = np.nan  # Mode.release: a pending accumulation is dropped
+        fmode[3, j] = np.nan  # ContactMode.release: a pending accumulation is dropped
     elif kind == EV_SLIP:
         lam_j = ev_lam(sy, te, ye, p, m, act)[1][j]
         fmode[0, j] = -np.copysign(1.0, lam_j)

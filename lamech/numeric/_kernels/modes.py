@@ -28,7 +28,7 @@ from .project import ev_project
 
 # KERNELS
 def ev_active(j, kinds, imode):
-    """Constraint j's row is in the KKT system (Mode.row_active)."""
+    """Constraint j's row is in the KKT system (ContactMode.row_active)."""
     for _ in range(kinds.shape[1] + 1):
         k = kinds[2, j]
         if k < 0:
@@ -42,7 +42,7 @@ def ev_active(j, kinds, imode):
 
 
 def ev_mode(kinds, imode, fmode):
-    """(rows, hrows, slip_j, slip_k, slip_c) of the mode (Mode.rebuild; friction on a
+    """(rows, hrows, slip_j, slip_k, slip_c) of the mode (ContactMode.rebuild; friction on a
     released normal goes off, and sticks again when it engages)."""
     m = kinds.shape[1]
     rows = np.empty(m, dtype=np.int64)
@@ -90,7 +90,7 @@ def ev_mode(kinds, imode, fmode):
 
 
 def ev_watch(kinds, imode):
-    """(kinds, constraints) of the events the mode watches (Mode._watched)."""
+    """(kinds, constraints) of the events the mode watches (ContactMode._watched)."""
     m = kinds.shape[1]
     wk = np.empty(2 * m, dtype=np.int64)
     wj = np.empty(2 * m, dtype=np.int64)
@@ -284,7 +284,7 @@ def ev_settle(sy, t, y, p, md, tl, lg, nev):
         if jw >= 0:
             imode[0, jw] = 0
             imode[2, jw] = 0
-            fmode[3, jw] = np.nan  # Mode.release
+            fmode[3, jw] = np.nan  # ContactMode.release
             nev = ev_log(lg, EV_LIFT_OFF, jw, t, y, DT_MULTIPLIER, worst, nev)
             if nev < 0:
                 return 0, ST_EVENTS
