@@ -403,7 +403,7 @@ def _entry_arguments(sy: tuple) -> dict:
     """Arguments of the types the callers pass to each of the engine's entry points
     (:mod:`._loop`, :mod:`._batch`, :mod:`._run`): values that are never run, only typed,
     so that the whole engine is compiled at once."""
-    from ._batch import _tables
+    from ._tableau import _tables
 
     f1, f2, f3 = np.zeros(2), np.zeros((1, 2)), np.zeros((1, 1, 2))
     i1, i2, i3 = (

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch import _event_functions, _kinds, _tables, logged_events
+from ._batch import _event_functions, _kinds, logged_events
 from ._codegen import numba_available
 from ._engines import ENGINES, engine_name
 from ._events import EventKind
@@ -32,6 +32,7 @@ from ._kernels.codes import FRICTION, FRICTION_STATES, ST_BUDGET, ST_CONTACT, ST
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
 from ._run import Run
+from ._tableau import _tables
 
 __all__ = ["Loop", "loop_for", "ENGINES", "CHUNK"]
 

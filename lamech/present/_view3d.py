@@ -12,11 +12,12 @@ centre), the contact tracks and the constraint forces as arrows.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._animate import Scene
+if TYPE_CHECKING:  # the annotation only: _animate imports this module to draw in space
+    from ._animate import Scene
 
 __all__ = ["space_view", "FRAME_COLOURS"]
 

@@ -3,7 +3,7 @@ tableau, error norm and step-size control (``scipy.integrate._ivp.rk``), its ini
 step, and the dense output (the 7th-order interpolant with its 3 extra stages).
 
 ``tab``: DOP853's tables (A, B, C, E3, E5, then the dense output's A_EXTRA, C_EXTRA, D:
-:func:`.._batch._tableau`, :func:`.._batch._dense_tableau`); ``act`` the mode's active set
+:func:`.._tableau._tableau`, :func:`.._tableau._dense_tableau`); ``act`` the mode's active set
 and ``tl`` the tolerances (:mod:`.codes`).
 """
 
