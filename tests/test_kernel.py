@@ -95,3 +95,44 @@ def test_batch_over_parameters_matches_simulate():
     assert not np.allclose(finals[0] / 0.5, finals[2] / 2.0)  # the length mattered
     with pytest.raises(ValueError, match="parameter sets"):
         integrate_batch(ns, Y0, 1.0, params=[{"l": 1.0}])
+
+
+def _correction():
+    from lamech.numeric._kernels import python_namespace
+
+    return python_namespace()["ev_correction"]
+
+
+def test_the_projection_is_the_smallest_in_the_mass_metric():
+    """The KKT correction minimises dx^T W dx on A dx = r: W^-1 A^T w for a diagonal W
+    (the Schur path) and a full one (the KKT elimination)."""
+    rng = np.random.default_rng(5)
+    A, r = rng.normal(size=(2, 4)), rng.normal(size=2)
+    for W in (np.diag([1.0, 2.0, 3.0, 4.0]), np.eye(4) + 0.3 * np.ones((4, 4))):
+        dx = _correction()(W, A, r)
+        w = np.linalg.solve(A @ np.linalg.solve(W, A.T), r)
+        assert np.allclose(dx, np.linalg.solve(W, A.T @ w), rtol=1e-12, atol=1e-14)
+
+
+def test_a_singular_metric_falls_back_to_the_euclidean_correction():
+    """M singular on the motions A allows (a massless coordinate): dx = A^T (A A^T)^-1 r."""
+    W = np.diag([1.0, 0.0, 0.0])
+    A, r = np.array([[0.0, 1.0, 1.0]]), np.array([0.5])
+    dx = _correction()(W, A, r)
+    assert np.allclose(dx, [0.0, 0.25, 0.25], rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("consistent", [True, False])
+def test_dependent_rows_get_numpys_least_squares_correction(consistent):
+    """A repeated constraint row (A A^T singular): the minimum-norm least-squares dx,
+    numpy.linalg.lstsq's, in the Euclidean metric where M is singular as well."""
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(2, 5))
+    A = np.vstack((a, a[0] + 2 * a[1]))
+    r = rng.normal(size=3)
+    if consistent:
+        r[2] = r[0] + 2 * r[1]
+    want = np.linalg.lstsq(A, r, rcond=None)[0]
+    for W in (np.eye(5), np.zeros((5, 5))):
+        dx = _correction()(W, A, r)
+        assert np.allclose(dx, want, rtol=1e-12, atol=1e-13)
