@@ -5,6 +5,7 @@ constraint is (fixed for the run), :class:`ContactMode` what each does now.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,7 +13,7 @@ import numpy as np
 from ._events import EventKind, FrictionState
 from ._rules import kinds_array
 
-__all__ = ["ConstraintKinds", "ContactMode"]
+__all__ = ["ConstraintKinds", "ContactMode", "slip_sign"]
 
 
 @dataclass(frozen=True)
@@ -164,3 +165,9 @@ class ContactMode:
         self.offset[j] = offset
         self.friction[j] = FrictionState.STICK
         self.rebuild()
+
+
+def slip_sign(lam_j: float, s: float, still: float) -> float:
+    """The sign of a new slip velocity: that of s, or against the friction force lam_j
+    when |s| <= ``still`` (the slip starts from rest)."""
+    return -math.copysign(1.0, lam_j) if abs(s) <= still else math.copysign(1.0, s)

@@ -53,14 +53,12 @@ def _lapack_gauss(K: np.ndarray, x: np.ndarray) -> None:
 def rules(ns: NumericSystem) -> dict:
     """The rule functions a SciPy-stepped run calls, the system record bound: the
     projection ``ev_project(t, y, p, rows, hrows, offset)``, the consistent start
-    ``ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol)``, and, with
-    no system record, the penetration depth ``ev_depth(q, tl)`` and the sign of a new
-    slip ``ev_slip_sign(lam_j, s, still)``."""
+    ``ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol)``, and the
+    penetration depth ``ev_depth(q, tl)`` (no system record)."""
     namespace = python_namespace(ns)
     namespace["gauss_inplace"] = _lapack_gauss
     out = bound(namespace, ("ev_project", "ev_consistent"))
     out["ev_depth"] = namespace["ev_depth"]
-    out["ev_slip_sign"] = namespace["ev_slip_sign"]
     return out
 
 

@@ -16,7 +16,7 @@ from ..model._checks import without_inertia
 from ._codegen import NumericSystem
 from ._events import Event, EventKind
 from ._kkt import slip_directions
-from ._mode import ConstraintKinds, ContactMode
+from ._mode import ConstraintKinds, ContactMode, slip_sign
 from ._options import Options, Stop
 from ._rules import rules
 
@@ -232,7 +232,7 @@ class Run:
     # ----- switches that need numbers -------------------------------------------
     def start_slip(self, j: int, lam_j: float, s: float = 0.0) -> None:
         """Friction j starts slipping (slip velocity s, or from rest against lam_j)."""
-        self.mode.start_slip(j, float(self.rules["ev_slip_sign"](lam_j, s, self.setup.arm_vel)))
+        self.mode.start_slip(j, slip_sign(lam_j, s, self.setup.arm_vel))
         self.dissipative = True
 
     def stick(self, t: float, y: np.ndarray, j: int) -> None:

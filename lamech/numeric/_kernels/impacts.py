@@ -21,7 +21,7 @@ from .codes import (
     TL_ARM_VEL,
 )
 from .kkt import constraints, dynamics, kkt_solve, restitution
-from .modes import ev_log, ev_mode, ev_slip_sign
+from .modes import ev_log, ev_mode
 
 
 # KERNELS
@@ -196,7 +196,10 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
         sv = b[i]
         for c in range(n):
             sv += A[i, c] * vp[c]
-        fmode[0, i] = ev_slip_sign(trial[i], sv, arm_vel)
+        if abs(sv) <= arm_vel:
+            fmode[0, i] = -np.copysign(1.0, trial[i])
+        else:
+            fmode[0, i] = np.copysign(1.0, sv)
         imode[1, i] = FR_SLIP
         imode[3, i] = 0
     ev_mode(kinds, imode, fmode)

@@ -60,7 +60,6 @@ from .modes import (
     ev_log,
     ev_mode,
     ev_settle,
-    ev_slip_sign,
     ev_values,
     ev_watch,
 )
@@ -258,7 +257,7 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
         lam2, mu2 = ev_lam(sy, te, ye, p, m, act2)[1:]
         kn = kinds[2, j]
         if not abs(lam2[j]) <= mu2[j] * fmode[1, j] * lam2[kn] * (1.0 + 1e-9):
-            fmode[0, j] = ev_slip_sign(lam2[j], 0.0, tl[TL_ARM_VEL])  # from rest
+            fmode[0, j] = -np.copysign(1.0, lam2[j])
             imode[1, j] = FR_SLIP
             imode[3, j] = 0
             logged = EV_SLIP
@@ -270,7 +269,7 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
         fmode[3, j] = np.nan  # ContactMode.release: a pending accumulation is dropped
     elif kind == EV_SLIP:
         lam_j = ev_lam(sy, te, ye, p, m, act)[1][j]
-        fmode[0, j] = ev_slip_sign(lam_j, 0.0, tl[TL_ARM_VEL])  # from rest
+        fmode[0, j] = -np.copysign(1.0, lam_j)
         imode[1, j] = FR_SLIP
         imode[3, j] = 0
     if logged >= 0:

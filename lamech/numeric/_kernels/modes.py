@@ -36,14 +36,6 @@ def ev_depth(q, tl):
     return max(tl[TL_PEN] * (1.0 + np.max(np.abs(q))), 10.0 * tl[TL_ARM_POS])
 
 
-def ev_slip_sign(lam_j, s, still):
-    """The sign of a new slip velocity: that of s, or against the friction force lam_j
-    where |s| <= ``still`` (the slip starts from rest)."""
-    if abs(s) <= still:
-        return -np.copysign(1.0, lam_j)
-    return np.copysign(1.0, s)
-
-
 def ev_active(j, kinds, imode):
     """Constraint j's row is in the KKT system (ContactMode.row_active)."""
     for _ in range(kinds.shape[1] + 1):
@@ -322,7 +314,10 @@ def ev_settle(sy, t, y, p, md, tl, lg, nev):
             s = b[jw]
             for c in range(n):
                 s += A[jw, c] * y[n + c]
-            fmode[0, jw] = ev_slip_sign(lam[jw], s, arm_vel)
+            if abs(s) <= arm_vel:
+                fmode[0, jw] = -np.copysign(1.0, lam[jw])
+            else:
+                fmode[0, jw] = np.copysign(1.0, s)
             imode[1, jw] = FR_SLIP
             imode[3, jw] = 0
             nev = ev_log(lg, EV_SLIP, jw, t, y, DT_RATIO, ratio, nev)
