@@ -11,7 +11,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._events import EventKind, FrictionState
-from ._rules import kinds_array
 
 __all__ = ["ConstraintKinds", "ContactMode", "slip_sign"]
 
@@ -27,10 +26,15 @@ class ConstraintKinds:
 
     @classmethod
     def of(cls, system) -> ConstraintKinds:
-        """The kinds of ``system``'s constraints: the kernels' array
-        (:func:`._rules.kinds_array`), one definition of what each constraint is."""
-        kinds = kinds_array(system)
-        return cls(unilateral=kinds[0] == 1, holonomic=kinds[1] == 1, normal=kinds[2].astype(int))
+        names = [c.name for c in system.constraints]
+        return cls(
+            unilateral=np.array([c.unilateral for c in system.constraints], dtype=bool),
+            holonomic=np.array([c.holonomic for c in system.constraints], dtype=bool),
+            normal=np.array(
+                [names.index(c.friction.normal) if c.friction else -1 for c in system.constraints],
+                dtype=int,
+            ),
+        )
 
     @property
     def m(self) -> int:

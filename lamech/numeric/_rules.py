@@ -52,14 +52,11 @@ def _lapack_gauss(K: np.ndarray, x: np.ndarray) -> None:
 
 def rules(ns: NumericSystem) -> dict:
     """The rule functions a SciPy-stepped run calls, the system record bound: the
-    projection ``ev_project(t, y, p, rows, hrows, offset)``, the consistent start
-    ``ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol)``, and the
-    penetration depth ``ev_depth(q, tl)`` (no system record)."""
+    projection ``ev_project(t, y, p, rows, hrows, offset)`` and the consistent start
+    ``ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol)``."""
     namespace = python_namespace(ns)
     namespace["gauss_inplace"] = _lapack_gauss
-    out = bound(namespace, ("ev_project", "ev_consistent"))
-    out["ev_depth"] = namespace["ev_depth"]
-    return out
+    return bound(namespace, ("ev_project", "ev_consistent"))
 
 
 def kinds_array(system) -> np.ndarray:

@@ -61,7 +61,6 @@ from ._detect import (
 )
 from ._events import EventKind, Status
 from ._initial import initial_state
-from ._kernels import codes
 from ._loop import CONTACT, HANDBACK, Loop, loop_for
 from ._options import (
     BLOW_UP,
@@ -453,8 +452,9 @@ def _check_penetration(run: Run, t: float, y: np.ndarray, met: int | None = None
     never a silent ``ok``. Checked at each step end with no contact located (there the
     crossing was not seen: the step began on or below the surface) and, for constraint
     ``met``, where its contact was located (a gap that jumps below zero: the surface
-    moved through the body). The depth is the loop's rule (``ev_depth``: 10 ``arm_pos``,
-    or the initial state's tolerance where that is larger)."""
+    moved through the body). The tolerance is 10 ``arm_pos`` (1000 atol; a contact is
+    located at a gap of at most ``arm_pos`` below zero), or the initial state's
+    tolerance where that is larger."""
     mode, setup = run.mode, run.setup
     if not mode.released:
         return
@@ -463,11 +463,8 @@ def _check_penetration(run: Run, t: float, y: np.ndarray, met: int | None = None
         released = [met]
     n = setup.n
     f = run.constraints(t, y[:n])[0]
-    tl = codes.tolerances(
-        rtol=float(setup.options.rtol), atol=float(setup.options.atol), t_end=t,
-        arm_pos=setup.arm_pos, pen=INITIAL_TOLERANCE,
-    )  # fmt: skip
-    depth = float(run.rules["ev_depth"](y[:n], tl))
+    big = float(np.max(np.abs(y[:n]), initial=0.0))
+    depth = max(10.0 * setup.arm_pos, INITIAL_TOLERANCE * (1.0 + big))
     for j in released:
         if f[j] >= -depth:
             continue

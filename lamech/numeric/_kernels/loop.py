@@ -46,23 +46,14 @@ from .codes import (
     TL_ARM_POS,
     TL_ARM_VEL,
     TL_BLOW_UP,
+    TL_PEN,
     TL_T_END,
     TL_TOL,
 )
 from .dop853 import STAGES, dop853_step, ev_dense, ev_dense_stages, ev_first_step
 from .impacts import ev_accumulated, ev_bound, ev_impact
 from .kkt import constraints, energy, rhs_kernel
-from .modes import (
-    ev_all,
-    ev_brent,
-    ev_depth,
-    ev_lam,
-    ev_log,
-    ev_mode,
-    ev_settle,
-    ev_values,
-    ev_watch,
-)
+from .modes import ev_all, ev_brent, ev_lam, ev_log, ev_mode, ev_settle, ev_values, ev_watch
 from .project import ev_project
 
 
@@ -235,11 +226,11 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
     m = kinds.shape[1]
     logged = kind
     if kind == EV_CONTACT:
-        # the penetration rule (ev_depth) where the contact is met: a gap that jumped below
-        # zero is the simulator's to report; so are all contacts without impacts
-        # (integrate_events' default)
+        # _simulate._check_penetration where the contact is met: a gap that jumped below
+        # zero is the simulator's to report
         fc = constraints(sy, te, ye[:n].copy(), p)[0]
-        if fc[j] < -ev_depth(ye[:n], tl) or lim[LM_IMPACTS] == 0:
+        depth = max(tl[TL_PEN] * (1.0 + np.max(np.abs(ye[:n]))), 10.0 * tl[TL_ARM_POS])
+        if fc[j] < -depth or lim[LM_IMPACTS] == 0:  # (no impacts: integrate_events' default)
             return ST_CONTACT, nev, False
         nev, st = ev_impact(sy, te, ye, p, j, md, tl, lg, nev)
         if st != 0:  # ST_CONTACT: not applied, the simulator applies it
@@ -405,9 +396,9 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
             io[IO_EVALUATIONS] += 2
             g_old = ev_values(sy, t, y, p, watch, md, act, tl)
             continue
-        if released:  # a body through a surface (ev_depth)
+        if released:  # a body through a surface (simulate's _check_penetration)
             fb = constraints(sy, t_new, yb[:n].copy(), p)[0]
-            depth = ev_depth(yb[:n], tl)
+            depth = max(tl[TL_PEN] * (1.0 + np.max(np.abs(yb[:n]))), 10.0 * tl[TL_ARM_POS])
             for i in range(wk.shape[0]):
                 if wk[i] == EV_CONTACT and fb[watch[1][i]] < -depth:
                     return t, ST_PENETRATION, nev, steps

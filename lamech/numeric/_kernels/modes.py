@@ -20,7 +20,6 @@ from .codes import (
     ST_SINGULAR,
     TL_ARM_POS,
     TL_ARM_VEL,
-    TL_PEN,
 )
 from .dop853 import ev_dense
 from .kkt import constraints, dynamics, kkt_solve
@@ -28,14 +27,6 @@ from .project import ev_project
 
 
 # KERNELS
-def ev_depth(q, tl):
-    """How far below zero a released unilateral constraint's gap may be at coordinates q
-    before the body counts as through the surface (status penetrated, never a silent
-    ok): 10 arm_pos (a contact is located at a gap of at most arm_pos below zero), or the
-    initial state's tolerance TL_PEN (1 + max |q|) where that is larger."""
-    return max(tl[TL_PEN] * (1.0 + np.max(np.abs(q))), 10.0 * tl[TL_ARM_POS])
-
-
 def ev_active(j, kinds, imode):
     """Constraint j's row is in the KKT system (ContactMode.row_active)."""
     for _ in range(kinds.shape[1] + 1):
