@@ -16,7 +16,7 @@ adaptive high-order Runge–Kutta that numba can call with a compiled right-hand
 a projection step. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
-the simulator's projection (:mod:`lamech.numeric._kernels.project`), in the
+compiled twin of the simulator's projection (:mod:`lamech.numeric._project`), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
 and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is
 :mod:`._kernels.batch` on the stepper of :mod:`._kernels.dop853` (the loop with events'
@@ -38,6 +38,7 @@ simulator's (mass-matrix metric), so that its event times are the simulator's to
 
 from __future__ import annotations
 
+import functools
 import os
 
 import numpy as np
@@ -46,7 +47,6 @@ from ._codegen import NumericSystem, numba_available
 from ._events import EventKind
 from ._kernels import codes
 from ._options import Options
-from ._rules import bound, kinds_array, python_namespace
 from ._tableau import _tables
 from ._threads import one_blas_thread
 
@@ -77,10 +77,33 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
+def _python_namespace(ns: NumericSystem) -> dict:
+    """The kernels (:mod:`._kernels`) as Python around the system's NumPy functions: one
+    namespace of their functions where the KKT solve and the right-hand sides are the
+    NumPy ones of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
+    ``"sy"`` the system record they take."""
+    from ._kernels import python_namespace
+
+    namespace = python_namespace()
+    namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
+    namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
+    namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
+    arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
+    namespace["sy"] = (
+        bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
+        ns.restitution,
+    )  # fmt: skip
+    return namespace
+
+
+def _bound(namespace: dict, names) -> dict:
+    """The functions ``names`` of a namespace with its system record bound."""
+    return {name: functools.partial(namespace[name], namespace["sy"]) for name in names}
+
+
 def _python_loops(ns: NumericSystem):
-    """(parallel loop, serial loop) of the batch part as Python
-    (:func:`._rules.python_namespace`)."""
-    f = bound(python_namespace(ns), ("batch_run", "batch_run_serial"))
+    """(parallel loop, serial loop) of the batch part as Python (:func:`_python_namespace`)."""
+    f = _bound(_python_namespace(ns), ("batch_run", "batch_run_serial"))
     return f["batch_run"], f["batch_run_serial"]
 
 
@@ -222,7 +245,7 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
 
         f = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal).functions
     else:
-        f = bound(python_namespace(ns), names)
+        f = _bound(_python_namespace(ns), names)
     out = {k: f[k] for k in names}
     out["numba"] = use
     _EVENT_CACHE[(id(ns), use)] = (ns, out)
@@ -346,10 +369,20 @@ def initial_states(
     V = np.ascontiguousarray(Y[:, n:])
     starts = _event_functions(ns, jit)["ev_starts"]
     with one_blas_thread():
-        starts(
-            Q, V, P, hold[0], hold[1], value[0], value[1], kinds_array(system), INITIAL_TOLERANCE
-        )
+        starts(Q, V, P, hold[0], hold[1], value[0], value[1], _kinds(system), INITIAL_TOLERANCE)
     return np.concatenate((Q, V), axis=1)
+
+
+def _kinds(system) -> np.ndarray:
+    """(3, m) int64: unilateral, holonomic, normal index (-1 where not friction)."""
+    names = [c.name for c in system.constraints]
+    m = len(names)
+    out = np.zeros((3, m), dtype=np.int64)
+    for j, c in enumerate(system.constraints):
+        out[0, j] = int(c.unilateral)
+        out[1, j] = int(c.holonomic)
+        out[2, j] = names.index(c.friction.normal) if c.friction else -1
+    return out
 
 
 def _parameter_rows(ns: NumericSystem, params, rows: int) -> np.ndarray:
@@ -448,7 +481,7 @@ def integrate_events(
         ],
         dtype=np.int64,
     ).reshape(2, len(want))
-    kinds = kinds_array(ns.system)
+    kinds = _kinds(ns.system)
     m = ns.m
     IM = np.zeros((B, 4, m), dtype=np.int64)
     IM[:, 0, :] = 1  # engaged

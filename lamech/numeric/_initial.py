@@ -1,6 +1,6 @@
 """The initial state as numbers: the coordinates' initial expressions at a parameter
 vector, values held by name with the others moved onto the constraints
-(:func:`consistent_initial`, the loop's projection, :mod:`lamech.numeric._rules`), and the
+(:func:`consistent_initial`, the projection of :mod:`lamech.numeric._project`), and the
 arrays or dicts a caller overrides them with (:func:`initial_state`)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import sympy as sp
 
 from ._options import INITIAL_TOLERANCE, SimulationError
-from ._rules import kinds_array, rules
+from ._project import Metric, project_positions, project_velocities
 
 __all__ = ["expression_values", "initial_state", "consistent_initial", "initial_residuals"]
 
@@ -50,24 +50,34 @@ def consistent_initial(ns, p: np.ndarray, initial: Sequence[tuple[str, float]]):
     """The initial state at ``p`` with the named coordinates/velocities (``x'``) set and
     held; the other coordinates moved onto the constraints that the problem's own initial
     state meets, and likewise the velocities (the simulator's projection, in the
-    mass-matrix metric over the coordinates that are not held: the loop's
-    ``ev_consistent``, which the compiled sweep's starts run too)."""
+    mass-matrix metric over the coordinates that are not held)."""
     q, v = expression_values(ns, p)
     if not initial:
         return q, v
     names = ns.coordinate_names
-    hold = np.zeros((2, ns.n), dtype=np.bool_)
-    value = np.zeros((2, ns.n))
-    for name, x in initial:
-        w = 1 if name.endswith("'") else 0
-        i = names.index(name.rstrip("'"))
-        hold[w, i] = True
-        value[w, i] = x
-    q, v = np.array(q, dtype=float), np.array(v, dtype=float)
-    rules(ns)["ev_consistent"](
-        q, v, np.asarray(p, dtype=float), hold[0], hold[1], value[0], value[1],
-        kinds_array(ns.system), INITIAL_TOLERANCE,
-    )  # fmt: skip
+    f0, F0, tol = initial_residuals(ns, p, 0.0, q, v)
+    hol = [c.holonomic for c in ns.system.constraints]
+    rows_q = [j for j in range(ns.m) if hol[j] and abs(f0[j]) <= tol]
+    rows_v = [j for j in range(ns.m) if abs(F0[j]) <= tol and (not hol[j] or j in rows_q)]
+    fixed_q, fixed_v = set(), set()
+    for name, value in initial:
+        if name.endswith("'"):
+            i = names.index(name[:-1])
+            v[i] = value
+            fixed_v.add(i)
+        else:
+            i = names.index(name)
+            q[i] = value
+            fixed_q.add(i)
+    metric = Metric(ns, p)
+    free_q = [i for i in range(ns.n) if i not in fixed_q]
+    if rows_q and free_q:
+        project_positions(
+            ns, p, metric, 0.0, q, v, np.array(rows_q, dtype=int), np.zeros(ns.m), free_q
+        )
+    free_v = [i for i in range(ns.n) if i not in fixed_v]
+    if rows_v and free_v:
+        project_velocities(ns, p, metric, 0.0, q, v, np.array(rows_v, dtype=int), free_v)
     return q, v
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch import _event_functions, logged_events
+from ._batch import _event_functions, _kinds, logged_events
 from ._codegen import numba_available
 from ._engines import ENGINES, engine_name
 from ._events import EventKind
@@ -31,7 +31,6 @@ from ._kernels import codes
 from ._kernels.codes import FRICTION, FRICTION_STATES, ST_BUDGET, ST_CONTACT, ST_END
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
-from ._rules import kinds_array
 from ._run import Run
 from ._tableau import _tables
 
@@ -92,7 +91,7 @@ class Loop:
         self.run, self.segment = run, segment
         self.tables = _tables()
         self.limits = codes.limits(max_steps=CHUNK)  # to t_end, impacts applied
-        self.kinds = kinds_array(setup.ns.system)
+        self.kinds = _kinds(setup.ns.system)
         self.times = np.ascontiguousarray(times, dtype=float)
         S = len(self.times)
         self.SY, self.SL, self.SR = np.zeros((S, 2 * n)), np.zeros((S, m)), np.zeros((S, 4))

@@ -1,8 +1,8 @@
 """One simulation run, in the spirit of MuJoCo's mjModel/mjData: :class:`Setup` holds the
 constants (the compiled system, the parameter vector, the options, the constraints'
 kinds, the event thresholds), :class:`Run` the data that change (the :class:`ContactMode`, the
-counters and the event log) with the evaluations at a state: the KKT solve, the
-right-hand side, the projection (the loop's, :mod:`._rules`) and the residuals."""
+projection's metric, the counters and the event log) with the evaluations at a state:
+the KKT solve, the right-hand side, the projection and the residuals."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from ._events import Event, EventKind
 from ._kkt import slip_directions
 from ._mode import ConstraintKinds, ContactMode, slip_sign
 from ._options import Options, Stop
-from ._rules import rules
+from ._project import Metric, project_positions, project_velocities
 
 __all__ = ["Setup", "Run", "Accel"]
 
@@ -70,15 +70,15 @@ class Accel(NamedTuple):
 
 
 class Run:
-    """The data of one run: ``mode``, ``rules`` (the loop's rule functions as Python,
-    :func:`._rules.rules`), ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic
+    """The data of one run: ``mode``, ``metric`` (mass matrix, or Euclidean once M is
+    singular), ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic
     impact happened), ``events`` and ``handed_back`` (the contacts and segments the loop
     with events left to the simulator's own code)."""
 
     def __init__(self, setup: Setup):
         self.setup = setup
         self.mode = ContactMode(setup.kinds)
-        self.rules = rules(setup.ns)
+        self.metric = Metric(setup.ns, setup.p)
         self.evaluations = 0
         self.dissipative = False
         self.events: list[Event] = []
@@ -206,17 +206,17 @@ class Run:
             return np.full(y.shape, np.nan)
 
     def project(self, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
-        """y projected onto the mode's manifold (the loop's ``ev_project``: positions
-        onto f_h = offset_h, velocities onto A_r v + b_r = 0, in the mass-matrix metric);
-        also the size of the correction, max |change| (the loop's measure)."""
-        mode = self.mode
-        out = np.array(y, dtype=float)
+        """y projected onto the mode's manifold (:mod:`._project`); also the size of the
+        correction."""
+        ns, p, n, mode = self.setup.ns, self.setup.p, self.setup.n, self.mode
+        q, v = y[:n].copy(), y[n:].copy()
+        moved = 0.0
+        if len(mode.hrows):
+            q, moved = project_positions(ns, p, self.metric, t, q, v, mode.hrows, mode.offset)
         if len(mode.rows):
-            rows = np.asarray(mode.rows, dtype=np.int64)
-            hrows = np.asarray(mode.hrows, dtype=np.int64)
-            offset = np.asarray(mode.offset, dtype=float)
-            self.rules["ev_project"](t, out, self.setup.p, rows, hrows, offset)
-        return out, float(np.max(np.abs(out - y), initial=0.0))
+            v, moved_v = project_velocities(ns, p, self.metric, t, q, v, mode.rows)
+            moved = max(moved, moved_v)
+        return np.concatenate((q, v)), moved
 
     def residuals(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[float, float]:
         """(max |f - offset|, max |F|) over the mode's rows."""

@@ -31,7 +31,7 @@ the step's dense output:
   reverses, logged as ``slip``).
 
 The pieces: :mod:`._run` (the run's constants :class:`Setup` and data :class:`Run`, with
-its :class:`~._mode.ContactMode`), :mod:`._rules` (the loop's projection), :mod:`._detect` (event
+its :class:`~._mode.ContactMode`), :mod:`._project` (the projection), :mod:`._detect` (event
 functions and their location), :mod:`._switch` (the mode switches) and :mod:`._record`
 (the samples and the :class:`Trajectory`). :func:`simulate` reads: check the options,
 the numbers (parameters, initial state), the initial mode, then step / locate the event

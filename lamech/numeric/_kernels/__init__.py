@@ -22,13 +22,12 @@ system's functions as numba cfuncs (first-class functions of one signature);
 
 from __future__ import annotations
 
-import builtins
 import inspect
 import types
 
+from .._project import PROJECTION_ITERATIONS
 from . import batch, codes, dop853, impacts, kkt, loop, modes, project
 from .dop853 import STAGES
-from .project import PROJECTION_ITERATIONS
 
 __all__ = [
     "kernel_text",
@@ -84,9 +83,7 @@ def python_namespace() -> dict:
     """The kernels as Python in one namespace, each function's globals that namespace (as
     in the compiled module, where they all share one): replacing a function there (the
     NumPy KKT solve for the compiled one) replaces it for every caller."""
-    # A module's globals hold __builtins__; numba's dispatchers (a compiled system's
-    # functions in ``sy``) look it up in their caller's globals (KeyError without it).
-    namespace: dict = {"__builtins__": builtins}
+    namespace: dict = {}
     for module in (codes, *MODULES):
         namespace.update(
             (k, v) for k, v in vars(module).items() if not k.startswith("__") and k != "annotations"

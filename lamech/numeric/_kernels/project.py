@@ -1,49 +1,20 @@
 """The projections onto the constraints: after a step (the batch loop's in the Euclidean
-metric, the loop with events' in the mass-matrix metric on the mode's rows; SciPy-stepped
-runs call the same, :mod:`.._rules`), and the consistent starts
-(:func:`.._initial.consistent_initial` and a batch's).
-
-Positions move onto f_rows = target by Gauss-Newton, velocities onto
-A_rows q' + b_rows = 0, each correction dx the smallest in the mass-matrix metric (dx^T M
-dx subject to the linearised constraints). Where that KKT matrix is singular (M singular
-on the motions the constraints allow) the correction is the Euclidean one, and where the
-rows are dependent, least squares (:func:`ev_correction`). Held coordinates (a start's)
-do not move: the correction is over the free ones (:func:`ev_restricted`).
+metric, the loop with events' in the mass-matrix metric on the mode's rows, the compiled
+twins of :mod:`.._project`), and the consistent starts of a batch
+(:func:`.._initial.consistent_initial`'s rule).
 """
 
 import numpy as np
 
 from ...linalg import gauss_inplace
+from .._project import PROJECTION_ITERATIONS
 from .kkt import batch_solve, constraints, dynamics
-
-PROJECTION_ITERATIONS = 6
-"""Gauss-Newton iterations at most per position projection (it converges quadratically:
-after a step one or two suffice)."""
 
 
 # KERNELS
-def solves(Ar, dx, r):
-    """Whether dx is finite and solves Ar dx = r to 1e-6 max |r|: a system singular only
-    by rounding (dependent rows whose r disagree) yields a finite dx of 1e15 that does
-    not, and goes on to the next fallback of :func:`ev_correction`."""
-    if not np.all(np.isfinite(dx)):
-        return False
-    big = 0.0
-    for a in range(r.shape[0]):
-        big = max(big, abs(r[a]))
-    for a in range(Ar.shape[0]):
-        s = -r[a]
-        for i in range(dx.shape[0]):
-            s += Ar[a, i] * dx[i]
-        if not abs(s) <= 1e-6 * big:
-            return False
-    return True
-
-
 def ev_correction(W, Ar, r):
     """dx minimising dx^T W dx subject to Ar dx = r (the KKT system, by elimination);
-    where that is singular, the smallest dx in the Euclidean metric, and where Ar's
-    rows are dependent, the least-squares one of least norm (:func:`min_norm_lstsq`).
+    Euclidean where that is singular (linalg.min_norm_correction, _project.Metric).
     Where W is diagonal and positive (particles and planar bodies in maximal
     coordinates), by the Schur complement dx = W^-1 Ar^T (Ar W^-1 Ar^T)^-1 r: a k-square
     solve instead of the (n + k)-square one (the 20-link chain's projection took most of
@@ -64,9 +35,9 @@ def ev_correction(W, Ar, r):
         for a in range(k):
             for i in range(n):
                 ArW[a, i] = Ar[a, i] / W[i, i]
-        dx = ArW.T @ batch_solve(ArW @ Ar.T, r)
-        if solves(Ar, dx, r):
-            return dx
+        w = batch_solve(ArW @ Ar.T, r)
+        if np.all(np.isfinite(w)):
+            return ArW.T @ w
     K = np.zeros((n + k, n + k))
     x = np.zeros(n + k)
     for i in range(n):
@@ -78,79 +49,15 @@ def ev_correction(W, Ar, r):
             K[i, n + a] = Ar[a, i]
             K[n + a, i] = Ar[a, i]
     gauss_inplace(K, x)
-    if solves(Ar, x[:n], r):
+    if np.all(np.isfinite(x)):
         return x[:n].copy()
-    # W is singular on the motions Ar allows (massless coordinates): the Euclidean
-    # metric, dx = Ar^T (Ar Ar^T)^-1 r; where Ar's rows are dependent too, least squares.
-    dx = Ar.T @ batch_solve(Ar @ Ar.T, r)
-    if solves(Ar, dx, r):
-        return dx
-    return min_norm_lstsq(Ar, r)
-
-
-def min_norm_lstsq(Ar, r):
-    """The minimum-norm least-squares solution of Ar dx = r (``numpy.linalg.lstsq``'s,
-    with its cutoff: singular values below eps max(k, n) sigma_max count as zero), for
-    dependent rows, where Ar Ar^T is singular. One-sided Jacobi (Hestenes): plane
-    rotations V make the columns of B = Ar^T V orthogonal, so B = U S and
-    dx = sum_a B_a (V_a . r) / S_a^2 over the kept a. Loops, as accurate as LAPACK's SVD,
-    and compiled with the rest (the kernels call no LAPACK)."""
-    k = Ar.shape[0]
-    n = Ar.shape[1]
-    B = Ar.T.copy()
-    V = np.eye(k)
-    eps = 2.220446049250313e-16
-    for _ in range(60):
-        rotated = False
-        for a in range(k - 1):
-            for c in range(a + 1, k):
-                alpha = 0.0
-                beta = 0.0
-                gamma = 0.0
-                for i in range(n):
-                    alpha += B[i, a] * B[i, a]
-                    beta += B[i, c] * B[i, c]
-                    gamma += B[i, a] * B[i, c]
-                if gamma == 0.0 or abs(gamma) <= eps * np.sqrt(alpha * beta):
-                    continue
-                rotated = True
-                zeta = (beta - alpha) / (2.0 * gamma)
-                tn = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
-                cs = 1.0 / np.sqrt(1.0 + tn * tn)
-                sn = cs * tn
-                for i in range(n):
-                    ba = B[i, a]
-                    B[i, a] = cs * ba - sn * B[i, c]
-                    B[i, c] = sn * ba + cs * B[i, c]
-                for i in range(k):
-                    va = V[i, a]
-                    V[i, a] = cs * va - sn * V[i, c]
-                    V[i, c] = sn * va + cs * V[i, c]
-        if not rotated:
-            break
-    S = np.empty(k)
-    top = 0.0
-    for a in range(k):
-        s = 0.0
-        for i in range(n):
-            s += B[i, a] * B[i, a]
-        S[a] = np.sqrt(s)
-        top = max(top, S[a])
-    cut = eps * max(k, n) * top
-    dx = np.zeros(n)
-    for a in range(k):
-        if S[a] > cut:
-            w = 0.0
-            for i in range(k):
-                w += V[i, a] * r[i]
-            w /= S[a] * S[a]
-            for i in range(n):
-                dx[i] += B[i, a] * w
-    return dx
+    G = Ar @ Ar.T
+    w = batch_solve(G, r)
+    return Ar.T @ w
 
 
 def ev_project(sy, t, y, p, rows, hrows, offset):
-    """y onto the mode's manifold, in place (in the mass-matrix metric):
+    """y onto the mode's manifold, in place (_project in the mass-matrix metric):
     positions onto f_h = offset_h (Gauss-Newton), velocities onto A_r v + b_r = 0."""
     n = y.shape[0] // 2
     q = y[:n].copy()
@@ -188,7 +95,7 @@ def ev_project(sy, t, y, p, rows, hrows, offset):
 
 def batch_project(sy, t, y, p):
     """Positions onto f = 0 (Gauss-Newton, minimum norm), then velocities onto
-    A v + b = 0; in place. :func:`ev_project` in
+    A v + b = 0; in place. The compiled twin of :mod:`.._project` with
     the Euclidean metric, at most PROJECTION_ITERATIONS Gauss-Newton steps."""
     n = y.shape[0] // 2
     q = y[:n].copy()
@@ -214,9 +121,9 @@ def batch_project(sy, t, y, p):
 
 def ev_restricted(sy, t, q, v, p, rows, free, what):
     """One correction of the start onto the constraints ``rows`` over the ``free``
-    coordinates (mask), the mass-matrix metric restricted to them: ``what`` 0 positions
-    (f = 0), 1 velocities (A v + b = 0). (dx over all coordinates, 0 on the held ones;
-    the residual's size; the number of movable rows)."""
+    coordinates (mask), the mass-matrix metric restricted to them (_project with
+    ``free``): ``what`` 0 positions (f = 0), 1 velocities (A v + b = 0). (dx over all
+    coordinates, 0 on the held ones; the residual's size; the number of movable rows)."""
     n = q.shape[0]
     f, A, b = constraints(sy, t, q, p)
     nf = 0
@@ -310,7 +217,7 @@ def ev_consistent(sy, q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
             v[i] = value_v[i]
             free_v[i] = False
     if nq > 0 and np.any(free_q):
-        # M at each iterate (ev_restricted); the iterates converge to one point either way
+        # the metric's M at the first iteration's state (_project.project_positions)
         for _ in range(PROJECTION_ITERATIONS):
             dx, big, na, step = ev_restricted(sy, 0.0, q, v, p, rows_q, free_q, 0)
             if na == 0 or step == 0.0:
