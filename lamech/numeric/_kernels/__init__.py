@@ -22,6 +22,7 @@ system's functions as numba cfuncs (first-class functions of one signature);
 
 from __future__ import annotations
 
+import builtins
 import inspect
 import types
 
@@ -83,7 +84,9 @@ def python_namespace() -> dict:
     """The kernels as Python in one namespace, each function's globals that namespace (as
     in the compiled module, where they all share one): replacing a function there (the
     NumPy KKT solve for the compiled one) replaces it for every caller."""
-    namespace: dict = {}
+    # A module's globals hold __builtins__; numba's dispatchers (a compiled system's
+    # functions in ``sy``) look it up in their caller's globals (KeyError without it).
+    namespace: dict = {"__builtins__": builtins}
     for module in (codes, *MODULES):
         namespace.update(
             (k, v) for k, v in vars(module).items() if not k.startswith("__") and k != "annotations"
