@@ -337,9 +337,12 @@ def test_the_queue_is_bounded_and_a_check_still_answers():
         assert status == 200 and data["ok"] is True
         print(f"\na check while two sweeps run: {time.perf_counter() - started:.2f} s")
         # the page gone: its sweeps cancelled (DELETE, as the page's going away does
-        # through the idle watchdog), their processes ended
+        # through the idle watchdog), answered as cancelled at once (a queued job may have
+        # just been handed the slot a cancelled one freed), their processes ended
         for job in jobs:
             assert server.request("DELETE", f"/api/sweep/{job}")[0] == 200
+            _, _, data = server.request("GET", f"/api/sweep/{job}")
+            assert data["finished"] and data.get("cancelled"), data
         assert _wait_for(lambda: not (_alive(server.descendants()) - idle), 10)
         for job in jobs:
             _, _, data = server.request("GET", f"/api/sweep/{job}")

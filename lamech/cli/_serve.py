@@ -249,7 +249,7 @@ def make_app(
 
     from ..problem import example_names, example_path, example_title
     from ._guard import LOOPBACK, Guard
-    from ._workers import Busy, Lane, Runner
+    from ._workers import Busy, Lane, Runner, cancelled_answer
 
     JSONResponse = _json_response()
     token = token or secrets.token_urlsafe(32)
@@ -372,7 +372,8 @@ def make_app(
                 }
             finally:
                 watchdog.cancel()
-            job.update(answer)
+            if not job.get("cancelled"):  # a cancelled job keeps the answer DELETE gave it
+                job.update(answer)
             job["finished"] = True
 
         task = asyncio.ensure_future(go())
@@ -394,7 +395,11 @@ def make_app(
             return _refuse(404, "no such sweep")
         if request.method == "DELETE":
             controls[key][0].set()
-            return JSONResponse({"ok": True, "cancelled": not job["finished"]})
+            cancelled = not job["finished"]
+            if cancelled:  # answered now; its process is ended as soon as it is seen
+                job.update(cancelled_answer())
+                job["finished"] = True
+            return JSONResponse({"ok": True, "cancelled": cancelled})
         controls[key][1][0] = time.monotonic()
         return JSONResponse(job)
 

@@ -313,7 +313,10 @@ class Runner:
             raise Busy
         started = time.perf_counter()
         if await _first(lane.acquire(), gone, None) != "done":
-            return {**_failed("cancelled: the client went away"), "cancelled": True}
+            return cancelled_answer()
+        if gone.is_set():  # the slot came with the cancel: start nothing
+            lane.release()
+            return cancelled_answer()
         try:
             if job is not None:
                 job["queued"] = False
@@ -330,7 +333,7 @@ class Runner:
         await asyncio.to_thread(proc.start)
         there.close()
         self.live.add(proc)
-        if self.stopping:
+        if self.stopping or gone.is_set():
             proc.kill()
         deadline = loop.time() + bound
         ready = asyncio.Event()
@@ -341,12 +344,14 @@ class Runner:
                 if not here.poll():
                     why = await _first(ready.wait(), gone, deadline - loop.time())
                     if why == "gone":
-                        return {**_failed("cancelled: the client went away"), "cancelled": True}
+                        return cancelled_answer()
                     if why == "timeout":
                         return _failed(_too_long(kind, bound))
                 try:
                     msg = await asyncio.to_thread(here.recv)
                 except (EOFError, OSError):
+                    if gone.is_set():
+                        return cancelled_answer()
                     if self.stopping:
                         return _failed("stopped: the server is shutting down")
                     return _failed("the worker ended without an answer")
@@ -362,6 +367,11 @@ class Runner:
             await asyncio.to_thread(proc.join, 5)
             here.close()
             self.live.discard(proc)
+
+
+def cancelled_answer() -> dict:
+    """The answer of work cancelled (its client or page gone)."""
+    return {**_failed("cancelled: the client went away"), "cancelled": True}
 
 
 def _too_long(kind: str, bound: float) -> str:
