@@ -278,7 +278,10 @@ class Kernels:
         self.namespace: dict = {}  # the system's module: it keeps the cfuncs sy points to
 
 
-_LOADED: dict[str, Kernels] = {}
+# both by cache folder: a process that changes $LAMECH_CACHE_DIR (the tests do) gets the
+# system and the engine written and cached there too, so that the folder then holds what
+# a new process (or :func:`engine_is_cached`) looks for
+_LOADED: dict[tuple[str, str], Kernels] = {}  # (cache folder, module name) -> kernels
 _ENGINE: dict[tuple[str, str], dict] = {}  # (cache folder, module name) -> namespace
 _LOCK = threading.Lock()
 
@@ -451,7 +454,8 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
     text = system_text(source)
     name = module_key(text)
     with _LOCK:
-        known = _LOADED.get(name)
+        key = (str(cache_dir()), name)
+        known = _LOADED.get(key)
         if known is not None:
             return known
         engine = _engine()
@@ -475,7 +479,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
             _precompile(engine, sy)
         kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
         kernels.namespace = namespace
-        _LOADED[name] = kernels
+        _LOADED[key] = kernels
         return kernels
 
 
