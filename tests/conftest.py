@@ -31,6 +31,12 @@ SLOW_CASES = {
     "test_bench.py::test_b9s_sympy_script_runs_and_prints_a_multiplier_per_constraint": {
         "atwood",
     },
+    "test_cc.py::test_the_c_functions_give_the_generated_pythons_numbers": {
+        "double_pendulum",
+        "incline_disk",
+        "moving_support",
+        "heavy_top",
+    },
     "test_core.py::test_chain_tensions_at_rest_against_statics": {
         "2",
     },

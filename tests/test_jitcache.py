@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system, jit_cache_dir, numba_available, simulate
+from lamech.numeric import _cc, compile_system, jit_cache_dir, numba_available, simulate
 from lamech.problem import chain_toml, example_path
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
@@ -92,8 +92,9 @@ def test_a_second_process_loads_the_compiled_system_and_two_may_compile_at_once(
     assert a["jit"] and b["jit"]
     assert {a["cache"], b["cache"]} <= {"compiled", "loaded"}
     assert a["final"] == b["final"]
-    files = sorted((cache / "kernels").glob("lamech_*.py"))
-    assert len(files) == 1
+    # the system's file: its C library, or numba's module where there is no C compiler
+    files = sorted((cache / "kernels").glob("lamech_*"))
+    assert len(files) == 1, files
     assert len(list((cache / "kernels").glob("engine_*.py"))) == 1
     assert not list((cache / "kernels").glob("*.tmp"))  # no temporary file left behind
     # a later process compiles nothing: the kernels and the batch loop come from the cache
@@ -125,8 +126,13 @@ def test_an_unusable_cache_directory_compiles_in_memory_silently(tmp_path):
 @needs_numba
 @pytest.mark.slow
 @pytest.mark.shared_cache
-def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch):
+@pytest.mark.parametrize("route", ["c", "numba"])
+def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route):
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
+    if route == "numba":
+        monkeypatch.setenv("LAMECH_CC", "none")
+    elif _cc.compiler() is None:
+        pytest.skip("no C compiler")
     # two variants of the pendulum no other test compiles (one process compiles a text
     # once, so a system compiled before in this worker would not be written here)
     text = example_path("pendulum").read_text(encoding="utf-8")
@@ -137,6 +143,14 @@ def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch):
     a = compile_system(lamech.loads(one), jit=True)
     b = compile_system(lamech.loads(two), jit=True)
     assert a.source != b.source
+    if route == "c":
+        assert a.c_source != b.c_source
+        folder = tmp_path / "kernels"
+        libraries = {p.name for p in folder.glob("lamech_c_*.so")}
+        assert libraries == {_cc.library_path(ns.c_source, folder).name for ns in (a, b)}
+        assert not list((tmp_path / "kernels").glob("lamech_*.py"))
+        assert {a.jit_cache, b.jit_cache} <= {"compiled", "loaded"}
+        return
     files = [p.read_text(encoding="utf-8") for p in (tmp_path / "kernels").glob("lamech_*.py")]
     assert len(files) == 2
     for ns in (a, b):  # each file holds its own generated dynamics

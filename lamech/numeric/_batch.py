@@ -91,7 +91,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
     namespace["sy"] = (
         bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
-        ns.restitution,
+        ns.restitution, False,
     )  # fmt: skip
     return namespace
 
@@ -243,7 +243,7 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     if use:
         from ._jitcache import compiled_kernels
 
-        f = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal).functions
+        f = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal, ns.c_source).functions
     else:
         f = _bound(_python_namespace(ns), names)
     out = {k: f[k] for k in names}
@@ -292,7 +292,7 @@ def jit_is_cached(ns: NumericSystem | None = None, function: str = "ev_run_one")
 
     if ns is None:
         return engine_is_cached(function)
-    return is_cached(ns.source, function)
+    return is_cached(ns.source, function, ns.c_source)
 
 
 def parameter_rows(ns: NumericSystem, names, values) -> np.ndarray:

@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..expr import switch_form, table_knots, to_text
@@ -87,6 +88,47 @@ class _Printer(PythonCodePrinter):
         if exp == -1:
             return f"(1.0/{self.parenthesize(base, 1000)})"
         return super()._print_Pow(expr, rational=rational)
+
+
+class _CPrinter(C99CodePrinter):
+    """C of the same expressions (:mod:`._cc` compiles it): floats exact, and powers,
+    rationals and branches written as :class:`_Printer` writes them, so that the C and
+    the Python do the same operations. What it cannot print is in ``_not_supported``
+    (the system then has no C form)."""
+
+    def _print_Float(self, expr):
+        x = float(expr)
+        if math.isnan(x):
+            return "NAN"
+        if math.isinf(x):
+            return "INFINITY" if x > 0 else "(-INFINITY)"
+        return repr(x)
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0"  # never C's integer division
+
+    def _print_Rational(self, expr):
+        return f"({int(expr.p)}.0/{int(expr.q)}.0)"
+
+    def _print_NaN(self, expr):
+        return "NAN"
+
+    def _print_Branch(self, expr):
+        lock, s = (self._print(a) for a in expr.args)
+        return f"(({lock} == {lock}) ? {lock} : (({s} >= 0.0) ? 1.0 : 0.0))"
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.as_base_exp()
+        b = self.parenthesize(base, 1000)
+        if exp.is_Integer and 1 < int(exp) <= 4:
+            return "(" + "*".join([b] * int(exp)) + ")"
+        if exp == sp.Rational(1, 2):
+            return f"sqrt({self._print(base)})"
+        if exp == sp.Rational(-1, 2):
+            return f"(1.0/sqrt({self._print(base)}))"
+        if exp == -1:
+            return f"(1.0/{b})"
+        return f"pow({self._print(base)}, {self._print(exp)})"
 
 
 class Branch(sp.Function):
@@ -179,6 +221,8 @@ class NumericSystem:
     pattern: tuple = ()  # structural nonzeros of A (see _kkt.sparsity)
     mass_diagonal: bool = False  # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
+    # the C of the functions the compiled loop calls (:mod:`._cc`), "" where there is none
+    c_source: str = ""
     jit: bool = False
     # with jit, where the compiled code came from: "loaded" (the cache on disk, nothing
     # compiled), "compiled" (compiled in this process and cached), "memory" (no usable
@@ -281,8 +325,10 @@ def _function_source(
     n: int,
     m: int,
     used_inputs: tuple[str, ...],
+    c_out: list | None = None,
 ) -> str:
-    """Source of one function computing several matrices with a shared CSE."""
+    """Source of one function computing several matrices with a shared CSE; its C twin
+    (or None: not printable) appended to ``c_out`` where given."""
     printer = _Printer()
     exprs: list[sp.Expr] = []
     slots: list[tuple[str, int, int]] = []
@@ -328,6 +374,40 @@ def _function_source(
         target = f"{oname}[{i}]" if oname in _VECTORS else f"{oname}[{i}, {j}]"
         lines.append(f"    {target} = {printer.doprint(e)}")
     lines.append(f"    return {', '.join(o for o, _ in outputs)}")
+    if c_out is not None:
+        c_out.append(_c_function(name, args, outputs, slots, repl, reduced, mapping))
+    return "\n".join(lines)
+
+
+def _c_function(name, args, outputs, slots, repl, reduced, mapping) -> str | None:
+    """The C twin of one generated function (:mod:`._cc`): ``void c_<name>(double t,
+    const double *q, ..., double *<output>, ...)`` writing each output's nonzero entries
+    (row-major) into arrays the caller zeroed; None where the C printer cannot print an
+    expression."""
+    printer = _CPrinter()
+    failed = []
+
+    def c(e) -> str:
+        text = printer.doprint(e)
+        failed.extend(printer._not_supported)  # reset by each doprint
+        return text
+
+    inputs = [a.strip() for a in args.split(",")[1:]]
+    params = ["double t"] + [f"const double *{a}" for a in inputs]
+    params += [f"double *{o}" for o, _ in outputs]
+    lines = [f"void c_{name}({', '.join(params)}) {{"]
+    used = {str(x) for x in mapping.values()}
+    for var in inputs:
+        count = sum(1 for u in used if u.startswith(var + "_") and u[len(var) + 1 :].isdigit())
+        lines += [f"    const double {var}_{i} = {var}[{i}];" for i in range(count)]
+    for sym, e in repl:
+        lines.append(f"    const double {sym} = {c(e)};")
+    cols = dict((o, mat.cols) for o, mat in outputs)
+    for (oname, i, j), e in zip(slots, reduced):
+        lines.append(f"    {oname}[{i * cols[oname] + j}] = {c(e)};")
+    lines.append("}")
+    if failed:
+        return None
     return "\n".join(lines)
 
 
@@ -364,7 +444,41 @@ def _gather_source(n: int, nonzero: list[tuple[int, int]]) -> str:
     return "\n".join(lines)
 
 
-def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None):
+def _c_derived(n: int, m: int, nonzero: list[tuple[int, int]], diagonal: bool) -> str:
+    """The C twin of :func:`_scatter_source` (``diagonal``) or :func:`_gather_source`."""
+    k = len(nonzero)
+    args = "double t, const double *q, const double *v, const double *p"
+    if diagonal:
+        lines = [
+            f"void c_dynamics({args}, double *M, double *rhs, double *A, double *gamma, "
+            "double *mu) {",
+            f"    double *Md = calloc({n or 1}, sizeof(double));",
+            f"    double *Av = calloc({k or 1}, sizeof(double));",
+            "    c_dynamics_sparse(t, q, v, p, Md, rhs, Av, gamma, mu);",
+            *(f"    M[{i * n + i}] = Md[{i}];" for i in range(n)),
+            *(f"    A[{j * n + i}] = Av[{e}];" for e, (j, i) in enumerate(nonzero)),
+        ]
+    else:
+        lines = [
+            f"void c_dynamics_sparse({args}, double *Md, double *rhs, double *Av, "
+            "double *gamma, double *mu) {",
+            f"    double *M = calloc({n * n or 1}, sizeof(double));",
+            f"    double *A = calloc({m * n or 1}, sizeof(double));",
+            "    c_dynamics(t, q, v, p, M, rhs, A, gamma, mu);",
+            *(f"    Md[{i}] = M[{i * n + i}];" for i in range(n)),
+            *(f"    Av[{e}] = A[{j * n + i}];" for e, (j, i) in enumerate(nonzero)),
+        ]
+    return "\n".join(
+        [
+            *lines,
+            "    free(M);" if not diagonal else "    free(Md);",
+            "    free(A);" if not diagonal else "    free(Av);",
+            "}",
+        ]
+    )
+
+
+def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None, c_source: str = ""):
     """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
     numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
     by their compiled versions: the system's own functions compiled, the loop around them
@@ -378,9 +492,10 @@ def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None):
         try:
             from ._jitcache import compiled_kernels
 
-            k = compiled_kernels(source, pattern, diagonal)
+            k = compiled_kernels(source, pattern, diagonal, c_source)
             f = k.functions
-            fns["dynamics"], fns["constraints"] = f["dynamics"], f["constraints"]
+            if f["dynamics"] is not None:  # numba's: the C ones are called by the loop only
+                fns["dynamics"], fns["constraints"] = f["dynamics"], f["constraints"]
             loops = (f["batch_run"], f["batch_run_serial"])
             return f["rhs_kernel"], f["accelerations"], f["kkt_solve"], loops, k.cache
         except Exception:  # pragma: no cover - numba refused the source
@@ -422,9 +537,10 @@ def _force_geometry(system: System):
     return force_specs, outputs
 
 
-def _source(system: System, dyn: Dynamics):
-    """(source, A, force_specs, switch names): the generated module of the system's
-    functions."""
+def _source(system: System, dyn: Dynamics, c: bool = True):
+    """(source, C source, A, force_specs, switch names): the generated module of the
+    system's functions and, with ``c``, the C of those the compiled loop calls (""
+    where an expression has no C form)."""
     n, m = len(system.coordinates), len(system.constraints)
     mapping = _rename(system)
     sw = _Switches()
@@ -463,6 +579,7 @@ def _source(system: System, dyn: Dynamics):
     # M's diagonal and A's nonzeros in the order of _kkt.sparsity); ``dynamics`` gives the
     # matrices. One is generated, the other reads it: one CSE, never two.
     nonzero = sorted(A.todok()) if m else []
+    c_parts: list | None = [] if c else None
     if dyn.M.is_diagonal():
         Md = sp.Matrix([M[i, i] for i in range(n)])
         Av = sp.Matrix([A_locked[j, i] for j, i in nonzero]) if nonzero else sp.zeros(0, 1)
@@ -476,6 +593,7 @@ def _source(system: System, dyn: Dynamics):
                 n,
                 m,
                 ("q", "v", "p"),
+                c_parts,
             ),
             _scatter_source(n, m, nonzero),
         ]
@@ -492,6 +610,7 @@ def _source(system: System, dyn: Dynamics):
                 n,
                 m,
                 ("q", "v", "p"),
+                c_parts,
             ),
             _gather_source(n, nonzero),
         ]
@@ -506,6 +625,7 @@ def _source(system: System, dyn: Dynamics):
             n,
             m,
             ("q", "p"),
+            c_parts,
         ),
         _function_source(
             "energy",
@@ -516,6 +636,7 @@ def _source(system: System, dyn: Dynamics):
             n,
             m,
             ("q", "v", "p"),
+            c_parts,
         ),
         _function_source(
             "restitution",
@@ -526,6 +647,7 @@ def _source(system: System, dyn: Dynamics):
             n,
             m,
             ("q", "p"),
+            c_parts,
         ),
     ]
     if sw.functions:
@@ -560,7 +682,26 @@ def _source(system: System, dyn: Dynamics):
     else:
         srcs.append("def force_jacobians_flat(t, q, p):\n    return ()")
     source = "import math\nimport numpy\n\n" + "\n\n\n".join(srcs) + "\n"
-    return source, A, force_specs, sw.names()
+    c_source = ""
+    if c_parts is not None and all(part is not None for part in c_parts):
+        derived = _c_derived(n, m, nonzero, bool(dyn.M.is_diagonal()))
+        c_source = (
+            "\n\n".join(
+                [
+                    C_HEADER
+                    + order.replace("*/", "* /")
+                    + " */\n#include <math.h>\n#include <stdlib.h>",
+                    c_parts[0],
+                    derived,
+                    *c_parts[1:],
+                ]
+            )
+            + "\n"
+        )
+    return source, c_source, A, force_specs, sw.names()
+
+
+C_HEADER = "/* lamech: the compiled functions of one system (generated; safe to delete). "
 
 
 def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
@@ -575,7 +716,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
 
     t0 = _time.perf_counter()
     dyn = derive_dynamics(system)
-    source, A, force_specs, switch_names = _source(system, dyn)
+    source, c_source, A, force_specs, switch_names = _source(system, dyn)
     namespace: dict = {"math": math, "numpy": np}
     exec(compile(source, "<lamech generated>", "exec"), namespace)
 
@@ -594,7 +735,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     locks = [math.nan] * len(switch_names)
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
-    kernel, accel, solve, loops, jit_cache = _kernels(fns, diagonal, pattern, source, jit)
+    kernel, accel, solve, loops, jit_cache = _kernels(fns, diagonal, pattern, source, jit, c_source)
 
     flat = fns["force_jacobians_flat"]
 
@@ -622,6 +763,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
         switches=fns["switches"],
         switch_names=switch_names,
         source=source,
+        c_source=c_source,
         jit=bool(jit_cache),
         jit_cache=jit_cache,
         rhs_kernel=kernel,

@@ -14,7 +14,18 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["SIGNATURES", "as_dynamics", "as_dynamics_sparse", "as_constraints", "as_energy"]
+__all__ = [
+    "SIGNATURES",
+    "as_dynamics",
+    "as_dynamics_sparse",
+    "as_constraints",
+    "as_energy",
+    "as_restitution",
+    "as_c3",
+    "as_c4",
+    "as_c5",
+    "as_c8",
+]
 
 _A1, _A2, _F = types.float64[::1], types.float64[:, ::1], types.float64
 SIGNATURES = {
@@ -53,3 +64,15 @@ as_dynamics_sparse = _caster(SIGNATURES["c_dynamics_sparse"])
 as_constraints = _caster(SIGNATURES["c_constraints"])
 as_energy = _caster(SIGNATURES["c_energy"])
 as_restitution = _caster(SIGNATURES["c_restitution"])
+
+
+def _c_signature(pointers: int):
+    """A C function ``void f(double t, double *a1, ..., double *ak)`` (:mod:`._cc`), its
+    pointers passed as the arrays' addresses (``a.ctypes.data``)."""
+    return types.none(_F, *([types.uintp] * pointers))
+
+
+as_c3 = _caster(_c_signature(3))  # restitution: q, p, e
+as_c4 = _caster(_c_signature(4))  # energy: q, v, p, E
+as_c5 = _caster(_c_signature(5))  # constraints: q, p, f, A, b
+as_c8 = _caster(_c_signature(8))  # dynamics, dynamics_sparse: q, v, p and five outputs

@@ -105,11 +105,17 @@ def engine_text() -> str:
 
 
 _ACCESSORS = {
-    "sy[6](": "as_dynamics(sy[6])(",
-    "sy[7](": "as_dynamics_sparse(sy[7])(",
-    "sy[8](": "as_constraints(sy[8])(",
-    "sy[9](": "as_energy(sy[9])(",
-    "sy[10](": "as_restitution(sy[10])(",
+    "sy[6](t, q, v, p)": "as_dynamics(sy[6])(t, q, v, p)",
+    "sy[7](t, q, v, p)": "as_dynamics_sparse(sy[7])(t, q, v, p)",
+    "sy[8](t, q, p)": "as_constraints(sy[8])(t, q, p)",
+    "sy[9](t, q, v, p)": "as_energy(sy[9])(t, q, v, p)",
+    "sy[10](t, q, p)": "as_restitution(sy[10])(t, q, p)",
+    # the C functions (:mod:`._cc`), the arrays passed by address
+    "sy[6](t, q.ctypes": "as_c8(sy[6])(t, q.ctypes",
+    "sy[7](t, q.ctypes": "as_c8(sy[7])(t, q.ctypes",
+    "sy[8](t, q.ctypes": "as_c5(sy[8])(t, q.ctypes",
+    "sy[9](t, q.ctypes": "as_c4(sy[9])(t, q.ctypes",
+    "sy[10](t, q.ctypes": "as_c3(sy[10])(t, q.ctypes",
 }
 
 
@@ -120,8 +126,9 @@ def _compiled_accessors(text: str) -> str:
         assert text.count(a) == 1, a
         text = text.replace(a, b)
     imports = (
-        "from lamech.numeric._fnptr import (\n    as_constraints,\n    as_dynamics,\n"
-        "    as_dynamics_sparse,\n    as_energy,\n    as_restitution,\n)\n\n\n"
+        "from lamech.numeric._fnptr import (\n    as_c3,\n    as_c4,\n    as_c5,\n"
+        "    as_c8,\n    as_constraints,\n    as_dynamics,\n    as_dynamics_sparse,\n"
+        "    as_energy,\n    as_restitution,\n)\n\n\n"
     )
     return imports + text
 
@@ -392,12 +399,12 @@ def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
     return out
 
 
-def _record(namespace: dict, pattern, diagonal: bool) -> tuple:
-    """The system record (:data:`._kernels.SYSTEM_FIELDS`) of the compiled module: the
-    cfuncs as their addresses (:mod:`._fnptr`; the module keeps them alive)."""
+def _record(functions: tuple, pattern, diagonal: bool, c: bool) -> tuple:
+    """The system record (:data:`._kernels.SYSTEM_FIELDS`): the system's functions as
+    their addresses (:mod:`._fnptr`; their module or library keeps them alive), ``c``
+    where they are C functions (:mod:`._cc`), else numba cfuncs."""
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in pattern)
-    functions = tuple(int(namespace[c].address) for c, _, _ in _CFUNCS)
-    sy = (bool(diagonal), *arrays, *functions)
+    sy = (bool(diagonal), *arrays, *(int(f) for f in functions), bool(c))
     assert len(sy) == len(SYSTEM_FIELDS)
     return sy
 
@@ -445,12 +452,14 @@ def _precompile(engine: dict, sy: tuple) -> None:
                 engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
 
 
-def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
-    """The compiled functions of the system whose generated ``source`` is given, with its
-    sparsity ``pattern`` (:func:`._kkt.sparsity`) and ``diagonal`` M: the system's own
-    functions from this process's earlier compile, from the cache on disk, or compiled
-    now (and cached where the directory is writable); the engine's functions around them.
-    Raises what numba raises when it cannot compile the source."""
+def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "") -> Kernels:
+    """The compiled functions of the system whose generated ``source`` (and the C of its
+    loop's functions, ``c_source``) is given, with its sparsity ``pattern``
+    (:func:`._kkt.sparsity`) and ``diagonal`` M: the system's own functions from this
+    process's earlier compile, from the cache on disk, or compiled now (and cached where
+    the directory is writable), by the C compiler where there is one (:mod:`._cc`), else
+    by numba; the engine's functions around them. Raises what numba raises when it
+    cannot compile the source."""
     text = system_text(source)
     name = module_key(text)
     with _LOCK:
@@ -459,6 +468,10 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
         if known is not None:
             return known
         engine = _engine()
+        kernels = _c_kernels(engine, c_source, pattern, diagonal)
+        if kernels is not None:
+            _LOADED[key] = kernels
+            return kernels
         namespace = _on_disk(text, name)
         path = None if namespace is None else Path(namespace["__file__"])
         state = "memory"
@@ -474,13 +487,35 @@ def compiled_kernels(source: str, pattern, diagonal: bool) -> Kernels:
             exec(compile(text, f"<lamech generated {name}>", "exec"), namespace)
             _jit_system(namespace, cache=False)
             state, path = "memory", None
-        sy = _record(namespace, pattern, diagonal)
+        addresses = tuple(namespace[c].address for c, _, _ in _CFUNCS)
+        sy = _record(addresses, pattern, diagonal, c=False)
         if path is not None:  # a cache on disk: the whole engine, once per machine
             _precompile(engine, sy)
         kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
         kernels.namespace = namespace
         _LOADED[key] = kernels
         return kernels
+
+
+def _c_kernels(engine: dict, c_source: str, pattern, diagonal: bool) -> Kernels | None:
+    """The system's functions as C (:mod:`._cc`), the engine around them; None where
+    there is no C source or compiler, or the compiler failed (numba compiles them)."""
+    from . import _cc
+
+    if not c_source or _cc.compiler() is None:
+        return None
+    folder = cache_dir()
+    try:
+        lib, addresses, state = _cc.load(c_source, folder)
+    except _cc.CompileFailed:
+        return None
+    sy = _record(addresses, pattern, diagonal, c=True)
+    if state != "memory":  # a cache on disk: the whole engine, once per machine
+        _precompile(engine, sy)
+    path = _cc.library_path(c_source, folder) if state != "memory" else None
+    kernels = Kernels(_bind(engine, sy, {"dynamics": None, "constraints": None}), sy, state, path)
+    kernels.namespace = {"library": lib}  # keeps it loaded
+    return kernels
 
 
 def _nbi(name: str, function: str) -> bool:
@@ -503,11 +538,17 @@ def engine_is_cached(function: str = "ev_segment") -> bool:
         return False
 
 
-def is_cached(source: str, function: str = "ev_segment") -> bool:
+def is_cached(source: str, function: str = "ev_segment", c_source: str = "") -> bool:
     """Whether numba's cache on disk holds the engine's ``function`` and the compiled
-    functions of the system whose generated ``source`` is given: running it compiled
-    then costs loads, no compile."""
+    functions of the system whose generated ``source`` (and C, ``c_source``) is given:
+    running it compiled then costs loads, no compile."""
+    from . import _cc
+
     try:
-        return engine_is_cached(function) and _nbi(module_key(system_text(source)), "c_dynamics")
+        if not engine_is_cached(function):
+            return False
+        if c_source and _cc.compiler() is not None:
+            return _cc.is_built(c_source, cache_dir())
+        return _nbi(module_key(system_text(source)), "c_dynamics")
     except OSError:
         return False

@@ -13,7 +13,7 @@ from ._case import Plan, measure_values
 from ._local import cpus
 from ._parse import EVENT_MEASURES
 
-__all__ = ["run_compiled", "COMPILED_CASES", "SYSTEM_CASES", "CHUNK"]
+__all__ = ["run_compiled", "COMPILED_CASES", "SYSTEM_CASES", "SYSTEM_CASES_C", "CHUNK"]
 
 COMPILED_CASES = 500
 """From this many cases a sweep compiles its loop with numba even when the compiled code is
@@ -21,7 +21,10 @@ not yet in the cache on disk (a minute, once per machine); smaller sweeps run
 the loop as Python unless it is cached."""
 SYSTEM_CASES = 16
 """With the loop compiled on this machine (once, for every system), the cases from which
-``auto`` compiles a new system's own functions (a few seconds) to run them compiled."""
+``auto`` compiles a new system's own functions to run them compiled: by numba (a few
+seconds); :data:`SYSTEM_CASES_C` where the C compiler compiles them (a fraction of a
+second, :mod:`lamech.numeric._cc`)."""
+SYSTEM_CASES_C = 8
 CHUNK = 256
 """Cases per call of the compiled loop: rows are recorded (and Ctrl-C is seen) between
 calls."""
@@ -46,6 +49,15 @@ def _compiled_measures(plan: Plan, ns) -> tuple[list, bool] | None:
     return want, to_end
 
 
+def _threshold(ns, loop_cached: bool) -> int:
+    """The cases from which ``auto`` compiles what is not yet compiled."""
+    if not loop_cached:
+        return COMPILED_CASES
+    from ..numeric._cc import compiler
+
+    return SYSTEM_CASES_C if ns.c_source and compiler() is not None else SYSTEM_CASES
+
+
 def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[list, str]:
     """The cases ``todo`` by the compiled loop with events, in chunks of :data:`CHUNK`, each
     row recorded as its chunk ends; returns (the cases left to simulate, the backend)."""
@@ -60,8 +72,7 @@ def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[
     if engine == "auto":  # numba imported only where it will be used (0.3 s)
         # the loop is compiled once per machine; a system's own functions cost seconds
         jit = jit_is_cached(ns, "ev_run_one") or (
-            len(todo) >= (SYSTEM_CASES if jit_is_cached(None, "ev_run_one") else COMPILED_CASES)
-            and numba_available()
+            len(todo) >= _threshold(ns, jit_is_cached(None, "ev_run_one")) and numba_available()
         )
     names = list(cases[todo[0]])
     coords, n = ns.coordinate_names, ns.n

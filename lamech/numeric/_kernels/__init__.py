@@ -54,6 +54,7 @@ SYSTEM_FIELDS = (
     "constraints",
     "energy",
     "restitution",
+    "c",
 )
 """The system record ``sy`` every kernel takes first, a tuple in this order: whether M
 is diagonal, the sparsity pattern of A (:func:`.._kkt.sparsity`), and the generated
@@ -62,7 +63,8 @@ mu); ``dynamics_sparse`` -> (M's diagonal, rhs, A's nonzeros in CSR order, gamma
 ``constraints(t, q, p)`` -> (f, A, b); ``energy(t, q, v, p)`` -> (T, V) as an array;
 ``restitution(t, q, p)`` -> e). Compiled, the functions are the addresses of numba
 cfuncs of one signature for every system (:mod:`.._jitcache`, :mod:`.._fnptr`), so that
-the loop is compiled once, not per system."""
+the loop is compiled once, not per system; ``c`` says they are C functions instead
+(:mod:`.._cc`), which fill arrays passed by address (:mod:`.kkt`)."""
 
 MARK = "\n# KERNELS\n"
 

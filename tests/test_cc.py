@@ -1,0 +1,110 @@
+"""A system's functions compiled by the C compiler (lamech.numeric._cc): the C printed
+from the same subexpressions gives the generated Python's numbers, is built once into
+the cache folder, and a missing or failing compiler leaves numba to compile them."""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+import pytest
+
+import lamech
+from lamech.numeric import _cc, compile_system, numba_available, simulate
+from lamech.numeric._codegen import _source
+from lamech.numeric._jitcache import compiled_kernels
+from lamech.problem import chain_toml, example_path
+
+needs_cc = pytest.mark.skipif(_cc.compiler() is None, reason="no C compiler")
+
+# M diagonal (maximal coordinates) and not, friction, restitution, a moving support
+SYSTEMS = ["cylinder", "double_pendulum", "incline_disk", "moving_support", "heavy_top"]
+
+
+def _compiled(text: str):
+    """The system's NumPy functions and its C source (nothing compiled by numba)."""
+    ns = compile_system(lamech.loads(text), jit=False)
+    return ns, _source(ns.system, ns.dyn, c=True)[1]
+
+
+def _c_call(lib, name: str, shapes: list, t: float, *inputs: np.ndarray) -> list:
+    """One C function called with zeroed outputs of ``shapes``."""
+    outs = [np.zeros(s) for s in shapes]
+    args = [np.ascontiguousarray(a, dtype=float) for a in inputs]
+    f = getattr(lib, name)
+    f.restype = None
+    f(ctypes.c_double(t), *(ctypes.c_void_p(a.ctypes.data) for a in (*args, *outs)))
+    return outs
+
+
+@needs_cc
+@pytest.mark.parametrize("name", SYSTEMS)
+def test_the_c_functions_give_the_generated_pythons_numbers(name, tmp_path):
+    ns, c_source = _compiled(example_path(name).read_text(encoding="utf-8"))
+    assert c_source, "every bundled example has a C form"
+    lib, addresses, state = _cc.load(c_source, tmp_path)
+    assert state == "compiled" and all(addresses)
+    n, m = ns.n, ns.m
+    PTR, IDX = ns.pattern[0], ns.pattern[1]
+    rng = np.random.default_rng(7)
+    p = ns.parameters.copy()
+    for _ in range(5):
+        t, q, v = float(rng.uniform(0, 2)), rng.uniform(-1, 1, n), rng.uniform(-2, 2, n)
+        want = ns.dynamics(t, q, v, p)
+        got = _c_call(lib, "c_dynamics", [(n, n), n, (m, n), m, m], t, q, v, p)
+        sparse = _c_call(lib, "c_dynamics_sparse", [n, n, int(PTR[-1]), m, m], t, q, v, p)
+        for w, g in zip(want, got):
+            np.testing.assert_allclose(g, w, rtol=1e-13, atol=1e-13, equal_nan=True)
+        nonzeros = [want[2][j, IDX[k]] for j in range(m) for k in range(PTR[j], PTR[j + 1])]
+        np.testing.assert_allclose(sparse[0], np.diag(want[0]), rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(sparse[2], nonzeros, rtol=1e-13, atol=1e-13)
+        c_constraints = _c_call(lib, "c_constraints", [m, (m, n), m], t, q, p)
+        for w, g in zip(ns.constraints(t, q, p), c_constraints):
+            np.testing.assert_allclose(g, w, rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(
+            _c_call(lib, "c_energy", [2], t, q, v, p)[0], ns.energy(t, q, v, p), rtol=1e-13
+        )
+        np.testing.assert_allclose(
+            _c_call(lib, "c_restitution", [m], t, q, p)[0],
+            ns.restitution(t, q, p),
+            rtol=1e-13,
+            equal_nan=True,
+        )
+
+
+@needs_cc
+def test_the_library_is_built_once_and_a_failing_compiler_is_no_error(tmp_path, monkeypatch):
+    _, c_source = _compiled(chain_toml(2))
+    _, _, first = _cc.load(c_source, tmp_path)
+    _, _, second = _cc.load(c_source, tmp_path)
+    assert (first, second) == ("compiled", "loaded")
+    assert len(list(tmp_path.glob("lamech_c_*.so"))) == 1
+    assert not list(tmp_path.glob(".build-*"))  # nothing left behind
+    monkeypatch.setenv("LAMECH_CC", "none")
+    assert _cc.compiler() is None
+    monkeypatch.setenv("LAMECH_CC", "false")  # a command that fails
+    with pytest.raises(_cc.CompileFailed):
+        _cc.load(c_source + "\n", tmp_path)
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@needs_cc
+@pytest.mark.slow
+@pytest.mark.shared_cache
+@pytest.mark.parametrize("route", ["c", "numba"])
+def test_the_loop_runs_the_c_functions_or_numbas_with_the_same_numbers(route, monkeypatch):
+    """The lecture's cylinder on the compiled loop, its functions C or numba cfuncs:
+    the same events and states as SciPy's path."""
+    if route == "numba":
+        monkeypatch.setenv("LAMECH_CC", "none")
+    text = example_path("cylinder").read_text(encoding="utf-8")
+    ns = compile_system(lamech.loads(text), jit=True)
+    kernels = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal, ns.c_source)
+    assert kernels.sy[-1] is (route == "c")
+    a = simulate(lamech.loads(text), 6.0, jit=False, initial={"theta1": 0.01})
+    b = simulate(ns, 6.0, initial={"theta1": 0.01})
+    assert b.engine == "loop (numba)"
+    assert [e.kind for e in a.events] == [e.kind for e in b.events] == ["slip", "lift-off"]
+    assert max(abs(x.t - y.t) for x, y in zip(a.events, b.events)) <= 1e-10
+    assert np.max(np.abs(a.q - b.q)) <= 1e-10
+    assert np.nanmax(np.abs(a.lambdas - b.lambdas)) <= 1e-9
