@@ -1,4 +1,4 @@
-"""A system's functions compiled by the C compiler (lamech.numeric._cc): the C printed
+"""A system's functions compiled by the C compiler (`numeric/_cc.py`): the C printed
 from the same subexpressions gives the generated Python's numbers, is built once into
 the cache folder, and a missing or failing compiler leaves numba to compile them."""
 
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import _cc, compile_system, numba_available, simulate
-from lamech.numeric._codegen import _source
+from lamech.numeric import compile_system, numba_available, simulate
+from lamech.numeric._cc import CompileFailed, compiler, load
 from lamech.numeric._jitcache import compiled_kernels
 from lamech.problem import chain_toml, example_path
 
-needs_cc = pytest.mark.skipif(_cc.compiler() is None, reason="no C compiler")
+needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler")
 
 # M diagonal (maximal coordinates) and not, friction, restitution, a moving support
 SYSTEMS = ["cylinder", "double_pendulum", "incline_disk", "moving_support", "heavy_top"]
@@ -24,7 +24,7 @@ SYSTEMS = ["cylinder", "double_pendulum", "incline_disk", "moving_support", "hea
 def _compiled(text: str):
     """The system's NumPy functions and its C source (nothing compiled by numba)."""
     ns = compile_system(lamech.loads(text), jit=False)
-    return ns, _source(ns.system, ns.dyn, c=True)[1]
+    return ns, ns.c_source
 
 
 def _c_call(lib, name: str, shapes: list, t: float, *inputs: np.ndarray) -> list:
@@ -42,7 +42,7 @@ def _c_call(lib, name: str, shapes: list, t: float, *inputs: np.ndarray) -> list
 def test_the_c_functions_give_the_generated_pythons_numbers(name, tmp_path):
     ns, c_source = _compiled(example_path(name).read_text(encoding="utf-8"))
     assert c_source, "every bundled example has a C form"
-    lib, addresses, state = _cc.load(c_source, tmp_path)
+    lib, addresses, state = load(c_source, tmp_path)
     assert state == "compiled" and all(addresses)
     n, m = ns.n, ns.m
     PTR, IDX = ns.pattern[0], ns.pattern[1]
@@ -75,16 +75,16 @@ def test_the_c_functions_give_the_generated_pythons_numbers(name, tmp_path):
 @needs_cc
 def test_the_library_is_built_once_and_a_failing_compiler_is_no_error(tmp_path, monkeypatch):
     _, c_source = _compiled(chain_toml(2))
-    _, _, first = _cc.load(c_source, tmp_path)
-    _, _, second = _cc.load(c_source, tmp_path)
+    _, _, first = load(c_source, tmp_path)
+    _, _, second = load(c_source, tmp_path)
     assert (first, second) == ("compiled", "loaded")
     assert len(list(tmp_path.glob("lamech_c_*.so"))) == 1
     assert not list(tmp_path.glob(".build-*"))  # nothing left behind
     monkeypatch.setenv("LAMECH_CC", "none")
-    assert _cc.compiler() is None
+    assert compiler() is None
     monkeypatch.setenv("LAMECH_CC", "false")  # a command that fails
-    with pytest.raises(_cc.CompileFailed):
-        _cc.load(c_source + "\n", tmp_path)
+    with pytest.raises(CompileFailed):
+        load(c_source + "\n", tmp_path)
 
 
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")

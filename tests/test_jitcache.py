@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import _cc, compile_system, jit_cache_dir, numba_available, simulate
+from lamech.numeric import compile_system, jit_cache_dir, numba_available, simulate
+from lamech.numeric._cc import compiler, library_path
 from lamech.problem import chain_toml, example_path
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
@@ -131,7 +132,7 @@ def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route):
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     if route == "numba":
         monkeypatch.setenv("LAMECH_CC", "none")
-    elif _cc.compiler() is None:
+    elif compiler() is None:
         pytest.skip("no C compiler")
     # two variants of the pendulum no other test compiles (one process compiles a text
     # once, so a system compiled before in this worker would not be written here)
@@ -147,7 +148,7 @@ def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route):
         assert a.c_source != b.c_source
         folder = tmp_path / "kernels"
         libraries = {p.name for p in folder.glob("lamech_c_*.so")}
-        assert libraries == {_cc.library_path(ns.c_source, folder).name for ns in (a, b)}
+        assert libraries == {library_path(ns.c_source, folder).name for ns in (a, b)}
         assert not list((tmp_path / "kernels").glob("lamech_*.py"))
         assert {a.jit_cache, b.jit_cache} <= {"compiled", "loaded"}
         return
