@@ -445,37 +445,41 @@ def _gather_source(n: int, nonzero: list[tuple[int, int]]) -> str:
 
 
 def _c_derived(n: int, m: int, nonzero: list[tuple[int, int]], diagonal: bool) -> str:
-    """The C twin of :func:`_scatter_source` (``diagonal``) or :func:`_gather_source`."""
-    k = len(nonzero)
+    """The C twin of :func:`_scatter_source` (``diagonal``: ``c_dynamics`` from
+    ``c_dynamics_sparse``) or :func:`_gather_source` (the other way round), through
+    two scratch arrays; where they cannot be allocated, rhs is NaN (the solve fails,
+    and the loop says so)."""
     args = "double t, const double *q, const double *v, const double *p"
     if diagonal:
-        lines = [
-            f"void c_dynamics({args}, double *M, double *rhs, double *A, double *gamma, "
-            "double *mu) {",
-            f"    double *Md = calloc({n or 1}, sizeof(double));",
-            f"    double *Av = calloc({k or 1}, sizeof(double));",
-            "    c_dynamics_sparse(t, q, v, p, Md, rhs, Av, gamma, mu);",
-            *(f"    M[{i * n + i}] = Md[{i}];" for i in range(n)),
-            *(f"    A[{j * n + i}] = Av[{e}];" for e, (j, i) in enumerate(nonzero)),
-        ]
+        head = "c_dynamics({args}, double *M, double *rhs, double *A, double *gamma, double *mu)"
+        one, two, sizes, inner = "Md", "Av", (n, len(nonzero)), "c_dynamics_sparse"
+        moves = [f"    M[{i * n + i}] = Md[{i}];" for i in range(n)]
+        moves += [f"    A[{j * n + i}] = Av[{e}];" for e, (j, i) in enumerate(nonzero)]
     else:
-        lines = [
-            f"void c_dynamics_sparse({args}, double *Md, double *rhs, double *Av, "
-            "double *gamma, double *mu) {",
-            f"    double *M = calloc({n * n or 1}, sizeof(double));",
-            f"    double *A = calloc({m * n or 1}, sizeof(double));",
-            "    c_dynamics(t, q, v, p, M, rhs, A, gamma, mu);",
-            *(f"    Md[{i}] = M[{i * n + i}];" for i in range(n)),
-            *(f"    Av[{e}] = A[{j * n + i}];" for e, (j, i) in enumerate(nonzero)),
-        ]
-    return "\n".join(
-        [
-            *lines,
-            "    free(M);" if not diagonal else "    free(Md);",
-            "    free(A);" if not diagonal else "    free(Av);",
-            "}",
-        ]
-    )
+        head = (
+            "c_dynamics_sparse({args}, double *Md, double *rhs, double *Av, double *gamma, "
+            "double *mu)"
+        )
+        one, two, sizes, inner = "M", "A", (n * n, m * n), "c_dynamics"
+        moves = [f"    Md[{i}] = M[{i * n + i}];" for i in range(n)]
+        moves += [f"    Av[{e}] = A[{j * n + i}];" for e, (j, i) in enumerate(nonzero)]
+    lines = [
+        "void " + head.format(args=args) + " {",
+        f"    double *{one} = calloc({sizes[0] or 1}, sizeof(double));",
+        f"    double *{two} = calloc({sizes[1] or 1}, sizeof(double));",
+        f"    if (!{one} || !{two}) {{",
+        f"        for (int i = 0; i < {n}; i++) rhs[i] = NAN;",
+        f"        free({one});",
+        f"        free({two});",
+        "        return;",
+        "    }",
+        f"    {inner}(t, q, v, p, {'Md, rhs, Av' if diagonal else 'M, rhs, A'}, gamma, mu);",
+        *moves,
+        f"    free({one});",
+        f"    free({two});",
+        "}",
+    ]
+    return "\n".join(lines)
 
 
 def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None, c_source: str = ""):

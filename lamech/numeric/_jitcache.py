@@ -288,7 +288,7 @@ class Kernels:
 # both by cache folder: a process that changes $LAMECH_CACHE_DIR (the tests do) gets the
 # system and the engine written and cached there too, so that the folder then holds what
 # a new process (or :func:`engine_is_cached`) looks for
-_LOADED: dict[tuple[str, str], Kernels] = {}  # (cache folder, module name) -> kernels
+_LOADED: dict[tuple, Kernels] = {}  # (cache folder, module name, compiler) -> kernels
 _ENGINE: dict[tuple[str, str], dict] = {}  # (cache folder, module name) -> namespace
 _LOCK = threading.Lock()
 
@@ -462,8 +462,11 @@ def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "") -
     cannot compile the source."""
     text = system_text(source)
     name = module_key(text)
+    from ._cc import compiler
+
     with _LOCK:
-        key = (str(cache_dir()), name)
+        # by the C compiler in force too ($LAMECH_CC may change): C or numba's functions
+        key = (str(cache_dir()), name, tuple(compiler() or ()) if c_source else ())
         known = _LOADED.get(key)
         if known is not None:
             return known
