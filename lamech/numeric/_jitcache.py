@@ -409,6 +409,13 @@ def _record(functions: tuple, pattern, diagonal: bool, c: bool) -> tuple:
     return sy
 
 
+ENTRY_POINTS = (
+    "ev_segment", "ev_run", "ev_starts", "batch_run", "batch_run_serial", "rhs_kernel",
+    "accelerations", "kkt_solve",
+)  # fmt: skip
+"""The engine's functions its callers call (:func:`_entry_arguments`)."""
+
+
 def _entry_arguments(sy: tuple) -> dict:
     """Arguments of the types the callers pass to each of the engine's entry points
     (:mod:`._loop`, :mod:`._batch`, :mod:`._run`): values that are never run, only typed,
@@ -445,9 +452,11 @@ def _precompile(engine: dict, sy: tuple) -> None:
     import numba
 
     name = engine["__name__"]
+    entries = _entry_arguments(sy)
+    assert tuple(entries) == ENTRY_POINTS
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for entry, args in _entry_arguments(sy).items():
+        for entry, args in entries.items():
             if not _nbi(name, entry):
                 engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
 
@@ -530,13 +539,14 @@ def _nbi(name: str, function: str) -> bool:
 
 def engine_is_cached(function: str = "ev_segment") -> bool:
     """Whether the engine (the loop, the same for every system) is at hand for the cache
-    folder in force: compiled in this process already, or ``function`` in numba's cache
-    on disk (using it then costs a load, not a compile)."""
+    folder in force: compiled in this process already, or ``function`` and every entry
+    point in numba's cache on disk (using it then costs a load, not a compile; while
+    another process is still compiling it, not yet)."""
     name = module_key(engine_text(), "engine_")
     if (str(cache_dir()), name) in _ENGINE:
         return True
-    try:
-        return _nbi(name, function)
+    try:  # every entry point: one still being compiled by another process is not at hand
+        return all(_nbi(name, f) for f in (function, *ENTRY_POINTS))
     except OSError:
         return False
 
