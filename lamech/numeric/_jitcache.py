@@ -7,11 +7,13 @@ the same for every system: it takes the system record ``sy``
 every system, which the loop calls as first-class functions. So the loop's module,
 ``engine_<key>.py`` (:func:`engine_text`), is compiled the first time numba runs on a
 machine, every entry point at once (:func:`_precompile`: 2-3 minutes of CPU, once), and
-loaded from the cache afterwards; a system compiles only its own module,
-``lamech_<key>.py`` (:func:`system_text`: the generated functions and their cfunc
-wrappers, a few seconds), and loads it on its second run. Measured on the 2-core machine,
-whole process CPU: a problem never run before simulates on the compiled loop in 4.3-4.6
-s (the loop cached; ``python -c "import sympy"`` 0.5 s), its second run 2.3-2.7 s.
+loaded from the cache afterwards; a system compiles only its own functions: by the
+machine's C compiler into ``lamech_c_<key>.so`` where there is one (:mod:`._cc`, 0.3 s),
+else by numba as the module ``lamech_<key>.py`` (:func:`system_text`: the generated
+functions and their cfunc wrappers, a few seconds), and loads them on its second run.
+Measured on the 2-core machine, whole process CPU (2026-11-27): a problem never run
+before simulates on the compiled loop in 2.7 s (the loop cached; ``python -c "import
+sympy"`` 0.66 s; 4.3-4.6 s when numba compiled its functions), its second run 2.9 s.
 
 numba caches (``cache=True``) only functions defined in a real source file, at module
 level: a function created by ``exec`` has no file, and a closure's cache key includes
