@@ -5,17 +5,34 @@ the cache folder, and a missing or failing compiler leaves numba to compile them
 from __future__ import annotations
 
 import ctypes
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import lamech
 from lamech.numeric import compile_system, numba_available, simulate
-from lamech.numeric._cc import CompileFailed, compiler, load
+from lamech.numeric._cc import FUNCTIONS, CompileFailed, compiler, load
 from lamech.numeric._jitcache import compiled_kernels
 from lamech.problem import chain_toml, example_path
 
-needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler")
+
+def _cc_works() -> bool:
+    """Whether the machine's C compiler builds a library with ``math.h`` (a compiler
+    without the C library's headers is no compiler here: numba's route runs)."""
+    if compiler() is None:
+        return False
+    body = "#include <math.h>\n" + "\n".join(f"void {f}(void) {{}}" for f in FUNCTIONS)
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            load(body, Path(tmp))
+        except CompileFailed:
+            return False
+    return True
+
+
+needs_cc = pytest.mark.skipif(not _cc_works(), reason="no working C compiler")
 
 # M diagonal (maximal coordinates) and not, friction, restitution, a moving support
 SYSTEMS = ["cylinder", "double_pendulum", "incline_disk", "moving_support", "heavy_top"]
