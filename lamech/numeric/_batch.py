@@ -46,6 +46,7 @@ import numpy as np
 from ._codegen import NumericSystem, numba_available
 from ._events import EventKind
 from ._kernels import codes
+from ._mode import ConstraintKinds
 from ._options import Options
 from ._tableau import _tables
 from ._threads import one_blas_thread
@@ -375,14 +376,7 @@ def initial_states(
 
 def _kinds(system) -> np.ndarray:
     """(3, m) int64: unilateral, holonomic, normal index (-1 where not friction)."""
-    names = [c.name for c in system.constraints]
-    m = len(names)
-    out = np.zeros((3, m), dtype=np.int64)
-    for j, c in enumerate(system.constraints):
-        out[0, j] = int(c.unilateral)
-        out[1, j] = int(c.holonomic)
-        out[2, j] = names.index(c.friction.normal) if c.friction else -1
-    return out
+    return ConstraintKinds.of(system).array()
 
 
 def _parameter_rows(ns: NumericSystem, params, rows: int) -> np.ndarray:

@@ -40,6 +40,10 @@ class ConstraintKinds:
     def m(self) -> int:
         return len(self.normal)
 
+    def array(self) -> np.ndarray:
+        """(3, m) int64, the kernels' ``kinds``: unilateral, holonomic, normal index."""
+        return np.stack([self.unilateral, self.holonomic, self.normal]).astype(np.int64)
+
 
 class ContactMode:
     """Which constraints act and how: ``engaged`` (unilateral constraints in contact),
