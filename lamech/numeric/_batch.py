@@ -16,7 +16,7 @@ adaptive high-order Runge–Kutta that numba can call with a compiled right-hand
 a projection step. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
-compiled twin of the simulator's projection (:mod:`lamech.numeric._project`), in the
+simulator's projection (:func:`._kernels.project.ev_project`), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
 and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is
 :mod:`._kernels.batch` on the stepper of :mod:`._kernels.dop853` (the loop with events'
@@ -46,8 +46,8 @@ import numpy as np
 from ._codegen import NumericSystem, numba_available
 from ._events import EventKind
 from ._kernels import codes
-from ._mode import ConstraintKinds
 from ._options import Options
+from ._run import ConstraintKinds
 from ._tableau import _tables
 from ._threads import one_blas_thread
 
@@ -89,12 +89,25 @@ def _python_namespace(ns: NumericSystem) -> dict:
     namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
     namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
     namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
+    namespace["gauss_inplace"] = _gauss_lapack
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
     namespace["sy"] = (
         bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
         ns.restitution, False,
     )  # fmt: skip
     return namespace
+
+
+def _gauss_lapack(K: np.ndarray, x: np.ndarray) -> None:
+    """:func:`lamech.linalg.gauss_inplace` for the kernels run as Python: x becomes the
+    solution of K y = x (NaN where K is singular) by LAPACK, the same partial pivoting.
+    The compiled loop's elimination is entry by entry, which numba compiles and Python
+    runs a thousand times slower (the projection's 120-square systems of a 60-link
+    chain)."""
+    try:
+        x[:] = np.linalg.solve(K, x)
+    except np.linalg.LinAlgError:
+        x[:] = np.nan
 
 
 def _bound(namespace: dict, names) -> dict:

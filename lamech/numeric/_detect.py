@@ -1,17 +1,19 @@
-"""Event detection and location: each event the mode watches is a function of the state
-that is positive while nothing happens, and happens where it crosses zero; a crossing
-within a step is located by root finding (Brent) on the step's dense output."""
+"""What SciPy's steps look for besides the watched events' sign changes (the functions
+themselves are the loop's: :meth:`._run.Run.values`), and where: contacts made and
+unmade inside one step (:func:`inside_step`, what the loop hands back as a graze), force
+events that go through zero and back inside one step of a system with t in it
+(:func:`force_dips`), inputs that switch, and the location of each by root finding
+(Brent) on the step's dense output."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ._events import EventKind
-from ._run import Accel, Run
+from ._kernels.codes import EV_CONTACT, EV_LIFT_OFF, EV_SLIP
+from ._run import Run
 
 __all__ = [
-    "event_values",
-    "update_arming",
     "inside_step",
     "locate",
     "lock_switches",
@@ -19,60 +21,6 @@ __all__ = [
     "locate_switch",
     "flip_switch",
 ]
-
-
-def event_values(run: Run, t: float, y: np.ndarray, acc: Accel | None = None) -> np.ndarray:
-    """The watched events' functions at (t, y) (``acc``: the KKT solve there, if known):
-
-    * lift-off: the multiplier lambda_j of an engaged unilateral constraint;
-    * contact: the gap f_j of a released one;
-    * slip: mu N - |lambda_j| of a sticking friction constraint;
-    * stick: sigma s_j, the slip velocity along its slip direction.
-
-    A contact or stick event not yet armed is shifted up by its threshold.
-    """
-    watch = run.mode.watch
-    if not watch:
-        return np.zeros(0)
-    n = run.setup.n
-    q, v = y[:n], y[n:]
-    if acc is None:
-        acc = run.kkt(t, q, v)
-    f, A, b = run.constraints(t, q)
-    out = np.empty(len(watch))
-    for i, (kind, j) in enumerate(watch):
-        out[i] = _value(run, kind, j, acc.lam, acc.mu, f, A, b, v)
-    return out
-
-
-def _value(run: Run, kind: EventKind, j: int, lam, mu, f, A, b, v) -> float:
-    mode, setup = run.mode, run.setup
-    if kind == EventKind.LIFT_OFF:
-        return lam[j]
-    if kind == EventKind.CONTACT:
-        return f[j] + (0.0 if mode.is_armed(kind, j) else setup.arm_pos)
-    if kind == EventKind.SLIP:
-        k = setup.kinds.normal[j]
-        return mu[j] * mode.sN[j] * lam[k] - abs(lam[j])
-    s = float(A[j] @ v + b[j])  # stick: the slip velocity reaching zero
-    return mode.sigma[j] * s + (0.0 if mode.is_armed(kind, j) else setup.arm_vel)
-
-
-def update_arming(run: Run, t: float, y: np.ndarray) -> None:
-    """Arm the contact and stick events whose gap or slip velocity has moved far enough
-    from zero."""
-    n, mode = run.setup.n, run.mode
-    f, A, b = run.constraints(t, y[:n])
-    for kind, j in mode.watch:
-        if mode.is_armed(kind, j):
-            continue
-        if kind == EventKind.CONTACT and f[j] > run.setup.arm_pos:
-            mode.arm(kind, j)
-        elif (
-            kind == EventKind.STICK
-            and mode.sigma[j] * float(A[j] @ y[n:] + b[j]) > run.setup.arm_vel
-        ):
-            mode.arm(kind, j)
 
 
 def inside_step(
@@ -93,7 +41,8 @@ def inside_step(
     states at the step's ends)."""
     from scipy.optimize import brentq
 
-    n, mode, setup = run.setup.n, run.mode, run.setup
+    n, setup = run.setup.n, run.setup
+    imode = run.md[1]  # row 2: the contact armed
     out: dict[int, tuple[float, float]] = {}
 
     def gap(s: float, j: int, y: np.ndarray | None = None) -> tuple[float, float]:
@@ -104,15 +53,16 @@ def inside_step(
     def turn(j: int) -> float:
         return brentq(lambda s: gap(s, j)[1], t_a, t_b, xtol=1e-15 * max(1.0, abs(t_b)))
 
-    for i, (kind, j) in enumerate(mode.watch):
-        if kind != EventKind.CONTACT:
+    for i, (kind, j) in enumerate(zip(*run.watch)):
+        if kind != EV_CONTACT:
             continue
+        j = int(j)
         (_, rate_a), (_, rate_b) = gap(t_a, j, y_a), gap(t_b, j, y_b)
-        if not mode.is_armed(kind, j):
+        if not imode[2, j]:
             if rate_a > 0.0 > rate_b:
                 apex = turn(j)
                 if gap(apex, j)[0] > setup.arm_pos:
-                    mode.arm(kind, j)
+                    imode[2, j] = 1
                     out[i] = (apex, t_b)
             elif rate_a < 0.0 < rate_b:
                 bottom = turn(j)
@@ -143,18 +93,17 @@ def force_dips(
     F sin(w t) first exceeds m g would never be seen. Asked for only when the system
     depends on t explicitly (the only way a multiplier can change while the state stands
     still); it costs FORCE_SAMPLES KKT solves a step there."""
-    watch = run.mode.watch
     forces = [
         i
-        for i, (kind, _) in enumerate(watch)
-        if kind in (EventKind.LIFT_OFF, EventKind.SLIP) and g_a[i] > 0.0 and g_b[i] > 0.0
+        for i, kind in enumerate(run.watch[0])
+        if kind in (EV_LIFT_OFF, EV_SLIP) and g_a[i] > 0.0 and g_b[i] > 0.0
     ]
     out: dict[int, tuple[float, float]] = {}
     if not forces:
         return out
     for k in range(1, FORCE_SAMPLES + 1):
         s = t_a + (t_b - t_a) * k / (FORCE_SAMPLES + 1)
-        g = event_values(run, s, dense()(s))
+        g = run.values(s, dense()(s))
         for i in forces:
             if i not in out and g[i] <= 0.0:
                 out[i] = (t_a, s)
@@ -179,7 +128,7 @@ def locate(
         t_from, t_to = brackets.get(int(i), (t_a, t_b))
 
         def g(s, i=i):
-            return event_values(run, s, dense(s))[i]
+            return run.values(s, dense(s))[i]
 
         r = _root(g, t_from, t_to, t_b)
         if r < te or ie < 0:

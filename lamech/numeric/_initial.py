@@ -1,7 +1,8 @@
 """The initial state as numbers: the coordinates' initial expressions at a parameter
 vector, values held by name with the others moved onto the constraints
-(:func:`consistent_initial`, the projection of :mod:`lamech.numeric._project`), and the
-arrays or dicts a caller overrides them with (:func:`initial_state`)."""
+(:func:`consistent_initial`: the loop's consistent start,
+:func:`._kernels.project.ev_consistent`, run as Python), and the arrays or dicts a caller
+overrides them with (:func:`initial_state`)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ import numpy as np
 import sympy as sp
 
 from ._options import INITIAL_TOLERANCE, SimulationError
-from ._project import Metric, project_positions, project_velocities
 
 __all__ = ["expression_values", "initial_state", "consistent_initial", "initial_residuals"]
 
@@ -54,30 +54,21 @@ def consistent_initial(ns, p: np.ndarray, initial: Sequence[tuple[str, float]]):
     q, v = expression_values(ns, p)
     if not initial:
         return q, v
+    from ._run import ConstraintKinds, rules
+
     names = ns.coordinate_names
-    f0, F0, tol = initial_residuals(ns, p, 0.0, q, v)
-    hol = [c.holonomic for c in ns.system.constraints]
-    rows_q = [j for j in range(ns.m) if hol[j] and abs(f0[j]) <= tol]
-    rows_v = [j for j in range(ns.m) if abs(F0[j]) <= tol and (not hol[j] or j in rows_q)]
-    fixed_q, fixed_v = set(), set()
+    hold_q, hold_v = np.zeros(ns.n, dtype=np.bool_), np.zeros(ns.n, dtype=np.bool_)
+    value_q, value_v = np.zeros(ns.n), np.zeros(ns.n)
     for name, value in initial:
         if name.endswith("'"):
             i = names.index(name[:-1])
-            v[i] = value
-            fixed_v.add(i)
+            hold_v[i], value_v[i] = True, value
         else:
             i = names.index(name)
-            q[i] = value
-            fixed_q.add(i)
-    metric = Metric(ns, p)
-    free_q = [i for i in range(ns.n) if i not in fixed_q]
-    if rows_q and free_q:
-        project_positions(
-            ns, p, metric, 0.0, q, v, np.array(rows_q, dtype=int), np.zeros(ns.m), free_q
-        )
-    free_v = [i for i in range(ns.n) if i not in fixed_v]
-    if rows_v and free_v:
-        project_velocities(ns, p, metric, 0.0, q, v, np.array(rows_v, dtype=int), free_v)
+            hold_q[i], value_q[i] = True, value
+    kinds = ConstraintKinds.of(ns.system).array()
+    p = np.asarray(p, dtype=float)
+    rules(ns).ev_consistent(q, v, p, hold_q, hold_v, value_q, value_v, kinds, INITIAL_TOLERANCE)
     return q, v
 
 

@@ -5,33 +5,32 @@ loop, projection, event location and mode changes as the sweeps' loop
 
 The loop runs in chunks of :data:`CHUNK` steps, so that ``progress``, ``pace`` and Ctrl-C
 are served between them; a chunk resumes exactly where the last stopped (its step size
-carried over). Impacts are applied in the loop as the simulator applies them
-(:func:`._switch.impact`: Newton's law with restitution, the engaging contact with its
-friction, the Zeno accumulation, whose ``contact`` the loop logs at the accumulation
-time: the pending ones travel in the mode arrays, :func:`mode_arrays`). What the loop
-does not mirror it hands back: a contact it cannot apply (a singular impact matrix, a
-gap met below the surface) the simulator applies, and the loop goes on after it; after
-a step the loop cannot take (a step-size collapse, a blow-up, a penetration, a gap that
-turns within a step, a mode that does not settle, a singular KKT matrix), the simulator
-integrates one segment itself, up to its next event, with its own diagnosis of a
-failure. The conditioning check of the
-simulator's steps (a nearly singular KKT matrix stops the run) is not made in the loop;
-an exactly singular one is.
+carried over). The loop and the simulator's own steps share one mode (the run's arrays,
+``Run.md``, changed in place) and one set of rules: the loop applies lift-off,
+slip, stick and impacts (Newton's law with restitution, the engaging contact with its
+friction, the Zeno accumulation, whose ``contact`` is logged at the accumulation time)
+compiled, the simulator the same functions as Python. What the loop does not do it hands
+back: a contact it cannot apply (a singular impact matrix, a gap met below the surface)
+the simulator reports, and after a step the loop cannot take (a step-size collapse, a
+blow-up, a penetration, a gap that turns within a step, a mode that does not settle, a
+singular KKT matrix) SciPy's DOP853 integrates one segment, up to its next event, with
+the simulator's diagnosis of a failure. The conditioning check of the simulator's steps
+(a nearly singular KKT matrix stops the run) is not made in the loop; an exactly
+singular one is.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ._batch import _event_functions, _kinds, logged_events
+from ._batch import _event_functions, logged_events
 from ._codegen import numba_available
 from ._engines import ENGINES, engine_name
-from ._events import EventKind
 from ._kernels import codes
-from ._kernels.codes import FRICTION, FRICTION_STATES, ST_BUDGET, ST_CONTACT, ST_END
+from ._kernels.codes import ST_BUDGET, ST_CONTACT, ST_END
 from ._options import INITIAL_TOLERANCE, SimulationError
 from ._record import Progress, Recorder, Sample
-from ._run import Run
+from ._run import Run, dissipative
 from ._tableau import _tables
 
 __all__ = ["Loop", "loop_for", "ENGINES", "CHUNK"]
@@ -91,7 +90,6 @@ class Loop:
         self.run, self.segment = run, segment
         self.tables = _tables()
         self.limits = codes.limits(max_steps=CHUNK)  # to t_end, impacts applied
-        self.kinds = _kinds(setup.ns.system)
         self.times = np.ascontiguousarray(times, dtype=float)
         S = len(self.times)
         self.SY, self.SL, self.SR = np.zeros((S, 2 * n)), np.zeros((S, m)), np.zeros((S, 4))
@@ -111,7 +109,6 @@ class Loop:
         run = self.run
         setup = run.setup
         opts, n = setup.options, setup.n
-        imode, fmode = mode_arrays(run.mode)
         io = np.zeros(codes.IO_SIZE, dtype=np.int64)
         io[codes.IO_NEXT], io[codes.IO_CONTACT] = rec.next, -1
         fo = np.zeros(codes.FO_SIZE)
@@ -124,10 +121,10 @@ class Loop:
         lg = (self.EK, self.EJ, self.ET, self.EY, self.EX, self.want, self.found)
         smp = (self.times, self.SY, self.SL, self.SR)
         state = np.array(at.y, dtype=float)  # the state at t when the call returns
+        # the run's mode (run.md) is changed in place
         t, status, nev, steps = self.segment(
-            setup.p, self.tables, (self.kinds, imode, fmode), tl, self.limits, lg, 0, smp, state,
-            io, fo,
-        )  # fmt: skip
+            setup.p, self.tables, run.md, tl, self.limits, lg, 0, smp, state, io, fo
+        )
         for k in range(rec.next, int(io[codes.IO_NEXT])):
             y, r = self.SY[k], self.SR[k]
             sample = Sample(float(self.times[k]), y[:n].copy(), y[n:].copy(), self.SL[k].copy(),
@@ -142,9 +139,9 @@ class Loop:
         at.t, at.y = float(t), state
         events = logged_events(setup.ns, self.EK, self.EJ, self.ET, self.EY, self.EX, int(nev))
         run.events.extend(events)
-        if any(_dissipative(e) for e in events):
+        if any(dissipative(e) for e in events):
             run.dissipative = True
-        set_mode(run.mode, imode, fmode)
+        run.rebuild()
         # the chattering test after each event and its settling (_simulate._event); not
         # after an accumulation's contact (_simulate._accumulated)
         checked = [e for e in events if e.accumulation is None]
@@ -159,46 +156,3 @@ class Loop:
         if status == ST_CONTACT:
             return CONTACT, int(io[codes.IO_CONTACT])
         return HANDBACK, status
-
-
-def _dissipative(event) -> bool:
-    """An event after which energy need not be conserved (_switch: a slip, an impact
-    with e < 1, a contact engaged)."""
-    if event.kind == EventKind.IMPACT:
-        return event.restitution is not None and event.restitution < 1
-    return event.kind in (EventKind.SLIP, EventKind.CONTACT)
-
-
-def mode_arrays(mode) -> tuple[np.ndarray, np.ndarray]:
-    """The loop's (imode (4, m), fmode (5, m)) of a :class:`._mode.ContactMode` (see
-    :mod:`._kernels`' loop with events): fmode's rows 3 and 4 hold ``accumulating``
-    {j: (t_impact, t_acc)} (t_acc, then t_impact; NaN where none)."""
-    m = mode.kinds.m
-    imode = np.zeros((4, m), dtype=np.int64)
-    imode[0] = mode.engaged
-    imode[1] = [FRICTION[s] for s in mode.friction]
-    imode[2] = [mode.is_armed(EventKind.CONTACT, j) for j in range(m)]
-    imode[3] = [mode.is_armed(EventKind.STICK, j) for j in range(m)]
-    fmode = np.full((5, m), np.nan)
-    fmode[0], fmode[1], fmode[2] = mode.sigma, mode.sN, mode.offset
-    for j, (t_impact, t_acc) in mode.accumulating.items():
-        fmode[3, j], fmode[4, j] = t_acc, t_impact
-    return imode, fmode
-
-
-def set_mode(mode, imode: np.ndarray, fmode: np.ndarray) -> None:
-    """The :class:`._mode.ContactMode` of the loop's arrays."""
-    m = mode.kinds.m
-    mode.engaged = imode[0] == 1
-    mode.friction = [FRICTION_STATES[int(c)] for c in imode[1]]
-    mode.sigma, mode.sN, mode.offset = (fmode[i].copy() for i in range(3))
-    mode.accumulating = {
-        j: (float(fmode[4, j]), float(fmode[3, j])) for j in range(m) if not np.isnan(fmode[3, j])
-    }
-    mode.armed = {}
-    for j in range(m):
-        if not imode[2, j]:
-            mode.armed[(EventKind.CONTACT, j)] = False
-        if not imode[3, j]:
-            mode.armed[(EventKind.STICK, j)] = False
-    mode.rebuild()

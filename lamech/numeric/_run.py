@@ -1,12 +1,21 @@
 """One simulation run, in the spirit of MuJoCo's mjModel/mjData: :class:`Setup` holds the
 constants (the compiled system, the parameter vector, the options, the constraints'
-kinds, the event thresholds), :class:`Run` the data that change (the :class:`ContactMode`, the
-projection's metric, the counters and the event log) with the evaluations at a state:
-the KKT solve, the right-hand side, the projection and the residuals."""
+kinds, the event thresholds), :class:`Run` the data that change (the contact and
+friction mode, the counters and the event log) with the evaluations at a state: the KKT
+solve, the right-hand side, the projection and the residuals.
+
+The mode is the loop's own (:mod:`._kernels.codes`: the arrays ``imode`` and ``fmode``),
+and every rule that reads or changes it is the loop's code (:mod:`._kernels`), run here
+as Python (:func:`rules`): the start's mode, the event functions, arming, the projection,
+the settling, lift-off, slip, stick and impacts with the Zeno accumulation. Where SciPy's
+integrators step (another method, inputs that switch, t in the problem, or a segment the
+compiled loop hands back), they apply the very rules the compiled loop applies."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import NamedTuple
 
 import numpy as np
@@ -15,12 +24,68 @@ from ..linalg import kkt_matrix, kkt_rhs
 from ..model._checks import without_inertia
 from ._codegen import NumericSystem
 from ._events import Event, EventKind
+from ._kernels import codes
 from ._kkt import slip_directions
-from ._mode import ConstraintKinds, ContactMode, slip_sign
-from ._options import Options, Stop
-from ._project import Metric, project_positions, project_velocities
+from ._options import INITIAL_TOLERANCE, Options, Stop
 
-__all__ = ["Setup", "Run", "Accel"]
+__all__ = ["Setup", "Run", "Accel", "ConstraintKinds", "rules"]
+
+
+@dataclass(frozen=True)
+class ConstraintKinds:
+    """Per constraint: ``unilateral``, ``holonomic``, and ``normal`` (the index of the
+    normal constraint a friction constraint names, -1 for the others)."""
+
+    unilateral: np.ndarray
+    holonomic: np.ndarray
+    normal: np.ndarray
+
+    @classmethod
+    def of(cls, system) -> ConstraintKinds:
+        names = [c.name for c in system.constraints]
+        return cls(
+            unilateral=np.array([c.unilateral for c in system.constraints], dtype=bool),
+            holonomic=np.array([c.holonomic for c in system.constraints], dtype=bool),
+            normal=np.array(
+                [names.index(c.friction.normal) if c.friction else -1 for c in system.constraints],
+                dtype=int,
+            ),
+        )
+
+    @property
+    def m(self) -> int:
+        return len(self.normal)
+
+    def array(self) -> np.ndarray:
+        """(3, m) int64, the kernels' ``kinds``: unilateral, holonomic, normal index."""
+        return np.stack([self.unilateral, self.holonomic, self.normal]).astype(np.int64)
+
+
+_RULES: dict[int, tuple] = {}
+
+
+def rules(ns: NumericSystem) -> SimpleNamespace:
+    """The loop's rules (:mod:`._kernels`) as Python around the system's NumPy functions,
+    those that take the system record with it bound (:func:`._batch._python_namespace`):
+    the same code the compiled loop runs."""
+    known = _RULES.get(id(ns))
+    if known is not None and known[0] is ns:
+        return known[1]
+    from ._batch import _python_namespace
+
+    space = _python_namespace(ns)
+    sy = space["sy"]
+    bound = {}
+    for name in ("ev_start", "ev_settle", "ev_apply", "ev_values", "ev_arm", "ev_project",
+                 "ev_accumulated", "ev_consistent"):  # fmt: skip
+        bound[name] = functools.partial(space[name], sy)
+    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth"):
+        bound[name] = space[name]
+    out = SimpleNamespace(**bound)
+    if len(_RULES) >= 32:
+        _RULES.clear()
+    _RULES[id(ns)] = (ns, out)
+    return out
 
 
 @dataclass(frozen=True)
@@ -70,48 +135,171 @@ class Accel(NamedTuple):
 
 
 class Run:
-    """The data of one run: ``mode``, ``metric`` (mass matrix, or Euclidean once M is
-    singular), ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic
-    impact happened), ``events`` and ``handed_back`` (the contacts and segments the loop
-    with events left to the simulator's own code)."""
+    """The data of one run: the mode ``md`` = (kinds, imode, fmode) (:mod:`._kernels.codes`)
+    with its active set ``act`` and watched events ``watch`` (:meth:`rebuild`),
+    ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic impact
+    happened), ``events`` and ``handed_back`` (the contacts and segments the loop with
+    events left to the simulator's own steps). ``rules``: the loop's rules as Python
+    (:func:`rules`), with the tolerances ``tl``, limits ``lim`` and event record ``lg``
+    they take."""
 
     def __init__(self, setup: Setup):
         self.setup = setup
-        self.mode = ContactMode(setup.kinds)
-        self.metric = Metric(setup.ns, setup.p)
+        self.rules = rules(setup.ns)
+        kinds = setup.kinds.array()
+        n, m = setup.n, setup.m
+        imode = np.zeros((4, m), dtype=np.int64)
+        imode[0] = 1  # engaged
+        imode[1] = np.where(kinds[2] >= 0, codes.FR_STICK, codes.FR_NONE)
+        imode[2:] = 1  # contact and stick events armed
+        fmode = np.full((5, m), np.nan)  # sigma, sN, offset, Zeno t_acc and t_impact
+        fmode[0], fmode[1], fmode[2] = 0.0, 1.0, 0.0
+        self.md = (kinds, imode, fmode)
+        opts = setup.options
+        self.tl = codes.tolerances(
+            rtol=float(opts.rtol), atol=float(opts.atol), t_end=float("inf"),
+            max_step=float(opts.max_step), arm_pos=setup.arm_pos, arm_vel=setup.arm_vel,
+            pen=INITIAL_TOLERANCE, tol=INITIAL_TOLERANCE,
+        )  # fmt: skip
+        self.lim = codes.limits(max_steps=0, impacts=True)
+        cap = 8 * m + 32  # an event with its impact and settling logs at most 5 m + 7
+        self.lg = (
+            np.zeros(cap, dtype=np.int64), np.zeros(cap, dtype=np.int64), np.zeros(cap),
+            np.zeros((cap, 2 * n)), np.zeros((cap, 4)), np.zeros((2, 0), dtype=np.int64),
+            np.zeros(0, dtype=np.bool_),
+        )  # fmt: skip
         self.evaluations = 0
         self.dissipative = False
         self.events: list[Event] = []
         self.handed_back = 0  # what the loop with events left to the simulator (_loop)
+        self.rebuild()
+
+    def rebuild(self) -> None:
+        """The mode's active set and watched events, after it changed."""
+        kinds, imode, fmode = self.md
+        self.act = self.rules.ev_mode(kinds, imode, fmode)
+        self.watch = self.rules.ev_watch(kinds, imode)
+        act = self.act
+        self.kernel_args = (act[0], act[2], act[3], act[4])
+
+    @property
+    def released(self) -> bool:
+        """A unilateral constraint is released (its contact is watched)."""
+        return bool(np.any(self.watch[0] == codes.EV_CONTACT))
 
     def constraints(self, t: float, q: np.ndarray):
         """(f, A, b) at (t, q)."""
         return self.setup.ns.constraints(t, q, self.setup.p)
+
+    # ----- the rules ------------------------------------------------------------------
+    def logged(self, count: int) -> list[Event]:
+        """The first ``count`` events of the event record ``lg`` (a rule's), added to
+        ``events``; the mode rebuilt."""
+        from ._batch import logged_events
+
+        self.rebuild()
+        if count < 0:
+            raise Stop("more events at one time than the event record holds")
+        new = logged_events(self.setup.ns, *self.lg[:5], count)
+        self.events.extend(new)
+        if any(dissipative(e) for e in new):
+            self.dissipative = True
+        return new
+
+    def start(self, t: float, y: np.ndarray) -> bool:
+        """The mode of the start (t, y) (:func:`._kernels.modes.ev_start`); whether every
+        active constraint is met there."""
+        nev, st = self.rules.ev_start(t, y, self.setup.p, self.md, self.tl, self.lg, 0)
+        self.logged(nev)
+        return st == 0
+
+    def settle(self, t: float, y: np.ndarray) -> np.ndarray:
+        """y projected and the mode made consistent at (t, y)
+        (:func:`._kernels.modes.ev_settle`: release unilateral constraints pulling,
+        let friction beyond mu N slip); :class:`Stop` where it cannot be."""
+        y = np.array(y, dtype=float)
+        nev, st = self.rules.ev_settle(t, y, self.setup.p, self.md, self.tl, self.lg, 0)
+        self.logged(nev)
+        if st:
+            raise Stop(self._failure(st, t, y))
+        return y
+
+    def apply(self, t: float, y: np.ndarray, kind: int, j: int) -> np.ndarray:
+        """The event (``EV_*`` kind, constraint j) applied at (t, y) and the mode settled
+        (:func:`._kernels.loop.ev_apply`); the state after it."""
+        y = np.array(y, dtype=float)
+        st, nev, _ = self.rules.ev_apply(
+            t, y, self.setup.p, kind, j, self.act, self.md, self.tl, self.lim, self.lg, 0
+        )
+        self.logged(nev)
+        if st == codes.ST_CONTACT:
+            raise Stop(
+                f"singular impact matrix at t = {t:.12g} (constraint "
+                f"`{self.setup.ns.constraint_names[j]}`)"
+            )
+        if st:
+            raise Stop(self._failure(st, t, y))
+        return y
+
+    def values(self, t: float, y: np.ndarray, acc: Accel | None = None) -> np.ndarray:
+        """The watched events' functions at (t, y) (:func:`._kernels.modes.ev_functions`;
+        ``acc`` the KKT solve there, if known)."""
+        if not len(self.watch[0]):
+            return np.zeros(0)
+        n = self.setup.n
+        if acc is None:
+            acc = self.kkt(t, y[:n], y[n:])
+        f, A, b = self.constraints(t, y[:n])
+        return self.rules.ev_functions(self.watch, self.md, self.tl, y, acc.lam, acc.mu, f, A, b)
+
+    def arm(self, t: float, y: np.ndarray) -> bool:
+        """Arm the contact and stick events that moved far enough from zero at the
+        accepted (t, y) (:func:`._kernels.loop.ev_arm`); whether any was."""
+        return bool(self.rules.ev_arm(t, y, self.setup.p, self.watch, self.md, self.tl))
+
+    def bound(self, t_end: float) -> float:
+        """t_end, or the earlier accumulation time of a Zeno sequence's contact."""
+        return float(self.rules.ev_bound(t_end, self.md[2]))
+
+    def accumulated(self, t: float, y: np.ndarray) -> None:
+        """Log the contacts whose bounces have accumulated by t."""
+        self.logged(self.rules.ev_accumulated(t, y, self.setup.p, self.md[2], self.lg, 0))
+
+    def depth(self, q: np.ndarray) -> float:
+        """How far below zero a released gap may be before it is a penetration."""
+        return float(self.rules.ev_depth(self.tl, q))
+
+    def _failure(self, st: int, t: float, y: np.ndarray) -> str:
+        """Why a rule could not be applied at (t, y) (its status ``st``)."""
+        if st == codes.ST_SETTLE:
+            return (
+                f"the contact mode does not settle at t = {t:.12g} (constraints switch "
+                "back and forth); the configuration may be degenerate"
+            )
+        if st == codes.ST_SINGULAR:
+            n = self.setup.n
+            self.kkt(t, y[:n], y[n:])  # its Stop says why
+            return f"singular KKT matrix at t = {t:.12g}"
+        return f"the contact mode cannot be applied at t = {t:.12g} ({codes.STATUS_NAMES[st]})"
 
     # ----- evaluations --------------------------------------------------------------
     def kkt(self, t: float, q: np.ndarray, v: np.ndarray) -> Accel:
         """The KKT solve on the mode's rows; :class:`Stop` where it cannot be done."""
         self.evaluations += 1
         M, rhs, A, gam, mu = self._dynamics(t, q, v)
-        mode = self.mode
-        rows = mode.rows
-        slip_c = np.array([mode.sN[j] * mode.sigma[j] for j, _ in mode.slips], dtype=float)
-        slip_j, slip_k = mode.kernel_args[1], mode.kernel_args[2]
+        rows, slip_j, slip_k, slip_c = self.kernel_args
         G = slip_directions(A, rows, mu, slip_j, slip_k, slip_c)
         # The right-hand side's structured solve (a Schur complement where M is diagonal,
         # compiled with jit), not the full LU: 60-link chain, a 60-square banded system
         # instead of a 180-square dense one, at every sample (issue 16). Where it fails
         # (NaN: singular, or NaN in the dynamics) the full LU says which.
-        sol = self.setup.ns.kkt_solve(
-            M, rhs, A, gam, mu, mode.kernel_args[0], slip_j, slip_k, slip_c
-        )
+        sol = self.setup.ns.kkt_solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
         if not np.all(np.isfinite(sol)):
             sol = self._dense_solve(t, M, rhs, A, gam, rows, G)
         n = self.setup.n
         lam = np.full(self.setup.m, np.nan)
         lam[rows] = sol[n:]
-        for j, k in mode.slips:
-            lam[j] = -mu[j] * mode.sN[j] * mode.sigma[j] * lam[k]
+        lam[slip_j] = -mu[slip_j] * slip_c * sol[n + slip_k]  # the kinetic friction
         return Accel(sol[:n], lam, A, gam, mu, M, rows, G)
 
     def _dense_solve(self, t, M, rhs, A, gam, rows, G) -> np.ndarray:
@@ -201,50 +389,35 @@ class Run:
         run with the cause)."""
         self.evaluations += 1
         try:
-            return self.setup.ns.rhs_kernel(t, y, self.setup.p, *self.mode.kernel_args)
+            return self.setup.ns.rhs_kernel(t, y, self.setup.p, *self.kernel_args)
         except (ValueError, ArithmeticError):  # e.g. sqrt of a negative number
             return np.full(y.shape, np.nan)
 
     def project(self, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
-        """y projected onto the mode's manifold (:mod:`._project`); also the size of the
-        correction."""
-        ns, p, n, mode = self.setup.ns, self.setup.p, self.setup.n, self.mode
-        q, v = y[:n].copy(), y[n:].copy()
-        moved = 0.0
-        if len(mode.hrows):
-            q, moved = project_positions(ns, p, self.metric, t, q, v, mode.hrows, mode.offset)
-        if len(mode.rows):
-            v, moved_v = project_velocities(ns, p, self.metric, t, q, v, mode.rows)
-            moved = max(moved, moved_v)
-        return np.concatenate((q, v)), moved
+        """y projected onto the mode's manifold (:func:`._kernels.project.ev_project`:
+        positions onto f_h = offset_h by Gauss-Newton, then velocities onto
+        A_r v + b_r = 0, each correction the smallest in the mass-matrix metric); also the
+        size of the correction."""
+        yp = np.array(y, dtype=float)
+        act = self.act
+        self.rules.ev_project(t, yp, self.setup.p, act[0], act[1], self.md[2][2])
+        return yp, float(np.max(np.abs(yp - y), initial=0.0))
 
     def residuals(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[float, float]:
         """(max |f - offset|, max |F|) over the mode's rows."""
-        mode = self.mode
-        if not len(mode.rows):
+        rows, h = self.act[0], self.act[1]
+        if not len(rows):
             return 0.0, 0.0
         f, A, b = self.constraints(t, q)
-        h = mode.hrows
-        rp = float(np.max(np.abs(f[h] - mode.offset[h]), initial=0.0)) if len(h) else 0.0
-        rv = float(np.max(np.abs(A[mode.rows] @ v + b[mode.rows]), initial=0.0))
+        offset = self.md[2][2]
+        rp = float(np.max(np.abs(f[h] - offset[h]), initial=0.0)) if len(h) else 0.0
+        rv = float(np.max(np.abs(A[rows] @ v + b[rows]), initial=0.0))
         return rp, rv
 
-    # ----- switches that need numbers -------------------------------------------
-    def start_slip(self, j: int, lam_j: float, s: float = 0.0) -> None:
-        """Friction j starts slipping (slip velocity s, or from rest against lam_j)."""
-        self.mode.start_slip(j, slip_sign(lam_j, s, self.setup.arm_vel))
-        self.dissipative = True
 
-    def stick(self, t: float, y: np.ndarray, j: int) -> None:
-        """Friction j sticks from now on: its f is held at its present value."""
-        f, _, _ = self.constraints(t, y[: self.setup.n])
-        self.mode.stick(j, f[j] if self.setup.kinds.holonomic[j] else 0.0)
-
-    def log(self, t: float, y: np.ndarray, kind: EventKind, j: int, **details) -> None:
-        """Record an event at (t, y)."""
-        n, names = self.setup.n, self.setup.ns.coordinate_names
-        coords = {c: float(y[i]) for i, c in enumerate(names)}
-        coords.update({c + "'": float(y[n + i]) for i, c in enumerate(names)})
-        self.events.append(
-            Event(float(t), EventKind(kind), self.setup.ns.constraint_names[j], coords, **details)
-        )
+def dissipative(event) -> bool:
+    """An event after which energy need not be conserved (a slip, an impact with e < 1,
+    a contact engaged)."""
+    if event.kind == EventKind.IMPACT:
+        return event.restitution is not None and event.restitution < 1
+    return event.kind in (EventKind.SLIP, EventKind.CONTACT)

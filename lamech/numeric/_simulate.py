@@ -24,18 +24,21 @@ the step's dense output:
   (Newton's law, ``restitution`` e); it bounces (``impact``) or, when e = 0 or the
   bounce is too small to resolve, engages (``contact``). Bounces that accumulate
   (0 < e < 1) engage at the last one resolved and log the ``contact`` at their
-  accumulation time, 2 e |F_j-| / (|a_n| (1 - e)) later (:func:`._switch.impact`);
+  accumulation time, 2 e |F_j-| / (|a_n| (1 - e)) later (:func:`._kernels.impacts.ev_impact`);
 * ``slip``: |lambda_friction| reaches mu N: the friction constraint is removed and
   kinetic friction applied, opposing the slip velocity;
 * ``stick``: the slip velocity reaches zero and sticking can hold (else the slip
   reverses, logged as ``slip``).
 
 The pieces: :mod:`._run` (the run's constants :class:`Setup` and data :class:`Run`, with
-its :class:`~._mode.ContactMode`), :mod:`._project` (the projection), :mod:`._detect` (event
-functions and their location), :mod:`._switch` (the mode switches) and :mod:`._record`
-(the samples and the :class:`Trajectory`). :func:`simulate` reads: check the options,
-the numbers (parameters, initial state), the initial mode, then step / locate the event
-/ apply it / sample, and assemble the trajectory.
+its contact and friction mode and the loop's rules that change it: the projection, the
+event functions, the settling and the switches, one code for every engine),
+:mod:`._detect` (what SciPy's steps look for besides: contacts made and unmade inside a
+step, force events of systems with t in them, inputs that switch, and the location of
+each on the dense output) and :mod:`._record` (the samples and the :class:`Trajectory`).
+:func:`simulate` reads: check the options, the numbers (parameters, initial state), the
+initial mode, then step / locate the event / apply it / sample, and assemble the
+trajectory.
 """
 
 from __future__ import annotations
@@ -49,7 +52,6 @@ import numpy as np
 from ..model import System
 from ._codegen import NumericSystem
 from ._detect import (
-    event_values,
     flip_switch,
     force_dips,
     inside_step,
@@ -57,17 +59,17 @@ from ._detect import (
     locate_switch,
     lock_switches,
     switches_crossed,
-    update_arming,
 )
-from ._events import EventKind, Status
-from ._initial import initial_state
+from ._events import Status
+from ._initial import initial_residuals, initial_state
+from ._kernels.codes import EV_CONTACT
 from ._loop import CONTACT, HANDBACK, Loop, loop_for
 from ._options import (
     BLOW_UP,
     DEFAULT_ATOL,
     DEFAULT_RTOL,
     IMPLICIT,
-    INITIAL_TOLERANCE,
+    SimulationError,
     Stop,
     check_options,
     sample_times,
@@ -76,7 +78,6 @@ from ._pace import Pace, Watch, stiffness
 from ._params import numeric_system
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
-from ._switch import apply, initial_mode, settle
 from ._threads import one_blas_thread
 from ._trajectory import Trajectory
 
@@ -173,6 +174,50 @@ def simulate(
         return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
 
 
+def initial_mode(
+    run: Run, t0: float, y: np.ndarray, project_initial: bool, notes: list[str]
+) -> np.ndarray:
+    """Set the mode the initial state is in (:meth:`Run.start`: a unilateral constraint
+    open or opening starts released, a friction constraint with a slip velocity starts
+    slipping). Returns y, projected onto the constraints when ``project_initial`` (else a
+    state off them raises :class:`SimulationError`, saying which and by how much)."""
+    if run.start(t0, y):
+        return y
+    setup = run.setup
+    n = setup.n
+    f, F, tol = initial_residuals(setup.ns, setup.p, t0, y[:n], y[n:])
+    names, hol = setup.ns.constraint_names, setup.kinds.holonomic
+    bad = []
+    for j in run.act[0]:
+        if hol[j] and abs(f[j]) > tol:
+            bad.append(f"`{names[j]}` f = {f[j]:.6g}")
+        elif abs(F[j]) > tol:
+            bad.append(
+                f"`{names[j]}` df/dt = {F[j]:.6g}" if hol[j] else f"`{names[j]}` g = {F[j]:.6g}"
+            )
+    if not project_initial:
+        raise SimulationError(
+            "the initial state violates the constraints: "
+            + "; ".join(bad)
+            + " (tolerance 1e-10 (1 + max |q|)); fix the initial values "
+            "or use `project_initial=True`"
+        )
+    y2, _ = run.project(t0, y)
+    changes = [
+        f"{name}{s}: {a:.12g} -> {b_:.12g}"
+        for i, name in enumerate(setup.ns.coordinate_names)
+        for s, a, b_ in (("", y[i], y2[i]), ("'", y[n + i], y2[n + i]))
+        if abs(a - b_) > 0
+    ]
+    notes.append(
+        "initial state projected onto the constraints ("
+        + "; ".join(bad)
+        + "): "
+        + ", ".join(changes)
+    )
+    return y2
+
+
 def _degree_notes(ns: NumericSystem, p: np.ndarray, y0: np.ndarray) -> list[str]:
     """The run's angles that look like degrees (:func:`lamech.model._hints.degree_hints`) at
     its own parameters and start, those the system's notes do not say already."""
@@ -205,7 +250,7 @@ def _integrate(
     # warnings about them are noise: off for the run (set once: per call it costs 1 us).
     saved = np.seterr(invalid="ignore", over="ignore", divide="ignore")
     try:
-        at.y = settle(run, at.t, at.y)
+        at.y = run.settle(at.t, at.y)
         lock_switches(run, at.t, at.y)
         rec.start(at.t, at.y)
         # A state 1e12 times its start (in size) is a blow-up, not physics to follow with
@@ -240,14 +285,14 @@ def _segment(
     n, opts = run.setup.n, run.setup.options
     # A contact engaged at an impact whose bounces accumulate begins at their
     # accumulation time: the segment ends there, to log it (the mode does not change).
-    bound = min([t_end, *(t for _, t in run.mode.accumulating.values())])
+    bound = run.bound(t_end)
     if bound <= at.t:
-        _accumulated(run, at)
+        run.accumulated(at.t, at.y)
         return
     solver = opts.integrator()(
         run.fun, at.t, at.y, bound, rtol=opts.rtol, atol=opts.atol, max_step=opts.max_step
     )
-    g_old = event_values(run, at.t, at.y)
+    g_old = run.values(at.t, at.y)
     while solver.status == "running":
         msg = solver.step()
         at.steps += 1
@@ -258,11 +303,11 @@ def _segment(
         yb, moved = run.project(t_b, solver.y)
         at.max_projection = max(at.max_projection, moved)
         acc = run.kkt(t_b, yb[:n], yb[n:])
-        g_new = event_values(run, t_b, yb, acc)
+        g_new = run.values(t_b, yb, acc)
         dense = _Lazy(solver.dense_output)  # DOP853's costs 3 more evaluations: on need
-        brackets = inside_step(run, dense, t_a, at.y, t_b, yb) if run.mode.released else {}
+        brackets = inside_step(run, dense, t_a, at.y, t_b, yb) if run.released else {}
         if brackets:
-            g_new = event_values(run, t_b, yb, acc)  # arming changed them
+            g_new = run.values(t_b, yb, acc)  # arming changed them
         crossed = (g_old > 0) & (g_new <= 0)
         if run.setup.ns.explicit_time and not crossed.any():
             brackets.update(force_dips(run, dense, t_a, t_b, g_old, g_new))
@@ -283,14 +328,13 @@ def _segment(
         _check_penetration(run, t_b, yb)
         rec.up_to(t_b, dense, yb)
         _check_conditioning(run, acc, t_b, yb, at.steps)
-        if not run.mode.all_armed():
-            update_arming(run, t_b, yb)
-        g_old = event_values(run, t_b, yb, acc)
+        run.arm(t_b, yb)
+        g_old = run.values(t_b, yb, acc)
         _restart_from(solver, yb, np.concatenate((yb[n:], acc.qdd)))
         at.t, at.y = t_b, yb
         watch.step(run, t_b, yb, t_b - t_a, at.steps)
     at.t = bound  # finished
-    _accumulated(run, at)
+    run.accumulated(at.t, at.y)
 
 
 def _loop_call(
@@ -312,23 +356,13 @@ def _loop_call(
         j = int(detail)
         _check_penetration(run, at.t, at.y, met=j)
         logged = len(run.events)
-        at.y = apply(run, at.t, at.y, EventKind.CONTACT, j)
+        at.y = run.apply(at.t, at.y, EV_CONTACT, j)
         zeno.check(at.t, [(str(e.kind), e.constraint) for e in run.events[logged:]])
     elif what == HANDBACK:
-        at.y = settle(run, at.t, at.y)  # a mode the loop could not settle: the cause
+        at.y = run.settle(at.t, at.y)  # a mode the loop could not settle: the cause
         _segment(run, rec, at, t_end, blow_up, zeno, watch)
     elif detail > 0:
         watch.step(run, at.t, at.y, detail, at.steps)
-
-
-def _accumulated(run: Run, at: Progress) -> None:
-    """Log ``contact`` for each constraint whose bounces have accumulated by ``at.t``."""
-    pending = run.mode.accumulating
-    for j, (t_impact, t_acc) in sorted(pending.items(), key=lambda item: item[1][1]):
-        if t_acc <= at.t:
-            del pending[j]
-            e = float(run.setup.ns.restitution(at.t, at.y[: run.setup.n], run.setup.p)[j])
-            run.log(at.t, at.y, EventKind.CONTACT, j, restitution=e, accumulation=at.t - t_impact)
 
 
 def _restart_from(solver, y: np.ndarray, f: np.ndarray) -> None:
@@ -351,12 +385,12 @@ def _event(
     te, ie = located
     rec.up_to(te, lambda: dense)
     ye, _ = run.project(te, dense(te))
-    kind, j = run.mode.watch[ie]
+    kind, j = int(run.watch[0][ie]), int(run.watch[1][ie])
     at.t, at.y = te, ye  # reached, whether or not the event can be applied
-    if kind == EventKind.CONTACT:
+    if kind == EV_CONTACT:
         _check_penetration(run, te, ye, met=j)
     logged = len(run.events)
-    at.y = apply(run, te, ye, kind, j)
+    at.y = run.apply(te, ye, kind, j)
     zeno.check(te, [(str(e.kind), e.constraint) for e in run.events[logged:]])
 
 
@@ -371,7 +405,7 @@ def _switch(
     at.t, at.y = ts, ys
     logged = len(run.events)
     flip_switch(run, ts, ys, k)
-    at.y = settle(run, ts, ys)
+    at.y = run.settle(ts, ys)
     zeno.check(ts, [(str(e.kind), e.constraint) for e in run.events[logged:]])
 
 
@@ -455,16 +489,16 @@ def _check_penetration(run: Run, t: float, y: np.ndarray, met: int | None = None
     moved through the body). The tolerance is 10 ``arm_pos`` (1000 atol; a contact is
     located at a gap of at most ``arm_pos`` below zero), or the initial state's
     tolerance where that is larger."""
-    mode, setup = run.mode, run.setup
-    if not mode.released:
+    setup = run.setup
+    if not run.released:
         return
-    released = [j for kind, j in mode.watch if kind == EventKind.CONTACT]
+    wk, wj = run.watch
+    released = [int(j) for kind, j in zip(wk, wj) if kind == EV_CONTACT]
     if met is not None:
         released = [met]
     n = setup.n
     f = run.constraints(t, y[:n])[0]
-    big = float(np.max(np.abs(y[:n]), initial=0.0))
-    depth = max(10.0 * setup.arm_pos, INITIAL_TOLERANCE * (1.0 + big))
+    depth = run.depth(y[:n])
     for j in released:
         if f[j] >= -depth:
             continue

@@ -26,9 +26,9 @@ import builtins
 import inspect
 import types
 
-from .._project import PROJECTION_ITERATIONS
 from . import batch, codes, dop853, impacts, kkt, loop, modes, project
 from .dop853 import STAGES
+from .project import PROJECTION_ITERATIONS
 
 __all__ = [
     "kernel_text",

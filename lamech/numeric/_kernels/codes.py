@@ -6,7 +6,7 @@ The loop keeps the contact and friction mode in arrays: ``kinds`` (3, m) int64 r
 unilateral, holonomic, normal (-1: not friction); ``imode`` (4, m) int64 rows engaged,
 friction state (``FR_*``), contact armed, stick armed; ``fmode`` (5, m) rows sigma (slip
 sign), sN (sign of a bilateral normal), offset (f held while friction sticks), the
-accumulation time of a Zeno sequence's contact (NaN: none; ``ContactMode.accumulating``) and the
+accumulation time of a Zeno sequence's contact (NaN: none) and the
 time of its impact. Each run ends with a status (``ST_*``); each logged event has a kind
 (``EV_*``) and a detail code (``DT_*``) with up to three values.
 """

@@ -26,7 +26,7 @@ from .modes import ev_log, ev_mode
 
 # KERNELS
 def ev_impulses(M, A, b, v, mu, act, j, target, extra, through):
-    """(q'+, impulses (m,): NaN where none) of _switch._impulses' solve: the velocity
+    """(q'+, impulses (m,): NaN where none) of the impact's solve: the velocity
     jump on the active rows (the mode's active set ``act``), j (its velocity form brought
     to ``target`` - b_j) and the rows ``extra``; the mode's slips and the friction rows
     ``through`` = (sj2, sc2) slipping through the impact on j (signs sc2) take mu times
@@ -77,7 +77,7 @@ def ev_impulses(M, A, b, v, mu, act, j, target, extra, through):
 
 
 def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
-    """Released unilateral j closes its gap at (t, y) (_switch.impact): the impulse on
+    """Released unilateral j closes its gap at (t, y) (Newton's law): the impulse on
     the active rows and j gives F_j+ = -e F_j-; it bounces (EV_IMPACT, the contact
     disarmed) or, when e = 0 or the bounce is too small to resolve, engages (EV_CONTACT)
     with its friction sticking or slipping through the impact; a Zeno sequence (0 < e <
@@ -155,7 +155,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
     rest = -1.0
     vb = vp
     ib = 0.0
-    if engage and 0.0 < e < 1.0:  # _switch._accumulation: the bounces' time to rest
+    if engage and 0.0 < e < 1.0:  # the bounces' time to rest
         M2, rhs2, A2, gam2, mu2 = dynamics(sy, t, q, vp, p)
         qdd2 = kkt_solve(sy, M2, rhs2, A2, gam2, mu2, rows, slip_j, slip_k, slip_c)[:n].copy()
         a_n = gam2[j]
@@ -184,7 +184,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
             return 0, ST_EVENTS
         ev_x[nev - 1, 2] = Fm
         ev_x[nev - 1, 3] = e
-    # _switch._engage: j engages, its friction sticks (f held where it is), or slips on
+    # j engages, its friction sticks (f held where it is), or slips on
     imode[0, j] = 1
     ev_mode(kinds, imode, fmode)
     for a in range(nf):

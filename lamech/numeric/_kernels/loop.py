@@ -12,7 +12,6 @@ arrays are described in :mod:`.codes`.
 import numpy as np
 
 from .codes import (
-    DT_INITIAL,
     DT_NONE,
     DT_REVERSAL,
     EV_CONTACT,
@@ -41,19 +40,27 @@ from .codes import (
     ST_GROWTH,
     ST_PENETRATION,
     ST_SINGULAR,
-    ST_START,
     ST_STEP,
     TL_ARM_POS,
     TL_ARM_VEL,
     TL_BLOW_UP,
-    TL_PEN,
     TL_T_END,
-    TL_TOL,
 )
 from .dop853 import STAGES, dop853_step, ev_dense, ev_dense_stages, ev_first_step
 from .impacts import ev_accumulated, ev_bound, ev_impact
 from .kkt import constraints, energy, rhs_kernel
-from .modes import ev_all, ev_brent, ev_lam, ev_log, ev_mode, ev_settle, ev_values, ev_watch
+from .modes import (
+    ev_all,
+    ev_brent,
+    ev_depth,
+    ev_lam,
+    ev_log,
+    ev_mode,
+    ev_settle,
+    ev_start,
+    ev_values,
+    ev_watch,
+)
 from .project import ev_project
 
 
@@ -82,42 +89,13 @@ def ev_run_one(sy, y0, p, tab, md, tl, lim, lg, y_out):
     y_out the state at t. tl[TL_BLOW_UP] is a factor of 1 + max |y0| here."""
     kinds, imode, fmode = md
     N = y0.shape[0]
-    n = N // 2
     m = kinds.shape[1]
     y = y0.copy()
     t = 0.0
     y_out[:] = y
-    # the start (_switch.initial_mode): a unilateral constraint open or opening starts
-    # released, friction with a slip velocity starts slipping; a start off the
-    # constraints is left to simulate (which refuses it with the values)
-    f0, A0, b0 = constraints(sy, t, y[:n].copy(), p)
-    tol_q = tl[TL_TOL] * (1.0 + np.max(np.abs(y[:n])))
-    F0 = np.empty(m)
-    for j in range(m):
-        F0[j] = b0[j]
-        for c in range(n):
-            F0[j] += A0[j, c] * y[n + c]
-    for j in range(m):
-        if kinds[0, j] == 1 and (f0[j] > tol_q or (abs(f0[j]) <= tol_q and F0[j] > tol_q)):
-            imode[0, j] = 0
-            imode[2, j] = 1 if f0[j] > tl[TL_ARM_POS] else 0
-    rows = ev_mode(kinds, imode, fmode)[0]
-    nev = 0
-    for a in range(rows.shape[0]):
-        j = rows[a]
-        if kinds[2, j] >= 0 and abs(F0[j]) > tol_q:
-            imode[1, j] = FR_SLIP
-            fmode[0, j] = np.copysign(1.0, F0[j])
-            imode[3, j] = 0
-            ev_mode(kinds, imode, fmode)
-            nev = ev_log(lg, EV_SLIP, j, t, y, DT_INITIAL, 0.0, nev)
-            if nev < 0:
-                return t, ST_EVENTS, 0, 0
-    rows = ev_mode(kinds, imode, fmode)[0]
-    for a in range(rows.shape[0]):
-        j = rows[a]
-        if (kinds[1, j] == 1 and abs(f0[j]) > tol_q) or abs(F0[j]) > tol_q:
-            return t, ST_START, nev, 0
+    nev, st = ev_start(sy, t, y, p, md, tl, lg, 0)
+    if st != 0:
+        return t, st, nev, 0
     nev, st = ev_settle(sy, t, y, p, md, tl, lg, nev)
     y_out[:] = y
     if st != 0:
@@ -216,7 +194,7 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
     """Apply the located event (kind, constraint j) at (te, ye) in the mode ``md`` (its
     active set ``act``), in place, log it and settle the mode: lift-off, slip, stick (it
     sticks, f held where it is, if mu N can hold it; else it slips on, a reversal when the
-    direction changes: _switch._stick), and a contact's impact (:func:`ev_impact`).
+    direction changes), and a contact's impact (:func:`ev_impact`).
     (status, count, settled): status 0 (applied), ST_CONTACT (a contact left to the
     simulator, nothing changed: met below the surface, impacts not in the loop, or a
     singular impact matrix), or a failure of the settling; ``settled`` where the mode was
@@ -229,8 +207,8 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
         # _simulate._check_penetration where the contact is met: a gap that jumped below
         # zero is the simulator's to report
         fc = constraints(sy, te, ye[:n].copy(), p)[0]
-        depth = max(tl[TL_PEN] * (1.0 + np.max(np.abs(ye[:n]))), 10.0 * tl[TL_ARM_POS])
-        if fc[j] < -depth or lim[LM_IMPACTS] == 0:  # (no impacts: integrate_events' default)
+        # (no impacts: integrate_events' default)
+        if fc[j] < -ev_depth(tl, ye[:n]) or lim[LM_IMPACTS] == 0:
             return ST_CONTACT, nev, False
         nev, st = ev_impact(sy, te, ye, p, j, md, tl, lg, nev)
         if st != 0:  # ST_CONTACT: not applied, the simulator applies it
@@ -257,7 +235,7 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
     elif kind == EV_LIFT_OFF:
         imode[0, j] = 0
         imode[2, j] = 0
-        fmode[3, j] = np.nan  # ContactMode.release: a pending accumulation is dropped
+        fmode[3, j] = np.nan  # a pending accumulation is dropped
     elif kind == EV_SLIP:
         lam_j = ev_lam(sy, te, ye, p, m, act)[1][j]
         fmode[0, j] = -np.copysign(1.0, lam_j)
@@ -398,7 +376,7 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
             continue
         if released:  # a body through a surface (simulate's _check_penetration)
             fb = constraints(sy, t_new, yb[:n].copy(), p)[0]
-            depth = max(tl[TL_PEN] * (1.0 + np.max(np.abs(yb[:n]))), 10.0 * tl[TL_ARM_POS])
+            depth = ev_depth(tl, yb[:n])
             for i in range(wk.shape[0]):
                 if wk[i] == EV_CONTACT and fb[watch[1][i]] < -depth:
                     return t, ST_PENETRATION, nev, steps

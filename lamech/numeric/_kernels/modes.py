@@ -6,6 +6,7 @@ settling of a mode (a constraint that pulls is released, friction beyond mu N sl
 import numpy as np
 
 from .codes import (
+    DT_INITIAL,
     DT_MULTIPLIER,
     DT_RATIO,
     EV_CONTACT,
@@ -18,8 +19,11 @@ from .codes import (
     ST_EVENTS,
     ST_SETTLE,
     ST_SINGULAR,
+    ST_START,
     TL_ARM_POS,
     TL_ARM_VEL,
+    TL_PEN,
+    TL_TOL,
 )
 from .dop853 import ev_dense
 from .kkt import constraints, dynamics, kkt_solve
@@ -28,7 +32,8 @@ from .project import ev_project
 
 # KERNELS
 def ev_active(j, kinds, imode):
-    """Constraint j's row is in the KKT system (ContactMode.row_active)."""
+    """Constraint j's row is in the KKT system: an engaged unilateral or a bilateral one;
+    a friction constraint while it sticks and its normal's row is in."""
     for _ in range(kinds.shape[1] + 1):
         k = kinds[2, j]
         if k < 0:
@@ -42,7 +47,7 @@ def ev_active(j, kinds, imode):
 
 
 def ev_mode(kinds, imode, fmode):
-    """(rows, hrows, slip_j, slip_k, slip_c) of the mode (ContactMode.rebuild; friction on a
+    """(rows, hrows, slip_j, slip_k, slip_c) of the mode (friction on a
     released normal goes off, and sticks again when it engages)."""
     m = kinds.shape[1]
     rows = np.empty(m, dtype=np.int64)
@@ -90,7 +95,9 @@ def ev_mode(kinds, imode, fmode):
 
 
 def ev_watch(kinds, imode):
-    """(kinds, constraints) of the events the mode watches (ContactMode._watched)."""
+    """(kinds, constraints) of the events the mode watches: lift-off of an engaged
+    unilateral constraint, contact of a released one, slip of sticking friction, stick of
+    slipping friction."""
     m = kinds.shape[1]
     wk = np.empty(2 * m, dtype=np.int64)
     wj = np.empty(2 * m, dtype=np.int64)
@@ -130,22 +137,30 @@ def ev_lam(sy, t, y, p, m, act):
 
 
 def ev_values(sy, t, y, p, watch, md, act, tl):
-    """The watched events' functions at (t, y) (_detect.event_values; ``watch`` (kinds,
-    constraints): :func:`ev_watch`): lambda_j of an engaged unilateral (lift-off), f_j of
-    a released one (contact), mu sN N - |lambda_j| of sticking friction (slip), sigma s_j
-    of slipping friction (stick); a disarmed contact or stick shifted up by its
-    threshold."""
+    """The watched events' functions at (t, y) (``watch`` (kinds, constraints):
+    :func:`ev_watch`): :func:`ev_functions` of the mode's KKT solve there."""
+    n = y.shape[0] // 2
+    m = md[0].shape[1]
+    if watch[0].shape[0] == 0:
+        return np.empty(0)
+    qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
+    f, A, b = constraints(sy, t, y[:n].copy(), p)
+    return ev_functions(watch, md, tl, y, lam, mu, f, A, b)
+
+
+def ev_functions(watch, md, tl, y, lam, mu, f, A, b):
+    """The watched events' functions of the multipliers ``lam`` (NaN where inactive, the
+    kinetic friction where slipping: :func:`ev_lam`), ``mu`` and the constraints (f, A,
+    b) at the state y: lambda_j of an engaged unilateral (lift-off), f_j of a released
+    one (contact), mu sN N - |lambda_j| of sticking friction (slip), sigma s_j of
+    slipping friction (stick); a disarmed contact or stick shifted up by its threshold.
+    Each is positive while nothing happens; its event is where it crosses zero."""
     wk, wj = watch
     kinds, imode, fmode = md
     arm_pos, arm_vel = tl[TL_ARM_POS], tl[TL_ARM_VEL]
     nw = wk.shape[0]
     out = np.empty(nw)
-    if nw == 0:
-        return out
     n = y.shape[0] // 2
-    m = kinds.shape[1]
-    qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
-    f, A, b = constraints(sy, t, y[:n].copy(), p)
     for i in range(nw):
         kind = wk[i]
         j = wj[i]
@@ -163,11 +178,19 @@ def ev_values(sy, t, y, p, watch, md, act, tl):
     return out
 
 
+def ev_depth(tl, q):
+    """How far below zero a released gap may be before it is a penetration (a body
+    through a surface): 10 tl[TL_ARM_POS] (a contact is located at a gap of at most
+    that arming distance below zero), or the start's tolerance tl[TL_PEN] (1 + max |q|)
+    where that is larger."""
+    return max(tl[TL_PEN] * (1.0 + np.max(np.abs(q))), 10.0 * tl[TL_ARM_POS])
+
+
 def ev_brent(sy, i, xa, xb, dn, p, watch, md, act, tl):
     """Where event i's function (:func:`ev_values`) crosses zero on the dense output
     ``dn`` (:func:`.dop853.ev_dense`) in [xa, xb]: Brent's method as
     scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200 iterations:
-    _detect._root); xb where the ends have one sign."""
+    the simulator's own location, _detect._root); xb where the ends have one sign."""
     xtol = 1e-15 * max(1.0, abs(xb))
     rtol = 4.0 * 2.220446049250313e-16
     xpre = xa
@@ -248,8 +271,48 @@ def ev_log(lg, kind, j, t, y, code, value, nev):
     return nev + 1
 
 
+def ev_start(sy, t, y, p, md, tl, lg, nev):
+    """The mode the start (t, y) is in, set in ``md`` (every constraint engaged and
+    sticking before): a unilateral constraint open (f > 0) or opening (f = 0, F > 0)
+    starts released (its contact armed where the gap is beyond tl[TL_ARM_POS]), a
+    friction constraint with a slip velocity starts slipping (logged, DT_INITIAL).
+    (count, 0), or (count, ST_START) where an active constraint is not met (|f| or |F|
+    beyond tl[TL_TOL] (1 + max |q|)), or (0, ST_EVENTS)."""
+    kinds, imode, fmode = md
+    n = y.shape[0] // 2
+    m = kinds.shape[1]
+    f0, A0, b0 = constraints(sy, t, y[:n].copy(), p)
+    tol_q = tl[TL_TOL] * (1.0 + np.max(np.abs(y[:n])))
+    F0 = np.empty(m)
+    for j in range(m):
+        F0[j] = b0[j]
+        for c in range(n):
+            F0[j] += A0[j, c] * y[n + c]
+    for j in range(m):
+        if kinds[0, j] == 1 and (f0[j] > tol_q or (abs(f0[j]) <= tol_q and F0[j] > tol_q)):
+            imode[0, j] = 0
+            imode[2, j] = 1 if f0[j] > tl[TL_ARM_POS] else 0
+    rows = ev_mode(kinds, imode, fmode)[0]
+    for a in range(rows.shape[0]):
+        j = rows[a]
+        if kinds[2, j] >= 0 and abs(F0[j]) > tol_q:
+            imode[1, j] = FR_SLIP
+            fmode[0, j] = np.copysign(1.0, F0[j])
+            imode[3, j] = 0
+            ev_mode(kinds, imode, fmode)
+            nev = ev_log(lg, EV_SLIP, j, t, y, DT_INITIAL, 0.0, nev)
+            if nev < 0:
+                return 0, ST_EVENTS
+    rows = ev_mode(kinds, imode, fmode)[0]
+    for a in range(rows.shape[0]):
+        j = rows[a]
+        if (kinds[1, j] == 1 and abs(f0[j]) > tol_q) or abs(F0[j]) > tol_q:
+            return nev, ST_START
+    return nev, 0
+
+
 def ev_settle(sy, t, y, p, md, tl, lg, nev):
-    """Make the mode ``md`` consistent at (t, y), in place (_switch.settle): release the
+    """Make the mode ``md`` consistent at (t, y), in place: release the
     unilateral constraint pulling hardest, else let the friction furthest beyond mu N
     slip, logging each in ``lg``; (count, 0) or (count, ST_EVENTS / ST_SETTLE /
     ST_SINGULAR)."""
@@ -284,7 +347,7 @@ def ev_settle(sy, t, y, p, md, tl, lg, nev):
         if jw >= 0:
             imode[0, jw] = 0
             imode[2, jw] = 0
-            fmode[3, jw] = np.nan  # ContactMode.release
+            fmode[3, jw] = np.nan  # a pending accumulation is dropped
             nev = ev_log(lg, EV_LIFT_OFF, jw, t, y, DT_MULTIPLIER, worst, nev)
             if nev < 0:
                 return 0, ST_EVENTS

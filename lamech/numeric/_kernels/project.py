@@ -1,53 +1,44 @@
 """The projections onto the constraints: after a step (the batch loop's in the Euclidean
-metric, the loop with events' in the mass-matrix metric on the mode's rows, the compiled
-twins of :mod:`.._project`), and the consistent starts of a batch
-(:func:`.._initial.consistent_initial`'s rule).
+metric, the loop with events' and the simulator's in the mass-matrix metric on the
+mode's rows), and the consistent starts (:func:`.._initial.consistent_initial` and a
+batch's).
 """
 
 import numpy as np
 
 from ...linalg import gauss_inplace
-from .._project import PROJECTION_ITERATIONS
 from .kkt import batch_solve, constraints, dynamics
+
+PROJECTION_ITERATIONS = 6
+"""Gauss-Newton iterations at most per position projection (it converges quadratically:
+after a step one or two suffice)."""
 
 
 # KERNELS
 def ev_correction(W, Ar, r):
     """dx minimising dx^T W dx subject to Ar dx = r (the KKT system, by elimination);
-    Euclidean where that is singular (linalg.min_norm_correction, _project.Metric).
+    Euclidean where that is singular, then least squares (linalg.min_norm_correction).
     Where W is diagonal and positive (particles and planar bodies in maximal
     coordinates), by the Schur complement dx = W^-1 Ar^T (Ar W^-1 Ar^T)^-1 r: a k-square
     solve instead of the (n + k)-square one (the 20-link chain's projection took most of
     a step's time)."""
     n = W.shape[0]
     k = Ar.shape[0]
-    diagonal = True
-    for i in range(n):
-        if not W[i, i] > 0.0:
-            diagonal = False
-        for c in range(n):
-            if c != i and W[i, c] != 0.0:
-                diagonal = False
-        if not diagonal:
-            break
-    if diagonal:
-        ArW = np.empty((k, n))
-        for a in range(k):
-            for i in range(n):
-                ArW[a, i] = Ar[a, i] / W[i, i]
+    # Written with whole-array operations, not loops over entries: the simulator's own
+    # steps (SciPy's integrators) run this as Python at every step, where a loop over
+    # the 120-square W of a 60-link chain cost more than the step.
+    d = np.diag(W).copy()
+    if np.all(d > 0.0) and np.count_nonzero(W) == n:
+        ArW = Ar / d
         w = batch_solve(ArW @ Ar.T, r)
         if np.all(np.isfinite(w)):
             return ArW.T @ w
     K = np.zeros((n + k, n + k))
     x = np.zeros(n + k)
-    for i in range(n):
-        for c in range(n):
-            K[i, c] = W[i, c]
-    for a in range(k):
-        x[n + a] = r[a]
-        for i in range(n):
-            K[i, n + a] = Ar[a, i]
-            K[n + a, i] = Ar[a, i]
+    K[:n, :n] = W
+    K[:n, n:] = Ar.T
+    K[n:, :n] = Ar
+    x[n:] = r
     gauss_inplace(K, x)
     if np.all(np.isfinite(x)):
         return x[:n].copy()
@@ -57,7 +48,7 @@ def ev_correction(W, Ar, r):
 
 
 def ev_project(sy, t, y, p, rows, hrows, offset):
-    """y onto the mode's manifold, in place (_project in the mass-matrix metric):
+    """y onto the mode's manifold, in place (in the mass-matrix metric):
     positions onto f_h = offset_h (Gauss-Newton), velocities onto A_r v + b_r = 0."""
     n = y.shape[0] // 2
     q = y[:n].copy()
@@ -95,7 +86,7 @@ def ev_project(sy, t, y, p, rows, hrows, offset):
 
 def batch_project(sy, t, y, p):
     """Positions onto f = 0 (Gauss-Newton, minimum norm), then velocities onto
-    A v + b = 0; in place. The compiled twin of :mod:`.._project` with
+    A v + b = 0; in place. :func:`ev_project` in
     the Euclidean metric, at most PROJECTION_ITERATIONS Gauss-Newton steps."""
     n = y.shape[0] // 2
     q = y[:n].copy()
@@ -121,7 +112,7 @@ def batch_project(sy, t, y, p):
 
 def ev_restricted(sy, t, q, v, p, rows, free, what):
     """One correction of the start onto the constraints ``rows`` over the ``free``
-    coordinates (mask), the mass-matrix metric restricted to them (_project with
+    coordinates (mask), the mass-matrix metric restricted to them (with
     ``free``): ``what`` 0 positions (f = 0), 1 velocities (A v + b = 0). (dx over all
     coordinates, 0 on the held ones; the residual's size; the number of movable rows)."""
     n = q.shape[0]
@@ -217,7 +208,6 @@ def ev_consistent(sy, q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
             v[i] = value_v[i]
             free_v[i] = False
     if nq > 0 and np.any(free_q):
-        # the metric's M at the first iteration's state (_project.project_positions)
         for _ in range(PROJECTION_ITERATIONS):
             dx, big, na, step = ev_restricted(sy, 0.0, q, v, p, rows_q, free_q, 0)
             if na == 0 or step == 0.0:
