@@ -116,7 +116,9 @@ def test_the_loop_runs_the_c_functions_or_numbas_with_the_same_numbers(route, mo
         monkeypatch.setenv("LAMECH_CC", "none")
     text = example_path("cylinder").read_text(encoding="utf-8")
     ns = compile_system(lamech.loads(text), jit=True)
-    kernels = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal, ns.c_source)
+    kernels = compiled_kernels(
+        ns.source, ns.pattern, ns.mass_diagonal, ns.c_source, ns.switch_slots
+    )
     assert kernels.sy[-1] is (route == "c")
     a = simulate(lamech.loads(text), 6.0, jit=False, initial={"theta1": 0.01})
     b = simulate(ns, 6.0, initial={"theta1": 0.01})

@@ -154,7 +154,7 @@ def test_the_kernels_codes_are_defined_once_and_the_compiled_module_reads_the_sa
     assert {codes.FRICTION_STATES[c] for c in codes.FRICTION.values()} == {None, *FrictionState}
     statuses = {v for k, v in values.items() if k.startswith("ST_")} - {codes.ST_BUDGET}
     assert set(codes.STATUS_NAMES) == statuses and FALLBACKS == codes.FALLBACKS
-    assert EventKind.SWITCH not in codes.EVENT_CODES  # the loop has no input switches
+    assert set(codes.EVENT_CODES) == set(EventKind)  # every kind, input switches too
     details = {v for k, v in values.items() if k.startswith("DT_")} - {codes.DT_NONE}
     assert set(codes.DETAILS) == details
 

@@ -141,24 +141,34 @@ BALL = {
 
 
 @pytest.mark.slow
-def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
+def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_is_seen_inside_a_step():
     ball = lamech.from_dict(BALL)
     ns = compile_system(ball)
-    # max_step: resting on the floor the state does not move, and the steps would span the
-    # force's whole rise and fall (simulate's too)
-    res = integrate_events(ns, [[0.0, 0.0]], 3.0, params={"A": 20.0}, max_step=0.01)
+    # resting on the floor the state does not move, and one step spans the force's whole
+    # rise: the loop looks at the force events inside each step of a system with t in it
+    res = integrate_events(ns, [[0.0, 0.0]], 3.0, params={"A": 20.0})
     assert res.status == ["contact"] and res.fallback[0]
     lift = res.events[0][0]
     # lifts off where A sin(w t) = m g
     assert lift.kind == "lift-off" and abs(lift.t - math.asin(9.81 / 20) / 3) < 1e-9
-    # the sweep of a system with t in it runs simulate (which also looks inside its steps
-    # for a force that rises and falls; the loop does not)
+    # the sweep of a system with t in it runs on the loop, with simulate's events
     params = {"A": [5.0, 20.0, 30.0]}  # 5 < m g: stays on the floor
-    kw = dict(t_end=3.0, samples=11, workers=1, max_step=0.01)
+    kw = dict(t_end=3.0, samples=11, workers=1)
     fast = sweep(ball, params, ["liftoff", "contact"], engine="python", **kw)
     slow = sweep(ball, params, ["liftoff", "contact"], engine="scipy", **kw)
-    assert fast.backend == "this process" and fast.rows == slow.rows
+    assert fast.backend == "the compiled loop with events (Python)"
+    assert slow.backend == "this process"
+    for a, b in zip(fast.rows, slow.rows):
+        assert a.keys() == b.keys()
+        for k in a:
+            if isinstance(a[k], float) and math.isnan(a[k]):
+                assert math.isnan(b[k]), k
+            elif isinstance(a[k], float):
+                assert abs(a[k] - b[k]) < 1e-9, k
+            else:
+                assert a[k] == b[k], k
     assert math.isnan(fast.rows[0]["liftoff:t"]) and fast.rows[1]["contact:t"] > 0
+    assert abs(fast.rows[1]["liftoff:t"] - math.asin(9.81 / 20) / 3) < 1e-9
     # a ball dropped from h: the loop applies the impact itself, as simulate does
     drop = lamech.from_dict(
         {
@@ -185,13 +195,36 @@ def test_an_impact_is_applied_in_the_loop_and_a_force_with_t_left_to_simulate():
 
 
 @pytest.mark.slow
-def test_inputs_that_switch_are_refused():
-    ball = lamech.from_dict({**BALL, "forces": {"y": "A*step(t - 1)"}})
-    with pytest.raises(ValueError, match="inputs that switch"):
-        integrate_events(compile_system(ball), [[0.0, 0.0]], 2.0)
-    # the sweep runs such a system by simulate
-    run = sweep(ball, {"A": [20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1, max_step=0.01)
-    assert run.backend == "this process" and abs(run.rows[0]["liftoff:t"] - 1) < 1e-9
+def test_inputs_that_switch_switch_in_the_loop_where_their_s_crosses_zero():
+    # pushed up by A from t = 1, by A + B from t = 1.5 (A < m g < A + B): the switch at
+    # t = 1.5 lifts the ball off at once, and it rises under (A + B - m g) / m
+    ball = lamech.from_dict(
+        {**BALL, "parameters": {**BALL["parameters"], "B": 10.0},
+         "forces": {"y": "A*step(t - 1) + B*step(t - 3/2)"}}
+    )  # fmt: skip
+    ns = compile_system(ball)
+    res = integrate_events(ns, [[0.0, 0.0]], 2.0, params={"A": 5.0}, jit=False)
+    lift = [e for e in res.events[0] if e.kind == "lift-off"]
+    assert len(lift) == 1 and abs(lift[0].t - 1.5) < 1e-12
+    switches = [e for e in res.events[0] if e.kind == "switch"]
+    assert [round(e.t, 12) for e in switches] == [1.0, 1.5]
+    assert switches[0].constraint == "step(t - 1)"
+    # simulate: the loop (as Python) and SciPy's steps give the same run
+    a = simulate(ns, 2.0, params={"A": 5.0}, engine="python", samples=21)
+    b = simulate(ns, 2.0, params={"A": 5.0}, engine="scipy", samples=21)
+    assert a.engine == "loop (Python)" and a.status == b.status == "ok"
+    assert [(e.kind, e.constraint) for e in a.events] == [(e.kind, e.constraint) for e in b.events]
+    assert all(abs(x.t - y.t) < 1e-12 for x, y in zip(a.events, b.events))
+    assert np.max(np.abs(a.q - b.q)) < 1e-9
+    # the y(t) of the flight after t = 1.5: (A + B - m g) / m (t - 1.5)^2 / 2
+    after = a.t > 1.5
+    exact = (15.0 - 9.81) / 2 * (a.t[after] - 1.5) ** 2
+    assert np.max(np.abs(a.q[after, 0] - exact)) < 1e-9
+    # the sweep runs it on the loop
+    run = sweep(ball, {"A": [5.0, 20.0]}, ["liftoff"], t_end=2.0, samples=11, workers=1,
+                engine="python")  # fmt: skip
+    assert run.backend == "the compiled loop with events (Python)"
+    assert [round(r["liftoff:t"], 12) for r in run.rows] == [1.5, 1.0]
 
 
 @pytest.mark.slow
@@ -226,6 +259,37 @@ def test_numba_loop_gives_the_python_loop_numbers():
     for x, y in zip(run.rows, ref.rows):
         assert abs(x["slip:t"] - y["slip:t"]) < 1e-12
         assert abs(x["liftoff:theta1"] - y["liftoff:theta1"]) < 1e-12
+
+
+@pytest.mark.slow
+@pytest.mark.shared_cache
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.parametrize("cc", ["default", "none"])
+def test_compiled_loop_switches_inputs_and_sees_force_dips_as_the_python_loop(cc, monkeypatch):
+    """An input that switches and a force with t in it, compiled (the system's functions
+    in C, or numba's where ``LAMECH_CC=none``): the same events as the loop as Python."""
+    if cc == "none":
+        monkeypatch.setenv("LAMECH_CC", "none")
+    ball = lamech.from_dict(
+        {**BALL, "parameters": {**BALL["parameters"], "B": 10.0},
+         "forces": {"y": "A*step(t - 1) + B*step(t - 3/2) + A*sin(w*t)/4"}}
+    )  # fmt: skip
+    py, jit = compile_system(ball), compile_system(ball, jit=True)
+    assert jit.jit
+    for params in ({"A": 5.0}, {"A": 50.0}):
+        a = integrate_events(py, [[0.0, 0.0]], 2.0, params=params, impacts=True)
+        b = integrate_events(jit, [[0.0, 0.0]], 2.0, params=params, impacts=True)
+        ea, eb = a.events[0], b.events[0]
+        assert a.status == b.status and len(ea) >= 3
+        assert [(e.kind, e.constraint) for e in ea] == [(e.kind, e.constraint) for e in eb]
+        assert max(abs(x.t - y.t) for x, y in zip(ea, eb)) < 1e-12
+        assert {"switch", "lift-off"} <= {e.kind for e in ea}
+        s1 = simulate(jit, 2.0, params=params, engine="compiled", samples=21)
+        s2 = simulate(py, 2.0, params=params, engine="python", samples=21)
+        assert s1.engine == "loop (numba)" and s1.status == s2.status
+        assert [e.kind for e in s1.events] == [e.kind for e in s2.events]
+        assert max(abs(x.t - y.t) for x, y in zip(s1.events, s2.events)) < 1e-12
+        assert np.max(np.abs(s1.q - s2.q)) < 1e-10
 
 
 def test_a_case_the_loop_cannot_evaluate_is_left_to_simulate():

@@ -93,7 +93,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
     namespace["sy"] = (
         bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
-        ns.restitution, False,
+        ns.restitution, ns.switches, False, np.asarray(ns.switch_slots, dtype=np.int64),
     )  # fmt: skip
     return namespace
 
@@ -257,7 +257,9 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     if use:
         from ._jitcache import compiled_kernels
 
-        f = compiled_kernels(ns.source, ns.pattern, ns.mass_diagonal, ns.c_source).functions
+        f = compiled_kernels(
+            ns.source, ns.pattern, ns.mass_diagonal, ns.c_source, ns.switch_slots
+        ).functions
     else:
         f = _bound(_python_namespace(ns), names)
     out = {k: f[k] for k in names}
@@ -269,12 +271,21 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
 def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
     """The first ``count`` events a loop with events logged (kinds EK, constraints EJ,
     times ET, states EY, details EX (code, then up to 3 values: :data:`codes.DETAILS`))
-    as :class:`~lamech.numeric.Event`."""
+    as :class:`~lamech.numeric.Event`; an input switch's under its name (a table's
+    corners, unnamed, are not events: left out)."""
     from ._events import Event
 
     coords, names, n = ns.coordinate_names, ns.constraint_names, ns.n
     out = []
     for e in range(count):
+        if EK[e] == codes.EV_SWITCH:
+            name = ns.switch_names[EJ[e]]
+            if name:
+                y = EY[e]
+                values = {c: float(y[i]) for i, c in enumerate(coords)}
+                values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
+                out.append(Event(float(ET[e]), codes.EVENT_KINDS[codes.EV_SWITCH], name, values))
+            continue
         y = EY[e]
         values = {c: float(y[i]) for i, c in enumerate(coords)}
         values.update({c + "'": float(y[n + i]) for i, c in enumerate(coords)})
@@ -460,7 +471,9 @@ def integrate_events(
     installed, else the same loop runs as Python (same numbers). Compiled, the batch is
     cut into slices run in ``threads`` threads (default: the CPUs this process may use;
     the loop releases the GIL).
-    Systems with inputs that switch (step, min, max, clip, piecewise) are refused.
+    Inputs that switch (step, min, max, clip, piecewise) switch where their s crosses 0,
+    located as the events are, and a system with t in it has its force events sought
+    inside each step too (as in ``simulate``).
 
     ``impacts=True`` applies impacts and contacts in the loop as ``simulate`` does
     (Newton's law with restitution, the contact's friction sticking or slipping through
@@ -471,8 +484,6 @@ def integrate_events(
     """
     from ._options import BLOW_UP, INITIAL_TOLERANCE
 
-    if len(ns.switch_slots):
-        raise ValueError("integrate_events: inputs that switch are not handled; use simulate")
     if not (t_end > 0 and np.isfinite(t_end)):
         raise ValueError(f"t_end must be a positive finite number, got {t_end}")
     Y0 = np.ascontiguousarray(np.atleast_2d(np.asarray(y0s, dtype=float)))
@@ -515,7 +526,10 @@ def integrate_events(
         max_step=float(opts.max_step), arm_pos=arm, arm_vel=arm,
         blow_up=BLOW_UP, pen=INITIAL_TOLERANCE, tol=INITIAL_TOLERANCE,
     )  # fmt: skip
-    lim = codes.limits(max_steps=int(max_steps), to_end=bool(to_end), impacts=bool(impacts))
+    lim = codes.limits(
+        max_steps=int(max_steps), to_end=bool(to_end), impacts=bool(impacts),
+        dips=ns.explicit_time,
+    )  # fmt: skip
     tab = _tables()
 
     def part(a: int, b: int) -> None:

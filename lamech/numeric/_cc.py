@@ -35,7 +35,10 @@ from pathlib import Path
 
 __all__ = ["FLAGS", "FUNCTIONS", "compiler", "library_path", "load", "CompileFailed"]
 
-FUNCTIONS = ("c_dynamics", "c_dynamics_sparse", "c_constraints", "c_energy", "c_restitution")
+FUNCTIONS = (
+    "c_dynamics", "c_dynamics_sparse", "c_constraints", "c_energy", "c_restitution",
+    "c_switches",
+)  # fmt: skip
 """The functions of a system's library, in the order of the system record's fields."""
 
 # -ffp-contract=off: no fused multiply-add where the source has a product and a sum, as

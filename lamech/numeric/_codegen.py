@@ -482,7 +482,9 @@ def _c_derived(n: int, m: int, nonzero: list[tuple[int, int]], diagonal: bool) -
     return "\n".join(lines)
 
 
-def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None, c_source: str = ""):
+def _kernels(
+    fns: dict, diagonal: bool, pattern, source: str, jit: bool | None, c_source: str, slots
+):
     """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
     numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
     by their compiled versions: the system's own functions compiled, the loop around them
@@ -496,7 +498,7 @@ def _kernels(fns: dict, diagonal: bool, pattern, source: str, jit: bool | None, 
         try:
             from ._jitcache import compiled_kernels
 
-            k = compiled_kernels(source, pattern, diagonal, c_source)
+            k = compiled_kernels(source, pattern, diagonal, c_source, slots)
             f = k.functions
             if f["dynamics"] is not None:  # numba's: the C ones are called by the loop only
                 fns["dynamics"], fns["constraints"] = f["dynamics"], f["constraints"]
@@ -654,22 +656,19 @@ def _source(system: System, dyn: Dynamics, c: bool = True):
             c_parts,
         ),
     ]
-    if sw.functions:
-        srcs.append(
-            _function_source(
-                "switches",
-                "t, q, v, p",
-                "the inputs' switching functions s (a branch switches where one crosses 0). "
-                + order,
-                [("s", switches)],
-                mapping,
-                n,
-                m,
-                ("q", "v", "p"),
-            )
+    srcs.append(
+        _function_source(
+            "switches",
+            "t, q, v, p",
+            "the inputs' switching functions s (a branch switches where one crosses 0). " + order,
+            [("s", switches)],
+            mapping,
+            n,
+            m,
+            ("q", "v", "p"),
+            c_parts,
         )
-    else:
-        srcs.append("def switches(t, q, v, p):\n    return numpy.zeros(0)")
+    )
     if jac_outputs:
         srcs.append(
             _function_source(
@@ -739,7 +738,11 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     locks = [math.nan] * len(switch_names)
     diagonal = bool(dyn.M.is_diagonal())
     pattern = sparsity(A)
-    kernel, accel, solve, loops, jit_cache = _kernels(fns, diagonal, pattern, source, jit, c_source)
+    P = len(system.parameters)
+    slots = np.arange(P, P + len(switch_names))
+    kernel, accel, solve, loops, jit_cache = _kernels(
+        fns, diagonal, pattern, source, jit, c_source, slots
+    )
 
     flat = fns["force_jacobians_flat"]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._events import EventKind
-from ._kernels.codes import EV_CONTACT, EV_LIFT_OFF, EV_SLIP
+from ._kernels.codes import EV_CONTACT, FORCE_SAMPLES
 from ._run import Run
 
 __all__ = [
@@ -75,39 +75,22 @@ def inside_step(
     return out
 
 
-FORCE_SAMPLES = 4
-"""Interior points of a step at which :func:`force_dips` looks at the force events."""
-
-
 def force_dips(
     run: Run, dense, t_a: float, t_b: float, g_a: np.ndarray, g_b: np.ndarray
 ) -> dict[int, tuple[float, float]]:
-    """Force events (lift-off: lambda_j; slip: mu N - |lambda_j|) that go through zero
-    and back inside one step, which its ends cannot see: {watch index: (t_a, s)}, s the
-    first of :data:`FORCE_SAMPLES` evenly spaced interior points of the step where the
-    event's function is <= 0 while it is > 0 at both ends.
-
-    The step size follows the state's error only, and a multiplier is not part of the
-    state: a block resting on a floor under F sin(w t) has a state that stands still, so
-    a single step may span the whole rise and fall of the force, and the lift-off where
-    F sin(w t) first exceeds m g would never be seen. Asked for only when the system
-    depends on t explicitly (the only way a multiplier can change while the state stands
-    still); it costs FORCE_SAMPLES KKT solves a step there."""
-    forces = [
-        i
-        for i, kind in enumerate(run.watch[0])
-        if kind in (EV_LIFT_OFF, EV_SLIP) and g_a[i] > 0.0 and g_b[i] > 0.0
-    ]
-    out: dict[int, tuple[float, float]] = {}
-    if not forces:
-        return out
-    for k in range(1, FORCE_SAMPLES + 1):
-        s = t_a + (t_b - t_a) * k / (FORCE_SAMPLES + 1)
-        g = run.values(s, dense()(s))
-        for i in forces:
-            if i not in out and g[i] <= 0.0:
-                out[i] = (t_a, s)
-    return out
+    """Force events that go through zero and back inside one step, which its ends cannot
+    see (the loop's :func:`._kernels.loop.ev_dips`, at :data:`FORCE_SAMPLES` points of the
+    step's dense output): {watch index: (t_a, s)}, s the first point where the event's
+    function is <= 0 while it is > 0 at both ends. Asked for only where the system
+    depends on t explicitly."""
+    rules = run.rules
+    S = FORCE_SAMPLES
+    YS = np.array([dense()(rules.dip_time(t_a, t_b, c, S)) for c in range(S)])
+    upper = np.full(len(run.watch[0]), t_b)
+    if not rules.ev_dips(t_a, t_b, YS, run.setup.p, run.watch, run.md, run.act, run.tl,
+                         g_a, g_b, upper):  # fmt: skip
+        return {}
+    return {i: (t_a, float(s)) for i, s in enumerate(upper) if s < t_b}
 
 
 def locate(
@@ -161,26 +144,15 @@ def _root(g, lo: float, hi: float, t_b: float) -> float:
 
 
 def lock_switches(run: Run, t: float, y: np.ndarray) -> None:
-    """Hold every switch on the branch it is on at (t, y): step(s) = 1 where s >= 0."""
-    ns, p = run.setup.ns, run.setup.p
-    slots = ns.switch_slots
-    if not len(slots):
-        return
-    n = ns.n
-    p[slots] = np.nan  # free: evaluated from the state, inner switches too
-    s = ns.switches(t, y[:n], y[n:], p)
-    p[slots] = np.where(s >= 0.0, 1.0, 0.0)
+    """Hold every switch on the branch it is on at (t, y) (the loop's
+    :func:`._kernels.modes.ev_lock`): step(s) = 1 where s >= 0."""
+    run.rules.ev_lock(t, y, run.setup.p)
 
 
 def switches_crossed(run: Run, t: float, y: np.ndarray) -> np.ndarray:
-    """The switches whose s at (t, y) is on the other side of their held branch."""
-    ns, p = run.setup.ns, run.setup.p
-    slots = ns.switch_slots
-    if not len(slots):
-        return slots
-    n = ns.n
-    s = ns.switches(t, y[:n], y[n:], p)
-    return np.nonzero((s >= 0.0) != (p[slots] == 1.0))[0]
+    """The switches whose s at (t, y) is on the other side of their held branch
+    (:func:`._kernels.modes.ev_crossed`)."""
+    return run.rules.ev_crossed(t, y, run.setup.p)
 
 
 def locate_switch(run: Run, dense, crossed, t_a: float, t_b: float) -> tuple[float, int]:

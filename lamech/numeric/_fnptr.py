@@ -21,6 +21,7 @@ __all__ = [
     "as_constraints",
     "as_energy",
     "as_restitution",
+    "as_switches",
     "as_c3",
     "as_c4",
     "as_c5",
@@ -34,6 +35,7 @@ SIGNATURES = {
     "c_constraints": types.Tuple((_A1, _A2, _A1))(_F, _A1, _A1),
     "c_energy": _A1(_F, _A1, _A1, _A1),
     "c_restitution": _A1(_F, _A1, _A1),
+    "c_switches": _A1(_F, _A1, _A1, _A1),
 }
 """The cfuncs' signatures, one for every system (C-contiguous float64 arrays)."""
 
@@ -64,6 +66,7 @@ as_dynamics_sparse = _caster(SIGNATURES["c_dynamics_sparse"])
 as_constraints = _caster(SIGNATURES["c_constraints"])
 as_energy = _caster(SIGNATURES["c_energy"])
 as_restitution = _caster(SIGNATURES["c_restitution"])
+as_switches = _caster(SIGNATURES["c_switches"])
 
 
 def _c_signature(pointers: int):
@@ -73,6 +76,6 @@ def _c_signature(pointers: int):
 
 
 as_c3 = _caster(_c_signature(3))  # restitution: q, p, e
-as_c4 = _caster(_c_signature(4))  # energy: q, v, p, E
+as_c4 = _caster(_c_signature(4))  # energy, switches: q, v, p, E or s
 as_c5 = _caster(_c_signature(5))  # constraints: q, p, f, A, b
 as_c8 = _caster(_c_signature(8))  # dynamics, dynamics_sparse: q, v, p and five outputs

@@ -112,12 +112,14 @@ _ACCESSORS = {
     "sy[8](t, q, p)": "as_constraints(sy[8])(t, q, p)",
     "sy[9](t, q, v, p)": "as_energy(sy[9])(t, q, v, p)",
     "sy[10](t, q, p)": "as_restitution(sy[10])(t, q, p)",
+    "sy[11](t, q, v, p)": "as_switches(sy[11])(t, q, v, p)",
     # the C functions (:mod:`._cc`), the arrays passed by address
     "sy[6](t, q.ctypes": "as_c8(sy[6])(t, q.ctypes",
     "sy[7](t, q.ctypes": "as_c8(sy[7])(t, q.ctypes",
     "sy[8](t, q.ctypes": "as_c5(sy[8])(t, q.ctypes",
     "sy[9](t, q.ctypes": "as_c4(sy[9])(t, q.ctypes",
     "sy[10](t, q.ctypes": "as_c3(sy[10])(t, q.ctypes",
+    "sy[11](t, q.ctypes": "as_c4(sy[11])(t, q.ctypes",
 }
 
 
@@ -130,7 +132,7 @@ def _compiled_accessors(text: str) -> str:
     imports = (
         "from lamech.numeric._fnptr import (\n    as_c3,\n    as_c4,\n    as_c5,\n"
         "    as_c8,\n    as_constraints,\n    as_dynamics,\n    as_dynamics_sparse,\n"
-        "    as_energy,\n    as_restitution,\n)\n\n\n"
+        "    as_energy,\n    as_restitution,\n    as_switches,\n)\n\n\n"
     )
     return imports + text
 
@@ -142,8 +144,9 @@ _CFUNCS = (
     ("c_constraints", "constraints", "t, q, p"),
     ("c_energy", "energy", "t, q, v, p"),
     ("c_restitution", "restitution", "t, q, p"),
+    ("c_switches", "switches", "t, q, v, p"),
 )
-_JITTED = ("dynamics", "dynamics_sparse", "constraints", "energy", "restitution")
+_JITTED = ("dynamics", "dynamics_sparse", "constraints", "energy", "restitution", "switches")
 
 
 def system_text(source: str) -> str:
@@ -401,12 +404,14 @@ def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
     return out
 
 
-def _record(functions: tuple, pattern, diagonal: bool, c: bool) -> tuple:
+def _record(functions: tuple, pattern, diagonal: bool, c: bool, slots) -> tuple:
     """The system record (:data:`._kernels.SYSTEM_FIELDS`): the system's functions as
     their addresses (:mod:`._fnptr`; their module or library keeps them alive), ``c``
-    where they are C functions (:mod:`._cc`), else numba cfuncs."""
+    where they are C functions (:mod:`._cc`), else numba cfuncs; ``slots`` where in p
+    the switches' branches are held."""
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in pattern)
-    sy = (bool(diagonal), *arrays, *(int(f) for f in functions), bool(c))
+    held = np.ascontiguousarray(slots, dtype=np.int64)
+    sy = (bool(diagonal), *arrays, *(int(f) for f in functions), bool(c), held)
     assert len(sy) == len(SYSTEM_FIELDS)
     return sy
 
@@ -463,10 +468,11 @@ def _precompile(engine: dict, sy: tuple) -> None:
                 engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
 
 
-def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "") -> Kernels:
+def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "", slots=()) -> Kernels:
     """The compiled functions of the system whose generated ``source`` (and the C of its
     loop's functions, ``c_source``) is given, with its sparsity ``pattern``
-    (:func:`._kkt.sparsity`) and ``diagonal`` M: the system's own functions from this
+    (:func:`._kkt.sparsity`), ``diagonal`` M and its switches' ``slots`` in p
+    (:attr:`._codegen.NumericSystem.switch_slots`): the system's own functions from this
     process's earlier compile, from the cache on disk, or compiled now (and cached where
     the directory is writable), by the C compiler where there is one (:mod:`._cc`), else
     by numba; the engine's functions around them. Raises what numba raises when it
@@ -482,7 +488,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "") -
         if known is not None:
             return known
         engine = _engine()
-        kernels = _c_kernels(engine, c_source, pattern, diagonal)
+        kernels = _c_kernels(engine, c_source, pattern, diagonal, slots)
         if kernels is not None:
             _LOADED[key] = kernels
             return kernels
@@ -502,7 +508,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "") -
             _jit_system(namespace, cache=False)
             state, path = "memory", None
         addresses = tuple(namespace[c].address for c, _, _ in _CFUNCS)
-        sy = _record(addresses, pattern, diagonal, c=False)
+        sy = _record(addresses, pattern, diagonal, False, slots)
         if path is not None:  # a cache on disk: the whole engine, once per machine
             _precompile(engine, sy)
         kernels = Kernels(_bind(engine, sy, namespace), sy, state, path)
@@ -511,7 +517,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "") -
         return kernels
 
 
-def _c_kernels(engine: dict, c_source: str, pattern, diagonal: bool) -> Kernels | None:
+def _c_kernels(engine: dict, c_source: str, pattern, diagonal: bool, slots) -> Kernels | None:
     """The system's functions as C (:mod:`._cc`), the engine around them; None where
     there is no C source or compiler, or the compiler failed (numba compiles them)."""
     from . import _cc
@@ -523,7 +529,7 @@ def _c_kernels(engine: dict, c_source: str, pattern, diagonal: bool) -> Kernels 
         lib, addresses, state = _cc.load(c_source, folder)
     except _cc.CompileFailed:
         return None
-    sy = _record(addresses, pattern, diagonal, c=True)
+    sy = _record(addresses, pattern, diagonal, True, slots)
     if state != "memory":  # a cache on disk: the whole engine, once per machine
         _precompile(engine, sy)
     path = _cc.library_path(c_source, folder) if state != "memory" else None

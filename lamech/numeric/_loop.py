@@ -45,25 +45,17 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     """The loop for this run, or None where SciPy's integrators run it (``engine``
     :data:`._engines.ENGINES`): "scipy"; "auto" unless the system is compiled with
     numba (and none of its functions replaced since: :attr:`NumericSystem.replaced`);
-    a method other than DOP853, inputs that switch (step, min, max), or t in the
-    problem (the simulator samples the force events inside each step there, the loop
-    does not): SimulationError (a ValueError) for "compiled" and "python". "compiled"
-    on a system compiled without numba is a SimulationError too."""
+    a method other than DOP853: SimulationError (a ValueError) for "compiled" and
+    "python". "compiled" on a system compiled without numba is a SimulationError too."""
     engine = engine_name(engine, SimulationError)
     if engine == "scipy":
         return None
     ns = run.setup.ns
-    why = None
     if run.setup.options.method != "DOP853":
-        why = f"method {run.setup.options.method} (the loop is DOP853)"
-    elif len(ns.switch_slots):
-        why = "inputs that switch (step, min, max, clip, piecewise)"
-    elif ns.explicit_time:
-        why = "t in L, a constraint or a force"
-    if why is not None:
         if engine != "auto":
             raise SimulationError(
-                f"engine {engine!r} cannot run this problem: {why}; use 'scipy' or 'auto'"
+                f"engine {engine!r} cannot run this problem: method "
+                f"{run.setup.options.method} (the loop is DOP853); use 'scipy' or 'auto'"
             )
         return None
     compiled = ns.jit and numba_available() and not ns.replaced
@@ -89,7 +81,9 @@ class Loop:
         n, m = setup.n, setup.m
         self.run, self.segment = run, segment
         self.tables = _tables()
-        self.limits = codes.limits(max_steps=CHUNK)  # to t_end, impacts applied
+        # to t_end, impacts applied, force events sought inside the steps where t is in
+        # the problem
+        self.limits = codes.limits(max_steps=CHUNK, dips=setup.ns.explicit_time)
         self.times = np.ascontiguousarray(times, dtype=float)
         S = len(self.times)
         self.SY, self.SL, self.SR = np.zeros((S, 2 * n)), np.zeros((S, m)), np.zeros((S, 4))

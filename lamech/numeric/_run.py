@@ -77,9 +77,10 @@ def rules(ns: NumericSystem) -> SimpleNamespace:
     sy = space["sy"]
     bound = {}
     for name in ("ev_start", "ev_settle", "ev_apply", "ev_values", "ev_arm", "ev_project",
-                 "ev_accumulated", "ev_consistent"):  # fmt: skip
+                 "ev_accumulated", "ev_consistent", "ev_dips", "ev_lock",
+                 "ev_crossed"):  # fmt: skip
         bound[name] = functools.partial(space[name], sy)
-    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth"):
+    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth", "dip_time"):
         bound[name] = space[name]
     out = SimpleNamespace(**bound)
     if len(_RULES) >= 32:

@@ -149,10 +149,11 @@ def simulate(
     driven from Python (``"scipy"``); ``"compiled"`` asks for the compiled loop,
     ``"python"`` for the same loop as Python (the same numbers, slowly); the names of
     :mod:`._engines`, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
-    applies lift-off, impacts (with the accumulation of bounces), slip and stick itself,
-    and hands a step it cannot take to the simulator's own steps; it does not run other
-    methods, inputs that switch, or problems with t in them (SimulationError for
-    ``"compiled"`` and ``"python"``; ``"auto"`` uses SciPy there).
+    applies lift-off, impacts (with the accumulation of bounces), slip and stick, inputs
+    that switch and the force events inside the steps of a system with t in it, and hands
+    a step it cannot take to SciPy's DOP853 for one segment; it does not run other methods
+    (SimulationError for ``"compiled"`` and ``"python"``; ``"auto"`` uses SciPy there).
+    Both apply the same rules (the loop's functions; SciPy's steps run them as Python).
 
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force

@@ -33,9 +33,7 @@ calls."""
 def _compiled_measures(plan: Plan, ns) -> tuple[list, bool] | None:
     """(the events the measures want [(kind, constraint or None)], whether the runs must
     go on to t_end) when the compiled loop can give every measure, else None."""
-    if plan.method != "DOP853" or len(ns.switch_slots) or ns.explicit_time:
-        # the loop does not look inside its steps for a force that rises and falls
-        # (simulate's force_dips), which only a system with t in it can have
+    if plan.method != "DOP853":
         return None
     coords = ns.coordinate_names
     want, to_end = [], False

@@ -54,17 +54,21 @@ SYSTEM_FIELDS = (
     "constraints",
     "energy",
     "restitution",
+    "switches",
     "c",
+    "slots",
 )
 """The system record ``sy`` every kernel takes first, a tuple in this order: whether M
 is diagonal, the sparsity pattern of A (:func:`.._kkt.sparsity`), and the generated
 functions of :mod:`.._codegen` (``dynamics(t, q, v, p)`` -> (M, rhs, A, gamma,
 mu); ``dynamics_sparse`` -> (M's diagonal, rhs, A's nonzeros in CSR order, gamma, mu);
 ``constraints(t, q, p)`` -> (f, A, b); ``energy(t, q, v, p)`` -> (T, V) as an array;
-``restitution(t, q, p)`` -> e). Compiled, the functions are the addresses of numba
-cfuncs of one signature for every system (:mod:`.._jitcache`, :mod:`.._fnptr`), so that
-the loop is compiled once, not per system; ``c`` says they are C functions instead
-(:mod:`.._cc`), which fill arrays passed by address (:mod:`.kkt`)."""
+``restitution(t, q, p)`` -> e; ``switches(t, q, v, p)`` -> s, the inputs' switching
+functions), ``c``, and ``slots``: where in p each switch's branch is held (0 or 1).
+Compiled, the functions are the addresses of numba cfuncs of one signature for every
+system (:mod:`.._jitcache`, :mod:`.._fnptr`), so that the loop is compiled once, not per
+system; ``c`` says they are C functions instead (:mod:`.._cc`), which fill arrays passed
+by address (:mod:`.kkt`)."""
 
 MARK = "\n# KERNELS\n"
 

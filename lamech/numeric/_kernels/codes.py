@@ -25,6 +25,7 @@ EV_CONTACT = 1
 EV_SLIP = 2
 EV_STICK = 3
 EV_IMPACT = 4  # a bounce (only logged: the event watched is EV_CONTACT)
+EV_SWITCH = 5  # an input's branch switched (logged with the switch's index)
 # a friction constraint's state
 FR_NONE = 0
 FR_STICK = 1
@@ -78,7 +79,8 @@ TL_SIZE = 9
 LM_MAX_STEPS = 0
 LM_TO_END = 1  # 1: run to t_end even once every wanted event is found
 LM_IMPACTS = 2  # 1: apply impacts in the loop (else a located contact stops the run)
-LM_SIZE = 3
+LM_DIPS = 3  # points inside each step where force events are sought (t in the system)
+LM_SIZE = 4
 IO_NEXT = 0  # the next output time to sample
 IO_CONTACT = 1  # the constraint of a contact left to the simulator (ST_CONTACT)
 IO_EVALUATIONS = 2  # right-hand sides evaluated
@@ -107,6 +109,7 @@ EVENT_KINDS = {
     EV_SLIP: EventKind.SLIP,
     EV_STICK: EventKind.STICK,
     EV_IMPACT: EventKind.IMPACT,
+    EV_SWITCH: EventKind.SWITCH,
 }
 """The :class:`EventKind` of each ``EV_*`` code."""
 EVENT_CODES = {kind: code for code, kind in EVENT_KINDS.items()}
@@ -171,8 +174,17 @@ def tolerances(
     return tl
 
 
-def limits(*, max_steps: int, to_end: bool = True, impacts: bool = True) -> np.ndarray:
-    """The limits record ``lim`` (LM_*) of the named values."""
+FORCE_SAMPLES = 4
+"""Interior points of a step at which the force events of a system with t in it are
+sought (:func:`.loop.ev_dips`, and the simulator's own steps)."""
+
+
+def limits(
+    *, max_steps: int, to_end: bool = True, impacts: bool = True, dips: bool = False
+) -> np.ndarray:
+    """The limits record ``lim`` (LM_*) of the named values; ``dips``: seek force events
+    inside each step (:data:`FORCE_SAMPLES` points), for a system with t in it."""
     lim = np.zeros(LM_SIZE, dtype=np.int64)
     lim[LM_MAX_STEPS], lim[LM_TO_END], lim[LM_IMPACTS] = max_steps, to_end, impacts
+    lim[LM_DIPS] = FORCE_SAMPLES if dips else 0
     return lim

@@ -25,11 +25,11 @@ from ...linalg import cholesky_inplace, gauss_inplace
 
 
 # KERNELS
-# Where the system's functions are C (``sy[11]``, :mod:`.._cc`), they fill arrays zeroed
+# Where the system's functions are C (``sy[12]``, :mod:`.._cc`), they fill arrays zeroed
 # here, passed by address; else they return their arrays (numba cfuncs, or Python).
 def dynamics(sy, t, q, v, p):
     """(M, rhs, A, gamma, mu) of the system."""
-    if sy[11]:
+    if sy[12]:
         n, m = q.shape[0], sy[1].shape[0] - 1
         M, rhs, A = np.zeros((n, n)), np.zeros(n), np.zeros((m, n))
         gam, mu = np.zeros(m), np.zeros(m)
@@ -41,7 +41,7 @@ def dynamics(sy, t, q, v, p):
 
 def dynamics_sparse(sy, t, q, v, p):
     """(diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)."""
-    if sy[11]:
+    if sy[12]:
         n, m = q.shape[0], sy[1].shape[0] - 1
         Md, rhs, Av = np.zeros(n), np.zeros(n), np.zeros(sy[1][m])
         gam, mu = np.zeros(m), np.zeros(m)
@@ -53,7 +53,7 @@ def dynamics_sparse(sy, t, q, v, p):
 
 def constraints(sy, t, q, p):
     """(f, A, b) with F = A v + b."""
-    if sy[11]:
+    if sy[12]:
         n, m = q.shape[0], sy[1].shape[0] - 1
         f, A, b = np.zeros(m), np.zeros((m, n)), np.zeros(m)
         sy[8](t, q.ctypes.data, p.ctypes.data, f.ctypes.data, A.ctypes.data, b.ctypes.data)
@@ -63,7 +63,7 @@ def constraints(sy, t, q, p):
 
 def energy(sy, t, q, v, p):
     """(T, V)."""
-    if sy[11]:
+    if sy[12]:
         E = np.zeros(2)
         sy[9](t, q.ctypes.data, v.ctypes.data, p.ctypes.data, E.ctypes.data)
         return E
@@ -72,11 +72,20 @@ def energy(sy, t, q, v, p):
 
 def restitution(sy, t, q, p):
     """e per constraint."""
-    if sy[11]:
+    if sy[12]:
         e = np.zeros(sy[1].shape[0] - 1)
         sy[10](t, q.ctypes.data, p.ctypes.data, e.ctypes.data)
         return e
     return sy[10](t, q, p)
+
+
+def switches(sy, t, q, v, p):
+    """The inputs' switching functions s (a branch switches where one crosses 0)."""
+    if sy[12]:
+        s = np.zeros(sy[13].shape[0])
+        sy[11](t, q.ctypes.data, v.ctypes.data, p.ctypes.data, s.ctypes.data)
+        return s
+    return sy[11](t, q, v, p)
 
 
 def kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c):

@@ -18,6 +18,7 @@ from .codes import (
     EV_LIFT_OFF,
     EV_SLIP,
     EV_STICK,
+    EV_SWITCH,
     FO_H,
     FO_MOVED,
     FO_SIZE,
@@ -28,6 +29,7 @@ from .codes import (
     IO_EVALUATIONS,
     IO_NEXT,
     IO_SIZE,
+    LM_DIPS,
     LM_IMPACTS,
     LM_MAX_STEPS,
     LM_TO_END,
@@ -52,12 +54,15 @@ from .kkt import constraints, energy, rhs_kernel
 from .modes import (
     ev_all,
     ev_brent,
+    ev_crossed,
     ev_depth,
     ev_lam,
+    ev_lock,
     ev_log,
     ev_mode,
     ev_settle,
     ev_start,
+    ev_switch_time,
     ev_values,
     ev_watch,
 )
@@ -100,6 +105,7 @@ def ev_run_one(sy, y0, p, tab, md, tl, lim, lg, y_out):
     y_out[:] = y
     if st != 0:
         return t, st, nev, 0
+    ev_lock(sy, t, y, p)  # each input switch held on its branch at the start
     if ev_all(lg[6], lim[LM_TO_END] == 1):
         return t, ST_FOUND, nev, 0
     bounds = tl.copy()
@@ -188,6 +194,38 @@ def ev_arm(sy, t, y, p, watch, md, tl):
                     imode[3, j] = 1
                     armed = True
     return armed
+
+
+def ev_dips(sy, t, t_new, YS, p, watch, md, act, tl, g_a, g_b, upper):
+    """Force events (lift-off: lambda_j; slip: mu N - |lambda_j|) that go through zero and
+    back inside the step from t to t_new, which its ends cannot see: at the states ``YS``
+    (S, 2n) of the step's dense output at its S evenly spaced interior points
+    (:func:`dip_times`), for each such event positive at both ends (``g_a``, ``g_b``)
+    the first point where it is <= 0 set in ``upper`` (the end of the bracket its
+    crossing is sought in); whether any was.
+
+    The step size follows the state's error only, and a multiplier is not part of the
+    state: a block resting on a floor under F sin(w t) has a state that stands still, so
+    a single step may span the whole rise and fall of the force, and the lift-off where
+    F sin(w t) first exceeds m g would never be seen. Asked for only where the system
+    depends on t explicitly (the only way a multiplier can change while the state stands
+    still: lim[LM_DIPS] points); it costs that many KKT solves a step."""
+    wk = watch[0]
+    found = False
+    for c in range(YS.shape[0]):
+        s = dip_time(t, t_new, c, YS.shape[0])
+        gs = ev_values(sy, s, YS[c], p, watch, md, act, tl)
+        for i in range(wk.shape[0]):
+            force = wk[i] == EV_LIFT_OFF or wk[i] == EV_SLIP
+            if force and g_a[i] > 0.0 and g_b[i] > 0.0 and upper[i] == t_new and gs[i] <= 0.0:
+                upper[i] = s
+                found = True
+    return found
+
+
+def dip_time(t, t_new, c, samples):
+    """The c-th (from 0) of ``samples`` evenly spaced interior points of a step."""
+    return t + (t_new - t) * (c + 1) / (samples + 1)
 
 
 def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
@@ -325,20 +363,59 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
         for i in range(wk.shape[0]):
             if g_old[i] > 0.0 and g_new[i] <= 0.0:
                 hit = True
+        dips = not hit and lim[LM_DIPS] > 0 and wk.shape[0] > 0
+        crossed = ev_crossed(sy, t_new, yb, p)
         k = io[IO_NEXT]
-        if hit or (k < TS.shape[0] and TS[k] < t_new):
+        if hit or dips or crossed.shape[0] > 0 or (k < TS.shape[0] and TS[k] < t_new):
             ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F)
             io[IO_EVALUATIONS] += 3
         dn = (t, h, y, F)
+        upper = np.full(wk.shape[0], t_new)  # where each event's crossing is sought
+        if dips:
+            YS = np.empty((lim[LM_DIPS], N))
+            for c in range(lim[LM_DIPS]):
+                YS[c] = ev_dense(dip_time(t, t_new, c, lim[LM_DIPS]), dn)
+            hit = ev_dips(sy, t, t_new, YS, p, watch, md, act, tl, g_old, g_new, upper)
+        te = t_new
+        ie = -1
         if hit:
-            te = t_new
-            ie = -1
             for i in range(wk.shape[0]):
-                if g_old[i] > 0.0 and g_new[i] <= 0.0:
-                    r = ev_brent(sy, i, t, t_new, dn, p, watch, md, act, tl)
+                if (g_old[i] > 0.0 and g_new[i] <= 0.0) or upper[i] < t_new:
+                    r = ev_brent(sy, i, t, upper[i], dn, p, watch, md, act, tl)
                     if r < te or ie < 0:
                         te = r
                         ie = i
+        if crossed.shape[0] > 0:
+            ts, ks = ev_switch_time(sy, t, t_new, dn, p, watch, md, act, tl, crossed)
+            if ie < 0 or ts <= te:  # an input switches first: its new branch from ts on
+                while k < TS.shape[0] and TS[k] <= ts:
+                    ev_sample(sy, TS[k], ev_dense(TS[k], dn), p, act, fmode[2], k, smp)
+                    k += 1
+                io[IO_NEXT] = k
+                ys = ev_dense(ts, dn)
+                ev_project(sy, ts, ys, p, act[0], act[1], fmode[2])
+                y_out[:] = ys
+                p[sy[13][ks]] = 1.0 - p[sy[13][ks]]
+                nev = ev_log(lg, EV_SWITCH, ks, ts, ys, DT_NONE, 0.0, nev)
+                if nev < 0:
+                    return ts, ST_EVENTS, 0, steps
+                nev, st = ev_settle(sy, ts, ys, p, md, tl, lg, nev)
+                y_out[:] = ys
+                if st != 0:
+                    return ts, st, nev, steps
+                if ev_all(found, to_end):
+                    return ts, ST_FOUND, nev, steps
+                t = ts
+                y = ys
+                act = ev_mode(kinds, imode, fmode)
+                watch = ev_watch(kinds, imode)
+                f = rhs_kernel(sy, t, y, p, act[0], act[2], act[3], act[4])
+                bound = ev_bound(t_end, fmode)
+                h_abs = ev_first_step(sy, t, y, f, p, act, bound, tl)
+                io[IO_EVALUATIONS] += 2
+                g_old = ev_values(sy, t, y, p, watch, md, act, tl)
+                continue
+        if hit:
             # the samples up to the event, on the dense output (Recorder.up_to)
             while k < TS.shape[0] and TS[k] <= te:
                 ev_sample(sy, TS[k], ev_dense(TS[k], dn), p, act, fmode[2], k, smp)

@@ -26,7 +26,7 @@ from .codes import (
     TL_TOL,
 )
 from .dop853 import ev_dense
-from .kkt import constraints, dynamics, kkt_solve
+from .kkt import constraints, dynamics, kkt_solve, switches
 from .project import ev_project
 
 
@@ -186,17 +186,79 @@ def ev_depth(tl, q):
     return max(tl[TL_PEN] * (1.0 + np.max(np.abs(q))), 10.0 * tl[TL_ARM_POS])
 
 
+def ev_lock(sy, t, y, p):
+    """Hold every input switch on the branch it is on at (t, y): its slot in p (sy[13])
+    1 where its s >= 0, else 0, each evaluated with every switch free (NaN) first."""
+    slots = sy[13]
+    if slots.shape[0] == 0:
+        return
+    n = y.shape[0] // 2
+    for k in range(slots.shape[0]):
+        p[slots[k]] = np.nan
+    s = switches(sy, t, y[:n].copy(), y[n:].copy(), p)
+    for k in range(slots.shape[0]):
+        p[slots[k]] = 1.0 if s[k] >= 0.0 else 0.0
+
+
+def ev_crossed(sy, t, y, p):
+    """The input switches whose s at (t, y) is on the other side of their held branch."""
+    slots = sy[13]
+    out = np.empty(slots.shape[0], dtype=np.int64)
+    if slots.shape[0] == 0:
+        return out
+    n = y.shape[0] // 2
+    s = switches(sy, t, y[:n].copy(), y[n:].copy(), p)
+    nc = 0
+    for k in range(slots.shape[0]):
+        if (s[k] >= 0.0) != (p[slots[k]] == 1.0):
+            out[nc] = k
+            nc += 1
+    return out[:nc].copy()
+
+
+def ev_g(sy, i, x, dn, p, watch, md, act, tl):
+    """At x on the dense output ``dn``: watched event i's function (:func:`ev_values`),
+    or for i < 0 input switch -1 - i's s."""
+    y = ev_dense(x, dn)
+    if i >= 0:
+        return ev_values(sy, x, y, p, watch, md, act, tl)[i]
+    n = y.shape[0] // 2
+    return switches(sy, x, y[:n].copy(), y[n:].copy(), p)[-1 - i]
+
+
+def ev_switch_time(sy, t, t_new, dn, p, watch, md, act, tl, crossed):
+    """(ts, k): the first of the input switches ``crossed`` (:func:`ev_crossed`) in the
+    step from t to t_new, located on its dense output ``dn`` (t itself where its s is
+    across its held branch there already)."""
+    slots = sy[13]
+    ts = t_new
+    ks = -1
+    y = ev_dense(t, dn)
+    n = y.shape[0] // 2
+    s_a = switches(sy, t, y[:n].copy(), y[n:].copy(), p)
+    for c in range(crossed.shape[0]):
+        k = crossed[c]
+        if (s_a[k] >= 0.0) != (p[slots[k]] == 1.0):
+            r = t
+        else:
+            r = ev_brent(sy, -1 - k, t, t_new, dn, p, watch, md, act, tl)
+        if r < ts or ks < 0:
+            ts = r
+            ks = k
+    return ts, ks
+
+
 def ev_brent(sy, i, xa, xb, dn, p, watch, md, act, tl):
-    """Where event i's function (:func:`ev_values`) crosses zero on the dense output
-    ``dn`` (:func:`.dop853.ev_dense`) in [xa, xb]: Brent's method as
-    scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200 iterations:
+    """Where event i's function (:func:`ev_g`: an input switch's s for i < 0) crosses
+    zero on the dense output ``dn`` (:func:`.dop853.ev_dense`) in [xa, xb]: Brent's method
+    as scipy.optimize.brentq (xtol 1e-15 max(1, |xb|), rtol 4 eps, 200 iterations:
     the simulator's own location, _detect._root); xb where the ends have one sign."""
     xtol = 1e-15 * max(1.0, abs(xb))
     rtol = 4.0 * 2.220446049250313e-16
     xpre = xa
     xcur = xb
-    fpre = ev_values(sy, xpre, ev_dense(xpre, dn), p, watch, md, act, tl)[i]
-    fcur = ev_values(sy, xcur, ev_dense(xcur, dn), p, watch, md, act, tl)[i]
+    fpre = ev_g(sy, i, xpre, dn, p, watch, md, act, tl)
+    fcur = ev_g(sy, i, xcur, dn, p, watch, md, act, tl)
     if fpre == 0.0:
         return xpre
     if fcur == 0.0:
@@ -246,7 +308,7 @@ def ev_brent(sy, i, xa, xb, dn, p, watch, md, act, tl):
             xcur += scur
         else:
             xcur += delta if sbis > 0.0 else -delta
-        fcur = ev_values(sy, xcur, ev_dense(xcur, dn), p, watch, md, act, tl)[i]
+        fcur = ev_g(sy, i, xcur, dn, p, watch, md, act, tl)
     return xcur
 
 
