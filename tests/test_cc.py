@@ -15,6 +15,7 @@ import lamech
 from lamech.numeric import compile_system, numba_available, simulate
 from lamech.numeric._cc import FUNCTIONS, CompileFailed, compiler, load
 from lamech.numeric._jitcache import compiled_kernels
+from lamech.numeric._kernels import SYSTEM_FIELDS
 from lamech.problem import chain_toml, example_path
 
 
@@ -119,7 +120,7 @@ def test_the_loop_runs_the_c_functions_or_numbas_with_the_same_numbers(route, mo
     kernels = compiled_kernels(
         ns.source, ns.pattern, ns.mass_diagonal, ns.c_source, ns.switch_slots
     )
-    assert kernels.sy[-1] is (route == "c")
+    assert kernels.sy[SYSTEM_FIELDS.index("c")] is (route == "c")
     a = simulate(lamech.loads(text), 6.0, jit=False, initial={"theta1": 0.01})
     b = simulate(ns, 6.0, initial={"theta1": 0.01})
     assert b.engine == "loop (numba)"

