@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._events import EventKind
 from ._kernels.codes import EV_CONTACT, FORCE_SAMPLES
 from ._run import Run
 
@@ -19,7 +18,6 @@ __all__ = [
     "lock_switches",
     "switches_crossed",
     "locate_switch",
-    "flip_switch",
 ]
 
 
@@ -180,18 +178,3 @@ def locate_switch(run: Run, dense, crossed, t_a: float, t_b: float) -> tuple[flo
         if ts < best[0] or best[1] < 0:
             best = (ts, int(k))
     return best
-
-
-def flip_switch(run: Run, t: float, y: np.ndarray, k: int) -> None:
-    """Switch k takes its other branch from t on; logged as a ``switch`` event."""
-    from ._events import Event
-
-    ns, p = run.setup.ns, run.setup.p
-    slot = ns.switch_slots[k]
-    p[slot] = 1.0 - p[slot]
-    if not ns.switch_names[k]:  # a table's row: a corner of an input, not an event
-        return
-    n, names = ns.n, ns.coordinate_names
-    coords = {c: float(y[i]) for i, c in enumerate(names)}
-    coords.update({c + "'": float(y[n + i]) for i, c in enumerate(names)})
-    run.events.append(Event(float(t), EventKind.SWITCH, ns.switch_names[k], coords))

@@ -78,7 +78,7 @@ def rules(ns: NumericSystem) -> SimpleNamespace:
     bound = {}
     for name in ("ev_start", "ev_settle", "ev_apply", "ev_values", "ev_arm", "ev_project",
                  "ev_accumulated", "ev_consistent", "ev_dips", "ev_lock",
-                 "ev_crossed"):  # fmt: skip
+                 "ev_crossed", "ev_switch"):  # fmt: skip
         bound[name] = functools.partial(space[name], sy)
     for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth", "dip_time"):
         bound[name] = space[name]
@@ -238,6 +238,16 @@ class Run:
                 f"singular impact matrix at t = {t:.12g} (constraint "
                 f"`{self.setup.ns.constraint_names[j]}`)"
             )
+        if st:
+            raise Stop(self._failure(st, t, y))
+        return y
+
+    def switch(self, t: float, y: np.ndarray, k: int) -> np.ndarray:
+        """Input switch k takes its other branch from t on, and the mode is settled
+        (:func:`._kernels.loop.ev_switch`); the state after it."""
+        y = np.array(y, dtype=float)
+        st, nev, _ = self.rules.ev_switch(t, y, self.setup.p, k, self.md, self.tl, self.lg, 0)
+        self.logged(nev)
         if st:
             raise Stop(self._failure(st, t, y))
         return y

@@ -52,7 +52,6 @@ import numpy as np
 from ..model import System
 from ._codegen import NumericSystem
 from ._detect import (
-    flip_switch,
     force_dips,
     inside_step,
     locate,
@@ -405,8 +404,7 @@ def _switch(
     ys, _ = run.project(ts, dense(ts))
     at.t, at.y = ts, ys
     logged = len(run.events)
-    flip_switch(run, ts, ys, k)
-    at.y = run.settle(ts, ys)
+    at.y = run.switch(ts, ys, k)
     zeno.check(ts, [(str(e.kind), e.constraint) for e in run.events[logged:]])
 
 

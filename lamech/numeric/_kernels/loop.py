@@ -287,6 +287,19 @@ def ev_apply(sy, te, ye, p, kind, j, act, md, tl, lim, lg, nev):
     return st, nev, True
 
 
+def ev_switch(sy, ts, ys, p, k, md, tl, lg, nev):
+    """Input switch k takes its other branch from ts on (its slot in p flipped), logged,
+    and the mode settled at (ts, ys) (a force that jumps may lift a contact off): (status,
+    count, settled) as :func:`ev_apply`'s."""
+    slot = sy[13][k]
+    p[slot] = 1.0 - p[slot]
+    nev = ev_log(lg, EV_SWITCH, k, ts, ys, DT_NONE, 0.0, nev)
+    if nev < 0:
+        return ST_EVENTS, 0, False
+    nev, st = ev_settle(sy, ts, ys, p, md, tl, lg, nev)
+    return st, nev, True
+
+
 def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
     """The loop with events from (fo[FO_T], y) in the mode ``md``, settled, to
     tl[TL_T_END]: DOP853 steps (:func:`.dop853.dop853_step`; the first of size fo[FO_H],
@@ -385,37 +398,13 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
                     if r < te or ie < 0:
                         te = r
                         ie = i
+        switch = -1  # an input switches first: its new branch from te on
         if crossed.shape[0] > 0:
             ts, ks = ev_switch_time(sy, t, t_new, dn, p, watch, md, act, tl, crossed)
-            if ie < 0 or ts <= te:  # an input switches first: its new branch from ts on
-                while k < TS.shape[0] and TS[k] <= ts:
-                    ev_sample(sy, TS[k], ev_dense(TS[k], dn), p, act, fmode[2], k, smp)
-                    k += 1
-                io[IO_NEXT] = k
-                ys = ev_dense(ts, dn)
-                ev_project(sy, ts, ys, p, act[0], act[1], fmode[2])
-                y_out[:] = ys
-                p[sy[13][ks]] = 1.0 - p[sy[13][ks]]
-                nev = ev_log(lg, EV_SWITCH, ks, ts, ys, DT_NONE, 0.0, nev)
-                if nev < 0:
-                    return ts, ST_EVENTS, 0, steps
-                nev, st = ev_settle(sy, ts, ys, p, md, tl, lg, nev)
-                y_out[:] = ys
-                if st != 0:
-                    return ts, st, nev, steps
-                if ev_all(found, to_end):
-                    return ts, ST_FOUND, nev, steps
-                t = ts
-                y = ys
-                act = ev_mode(kinds, imode, fmode)
-                watch = ev_watch(kinds, imode)
-                f = rhs_kernel(sy, t, y, p, act[0], act[2], act[3], act[4])
-                bound = ev_bound(t_end, fmode)
-                h_abs = ev_first_step(sy, t, y, f, p, act, bound, tl)
-                io[IO_EVALUATIONS] += 2
-                g_old = ev_values(sy, t, y, p, watch, md, act, tl)
-                continue
-        if hit:
+            if ie < 0 or ts <= te:
+                te = ts
+                switch = ks
+        if ie >= 0 or switch >= 0:
             # the samples up to the event, on the dense output (Recorder.up_to)
             while k < TS.shape[0] and TS[k] <= te:
                 ev_sample(sy, TS[k], ev_dense(TS[k], dn), p, act, fmode[2], k, smp)
@@ -424,12 +413,15 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
             ye = ev_dense(te, dn)
             ev_project(sy, te, ye, p, act[0], act[1], fmode[2])
             y_out[:] = ye
-            j = watch[1][ie]
-            st, nev, settled = ev_apply(sy, te, ye, p, wk[ie], j, act, md, tl, lim, lg, nev)
+            if switch >= 0:
+                st, nev, settled = ev_switch(sy, te, ye, p, switch, md, tl, lg, nev)
+            else:
+                j = watch[1][ie]
+                st, nev, settled = ev_apply(sy, te, ye, p, wk[ie], j, act, md, tl, lim, lg, nev)
+                if st == ST_CONTACT:
+                    io[IO_CONTACT] = j
             if settled:
                 y_out[:] = ye
-            if st == ST_CONTACT:
-                io[IO_CONTACT] = j
             if st != 0:
                 return te, st, nev, steps
             if ev_all(found, to_end):
