@@ -7,9 +7,10 @@ solve, the right-hand side, the projection and the residuals.
 The mode is the loop's own (:mod:`._kernels.codes`: the arrays ``imode`` and ``fmode``),
 and every rule that reads or changes it is the loop's code (:mod:`._kernels`), run here
 as Python (:func:`rules`): the start's mode, the event functions, arming, the projection,
-the settling, lift-off, slip, stick and impacts with the Zeno accumulation. Where SciPy's
-integrators step (another method, inputs that switch, t in the problem, or a segment the
-compiled loop hands back), they apply the very rules the compiled loop applies."""
+the settling, lift-off, slip, stick and impacts with the Zeno accumulation, the input
+switches. Where SciPy's integrators step (a method other than DOP853, ``engine="scipy"``,
+a system not compiled, or a segment the compiled loop hands back), they apply the very
+rules the compiled loop applies."""
 
 from __future__ import annotations
 
