@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from ..linalg import cholesky_inplace, gauss_inplace
-from ._kernels import PROJECTION_ITERATIONS, STAGES, SYSTEM_FIELDS, kernel_text
+from ._kernels import INLINE, PROJECTION_ITERATIONS, STAGES, SYSTEM_FIELDS, kernel_text
 
 __all__ = [
     "cache_dir",
@@ -97,6 +97,8 @@ def engine_text() -> str:
             "",
             inspect.getsource(cholesky_inplace),
             "",
+            # in the text, so that the cache's key changes with the set
+            f"# inlined by numba: {', '.join(sorted(INLINE))}",
             f"STAGES = {STAGES!r}",
             f"PROJECTION_ITERATIONS = {PROJECTION_ITERATIONS!r}",
             "",
@@ -331,6 +333,8 @@ def _jit_engine(namespace: dict, cache: bool) -> dict:
                 namespace[fn] = numba.njit(parallel=True, cache=cache)(namespace[fn])
             elif fn == "ev_run":  # releases the GIL: a batch's slices run in threads
                 namespace[fn] = numba.njit(nogil=True, cache=cache)(namespace[fn])
+            elif fn in INLINE:  # numba inlines these where they are called
+                namespace[fn] = numba.njit(cache=cache, inline="always")(namespace[fn])
             else:
                 namespace[fn] = numba.njit(cache=cache)(namespace[fn])
     return namespace

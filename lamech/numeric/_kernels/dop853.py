@@ -16,38 +16,110 @@ STAGES = 12
 """DOP853's number of stages (checked against SciPy's table in :mod:`.._batch`)."""
 
 
+# The sums over the stages, as the kernels run as Python (:func:`.python_namespace` puts
+# these in place of the loops below): whole-array operations, the same terms added in the
+# same order, so the same numbers to the last bit. Compiled, each array operation would
+# allocate a temporary per term (about 400 per step: most of a step's time, measured
+# 2026-11-27); the loops below allocate nothing.
+def _combine_numpy(out, coef, K, count, skip):
+    out[:] = 0.0
+    for k in range(count):
+        if not skip or coef[k] != 0.0:
+            out += coef[k] * K[k]
+
+
+def _advance_numpy(out, y, h, d):
+    out[:] = y + h * d
+
+
+def _error_norm_numpy(y, ynew, err5, err3, h, rtol, atol):
+    scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
+    e5 = np.sum((err5 / scale) ** 2)
+    e3 = np.sum((err3 / scale) ** 2)
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * y.shape[0])
+
+
+def _dense_numpy(s, dn, y):
+    t_old, h, y_old, F = dn
+    x = (s - t_old) / h
+    y[:] = 0.0
+    P = F.shape[0]
+    for i in range(P):
+        y += F[P - 1 - i]
+        if i % 2 == 0:
+            y *= x
+        else:
+            y *= 1.0 - x
+    y += y_old
+    return y
+
+
+PYTHON = {
+    "combine": _combine_numpy,
+    "advance": _advance_numpy,
+    "error_norm": _error_norm_numpy,
+    "dense_into": _dense_numpy,
+}
+"""The functions below that the kernels run as Python replace by these."""
+
+INLINE = ("advance", "combine")
+"""Inlined where they are called, compiled (:data:`.INLINE`)."""
+
+
 # KERNELS
+def combine(out, coef, K, count, skip):
+    """out = sum over k < count of coef[k] K[k], in order of k (``skip``: the terms with
+    coef[k] = 0 left out)."""
+    for i in range(out.shape[0]):
+        acc = 0.0
+        for k in range(count):
+            if not skip or coef[k] != 0.0:
+                acc += coef[k] * K[k, i]
+        out[i] = acc
+
+
+def advance(out, y, h, d):
+    """out = y + h d."""
+    for i in range(out.shape[0]):
+        out[i] = y[i] + h * d[i]
+
+
+def error_norm(y, ynew, err5, err3, h, rtol, atol):
+    """SciPy's DOP853 error norm of a step of size h from y to ynew (< 1: accept)."""
+    e5 = 0.0
+    e3 = 0.0
+    for i in range(y.shape[0]):
+        scale = atol + max(abs(y[i]), abs(ynew[i])) * rtol
+        e5 += (err5[i] / scale) ** 2
+        e3 += (err3[i] / scale) ** 2
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * y.shape[0])
+
+
 def dop853_trial(sy, t, y, f, h, p, act, tl, tab, K, ynew):
     """One DOP853 step of size h from (t, y) with y' = f there, on the mode's active set
     ``act``: the stages into K, the solution into ``ynew``; returns SciPy's error norm
     (< 1: accept)."""
     A, B, C, E3, E5 = tab[0], tab[1], tab[2], tab[3], tab[4]
     rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
-    rtol, atol = tl[TL_RTOL], tl[TL_ATOL]
     N = y.shape[0]
     K[0] = f
+    dy = np.empty(N)
+    ys = np.empty(N)
     for s in range(1, STAGES):
-        dy = np.zeros(N)
-        for k in range(s):
-            if A[s, k] != 0.0:
-                dy += A[s, k] * K[k]
-        K[s] = rhs_kernel(sy, t + C[s] * h, y + h * dy, p, rows, slip_j, slip_k, slip_c)
-    acc = np.zeros(N)
-    for k in range(STAGES):
-        acc += B[k] * K[k]
-    ynew[:] = y + h * acc
+        combine(dy, A[s], K, s, True)
+        advance(ys, y, h, dy)
+        K[s] = rhs_kernel(sy, t + C[s] * h, ys, p, rows, slip_j, slip_k, slip_c)
+    combine(dy, B, K, STAGES, False)
+    advance(ynew, y, h, dy)
     K[STAGES] = rhs_kernel(sy, t + h, ynew, p, rows, slip_j, slip_k, slip_c)
-    scale = atol + np.maximum(np.abs(y), np.abs(ynew)) * rtol
-    err5 = np.zeros(N)
-    err3 = np.zeros(N)
-    for k in range(STAGES + 1):
-        err5 += E5[k] * K[k]
-        err3 += E3[k] * K[k]
-    e5 = np.sum((err5 / scale) ** 2)
-    e3 = np.sum((err3 / scale) ** 2)
-    if e5 == 0.0 and e3 == 0.0:
-        return 0.0
-    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * N)
+    err3 = np.empty(N)
+    combine(dy, E5, K, STAGES + 1, False)
+    combine(err3, E3, K, STAGES + 1, False)
+    return error_norm(y, ynew, dy, err3, h, tl[TL_RTOL], tl[TL_ATOL])
 
 
 def dop853_step(sy, t, y, f, h_abs, bound, p, act, tl, tab, K, ynew):
@@ -108,39 +180,46 @@ def ev_first_step(sy, t, y, f, p, act, t_end, tl):
     return min(100.0 * h0, h1, interval, tl[TL_MAX_STEP])
 
 
-def ev_dense(s, dn):
+def dense_into(s, dn, y):
     """DOP853's dense output at s (scipy's Dop853DenseOutput) of the step ``dn`` (t_old,
-    h, y_old, F: :func:`ev_dense_stages`)."""
+    h, y_old, F: :func:`ev_dense_stages`) into y; returns y."""
     t_old, h, y_old, F = dn
     x = (s - t_old) / h
-    y = np.zeros(y_old.shape[0])
     P = F.shape[0]
-    for i in range(P):
-        y += F[P - 1 - i]
-        if i % 2 == 0:
-            y *= x
-        else:
-            y *= 1.0 - x
-    y += y_old
+    for j in range(y.shape[0]):
+        acc = 0.0
+        for i in range(P):
+            acc += F[P - 1 - i, j]
+            if i % 2 == 0:
+                acc *= x
+            else:
+                acc *= 1.0 - x
+        y[j] = acc + y_old[j]
     return y
+
+
+def ev_dense(s, dn):
+    """DOP853's dense output at s of the step ``dn`` (:func:`dense_into`), a new array."""
+    return dense_into(s, dn, np.empty(dn[2].shape[0]))
 
 
 def ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F):
     """The step's dense output into F: the 3 more stages of scipy's _dense_output_impl."""
     AX, CX, D = tab[5], tab[6], tab[7]
     N = y.shape[0]
+    dy = np.empty(N)
+    ys = np.empty(N)
     for s in range(STAGES + 1, D.shape[1]):
-        dy = np.zeros(N)
-        for k in range(s):
-            if AX[s - STAGES - 1, k] != 0.0:
-                dy += AX[s - STAGES - 1, k] * K[k]
-        K[s] = rhs_kernel(sy, t + CX[s - STAGES - 1] * h, y + h * dy, p, act[0], act[2],
-                          act[3], act[4])  # fmt: skip
-    F[0] = ynew - y
-    F[1] = h * K[0] - F[0]
-    F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])
+        combine(dy, AX[s - STAGES - 1], K, s, True)
+        advance(ys, y, h, dy)
+        K[s] = rhs_kernel(sy, t + CX[s - STAGES - 1] * h, ys, p, act[0], act[2], act[3],
+                          act[4])  # fmt: skip
+    for i in range(N):
+        d0 = ynew[i] - y[i]
+        F[0, i] = d0
+        F[1, i] = h * K[0, i] - d0
+        F[2, i] = 2.0 * d0 - h * (K[STAGES, i] + K[0, i])
     for r in range(D.shape[0]):
-        acc = np.zeros(N)
-        for k in range(D.shape[1]):
-            acc += D[r, k] * K[k]
-        F[3 + r] = h * acc
+        combine(dy, D[r], K, D.shape[1], False)
+        for i in range(N):
+            F[3 + r, i] = h * dy[i]

@@ -23,6 +23,9 @@ import numpy as np
 
 from ...linalg import cholesky_inplace, gauss_inplace
 
+INLINE = ("dynamics", "dynamics_sparse", "kkt_state", "rhs_kernel")
+"""Inlined where they are called, compiled (:data:`.INLINE`): the right-hand side's calls."""
+
 
 # KERNELS
 # Where the system's functions are C (``sy[12]``, :mod:`.._cc`), they fill arrays zeroed
