@@ -44,6 +44,9 @@ print(json.dumps({
     "final": traj.q[-1].tolist() + traj.qd[-1].tolist(), "batch": batch.tolist(),
     "batch_hits": sum(sum(s.cache_hits.values()) for s in stats),
     "batch_misses": sum(sum(s.cache_misses.values()) for s in stats),
+    # imported only by numba's set-up to compile (its typing and lowering registries),
+    # which a load from the cache skips (_jitcache._quick_cache_class)
+    "registries": "numba.typed.typeddict" in sys.modules,
 }))
 """
 
@@ -104,6 +107,8 @@ def test_a_second_process_loads_the_compiled_system_and_two_may_compile_at_once(
     wall = time.perf_counter() - t0
     assert c["cache"] == "loaded", c
     assert c["batch_hits"] > 0 and c["batch_misses"] == 0, c
+    if compiler():  # the system in C: nothing of numba's is compiled, only loaded
+        assert not c["registries"], c  # loaded without numba's compiler set up
     assert c["final"] == a["final"] and c["batch"] == a["batch"]
     # compiling the loop takes about a minute here, loading it and the system 1-2 s
     assert c["seconds"] < max(a["seconds"], b["seconds"]) / 4, (a, b, c)
@@ -160,3 +165,43 @@ def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route):
         dynamics = ns.source[ns.source.index("def dynamics") : ns.source.index("def constraints")]
         assert sum(dynamics.strip() in t for t in files) == 1
     assert {a.jit_cache, b.jit_cache} <= {"compiled", "loaded"}
+
+
+QUICK = """
+import json, sys
+import numba
+from lamech.numeric._jitcache import _import, _quick_load
+ns = _import(__import__("pathlib").Path(sys.argv[1]), "lamech_quick_probe")
+f = numba.njit(cache=True)(ns["f"])
+_quick_load(f)
+out = {"value": f(2.0)}
+out["registries"] = "numba.typed.typeddict" in sys.modules
+if sys.argv[2:] == ["miss"]:  # a signature not in the cache: compiled as numba always does
+    out["int"] = f(3)
+print(json.dumps({**out, "hits": sum(f.stats.cache_hits.values())}))
+"""
+
+
+@needs_numba
+def test_a_function_in_the_cache_loads_without_numbas_compiler_and_a_miss_still_compiles(
+    tmp_path,
+):
+    # numba's own load sets its whole compiler up first (0.2-0.3 s of CPU per process);
+    # a function of lamech's loads its machine code without that, and the numbers are the
+    # same; a signature not in the cache still compiles, in the same process
+    source = tmp_path / "lamech_quick_probe.py"
+    source.write_text("import numpy as np\n\ndef f(x):\n    return np.sin(x) * np.ones(3).sum()\n")
+
+    def run(*extra):
+        done = subprocess.run(
+            [sys.executable, "-c", QUICK, str(source), *extra],
+            capture_output=True, text=True, timeout=600,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout.splitlines()[-1])
+
+    first, second, third = run(), run(), run("miss")
+    assert first["hits"] == 0 and first["registries"]  # compiled: numba set up
+    assert second["hits"] == 1 and not second["registries"], second  # loaded only
+    assert second["value"] == first["value"] == pytest.approx(3 * np.sin(2.0), rel=1e-15)
+    assert third["int"] == pytest.approx(3 * np.sin(3.0), rel=1e-15) and third["hits"] == 1

@@ -316,6 +316,58 @@ if hasattr(os, "register_at_fork"):  # not on Windows (no fork there)
 warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 
 
+def _quick_cache_class():
+    """numba's on-disk cache of a function, loaded without numba's compiler set up; None
+    where this numba lacks the pieces (then numba's own cache is kept, only slower).
+
+    numba's ``Cache.load_overload`` first calls ``target_context.refresh()``, which
+    imports and registers every typing and lowering implementation numba has: 0.2-0.3 s
+    of CPU per process (measured 2026-11-27: ``lamech simulate cylinder --t-end 3``,
+    the loop cached, 2.25 s of CPU for the whole process against 1.94 s without it).
+    Those are needed to compile, not to link machine code compiled before. What loaded
+    code needs at run time is numba's runtime (NRT: its allocator and reference counts,
+    initialized here as ``refresh`` would), the helper symbols (installed when the
+    target context is made) and the function's own ``reload_init`` (run by numba's
+    rebuild). A miss still compiles as before: numba's compiler refreshes the context
+    itself (``CompilerBase.__init__``). numba has no option for this; the override is
+    this one method, on lamech's own functions only (:func:`_quick_load`)."""
+    global _QUICK
+    if _QUICK is False:
+        try:
+            from numba.core.caching import FunctionCache
+            from numba.core.runtime import rtsys
+
+            if not all(
+                hasattr(FunctionCache, a)
+                for a in ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
+            ):
+                raise ImportError("numba's cache has changed")
+        except ImportError:
+            _QUICK = None
+        else:
+
+            class QuickLoadCache(FunctionCache):
+                def load_overload(self, sig, target_context):
+                    rtsys.initialize(target_context)
+                    with self._guard_against_spurious_io_errors():
+                        return self._load_overload(sig, target_context)
+
+            _QUICK = QuickLoadCache
+    return _QUICK
+
+
+_QUICK = False  # not looked up yet
+
+
+def _quick_load(dispatcher) -> None:
+    """Load ``dispatcher``'s cached machine code without numba's compiler set up
+    (:func:`_quick_cache_class`)."""
+    cls = _quick_cache_class()
+    cache = getattr(dispatcher, "_cache", None)
+    if cls is not None and type(cache) is cls.__bases__[0]:
+        cache.__class__ = cls  # the same state, one method different: no second set-up
+
+
 def _jit_engine(namespace: dict, cache: bool) -> dict:
     """numba-compile (lazily: on their first call) every function of the engine module
     in ``namespace``, which their globals resolve in."""
@@ -337,6 +389,8 @@ def _jit_engine(namespace: dict, cache: bool) -> dict:
                 namespace[fn] = numba.njit(cache=cache, inline="always")(namespace[fn])
             else:
                 namespace[fn] = numba.njit(cache=cache)(namespace[fn])
+            if cache:
+                _quick_load(namespace[fn])
     return namespace
 
 
@@ -371,6 +425,8 @@ def _jit_system(namespace: dict, cache: bool) -> None:
         warnings.simplefilter("ignore")
         for fn in _JITTED:
             namespace[fn] = numba.njit(cache=cache)(namespace[fn])
+            if cache:
+                _quick_load(namespace[fn])
         for c, sig in _signatures().items():
             namespace[c] = numba.cfunc(sig, cache=cache)(namespace[c])
 
