@@ -95,3 +95,38 @@ def test_batch_over_parameters_matches_simulate():
     assert not np.allclose(finals[0] / 0.5, finals[2] / 2.0)  # the length mattered
     with pytest.raises(ValueError, match="parameter sets"):
         integrate_batch(ns, Y0, 1.0, params=[{"l": 1.0}])
+
+
+@pytest.mark.parametrize("n", [1, 6, 41])
+def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
+    # run as Python, the kernels use whole-array twins (dop853.PYTHON) of the loops
+    # written for numba; the loop as Python and compiled then agree only if each twin
+    # adds the same terms in the same order
+    from lamech.numeric._kernels import dop853
+
+    rng = np.random.default_rng(n)
+    y, ynew, d, e5, e3 = (rng.normal(size=n) for _ in range(5))
+    K, D, coef = rng.normal(size=(16, n)), rng.normal(size=(4, 16)), rng.normal(size=16)
+    coef[[2, 5]] = 0.0  # terms a skip leaves out
+    h = 0.0137
+    assert set(dop853.PYTHON) == {"combine", "advance", "error_norm", "dense_into", "dense_rows"}
+
+    def both(name, *args, out=None):
+        loop, twin = getattr(dop853, name), dop853.PYTHON[name]
+        a = [np.array(x) if isinstance(x, np.ndarray) else x for x in args]
+        b = [np.array(x) if isinstance(x, np.ndarray) else x for x in args]
+        ra, rb = loop(*a), twin(*b)
+        if out is not None:
+            assert np.array_equal(a[out], b[out]), name
+        if ra is not None or rb is not None:
+            assert np.array_equal(ra, rb), name
+        return ra
+
+    for skip in (True, False):
+        both("combine", np.zeros(n), coef, K, 12, skip, out=0)
+    both("advance", np.zeros(n), y, h, d, out=0)
+    both("error_norm", y, ynew, e5, e3, h, 1e-9, 1e-12)
+    both("error_norm", y, ynew, 0 * e5, 0 * e3, h, 1e-9, 1e-12)
+    F = rng.normal(size=(7, n))
+    both("dense_into", 0.3, (0.25, 0.1, y, F), np.zeros(n), out=2)
+    both("dense_rows", np.zeros((7, n)), y, ynew, h, K, D, np.zeros(n), out=0)

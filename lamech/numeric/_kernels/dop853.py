@@ -56,11 +56,21 @@ def _dense_numpy(s, dn, y):
     return y
 
 
+def _dense_rows_numpy(F, y, ynew, h, K, D, dy):
+    F[0] = ynew - y
+    F[1] = h * K[0] - F[0]
+    F[2] = 2.0 * F[0] - h * (K[STAGES] + K[0])
+    for r in range(D.shape[0]):
+        _combine_numpy(dy, D[r], K, D.shape[1], False)
+        F[3 + r] = h * dy
+
+
 PYTHON = {
     "combine": _combine_numpy,
     "advance": _advance_numpy,
     "error_norm": _error_norm_numpy,
     "dense_into": _dense_numpy,
+    "dense_rows": _dense_rows_numpy,
 }
 """The functions below that the kernels run as Python replace by these."""
 
@@ -214,6 +224,13 @@ def ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F):
         advance(ys, y, h, dy)
         K[s] = rhs_kernel(sy, t + CX[s - STAGES - 1] * h, ys, p, act[0], act[2], act[3],
                           act[4])  # fmt: skip
+    dense_rows(F, y, ynew, h, K, D, dy)
+
+
+def dense_rows(F, y, ynew, h, K, D, dy):
+    """F's rows (the dense output's coefficients) from the step's stages K; ``dy`` is
+    scratch space."""
+    N = y.shape[0]
     for i in range(N):
         d0 = ynew[i] - y[i]
         F[0, i] = d0
