@@ -225,6 +225,35 @@ def lamech_cache_dir(request, tmp_path_factory, shared_cache_dir):
         yield path
 
 
+@pytest.fixture
+def compiled_loop_in(shared_cache_dir):
+    """``compiled_loop_in(folder)``: the run's compiled loop (compiled in the shared folder
+    first where no test has yet) copied into a cache folder of the test's own, as a
+    machine that ran lamech before has it. A test of what a folder holds for a system
+    then does not compile the loop again (2.5 minutes of CPU each)."""
+    from pathlib import Path
+
+    import lamech
+    from lamech.numeric import compile_system
+    from lamech.numeric._jitcache import engine_text, module_key
+    from lamech.problem import chain_toml
+
+    def put(folder: Path) -> None:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("LAMECH_CACHE_DIR", str(shared_cache_dir))
+            mp.delenv("LAMECH_CC", raising=False)
+            compile_system(lamech.loads(chain_toml(2)), jit=True)  # the loop, every entry
+        name = module_key(engine_text(), "engine_")
+        source, target = shared_cache_dir / "kernels", Path(folder) / "kernels"
+        (target / "__pycache__").mkdir(parents=True, exist_ok=True)
+        # copy2 keeps the times: numba checks its index against the source's stamp
+        shutil.copy2(source / f"{name}.py", target / f"{name}.py")
+        for path in (source / "__pycache__").glob(f"{name}.*"):
+            shutil.copy2(path, target / "__pycache__" / path.name)
+
+    return put
+
+
 @pytest.fixture(scope="session")
 def solved_example():
     """``solved_example(name)``: ``lamech.solve`` of a bundled example, solved once per

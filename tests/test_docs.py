@@ -131,8 +131,14 @@ def _run(argv: list[str]) -> tuple[int, str, str]:
     return status, out.getvalue(), err.getvalue()
 
 
+# what runs the compiled loop: such an example shares the run's compiled loop (the
+# conftest's ``shared_cache``) instead of compiling it again in a folder of its own
+COMPILED = re.compile(r"--engine compiled|--jit\b|jit=True")
+
+
 def _marks(block: Block) -> list:
-    return [pytest.mark.slow] if SLOW.search(block.body) else []
+    marks = [pytest.mark.slow] if SLOW.search(block.body) else []
+    return marks + ([pytest.mark.shared_cache] if COMPILED.search(block.body) else [])
 
 
 @pytest.mark.parametrize(
@@ -162,7 +168,10 @@ def _python_pages() -> list:
             rel = str(page.relative_to(ROOT))
             out.append(pytest.param(page, False, id=rel))
             if slow:
-                out.append(pytest.param(page, True, id=rel + ":all", marks=pytest.mark.slow))
+                marks = [pytest.mark.slow]
+                if any(COMPILED.search(b.body) for b in blocks):
+                    marks.append(pytest.mark.shared_cache)
+                out.append(pytest.param(page, True, id=rel + ":all", marks=marks))
     return out
 
 

@@ -133,7 +133,8 @@ def test_an_unusable_cache_directory_compiles_in_memory_silently(tmp_path):
 @pytest.mark.slow
 @pytest.mark.shared_cache
 @pytest.mark.parametrize("route", ["c", "numba"])
-def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route):
+def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route, compiled_loop_in):
+    compiled_loop_in(tmp_path)  # the loop as a machine that ran lamech before has it
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     if route == "numba":
         monkeypatch.setenv("LAMECH_CC", "none")

@@ -164,7 +164,7 @@ def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_pa
     run an earlier test may have; stop 36's CI did) changes nothing: the folder in force
     is written all the same."""
     text, t_end, kw = CASES["cylinder"]
-    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path / "earlier"))
+    # earlier: the run's shared folder (its loop compiled once for every test that shares it)
     assert simulate(lamech.loads(text), 0.1, jit=True, **kw).engine == "loop (numba)"
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path / "now"))
     a = simulate(lamech.loads(text), t_end, **kw)
@@ -339,10 +339,9 @@ def test_integrate_events_applies_impacts_in_the_loop_when_asked():
 @pytest.mark.slow
 @pytest.mark.shared_cache
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
-def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers(tmp_path, monkeypatch):
+def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers():
     """jit=True: numba's loop applies the impacts (the Zeno ball, the disk whose friction
     slips through the landing) and gives the Python loop's numbers."""
-    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     for name in ("zeno ball", "slip through"):
         make, t_end, kw = IMPACT_CASES[name]
         a = simulate(compile_system(lamech.loads(make())), t_end, engine="python", **kw)
