@@ -11,9 +11,10 @@ loaded from the cache afterwards; a system compiles only its own functions: by t
 machine's C compiler into ``lamech_c_<key>.so`` where there is one (:mod:`._cc`, 0.3 s),
 else by numba as the module ``lamech_<key>.py`` (:func:`system_text`: the generated
 functions and their cfunc wrappers, a few seconds), and loads them on its second run.
-Measured on the 2-core machine, whole process CPU (2026-11-27): a problem never run
-before simulates on the compiled loop in 2.7 s (the loop cached; ``python -c "import
-sympy"`` 0.66 s; 4.3-4.6 s when numba compiled its functions), its second run 2.9 s.
+Measured on the 2-core machine, whole process CPU (2026-11-27, ``lamech simulate
+cylinder --t-end 3``): a problem never run before simulates on the compiled loop in
+2.0 s (the loop cached; ``python -c "import sympy"`` 0.43 s in the same hour), its second
+run in 1.9 s; the loop loads without numba's compiler set up (:func:`_quick_cache_class`).
 
 numba caches (``cache=True``) only functions defined in a real source file, at module
 level: a function created by ``exec`` has no file, and a closure's cache key includes
