@@ -206,3 +206,45 @@ def test_a_function_in_the_cache_loads_without_numbas_compiler_and_a_miss_still_
     assert second["hits"] == 1 and not second["registries"], second  # loaded only
     assert second["value"] == first["value"] == pytest.approx(3 * np.sin(2.0), rel=1e-15)
     assert third["int"] == pytest.approx(3 * np.sin(3.0), rel=1e-15) and third["hits"] == 1
+
+
+HOLD = """
+import sys, time
+from lamech.numeric._jitcache import _compile_lock
+with _compile_lock("engine_probe"):
+    print("held", flush=True)
+    time.sleep(float(sys.argv[1]))
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no fcntl: no lock, both compile")
+def test_a_second_process_waits_for_the_first_ones_compile_of_the_loop(tmp_path, monkeypatch):
+    # two processes that need the loop on a new machine: one compiles it, the other waits
+    # and then loads it (not compiles it too); a process stopped mid-compile is waited for
+    # only so long
+    from lamech.numeric import _jitcache
+
+    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
+    jit_cache_dir().mkdir(parents=True)
+
+    def holder(seconds: float) -> subprocess.Popen:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", HOLD, str(seconds)], stdout=subprocess.PIPE, text=True
+        )
+        assert proc.stdout.readline().strip() == "held"
+        return proc
+
+    proc = holder(2.0)
+    t0 = time.monotonic()
+    with _jitcache._compile_lock("engine_probe"):
+        waited = time.monotonic() - t0
+    proc.wait(timeout=60)
+    assert waited > 1.0, waited  # it waited for the holder to finish
+    monkeypatch.setattr(_jitcache, "COMPILE_WAIT", 0.5)
+    proc = holder(30.0)
+    t0 = time.monotonic()
+    with _jitcache._compile_lock("engine_probe"):
+        waited = time.monotonic() - t0
+    proc.kill()
+    proc.wait(timeout=60)
+    assert 0.4 < waited < 10.0, waited  # gave up waiting, went on without the lock

@@ -37,6 +37,7 @@ compiled functions.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import inspect
@@ -44,6 +45,7 @@ import os
 import sys
 import tempfile
 import threading
+import time
 import warnings
 from pathlib import Path
 
@@ -513,19 +515,61 @@ def _entry_arguments(sy: tuple) -> dict:
     }  # fmt: skip
 
 
+COMPILE_WAIT = 1200.0
+"""Seconds a process waits for another's compile of the loop (:func:`_compile_lock`)."""
+
+
+@contextlib.contextmanager
+def _compile_lock(name: str):
+    """Held while this process compiles the loop into the cache folder, so that another
+    process needing it meanwhile (a sweep's workers on a new machine, two terminals)
+    waits and then loads it, instead of compiling it too (2.5 minutes of CPU and about
+    0.5 GB each). The operating system releases the lock of a process that dies. After
+    :data:`COMPILE_WAIT` (a process stopped mid-compile), or where there is no ``fcntl``
+    (Windows) or no lock file can be made, no lock: both compile, each writing the
+    same files, as numba's cache allows."""
+    try:
+        import fcntl
+
+        handle = open(cache_dir() / f"{name}.lock", "a")  # noqa: SIM115 (held below)
+    except (ImportError, OSError):
+        yield
+        return
+    held = False
+    try:
+        deadline = time.monotonic() + COMPILE_WAIT
+        while True:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                held = True
+                break
+            except OSError:
+                if time.monotonic() > deadline:
+                    break
+                time.sleep(0.25)
+        yield
+    finally:
+        if held:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+        handle.close()
+
+
 def _precompile(engine: dict, sy: tuple) -> None:
     """Compile (or load) every entry point of the engine not yet in the cache on disk:
     the loop is compiled once per machine, whichever of simulate, a sweep or the batch
-    loop runs first. Types only: nothing runs."""
+    loop runs first, and by one process at a time (:func:`_compile_lock`). Types only:
+    nothing runs."""
     import numba
 
     name = engine["__name__"]
     entries = _entry_arguments(sy)
     assert tuple(entries) == ENTRY_POINTS
-    with warnings.catch_warnings():
+    if all(_nbi(name, entry) for entry in entries):
+        return
+    with _compile_lock(name), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for entry, args in entries.items():
-            if not _nbi(name, entry):
+            if not _nbi(name, entry):  # another process may have compiled it meanwhile
                 engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
 
 
