@@ -171,10 +171,11 @@ def test_a_changed_source_gets_a_new_file(tmp_path, monkeypatch, route, compiled
 QUICK = """
 import json, sys
 import numba
-from lamech.numeric._jitcache import _import, _quick_load
-ns = _import(__import__("pathlib").Path(sys.argv[1]), "lamech_quick_probe")
-f = numba.njit(cache=True)(ns["f"])
-_quick_load(f)
+from lamech.numeric._jitcache import quick_load
+sys.path.insert(0, sys.argv[1])  # numba caches only functions of a real file
+from lamech_quick_probe import f
+f = numba.njit(cache=True)(f)
+quick_load(f)
 out = {"value": f(2.0)}
 out["registries"] = "numba.typed.typeddict" in sys.modules
 if sys.argv[2:] == ["miss"]:  # a signature not in the cache: compiled as numba always does
@@ -195,7 +196,7 @@ def test_a_function_in_the_cache_loads_without_numbas_compiler_and_a_miss_still_
 
     def run(*extra):
         done = subprocess.run(
-            [sys.executable, "-c", QUICK, str(source), *extra],
+            [sys.executable, "-c", QUICK, str(tmp_path), *extra],
             capture_output=True, text=True, timeout=600,
         )  # fmt: skip
         assert done.returncode == 0, done.stderr
@@ -210,8 +211,8 @@ def test_a_function_in_the_cache_loads_without_numbas_compiler_and_a_miss_still_
 
 HOLD = """
 import sys, time
-from lamech.numeric._jitcache import _compile_lock
-with _compile_lock("engine_probe"):
+from lamech.numeric._jitcache import compile_lock
+with compile_lock("engine_probe"):
     print("held", flush=True)
     time.sleep(float(sys.argv[1]))
 """
@@ -222,7 +223,7 @@ def test_a_second_process_waits_for_the_first_ones_compile_of_the_loop(tmp_path,
     # two processes that need the loop on a new machine: one compiles it, the other waits
     # and then loads it (not compiles it too); a process stopped mid-compile is waited for
     # only so long
-    from lamech.numeric import _jitcache
+    from lamech.numeric._jitcache import compile_lock
 
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
     jit_cache_dir().mkdir(parents=True)
@@ -236,14 +237,13 @@ def test_a_second_process_waits_for_the_first_ones_compile_of_the_loop(tmp_path,
 
     proc = holder(2.0)
     t0 = time.monotonic()
-    with _jitcache._compile_lock("engine_probe"):
+    with compile_lock("engine_probe"):
         waited = time.monotonic() - t0
     proc.wait(timeout=60)
     assert waited > 1.0, waited  # it waited for the holder to finish
-    monkeypatch.setattr(_jitcache, "COMPILE_WAIT", 0.5)
     proc = holder(30.0)
     t0 = time.monotonic()
-    with _jitcache._compile_lock("engine_probe"):
+    with compile_lock("engine_probe", wait=0.5):
         waited = time.monotonic() - t0
     proc.kill()
     proc.wait(timeout=60)

@@ -99,20 +99,26 @@ def test_batch_over_parameters_matches_simulate():
 
 @pytest.mark.parametrize("n", [1, 6, 41])
 def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
-    # run as Python, the kernels use whole-array twins (dop853.PYTHON) of the loops
-    # written for numba; the loop as Python and compiled then agree only if each twin
-    # adds the same terms in the same order
-    from lamech.numeric._kernels import dop853
+    # run as Python, the kernels use whole-array twins (each module's PYTHON) of the
+    # loops written for numba; the loop as Python and compiled then agree only if each
+    # twin adds the same terms in the same order
+    from lamech.numeric._kernels import MODULES
 
+    pairs = {
+        name: (getattr(module, name), twin)
+        for module in MODULES
+        for name, twin in getattr(module, "PYTHON", {}).items()
+    }
     rng = np.random.default_rng(n)
     y, ynew, d, e5, e3 = (rng.normal(size=n) for _ in range(5))
     K, D, coef = rng.normal(size=(16, n)), rng.normal(size=(4, 16)), rng.normal(size=16)
     coef[[2, 5]] = 0.0  # terms a skip leaves out
     h = 0.0137
-    assert set(dop853.PYTHON) == {"combine", "advance", "error_norm", "dense_into", "dense_rows"}
+    # every twin is tried below: a new one needs its case here
+    assert set(pairs) == {"combine", "advance", "error_norm", "dense_into", "dense_rows"}
 
     def both(name, *args, out=None):
-        loop, twin = getattr(dop853, name), dop853.PYTHON[name]
+        loop, twin = pairs[name]
         a = [np.array(x) if isinstance(x, np.ndarray) else x for x in args]
         b = [np.array(x) if isinstance(x, np.ndarray) else x for x in args]
         ra, rb = loop(*a), twin(*b)

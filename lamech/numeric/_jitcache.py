@@ -62,6 +62,10 @@ __all__ = [
     "Kernels",
     "is_cached",
     "engine_is_cached",
+    "module_key",
+    "quick_load",
+    "compile_lock",
+    "COMPILE_WAIT",
 ]
 
 CACHE_ENV = "LAMECH_CACHE_DIR"
@@ -333,7 +337,7 @@ def _quick_cache_class():
     target context is made) and the function's own ``reload_init`` (run by numba's
     rebuild). A miss still compiles as before: numba's compiler refreshes the context
     itself (``CompilerBase.__init__``). numba has no option for this; the override is
-    this one method, on lamech's own functions only (:func:`_quick_load`)."""
+    this one method, on lamech's own functions only (:func:`quick_load`)."""
     global _QUICK
     if _QUICK is False:
         try:
@@ -362,7 +366,7 @@ def _quick_cache_class():
 _QUICK = False  # not looked up yet
 
 
-def _quick_load(dispatcher) -> None:
+def quick_load(dispatcher) -> None:
     """Load ``dispatcher``'s cached machine code without numba's compiler set up
     (:func:`_quick_cache_class`)."""
     cls = _quick_cache_class()
@@ -393,7 +397,7 @@ def _jit_engine(namespace: dict, cache: bool) -> dict:
             else:
                 namespace[fn] = numba.njit(cache=cache)(namespace[fn])
             if cache:
-                _quick_load(namespace[fn])
+                quick_load(namespace[fn])
     return namespace
 
 
@@ -429,7 +433,7 @@ def _jit_system(namespace: dict, cache: bool) -> None:
         for fn in _JITTED:
             namespace[fn] = numba.njit(cache=cache)(namespace[fn])
             if cache:
-                _quick_load(namespace[fn])
+                quick_load(namespace[fn])
         for c, sig in _signatures().items():
             namespace[c] = numba.cfunc(sig, cache=cache)(namespace[c])
 
@@ -516,18 +520,18 @@ def _entry_arguments(sy: tuple) -> dict:
 
 
 COMPILE_WAIT = 1200.0
-"""Seconds a process waits for another's compile of the loop (:func:`_compile_lock`)."""
+"""Seconds a process waits for another's compile of the loop (:func:`compile_lock`)."""
 
 
 @contextlib.contextmanager
-def _compile_lock(name: str):
+def compile_lock(name: str, wait: float | None = None):
     """Held while this process compiles the loop into the cache folder, so that another
     process needing it meanwhile (a sweep's workers on a new machine, two terminals)
     waits and then loads it, instead of compiling it too (2.5 minutes of CPU and about
     0.5 GB each). The operating system releases the lock of a process that dies. After
-    :data:`COMPILE_WAIT` (a process stopped mid-compile), or where there is no ``fcntl``
-    (Windows) or no lock file can be made, no lock: both compile, each writing the
-    same files, as numba's cache allows."""
+    ``wait`` seconds (default :data:`COMPILE_WAIT`: a process stopped mid-compile), or
+    where there is no ``fcntl`` (Windows) or no lock file can be made, no lock: both
+    compile, each writing the same files, as numba's cache allows."""
     try:
         import fcntl
 
@@ -537,7 +541,7 @@ def _compile_lock(name: str):
         return
     held = False
     try:
-        deadline = time.monotonic() + COMPILE_WAIT
+        deadline = time.monotonic() + (COMPILE_WAIT if wait is None else wait)
         while True:
             try:
                 fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -557,7 +561,7 @@ def _compile_lock(name: str):
 def _precompile(engine: dict, sy: tuple) -> None:
     """Compile (or load) every entry point of the engine not yet in the cache on disk:
     the loop is compiled once per machine, whichever of simulate, a sweep or the batch
-    loop runs first, and by one process at a time (:func:`_compile_lock`). Types only:
+    loop runs first, and by one process at a time (:func:`compile_lock`). Types only:
     nothing runs."""
     import numba
 
@@ -566,7 +570,7 @@ def _precompile(engine: dict, sy: tuple) -> None:
     assert tuple(entries) == ENTRY_POINTS
     if all(_nbi(name, entry) for entry in entries):
         return
-    with _compile_lock(name), warnings.catch_warnings():
+    with compile_lock(name), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for entry, args in entries.items():
             if not _nbi(name, entry):  # another process may have compiled it meanwhile
