@@ -27,6 +27,8 @@ itself).
 
 Two processes may write the same file at once (a sweep's workers): a file is written
 under a temporary name and renamed into place (atomic), and both write the same text.
+The loop itself is compiled by one process at a time (:func:`compile_lock`): another
+that needs it meanwhile waits, then loads it.
 Where the directory cannot be created or written, the modules run from memory (``exec``)
 and numba compiles them in this process only, silently.
 
