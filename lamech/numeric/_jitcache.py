@@ -40,6 +40,7 @@ compiled functions.
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import importlib.util
 import inspect
@@ -549,7 +550,10 @@ def compile_lock(name: str, wait: float | None = None):
                 fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 held = True
                 break
-            except OSError:
+            except OSError as exc:
+                # held by another process: wait; a file system without locks: go on
+                if exc.errno not in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+                    break
                 if time.monotonic() > deadline:
                     break
                 time.sleep(0.25)
