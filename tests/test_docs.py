@@ -36,10 +36,13 @@ from lamech.cli import main as lamech_main
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 QUICK_GALLERY = "pendulum,cylinder,atwood"
+# Examples that run the compiled loop: they share the run's compiled loop (the conftest's
+# ``shared_cache``) instead of compiling it again in a folder of their own.
+COMPILED = re.compile(r"--engine compiled|--jit\b|jit=True")
 # Examples that compile with numba, start a Dask cluster, write an animation or solve a
 # mechanism (5-6 s each): slow.
 SLOW = re.compile(
-    r"--engine compiled|--jit\b|jit=True|LocalCluster|scheduler=|--animate"
+    COMPILED.pattern + r"|LocalCluster|scheduler=|--animate"
     r"|lamech (solve|simulate) (four_bar|andrews_squeezer)"
 )
 
@@ -129,11 +132,6 @@ def _run(argv: list[str]) -> tuple[int, str, str]:
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         status = lamech_main(argv)
     return status, out.getvalue(), err.getvalue()
-
-
-# what runs the compiled loop: such an example shares the run's compiled loop (the
-# conftest's ``shared_cache``) instead of compiling it again in a folder of its own
-COMPILED = re.compile(r"--engine compiled|--jit\b|jit=True")
 
 
 def _marks(block: Block) -> list:

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import hashlib
 import importlib.util
 import inspect
@@ -326,6 +327,7 @@ if hasattr(os, "register_at_fork"):  # not on Windows (no fork there)
 warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 
 
+@functools.cache
 def _quick_cache_class():
     """numba's on-disk cache of a function, loaded without numba's compiler set up; None
     where this numba lacks the pieces (then numba's own cache is kept, only slower).
@@ -341,32 +343,22 @@ def _quick_cache_class():
     rebuild). A miss still compiles as before: numba's compiler refreshes the context
     itself (``CompilerBase.__init__``). numba has no option for this; the override is
     this one method, on lamech's own functions only (:func:`quick_load`)."""
-    global _QUICK
-    if _QUICK is False:
-        try:
-            from numba.core.caching import FunctionCache
-            from numba.core.runtime import rtsys
+    try:
+        from numba.core.caching import FunctionCache
+        from numba.core.runtime import rtsys
+    except ImportError:
+        return None
+    needed = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
+    if not all(hasattr(FunctionCache, a) for a in needed):
+        return None
 
-            if not all(
-                hasattr(FunctionCache, a)
-                for a in ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
-            ):
-                raise ImportError("numba's cache has changed")
-        except ImportError:
-            _QUICK = None
-        else:
+    class QuickLoadCache(FunctionCache):
+        def load_overload(self, sig, target_context):
+            rtsys.initialize(target_context)
+            with self._guard_against_spurious_io_errors():
+                return self._load_overload(sig, target_context)
 
-            class QuickLoadCache(FunctionCache):
-                def load_overload(self, sig, target_context):
-                    rtsys.initialize(target_context)
-                    with self._guard_against_spurious_io_errors():
-                        return self._load_overload(sig, target_context)
-
-            _QUICK = QuickLoadCache
-    return _QUICK
-
-
-_QUICK = False  # not looked up yet
+    return QuickLoadCache
 
 
 def quick_load(dispatcher) -> None:
