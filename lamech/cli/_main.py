@@ -166,7 +166,13 @@ def main(argv: list[str] | None = None) -> int:
     quietly, as ``cat`` would: no traceback, exit status 141 (128 + SIGPIPE). Ctrl-C
     where no command handles it (while SymPy loads, say) ends it with one line and the
     shell's status for it, 130 (128 + SIGINT).
+
+    Run as the process itself (``argv`` None: the ``lamech`` command, ``python -m
+    lamech``), it also sets the process up as :func:`_as_the_process` says.
     """
+    process = argv is None
+    if process:
+        _as_the_process()
     try:
         return _dispatch(_parser().parse_args(sys.argv[1:] if argv is None else argv))
     except KeyboardInterrupt:
@@ -178,6 +184,40 @@ def main(argv: list[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 141
+    finally:
+        if process:
+            _ending()
+
+
+def _as_the_process() -> None:
+    """One BLAS thread for the ``lamech`` command's process and those it starts (sweep
+    workers), unless the user's environment says otherwise.
+
+    lamech's matrices are small (a KKT system of tens of rows); it runs its own threads
+    and processes, and runs BLAS at one thread while it integrates anyway
+    (:func:`lamech.numeric._threads.one_blas_thread`). But OpenBLAS starts its pool of
+    helper threads when it is loaded, and they spin before they sleep: about 0.1 s of
+    CPU for NumPy's OpenBLAS and as much for SciPy's, in every process (measured
+    2026-11-27, 2-core VM: ``python -c "import numpy"`` 0.22 s of CPU, 0.10 s with
+    ``OPENBLAS_NUM_THREADS=1``). The variable is read when the library loads, so it is
+    set here, before the first import of NumPy; the library (``import lamech``) leaves
+    its caller's process alone."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+def _ending() -> None:
+    """The command is done and the process ends: move every object to the collector's
+    permanent generation (:func:`gc.freeze`), so that the collections at interpreter
+    exit do not walk SymPy's and numba's millions of objects once more, only to free
+    memory the operating system takes back anyway. Measured 2026-11-27 (2-core VM, a
+    400-case sweep on the compiled loop): 0.2-0.27 s of CPU after the command's last
+    line without it, under 0.05 s with it; a one-case sweep 0.14 s against 0.02 s.
+    atexit handlers still run and objects freed by their reference counts still close
+    their files; what is no longer freed is an object left in a reference cycle at exit
+    (lamech closes its files itself: its tables flush every row and close)."""
+    import gc
+
+    gc.freeze()
 
 
 def _dispatch(args: argparse.Namespace) -> int:

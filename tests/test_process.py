@@ -1,0 +1,64 @@
+"""The ``lamech`` command's own process: NumPy and SciPy load with one BLAS thread (their
+OpenBLAS helper threads spin for about 0.1 s of CPU each as they start), unless the
+user's environment says otherwise, and the collector does not walk every object again
+as the process ends; a call of ``main`` from Python changes neither."""
+
+from __future__ import annotations
+
+import gc
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from lamech.cli import main
+
+_AS_THE_COMMAND = """
+import gc, json, sys
+sys.argv = ["lamech", "examples"]
+from lamech.cli import main
+before = gc.get_freeze_count()
+status = main()
+frozen = gc.get_freeze_count()
+import numpy, scipy.linalg
+from threadpoolctl import threadpool_info
+blas = sorted({d["num_threads"] for d in threadpool_info() if d["user_api"] == "blas"})
+print(json.dumps([status, before, frozen, blas]))
+"""
+
+
+def _as_the_command(**env) -> list:
+    environ = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    out = subprocess.run(
+        [sys.executable, "-c", _AS_THE_COMMAND],
+        env={**environ, **env},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    ).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="OpenBLAS starts one thread anyway")
+def test_the_command_loads_blas_with_one_thread_and_freezes_the_collector_as_it_ends():
+    status, before, frozen, blas = _as_the_command()
+    assert status == 0
+    assert blas == [1]
+    assert before == 0 and frozen > 1000  # every object then alive: SymPy's not even loaded
+
+
+def test_the_users_own_blas_threads_are_kept():
+    status, _, _, blas = _as_the_command(OPENBLAS_NUM_THREADS="2")
+    assert status == 0 and blas == [2]
+
+
+def test_main_called_from_python_leaves_the_process_alone(capsys):
+    blas = os.environ.get("OPENBLAS_NUM_THREADS")
+    before = gc.get_freeze_count()
+    assert main(["examples"]) == 0
+    assert gc.get_freeze_count() == before
+    assert os.environ.get("OPENBLAS_NUM_THREADS") == blas
+    assert "cylinder" in capsys.readouterr().out
