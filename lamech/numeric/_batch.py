@@ -346,7 +346,7 @@ def parameter_rows(ns: NumericSystem, names, values) -> np.ndarray:
             continue
         val = sp.sympify(par.value)
         if val.free_symbols & set(syms):
-            fn = sp.lambdify(syms, val.subs(rest), "numpy")
+            fn = _of_parameters(syms, val.subs(rest))
             out[:, i] = np.broadcast_to(np.asarray(fn(*args), dtype=float), values.shape[0])
     return out
 
@@ -376,7 +376,7 @@ def initial_states(
     if known is None or known[0] is not ns:
         exprs = [c.initial for c in system.coordinates]
         exprs += [c.initial_velocity for c in system.coordinates]
-        known = _STARTS[id(ns)] = (ns, [sp.lambdify(syms, sp.sympify(e), "numpy") for e in exprs])
+        known = _STARTS[id(ns)] = (ns, [_of_parameters(syms, e) for e in exprs])
     Y = np.empty((B, 2 * n))
     for k, fn in enumerate(known[1]):
         Y[:, k] = np.broadcast_to(np.asarray(fn(*cols), dtype=float), B)
@@ -396,6 +396,36 @@ def initial_states(
     with one_blas_thread():
         starts(Q, V, P, hold[0], hold[1], value[0], value[1], _kinds(system), INITIAL_TOLERANCE)
     return np.concatenate((Q, V), axis=1)
+
+
+def _of_parameters(syms: list, expr):
+    """``expr`` as a NumPy function of the parameter columns ``syms``: a number without
+    any code; otherwise SymPy's NumPy printer's line (what ``lambdify`` writes, without
+    the 50-90 ms its first call spends gathering NumPy's namespace; measured 2026-11-27)
+    or, where that printer gives up, ``lambdify`` itself. ``expr`` is the problem's own,
+    parsed by :mod:`lamech.expr`: no user text reaches the code."""
+    import sympy as sp
+    from sympy.printing.numpy import NumPyPrinter
+
+    expr = sp.sympify(expr)
+    if not expr.free_symbols:
+        try:
+            value = float(expr)
+        except TypeError:  # zoo, nan: lambdify's value, as before
+            pass
+        else:
+            return lambda *cols: value
+    names = [f"p_{i}" for i in range(len(syms))]
+    printer = NumPyPrinter({"fully_qualified_modules": True, "allow_unknown_functions": False})
+    try:
+        line = printer.doprint(expr.xreplace(dict(zip(syms, map(sp.Symbol, names)))))
+    except Exception:  # noqa: BLE001 - any printer failure: lambdify decides
+        line = ""
+    if not line or getattr(printer, "_not_supported", ()) or "\n" in line:
+        return sp.lambdify(syms, expr, "numpy")
+    namespace: dict = {"numpy": np}
+    exec(f"def f({', '.join(names)}):\n    return {line}\n", namespace)  # noqa: S102
+    return namespace["f"]
 
 
 def _kinds(system) -> np.ndarray:
