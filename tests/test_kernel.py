@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import types
+
 import numpy as np
 import pytest
 
@@ -136,3 +138,38 @@ def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
     F = rng.normal(size=(7, n))
     both("dense_into", 0.3, (0.25, 0.1, y, F), np.zeros(n), out=2)
     both("dense_rows", np.zeros((7, n)), y, ynew, h, K, D, np.zeros(n), out=0)
+
+
+def _through(sy, a):
+    """Reads and writes through borrowed views (``borrowed`` from its globals)."""
+    b = borrowed(a)  # noqa: F821 - given by the namespace it runs in
+    rec = (borrowed(sy[0]), sy[1])  # noqa: F821
+    b[0] = 5.0
+    s = 0.0
+    for i in range(b.shape[0]):
+        s += b[i] * rec[0][i % rec[0].shape[0]] + rec[1]
+    return s, b[1:].copy()
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba is not installed")
+def test_a_borrowed_array_is_the_same_array_without_numbas_count():
+    """The loop's entry points borrow the arrays their callers hold (no reference count
+    taken at every call that passes them): compiled, the view reads and writes the
+    caller's array; as Python (the loop's twin), ``borrowed`` is the array itself."""
+    import numba
+
+    from lamech.numeric._fnptr import borrowed
+    from lamech.numeric._kernels import python_namespace
+
+    identity = python_namespace()["borrowed"]
+    a = np.arange(4.0)
+    assert identity(a) is a
+    sy = (np.array([1.0, 2.0]), 0.5)
+    as_python = types.FunctionType(_through.__code__, {"borrowed": identity})
+    compiled = numba.njit(types.FunctionType(_through.__code__, {"borrowed": borrowed}))
+    want_a, got_a = a.copy(), a.copy()
+    want, got = as_python(sy, want_a), compiled(sy, got_a)
+    assert got[0] == want[0] and np.array_equal(got[1], want[1])
+    assert got_a[0] == 5.0 and np.array_equal(got_a, want_a)  # written into the caller's
+    with pytest.raises(numba.TypingError):
+        numba.njit(lambda x: borrowed(x))(1.0)

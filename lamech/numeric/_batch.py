@@ -363,8 +363,6 @@ def initial_states(
     :func:`lamech.numeric.consistent_initial` does case by case (here the expressions
     are evaluated as NumPy functions over the batch, and the projection runs in the
     compiled loop's module: numba's when ``jit``, by default ``ns.jit``)."""
-    import sympy as sp
-
     from ._options import INITIAL_TOLERANCE
 
     system = ns.system

@@ -26,6 +26,7 @@ __all__ = [
     "as_c4",
     "as_c5",
     "as_c8",
+    "borrowed",
 ]
 
 _A1, _A2, _F = types.float64[::1], types.float64[:, ::1], types.float64
@@ -79,3 +80,25 @@ as_c3 = _caster(_c_signature(3))  # restitution: q, p, e
 as_c4 = _caster(_c_signature(4))  # energy, switches: q, v, p, E or s
 as_c5 = _caster(_c_signature(5))  # constraints: q, p, f, A, b
 as_c8 = _caster(_c_signature(8))  # dynamics, dynamics_sparse: q, v, p and five outputs
+
+
+@intrinsic
+def borrowed(typingctx, a):
+    """The array ``a`` with no meminfo: the same data, shape and strides, but numba's
+    reference counts on it (an atomic add and subtract at every call that passes it, about
+    10 ns each) become a test for NULL. Only for arrays whose owner outlives every use of
+    the view (an entry point's arguments, held by its caller for the call); never for an
+    array the function made itself, nor one it returns. The loop's Python twin is the
+    identity (:func:`lamech.numeric._kernels.codes.borrowed`)."""
+    if not isinstance(a, types.Array):
+        return None
+
+    def codegen(context, builder, sig, args):
+        src = cgutils.create_struct_proxy(a)(context, builder, value=args[0])
+        out = cgutils.create_struct_proxy(a)(context, builder)
+        for field in ("parent", "nitems", "itemsize", "data", "shape", "strides"):
+            setattr(out, field, getattr(src, field))
+        out.meminfo = cgutils.get_null_value(out.meminfo.type)
+        return out._getvalue()
+
+    return a(a), codegen

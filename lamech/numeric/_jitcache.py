@@ -145,7 +145,7 @@ def _compiled_accessors(text: str) -> str:
     imports = (
         "from lamech.numeric._fnptr import (\n    as_c3,\n    as_c4,\n    as_c5,\n"
         "    as_c8,\n    as_constraints,\n    as_dynamics,\n    as_dynamics_sparse,\n"
-        "    as_energy,\n    as_restitution,\n    as_switches,\n)\n\n\n"
+        "    as_energy,\n    as_restitution,\n    as_switches,\n    borrowed,\n)\n\n\n"
     )
     return imports + text
 

@@ -7,9 +7,9 @@ no events: ``tab`` DOP853's tables, ``tl`` the tolerances and t_end (max_step in
 
 import numpy as np
 
-from .codes import LM_MAX_STEPS, TL_T_END
-from .dop853 import STAGES, dop853_step, ev_first_step
-from .kkt import accelerations
+from .codes import LM_MAX_STEPS, TL_T_END, borrowed
+from .dop853 import STAGES, borrowed_tables, dop853_step, ev_first_step
+from .kkt import accelerations, borrowed_record
 from .project import batch_project
 
 prange = range  # numba.prange in the compiled module
@@ -28,6 +28,8 @@ def batch_deriv(sy, t, y, p, out):
 def batch_run_one(sy, y0, p, tab, tl, lim):
     """One run from t = 0 to tl[TL_T_END]: (the final state, the steps), or (NaN, -1)
     where the step size collapsed or the steps ran out."""
+    sy, tab = borrowed_record(sy), borrowed_tables(tab)
+    y0, p, tl, lim = borrowed(y0), borrowed(p), borrowed(tl), borrowed(lim)
     N = y0.shape[0]
     y = y0.copy()
     t = 0.0

@@ -93,6 +93,14 @@ FO_SIZE = 3
 PREFIXES = ("EV_", "FR_", "ST_", "DT_", "TL_", "LM_", "IO_", "FO_")
 
 
+def borrowed(a):
+    """``a`` itself. Compiled (:func:`lamech.numeric._fnptr.borrowed`), the same array
+    without numba's reference count: an entry point's arrays, which its caller holds for
+    the whole call, pass through the loop's calls without an atomic count taken and
+    dropped at each (they were half of a compiled step's CPU, 2026-11-27)."""
+    return a
+
+
 def constants() -> dict[str, int]:
     """Every code above by name, in the order defined."""
     return {k: v for k, v in globals().items() if k.startswith(PREFIXES) and isinstance(v, int)}

@@ -9,8 +9,8 @@ and ``tl`` the tolerances (:mod:`.codes`).
 
 import numpy as np
 
-from .codes import TL_ATOL, TL_MAX_STEP, TL_RTOL
-from .kkt import rhs_kernel
+from .codes import TL_ATOL, TL_MAX_STEP, TL_RTOL, borrowed
+from .kkt import borrowed_act, rhs_kernel
 
 STAGES = 12
 """DOP853's number of stages (checked against SciPy's table in :mod:`.._batch`)."""
@@ -79,6 +79,13 @@ INLINE = ("advance", "combine")
 
 
 # KERNELS
+def borrowed_tables(tab):
+    """DOP853's tables borrowed (:func:`.codes.borrowed`), for a function whose caller
+    holds ``tab`` for the call."""
+    return (borrowed(tab[0]), borrowed(tab[1]), borrowed(tab[2]), borrowed(tab[3]),
+            borrowed(tab[4]), borrowed(tab[5]), borrowed(tab[6]), borrowed(tab[7]))  # fmt: skip
+
+
 def combine(out, coef, K, count, skip):
     """out = sum over k < count of coef[k] K[k], in order of k (``skip``: the terms with
     coef[k] = 0 left out)."""
@@ -112,7 +119,11 @@ def error_norm(y, ynew, err5, err3, h, rtol, atol):
 def dop853_trial(sy, t, y, f, h, p, act, tl, tab, K, ynew):
     """One DOP853 step of size h from (t, y) with y' = f there, on the mode's active set
     ``act``: the stages into K, the solution into ``ynew``; returns SciPy's error norm
-    (< 1: accept)."""
+    (< 1: accept). Its arguments are borrowed (:func:`.codes.borrowed`; the caller holds
+    them): each stage passes them down the right-hand side's calls."""
+    y, f, p, tl = borrowed(y), borrowed(f), borrowed(p), borrowed(tl)
+    K, ynew = borrowed(K), borrowed(ynew)
+    act = borrowed_act(act)
     A, B, C, E3, E5 = tab[0], tab[1], tab[2], tab[3], tab[4]
     rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
     N = y.shape[0]

@@ -47,10 +47,18 @@ from .codes import (
     TL_ARM_VEL,
     TL_BLOW_UP,
     TL_T_END,
+    borrowed,
 )
-from .dop853 import STAGES, dop853_step, ev_dense, ev_dense_stages, ev_first_step
+from .dop853 import (
+    STAGES,
+    borrowed_tables,
+    dop853_step,
+    ev_dense,
+    ev_dense_stages,
+    ev_first_step,
+)
 from .impacts import ev_accumulated, ev_bound, ev_impact
-from .kkt import constraints, energy, rhs_kernel
+from .kkt import borrowed_record, constraints, energy, rhs_kernel
 from .modes import (
     ev_all,
     ev_brent,
@@ -70,6 +78,18 @@ from .project import ev_project
 
 
 # KERNELS
+def borrowed_mode(md):
+    """The mode record borrowed (:func:`.codes.borrowed`): for a function whose caller holds
+    it for the call."""
+    return (borrowed(md[0]), borrowed(md[1]), borrowed(md[2]))
+
+
+def borrowed_log(lg):
+    """The event record borrowed (:func:`.codes.borrowed`), as :func:`borrowed_mode`."""
+    return (borrowed(lg[0]), borrowed(lg[1]), borrowed(lg[2]), borrowed(lg[3]),
+            borrowed(lg[4]), borrowed(lg[5]), borrowed(lg[6]))  # fmt: skip
+
+
 def ev_run(sy, Y0, P, tab, kinds, IM, FM, tl, lim, want, logs, outs):
     """Every row of Y0 (parameters P, modes IM, FM) through :func:`ev_run_one`, in one
     thread (compiled with ``nogil``: the caller spreads slices of a batch over threads):
@@ -92,6 +112,8 @@ def ev_run_one(sy, y0, p, tab, md, tl, lim, lg, y_out):
     """One run from t = 0 to tl[TL_T_END] in the mode ``md`` (every constraint engaged and
     sticking), the events into ``lg``: (t reached, status ST_*, events logged, steps);
     y_out the state at t. tl[TL_BLOW_UP] is a factor of 1 + max |y0| here."""
+    sy, tab, md, lg = borrowed_record(sy), borrowed_tables(tab), borrowed_mode(md), borrowed_log(lg)
+    y0, p, tl, lim, y_out = borrowed(y0), borrowed(p), borrowed(tl), borrowed(lim), borrowed(y_out)
     kinds, imode, fmode = md
     N = y0.shape[0]
     m = kinds.shape[1]
@@ -316,6 +338,10 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
     last accepted state, from which the simulator takes over. Without lim[LM_IMPACTS]
     every located contact returns ST_CONTACT. fo[FO_MOVED]: the largest projection;
     io[IO_EVALUATIONS]: right-hand sides; tl[TL_BLOW_UP]: the size of a blow-up."""
+    sy, tab, md, lg = borrowed_record(sy), borrowed_tables(tab), borrowed_mode(md), borrowed_log(lg)
+    p, tl, lim, y = borrowed(p), borrowed(tl), borrowed(lim), borrowed(y)
+    io, fo = borrowed(io), borrowed(fo)
+    smp = (borrowed(smp[0]), borrowed(smp[1]), borrowed(smp[2]), borrowed(smp[3]))
     kinds, imode, fmode = md
     TS = smp[0]
     t = fo[FO_T]

@@ -7,7 +7,8 @@ batch's).
 import numpy as np
 
 from ...linalg import gauss_inplace
-from .kkt import batch_solve, constraints, dynamics
+from .codes import borrowed
+from .kkt import batch_solve, borrowed_record, constraints, dynamics
 
 PROJECTION_ITERATIONS = 6
 """Gauss-Newton iterations at most per position projection (it converges quadratically:
@@ -222,5 +223,6 @@ def ev_consistent(sy, q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
 
 def ev_starts(sy, Q, V, P, hold_q, hold_v, value_q, value_v, kinds, tol):
     """:func:`ev_consistent` for every row of Q, V (parameters P), in place."""
+    sy, Q, V, P, kinds = borrowed_record(sy), borrowed(Q), borrowed(V), borrowed(P), borrowed(kinds)
     for b in range(Q.shape[0]):
         ev_consistent(sy, Q[b], V[b], P[b], hold_q, hold_v, value_q, value_v, kinds, tol)
