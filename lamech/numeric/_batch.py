@@ -88,6 +88,11 @@ def _python_namespace(ns: NumericSystem) -> dict:
     namespace = python_namespace()
     namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
     namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
+
+    def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out):
+        out[:] = ns.rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
+
+    namespace["rhs_into"] = rhs_into
     namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
     namespace["gauss_inplace"] = _gauss_lapack
     arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)

@@ -10,7 +10,7 @@ and ``tl`` the tolerances (:mod:`.codes`).
 import numpy as np
 
 from .codes import TL_ATOL, TL_MAX_STEP, TL_RTOL, borrowed
-from .kkt import borrowed_act, rhs_kernel
+from .kkt import borrowed_act, rhs_into, rhs_kernel
 
 STAGES = 12
 """DOP853's number of stages (checked against SciPy's table in :mod:`.._batch`)."""
@@ -133,10 +133,10 @@ def dop853_trial(sy, t, y, f, h, p, act, tl, tab, K, ynew):
     for s in range(1, STAGES):
         combine(dy, A[s], K, s, True)
         advance(ys, y, h, dy)
-        K[s] = rhs_kernel(sy, t + C[s] * h, ys, p, rows, slip_j, slip_k, slip_c)
+        rhs_into(sy, t + C[s] * h, ys, p, rows, slip_j, slip_k, slip_c, K[s])
     combine(dy, B, K, STAGES, False)
     advance(ynew, y, h, dy)
-    K[STAGES] = rhs_kernel(sy, t + h, ynew, p, rows, slip_j, slip_k, slip_c)
+    rhs_into(sy, t + h, ynew, p, rows, slip_j, slip_k, slip_c, K[STAGES])
     err3 = np.empty(N)
     combine(dy, E5, K, STAGES + 1, False)
     combine(err3, E3, K, STAGES + 1, False)
@@ -225,7 +225,10 @@ def ev_dense(s, dn):
 
 
 def ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F):
-    """The step's dense output into F: the 3 more stages of scipy's _dense_output_impl."""
+    """The step's dense output into F: the 3 more stages of scipy's _dense_output_impl
+    (the arguments borrowed, as :func:`dop853_trial`)."""
+    y, ynew, p, K, F = borrowed(y), borrowed(ynew), borrowed(p), borrowed(K), borrowed(F)
+    act = borrowed_act(act)
     AX, CX, D = tab[5], tab[6], tab[7]
     N = y.shape[0]
     dy = np.empty(N)
@@ -233,8 +236,7 @@ def ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F):
     for s in range(STAGES + 1, D.shape[1]):
         combine(dy, AX[s - STAGES - 1], K, s, True)
         advance(ys, y, h, dy)
-        K[s] = rhs_kernel(sy, t + CX[s - STAGES - 1] * h, ys, p, act[0], act[2], act[3],
-                          act[4])  # fmt: skip
+        rhs_into(sy, t + CX[s - STAGES - 1] * h, ys, p, act[0], act[2], act[3], act[4], K[s])
     dense_rows(F, y, ynew, h, K, D, dy)
 
 

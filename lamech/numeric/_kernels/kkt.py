@@ -24,7 +24,7 @@ import numpy as np
 from ...linalg import cholesky_inplace, gauss_inplace
 from .codes import borrowed
 
-INLINE = ("dynamics", "dynamics_sparse", "kkt_state", "rhs_kernel")
+INLINE = ("dynamics", "dynamics_sparse", "kkt_state", "rhs_into", "rhs_kernel")
 """Inlined where they are called, compiled (:data:`.INLINE`): the right-hand side's calls."""
 
 
@@ -256,17 +256,23 @@ def kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c):
     return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
 
 
-def rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c):
-    """y' = [v; q''] on a mode's active rows."""
+def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out):
+    """y' = [v; q''] on a mode's active rows, into ``out`` (a DOP853 stage's row: no array
+    made for it, 13 times a step)."""
     n = y.shape[0] // 2
     yc = y.copy()  # q and v contiguous, whatever y is: one copy
     q = yc[:n]
     v = yc[n:]
     sol = kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c)
-    out = np.empty(2 * n)
     for i in range(n):
         out[i] = v[i]
         out[n + i] = sol[i]
+
+
+def rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c):
+    """y' = [v; q''] on a mode's active rows (:func:`rhs_into`)."""
+    out = np.empty(y.shape[0])
+    rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out)
     return out
 
 
