@@ -424,7 +424,7 @@ def _of_parameters(syms: list, expr):
         line = printer.doprint(expr.xreplace(dict(zip(syms, map(sp.Symbol, names)))))
     except Exception:  # noqa: BLE001 - any printer failure: lambdify decides
         line = ""
-    if not line or getattr(printer, "_not_supported", ()) or "\n" in line:
+    if not line or getattr(printer, "_not_supported", None) or "\n" in line:
         return sp.lambdify(syms, expr, "numpy")
     namespace: dict = {"numpy": np}
     exec(f"def f({', '.join(names)}):\n    return {line}\n", namespace)  # noqa: S102
