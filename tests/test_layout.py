@@ -177,10 +177,11 @@ def _stepper(rate: float):
     ns = python_namespace()
     ns["rhs_kernel"] = lambda sy, t, y, p, rows, sj, sk, sc: -rate * y
 
-    def rhs_into(sy, t, y, p, rows, sj, sk, sc, out):  # a stage's row
+    def rhs_into(sy, t, y, p, rows, sj, sk, sc, out, work, iwork):  # a stage's row
         out[:] = -rate * y
 
     ns["rhs_into"] = rhs_into
+    ns["rhs_space"] = lambda sy, N: (0, 0)  # no system: no space for its solve
     return ns
 
 

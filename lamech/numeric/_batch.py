@@ -89,7 +89,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
     namespace["kkt_solve"] = lambda sy, *args: ns.kkt_solve(*args)
     namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
 
-    def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out):
+    def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork):
         out[:] = ns.rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
 
     namespace["rhs_into"] = rhs_into

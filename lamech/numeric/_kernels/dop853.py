@@ -10,7 +10,7 @@ and ``tl`` the tolerances (:mod:`.codes`).
 import numpy as np
 
 from .codes import TL_ATOL, TL_MAX_STEP, TL_RTOL, borrowed
-from .kkt import borrowed_act, rhs_into, rhs_kernel
+from .kkt import borrowed_act, rhs_into, rhs_kernel, rhs_space
 
 STAGES = 12
 """DOP853's number of stages (checked against SciPy's table in :mod:`.._batch`)."""
@@ -128,16 +128,19 @@ def dop853_trial(sy, t, y, f, h, p, act, tl, tab, K, ynew):
     rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
     N = y.shape[0]
     K[0] = f
-    dy = np.empty(N)
-    ys = np.empty(N)
+    floats, ints = rhs_space(sy, N)
+    # dy, ys, err3 and the right-hand sides' space in one array; the space is borrowed:
+    # err3, a view of the same array, keeps it alive to the end
+    space = np.empty(3 * N + floats)
+    dy, ys, err3 = space[:N], space[N : 2 * N], space[2 * N : 3 * N]
+    work, iwork = borrowed(space[3 * N :]), np.empty(ints, dtype=np.int64)
     for s in range(1, STAGES):
         combine(dy, A[s], K, s, True)
         advance(ys, y, h, dy)
-        rhs_into(sy, t + C[s] * h, ys, p, rows, slip_j, slip_k, slip_c, K[s])
+        rhs_into(sy, t + C[s] * h, ys, p, rows, slip_j, slip_k, slip_c, K[s], work, iwork)
     combine(dy, B, K, STAGES, False)
     advance(ynew, y, h, dy)
-    rhs_into(sy, t + h, ynew, p, rows, slip_j, slip_k, slip_c, K[STAGES])
-    err3 = np.empty(N)
+    rhs_into(sy, t + h, ynew, p, rows, slip_j, slip_k, slip_c, K[STAGES], work, iwork)
     combine(dy, E5, K, STAGES + 1, False)
     combine(err3, E3, K, STAGES + 1, False)
     return error_norm(y, ynew, dy, err3, h, tl[TL_RTOL], tl[TL_ATOL])
@@ -231,12 +234,15 @@ def ev_dense_stages(sy, t, y, ynew, h, p, act, tab, K, F):
     act = borrowed_act(act)
     AX, CX, D = tab[5], tab[6], tab[7]
     N = y.shape[0]
-    dy = np.empty(N)
-    ys = np.empty(N)
+    floats, ints = rhs_space(sy, N)
+    space = np.empty(2 * N + floats)  # as in dop853_trial: dy, used last, keeps it alive
+    dy, ys = space[:N], space[N : 2 * N]
+    work, iwork = borrowed(space[2 * N :]), np.empty(ints, dtype=np.int64)
     for s in range(STAGES + 1, D.shape[1]):
         combine(dy, AX[s - STAGES - 1], K, s, True)
         advance(ys, y, h, dy)
-        rhs_into(sy, t + CX[s - STAGES - 1] * h, ys, p, act[0], act[2], act[3], act[4], K[s])
+        rhs_into(sy, t + CX[s - STAGES - 1] * h, ys, p, act[0], act[2], act[3], act[4], K[s],
+                 work, iwork)  # fmt: skip
     dense_rows(F, y, ynew, h, K, D, dy)
 
 

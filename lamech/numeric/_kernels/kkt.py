@@ -24,7 +24,9 @@ import numpy as np
 from ...linalg import cholesky_inplace, gauss_inplace
 from .codes import borrowed
 
-INLINE = ("dynamics", "dynamics_sparse", "kkt_state", "rhs_into", "rhs_kernel")
+INLINE = (
+    "dynamics", "dynamics_sparse", "dynamics_sparse_in", "kkt_state", "rhs_into", "rhs_kernel",
+)  # fmt: skip
 """Inlined where they are called, compiled (:data:`.INLINE`): the right-hand side's calls."""
 
 
@@ -59,12 +61,18 @@ def dynamics(sy, t, q, v, p):
 
 def dynamics_sparse(sy, t, q, v, p):
     """(diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)."""
+    n, m = q.shape[0], sy[1].shape[0] - 1
+    return dynamics_sparse_in(sy, t, q, v, p, np.empty(2 * n + sy[1][m] + 2 * m))
+
+
+def dynamics_sparse_in(sy, t, q, v, p, buf):
+    """:func:`dynamics_sparse`; where the functions are C, the five arrays are views into
+    ``buf`` (2n + nnz(A) + 2m long, zeroed here): allocations were a quarter of a compiled
+    step, and this runs 13 times a step (perf, 2026-11-27)."""
     if sy[12]:
         n, m = q.shape[0], sy[1].shape[0] - 1
-        # the five arrays are views into one: allocations were a quarter of a compiled
-        # step, this one runs 13 times a step (perf, 2026-11-27)
         z = sy[1][m]
-        buf = np.zeros(2 * n + z + 2 * m)
+        buf[:] = 0.0
         Md, rhs, Av = buf[:n], buf[n : 2 * n], buf[2 * n : 2 * n + z]
         gam, mu = buf[2 * n + z : 2 * n + z + m], buf[2 * n + z + m :]
         sy[7](t, q.ctypes.data, v.ctypes.data, p.ctypes.data, Md.ctypes.data,
@@ -167,17 +175,28 @@ def kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
     """The Schur complement over the structural nonzeros: M's diagonal ``Md`` and A's
     nonzeros ``Av`` (by row: PTR, IDX; by column: CPTR, CROW, and CPOS their positions
     in Av). Nothing of size n x n or m x n is formed, unless a zero M_ii or dependent rows
-    send it to the full KKT matrix. Runs 13 times a step: its arguments are borrowed
-    (:func:`.codes.borrowed`; the caller holds them)."""
+    send it to the full KKT matrix. (:func:`kkt_schur_sparse_in`, its space made here.)"""
+    n, m = rhs.shape[0], sy[1].shape[0] - 1
+    work, iwork = np.empty(2 * n + 2 * m), np.empty(m, dtype=np.int64)
+    return kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c, work,
+                               iwork)  # fmt: skip
+
+
+def kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c, work, iwork):
+    """:func:`kkt_schur_sparse` in the space ``work`` (2n + 2m floats) and ``iwork`` (m
+    integers): M's inverse, the solution (returned: a view into ``work``) and lambda's
+    right-hand side there, each row's position among the active ones in ``iwork``. Runs
+    13 times a step: its arguments are borrowed (:func:`.codes.borrowed`; the caller
+    holds them)."""
     Md, rhs, Av, gam, mu = borrowed(Md), borrowed(rhs), borrowed(Av), borrowed(gam), borrowed(mu)
     rows, slip_j = borrowed(rows), borrowed(slip_j)
     slip_k, slip_c = borrowed(slip_k), borrowed(slip_c)
+    work, iwork = borrowed(work), borrowed(iwork)
     PTR, IDX, CPTR, CROW, CPOS = sy[1], sy[2], sy[3], sy[4], sy[5]
     n = rhs.shape[0]
     m = PTR.shape[0] - 1
     na = rows.shape[0]
-    scratch = np.empty(n + na)  # minv, then r: one allocation
-    minv = scratch[:n]
+    minv = work[:n]
     positive = True
     for i in range(n):
         if Md[i] == 0.0:
@@ -185,18 +204,19 @@ def kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
             return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
         minv[i] = 1.0 / Md[i]
         positive = positive and Md[i] > 0.0
-    out = np.empty(n + na)
+    out = work[n : 2 * n + na]
     for i in range(n):
         out[i] = rhs[i]
     if na == 0:
         for i in range(n):
             out[i] *= minv[i]
         return out
-    pos = np.full(m, -1)  # position of each constraint among the rows
+    pos = iwork  # position of each constraint among the rows
+    pos[:] = -1
     for a in range(na):
         pos[rows[a]] = a
     S = np.zeros((na, na))
-    r = scratch[n:]
+    r = work[2 * n + m : 2 * n + m + na]
     for a in range(na):
         j = rows[a]
         acc = -gam[j]
@@ -256,14 +276,31 @@ def kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c):
     return kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
 
 
-def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out):
-    """y' = [v; q''] on a mode's active rows, into ``out`` (a DOP853 stage's row: no array
-    made for it, 13 times a step)."""
-    n = y.shape[0] // 2
-    yc = y.copy()  # q and v contiguous, whatever y is: one copy
+def rhs_space(sy, N):
+    """(floats, integers) of the space :func:`rhs_into` works in for a state of size N."""
+    n, m = N // 2, sy[1].shape[0] - 1
+    return N + 2 * n + sy[1][m] + 2 * m + 2 * n + 2 * m, m
+
+
+def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork):
+    """y' = [v; q''] on a mode's active rows, into ``out`` (a DOP853 stage's row), in the
+    space ``work``, ``iwork`` (:func:`rhs_space`; a step's 13 right-hand sides make no
+    array where the system's functions are C and M is diagonal)."""
+    N = y.shape[0]
+    n = N // 2
+    yc = work[:N]  # q and v contiguous, whatever y is
+    yc[:] = y
     q = yc[:n]
     v = yc[n:]
-    sol = kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c)
+    if sy[0]:
+        m = sy[1].shape[0] - 1
+        end = N + 2 * n + sy[1][m] + 2 * m
+        Md, rhs, Av, gam, mu = dynamics_sparse_in(sy, t, q, v, p, work[N:end])
+        sol = kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c,
+                                  work[end:], iwork)  # fmt: skip
+    else:
+        M, rhs, A, gam, mu = dynamics(sy, t, q, v, p)
+        sol = kkt_dense(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c)
     for i in range(n):
         out[i] = v[i]
         out[n + i] = sol[i]
@@ -272,7 +309,9 @@ def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out):
 def rhs_kernel(sy, t, y, p, rows, slip_j, slip_k, slip_c):
     """y' = [v; q''] on a mode's active rows (:func:`rhs_into`)."""
     out = np.empty(y.shape[0])
-    rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out)
+    floats, ints = rhs_space(sy, y.shape[0])
+    work, iwork = np.empty(floats), np.empty(ints, dtype=np.int64)
+    rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork)
     return out
 
 
