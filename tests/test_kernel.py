@@ -173,3 +173,21 @@ def test_a_borrowed_array_is_the_same_array_without_numbas_count():
     assert got_a[0] == 5.0 and np.array_equal(got_a, want_a)  # written into the caller's
     with pytest.raises(numba.TypingError):
         numba.njit(lambda x: borrowed(x))(1.0)
+
+
+@pytest.mark.slow
+@pytest.mark.shared_cache
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_an_array_the_compiled_solve_returns_stays_its_own():
+    """The compiled Schur solve works in a space it makes, borrowed where a DOP853 trial
+    lends it; the solution it returns to Python must keep its memory: later solves, which
+    make and free spaces of the same size, do not change it."""
+    ns = compile_system(lamech.load("cylinder"), jit=True)
+    assert ns.mass_diagonal
+    p = ns.parameter_vector()
+    y = np.array([3.0, 0.01, 0.0, 0.0, 0.0, 0.0])[: 2 * ns.n]
+    first = ns.accelerations(0.0, y, p)
+    kept = first.copy()
+    others = [ns.accelerations(0.0, y * (1.0 + 1e-2 * k), p) for k in range(1, 200)]
+    assert np.array_equal(first, kept)
+    assert not np.array_equal(others[-1], kept)  # the later solves differ: a real test

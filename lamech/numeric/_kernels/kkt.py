@@ -187,11 +187,13 @@ def kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c, 
     integers): M's inverse, the solution (returned: a view into ``work``) and lambda's
     right-hand side there, each row's position among the active ones in ``iwork``. Runs
     13 times a step: its arguments are borrowed (:func:`.codes.borrowed`; the caller
-    holds them)."""
+    holds them), but not ``work``, a view of which it returns: where the caller made
+    ``work`` (:func:`kkt_schur_sparse`), the view keeps it alive; where the caller lent
+    it borrowed (a DOP853 trial's space), the view is borrowed too."""
     Md, rhs, Av, gam, mu = borrowed(Md), borrowed(rhs), borrowed(Av), borrowed(gam), borrowed(mu)
     rows, slip_j = borrowed(rows), borrowed(slip_j)
     slip_k, slip_c = borrowed(slip_k), borrowed(slip_c)
-    work, iwork = borrowed(work), borrowed(iwork)
+    iwork = borrowed(iwork)
     PTR, IDX, CPTR, CROW, CPOS = sy[1], sy[2], sy[3], sy[4], sy[5]
     n = rhs.shape[0]
     m = PTR.shape[0] - 1
