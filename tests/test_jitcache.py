@@ -259,3 +259,17 @@ def test_a_second_process_waits_for_the_first_ones_compile_of_the_loop(tmp_path,
     t0 = time.monotonic()
     with compile_lock("engine_probe"):
         assert time.monotonic() - t0 < 1.0
+
+
+def test_the_loops_key_follows_the_intrinsics_it_is_compiled_with():
+    """The loop is compiled with the intrinsics of ``lamech/numeric/_fnptr.py``
+    (``borrowed``, the function casts), which numba's cache does not watch: their text's
+    hash is in the engine's text, so a changed intrinsic gets a new cache key."""
+    import hashlib
+    from pathlib import Path
+
+    import lamech.numeric
+    from lamech.numeric._jitcache import engine_text
+
+    path = Path(lamech.numeric.__file__).with_name("_fnptr.py")
+    assert hashlib.sha256(path.read_bytes()).hexdigest()[:16] in engine_text()

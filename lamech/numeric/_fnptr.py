@@ -87,9 +87,12 @@ def borrowed(typingctx, a):
     """The array ``a`` with no meminfo: the same data, shape and strides, but numba's
     reference counts on it (an atomic add and subtract at every call that passes it, about
     10 ns each) become a test for NULL. Only for arrays whose owner outlives every use of
-    the view (an entry point's arguments, held by its caller for the call); never for an
-    array the function made itself, nor one it returns. The loop's Python twin is the
-    identity (:func:`lamech.numeric._kernels.codes.borrowed`)."""
+    the view: a function's arguments (its caller holds them for the call), or a view of
+    an array the function made while another view of that array is used later (numba
+    frees a variable after its last use: a DOP853 trial's ``err3`` keeps its space
+    alive). Never returned, nor kept past the call. The loop's Python twin is the
+    identity (:func:`lamech.numeric._kernels.codes.borrowed`). A change here changes the
+    loop's cache key (:func:`._jitcache.engine_text`)."""
     if not isinstance(a, types.Array):
         return None
 

@@ -110,6 +110,7 @@ def engine_text() -> str:
             "",
             # in the text, so that the cache's key changes with the set
             f"# inlined by numba: {', '.join(sorted(INLINE))}",
+            f"# the intrinsics (lamech/numeric/_fnptr.py): {_intrinsics_digest()}",
             f"STAGES = {STAGES!r}",
             f"PROJECTION_ITERATIONS = {PROJECTION_ITERATIONS!r}",
             "",
@@ -117,6 +118,14 @@ def engine_text() -> str:
             _compiled_accessors(kernel_text()),
         ]
     )
+
+
+def _intrinsics_digest() -> str:
+    """A hash of :mod:`._fnptr`'s text, read as a file (importing it imports numba): the
+    intrinsics the loop is compiled with (``borrowed``, the function casts) live there,
+    not in the engine's text, and numba's cache watches only the engine's own file; a
+    changed intrinsic must not load machine code compiled with the old one."""
+    return hashlib.sha256(Path(__file__).with_name("_fnptr.py").read_bytes()).hexdigest()[:16]
 
 
 _ACCESSORS = {
