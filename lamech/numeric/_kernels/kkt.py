@@ -25,7 +25,8 @@ from ...linalg import cholesky_inplace, gauss_inplace
 from .codes import borrowed
 
 INLINE = (
-    "dynamics", "dynamics_sparse", "dynamics_sparse_in", "kkt_state", "rhs_into", "rhs_kernel",
+    "dynamics", "dynamics_sparse", "dynamics_sparse_in", "dynamics_space", "kkt_state",
+    "rhs_into", "rhs_kernel", "schur_space",
 )  # fmt: skip
 """Inlined where they are called, compiled (:data:`.INLINE`): the right-hand side's calls."""
 
@@ -61,8 +62,14 @@ def dynamics(sy, t, q, v, p):
 
 def dynamics_sparse(sy, t, q, v, p):
     """(diagonal of M, rhs, A's nonzeros in CSR order, gamma, mu)."""
-    n, m = q.shape[0], sy[1].shape[0] - 1
-    return dynamics_sparse_in(sy, t, q, v, p, np.empty(2 * n + sy[1][m] + 2 * m))
+    return dynamics_sparse_in(sy, t, q, v, p, np.empty(dynamics_space(sy, q.shape[0])))
+
+
+def dynamics_space(sy, n):
+    """The floats :func:`dynamics_sparse_in` fills for n coordinates: 2n + nnz(A) + 2m
+    (the one place that says so: numba does not check the bounds of a view)."""
+    m = sy[1].shape[0] - 1
+    return 2 * n + sy[1][m] + 2 * m
 
 
 def dynamics_sparse_in(sy, t, q, v, p, buf):
@@ -176,10 +183,15 @@ def kkt_schur_sparse(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c):
     nonzeros ``Av`` (by row: PTR, IDX; by column: CPTR, CROW, and CPOS their positions
     in Av). Nothing of size n x n or m x n is formed, unless a zero M_ii or dependent rows
     send it to the full KKT matrix. (:func:`kkt_schur_sparse_in`, its space made here.)"""
-    n, m = rhs.shape[0], sy[1].shape[0] - 1
-    work, iwork = np.empty(2 * n + 2 * m), np.empty(m, dtype=np.int64)
+    m = sy[1].shape[0] - 1
+    work, iwork = np.empty(schur_space(sy, rhs.shape[0])), np.empty(m, dtype=np.int64)
     return kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c, work,
                                iwork)  # fmt: skip
+
+
+def schur_space(sy, n):
+    """The floats :func:`kkt_schur_sparse_in` works in for n coordinates: 2n + 2m."""
+    return 2 * n + 2 * (sy[1].shape[0] - 1)
 
 
 def kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c, work, iwork):
@@ -280,8 +292,8 @@ def kkt_state(sy, t, q, v, p, rows, slip_j, slip_k, slip_c):
 
 def rhs_space(sy, N):
     """(floats, integers) of the space :func:`rhs_into` works in for a state of size N."""
-    n, m = N // 2, sy[1].shape[0] - 1
-    return N + 2 * n + sy[1][m] + 2 * m + 2 * n + 2 * m, m
+    n = N // 2
+    return N + dynamics_space(sy, n) + schur_space(sy, n), sy[1].shape[0] - 1
 
 
 def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork):
@@ -295,8 +307,7 @@ def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork):
     q = yc[:n]
     v = yc[n:]
     if sy[0]:
-        m = sy[1].shape[0] - 1
-        end = N + 2 * n + sy[1][m] + 2 * m
+        end = N + dynamics_space(sy, n)
         Md, rhs, Av, gam, mu = dynamics_sparse_in(sy, t, q, v, p, work[N:end])
         sol = kkt_schur_sparse_in(sy, Md, rhs, Av, gam, mu, rows, slip_j, slip_k, slip_c,
                                   work[end:], iwork)  # fmt: skip
