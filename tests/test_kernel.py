@@ -117,7 +117,11 @@ def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
     coef[[2, 5]] = 0.0  # terms a skip leaves out
     h = 0.0137
     # every twin is tried below: a new one needs its case here
-    assert set(pairs) == {"combine", "advance", "error_norm", "dense_into", "dense_rows"}
+    exact = {"combine", "advance", "error_norm", "dense_into", "dense_rows", "max_abs"}
+    exact |= {"max_abs_diff", "all_finite", "any_nonzero", "rms_scaled", "rms_diff_scaled"}
+    exact |= {"diagonal_weights"}
+    rounding = {"a_bt", "at_v", "a_v"}  # BLAS as Python (the same sums, in another order)
+    assert set(pairs) == exact | rounding
 
     def both(name, *args, out=None):
         loop, twin = pairs[name]
@@ -127,7 +131,7 @@ def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
         if out is not None:
             assert np.array_equal(a[out], b[out]), name
         if ra is not None or rb is not None:
-            assert np.array_equal(ra, rb), name
+            assert np.array_equal(ra, rb, equal_nan=True), name
         return ra
 
     for skip in (True, False):
@@ -138,6 +142,30 @@ def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
     F = rng.normal(size=(7, n))
     both("dense_into", 0.3, (0.25, 0.1, y, F), np.zeros(n), out=2)
     both("dense_rows", np.zeros((7, n)), y, ynew, h, K, D, np.zeros(n), out=0)
+    # the small array operations (arrays.py)
+    for x in (y, K, y * np.inf, np.where(np.arange(n) == n // 2, np.nan, y), np.zeros(0)):
+        both("max_abs", x)
+        both("all_finite", x)
+    both("max_abs_diff", y, ynew)
+    both("max_abs_diff", y, np.where(np.arange(n) == 0, np.nan, ynew))
+    for x in (y, np.zeros(n), np.where(np.arange(n) == n - 1, 1e-300, 0.0)):
+        both("any_nonzero", x)
+    scale = 1e-9 + np.abs(y) * 1e-6
+    both("rms_scaled", y, scale)
+    both("rms_diff_scaled", ynew, y, scale)
+    coupled = np.diag(np.abs(y) + 0.5) + np.diag(np.full(n - 1, 1e-3), 1)  # diagonal at n = 1
+    for W in (np.diag(np.abs(y) + 0.5), np.diag(y), coupled):
+        both("diagonal_weights", W)
+    A = np.where(rng.random((3, n)) < 0.3, rng.normal(size=(3, n)), 0.0)
+    B = rng.normal(size=(4, n))
+    for name, args in (
+        ("a_bt", (A, B)),
+        ("a_bt", (A, A)),
+        ("at_v", (A, rng.normal(size=3))),
+        ("a_v", (B, y)),
+    ):
+        loop, twin = pairs[name]
+        assert np.allclose(loop(*args), twin(*args), rtol=1e-13, atol=1e-300), name
 
 
 def _through(sy, a):
@@ -191,3 +219,34 @@ def test_an_array_the_compiled_solve_returns_stays_its_own():
     others = [ns.accelerations(0.0, y * (1.0 + 1e-2 * k), p) for k in range(1, 200)]
     assert np.array_equal(first, kept)
     assert not np.array_equal(others[-1], kept)  # the later solves differ: a real test
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba is not installed")
+def test_the_small_array_operations_compiled_give_their_twins_numbers():
+    """arrays.py's loops as numba compiles them into the loop (not numba's own np.max,
+    np.all, np.mean or @, whose modules import scipy.linalg as the loop loads): the
+    twins' numbers, exactly (the products to rounding), NaN, inf and empty arrays too."""
+    import numba
+
+    from lamech.numeric._kernels import arrays
+
+    rng = np.random.default_rng(7)
+    y, ynew = rng.normal(size=9), rng.normal(size=9)
+    nan_at_4 = np.where(np.arange(9) == 4, np.nan, y)
+    cases = [
+        ("max_abs", (y,)), ("max_abs", (nan_at_4,)), ("max_abs", (rng.normal(size=(3, 4)),)),
+        ("max_abs", (np.zeros(0),)), ("max_abs_diff", (y, ynew)), ("max_abs_diff", (nan_at_4, y)),
+        ("all_finite", (y,)), ("all_finite", (y / 0.0,)), ("all_finite", (nan_at_4,)),
+        ("any_nonzero", (np.zeros(9),)), ("any_nonzero", (np.where(np.arange(9) == 8, 1.0, 0.0),)),
+        ("rms_scaled", (y, 1e-9 + np.abs(ynew))), ("rms_diff_scaled", (y, ynew, 0.5 + ynew**2)),
+        ("diagonal_weights", (np.diag(1.0 + y**2),)), ("diagonal_weights", (np.diag(y),)),
+        ("diagonal_weights", (np.diag(1.0 + y**2) + np.diag(np.ones(8), -1),)),
+    ]  # fmt: skip
+    for name, args in cases:
+        got = numba.njit(getattr(arrays, name))(*args)
+        want = arrays.PYTHON[name](*args)
+        assert np.array_equal(got, want, equal_nan=True), (name, got, want)
+    A = np.where(rng.random((4, 9)) < 0.3, rng.normal(size=(4, 9)), 0.0)
+    for name, args in (("a_bt", (A, A)), ("at_v", (A, y[:4])), ("a_v", (A, y))):
+        got = numba.njit(getattr(arrays, name))(*args)
+        assert np.allclose(got, arrays.PYTHON[name](*args), rtol=1e-14, atol=1e-300), name

@@ -62,3 +62,43 @@ def test_main_called_from_python_leaves_the_process_alone(capsys):
     assert gc.get_freeze_count() == before
     assert os.environ.get("OPENBLAS_NUM_THREADS") == blas
     assert "cylinder" in capsys.readouterr().out
+
+
+_WHAT_LOADS = """
+import json, sys
+sys.argv = ["lamech", "simulate", "cylinder", "--initial", "theta1=0.01", "--t-end", "0.5",
+            "--engine", sys.argv[1]]
+from lamech.cli import main
+status = main()
+print(json.dumps([status] + [m in sys.modules for m in sys.argv[2:]]))
+"""
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_run_on_the_loop_does_not_load_scipys_linear_algebra(engine, compiled_loop_in, tmp_path):
+    """Neither the loop run as Python (NumPy's BLAS) nor the compiled loop (its products
+    and reductions are loops: numba's own ``np.max``, ``np.all`` and ``@`` live in modules
+    that import scipy.linalg as the cached machine code is loaded) needs SciPy's linear
+    algebra, whose import cost 0.2 s of CPU per process; the BLAS threads are limited
+    without it."""
+    if engine == "compiled":
+        compiled_loop_in(tmp_path)
+    environ = {**os.environ, "LAMECH_CACHE_DIR": str(tmp_path)}
+    modules = ["scipy.linalg", "numba.np.arraymath", "numba.np.linalg", "numba"]
+    out = subprocess.run(
+        [sys.executable, "-c", _WHAT_LOADS, engine, *modules],
+        env=environ,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=True,
+    ).stdout
+    status, *loaded = json.loads(out.strip().splitlines()[-1])
+    assert status == 0
+    assert ("engine: loop (Python)" in out) == (engine == "python")
+    assert dict(zip(modules, loaded)) == {
+        "scipy.linalg": False,
+        "numba.np.arraymath": False,
+        "numba.np.linalg": False,
+        "numba": engine == "compiled",
+    }

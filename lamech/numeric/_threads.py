@@ -21,13 +21,18 @@ runs end in another order than they began. threadpoolctl (3.8 on) lets only one 
 thread change OpenBLAS's process-wide limit and ignores the others silently; lamech's
 changes are serialised by a lock, and each is made after releasing that control.
 
-threadpoolctl is imported on first use (``lamech --help`` stays light) and its scan of
-the loaded libraries is made once (1.5 ms; setting a limit then costs microseconds): a
-BLAS loaded later by something other than NumPy and SciPy is not limited.
+threadpoolctl is imported on first use (``lamech --help`` stays light) and scans the
+libraries loaded then (1.5 ms; setting a limit then costs microseconds); it scans again
+if SciPy's linear algebra (with its own OpenBLAS) has been loaded since. lamech does not
+load SciPy's linear algebra for this: neither the compiled loop (its products are loops,
+:mod:`._kernels.arrays`) nor the loop run as Python (NumPy's BLAS) uses it, and importing
+it cost 0.2 s of CPU per process (measured 2026-11-27). A BLAS loaded later by something
+other than NumPy and SciPy is not limited.
 """
 
 from __future__ import annotations
 
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -35,7 +40,7 @@ from contextlib import contextmanager
 __all__ = ["one_blas_thread"]
 
 _lock = threading.Lock()
-_shared: dict = {"depth": 0, "saved": [], "controller": None}
+_shared: dict = {"depth": 0, "saved": [], "controller": None, "scipy_blas": False}
 
 
 @contextmanager
@@ -82,12 +87,13 @@ def _set_process_wide(lc, n: int) -> None:
 
 
 def _controller():
-    """threadpoolctl's view of the loaded libraries, made once: after SciPy's linear
-    algebra is loaded, so that its OpenBLAS (used by SciPy and by numba's products) is
-    limited too, not only NumPy's."""
-    if _shared["controller"] is None:
-        import scipy.linalg  # noqa: F401  (loads SciPy's BLAS before the scan)
+    """threadpoolctl's view of the loaded libraries: made on first use, and again once
+    SciPy's linear algebra has been loaded since (its OpenBLAS is another library than
+    NumPy's, used by SciPy's stiff integrators)."""
+    scipy_blas = "scipy.linalg" in sys.modules
+    if _shared["controller"] is None or (scipy_blas and not _shared["scipy_blas"]):
         from threadpoolctl import ThreadpoolController
 
         _shared["controller"] = ThreadpoolController()
+        _shared["scipy_blas"] = scipy_blas
     return _shared["controller"]

@@ -1,6 +1,8 @@
 """The kernels of the hot path, as plain Python that numba compiles: one module a concept.
 
 - :mod:`.codes`: the loop's integer codes (events, friction states, statuses, details);
+- :mod:`.arrays`: small array operations as loops (largest entry, finiteness, products
+  with the constraint matrix);
 - :mod:`.kkt`: the system's functions and the KKT solves, the right-hand sides;
 - :mod:`.dop853`: DOP853's step, its step-size control and dense output (both loops');
 - :mod:`.project`: the projections onto the constraints and the consistent starts;
@@ -26,7 +28,7 @@ import builtins
 import inspect
 import types
 
-from . import batch, codes, dop853, impacts, kkt, loop, modes, project
+from . import arrays, batch, codes, dop853, impacts, kkt, loop, modes, project
 from .dop853 import STAGES
 from .project import PROJECTION_ITERATIONS
 
@@ -40,7 +42,7 @@ __all__ = [
     "MODULES",
 ]
 
-MODULES = (kkt, dop853, project, modes, impacts, loop, batch)
+MODULES = (arrays, kkt, dop853, project, modes, impacts, loop, batch)
 """The kernels' modules, in the order their text is compiled."""
 
 SYSTEM_FIELDS = (

@@ -9,6 +9,7 @@ and ``tl`` the tolerances (:mod:`.codes`).
 
 import numpy as np
 
+from .arrays import rms_diff_scaled, rms_scaled
 from .codes import TL_ATOL, TL_MAX_STEP, TL_RTOL, borrowed
 from .kkt import borrowed_act, rhs_into, rhs_kernel, rhs_space
 
@@ -191,12 +192,12 @@ def ev_first_step(sy, t, y, f, p, act, t_end, tl):
     if interval == 0.0:
         return 0.0
     scale = atol + np.abs(y) * rtol
-    d0 = np.sqrt(np.mean((y / scale) ** 2))
-    d1 = np.sqrt(np.mean((f / scale) ** 2))
+    d0 = rms_scaled(y, scale)
+    d1 = rms_scaled(f, scale)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, interval)
     f1 = rhs_kernel(sy, t + h0, y + h0 * f, p, act[0], act[2], act[3], act[4])
-    d2 = np.sqrt(np.mean(((f1 - f) / scale) ** 2)) / h0
+    d2 = rms_diff_scaled(f1, f, scale) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:

@@ -6,6 +6,7 @@ bounces' time to rest, whose contact is logged at that time).
 import numpy as np
 
 from ...linalg import gauss_inplace
+from .arrays import all_finite
 from .codes import (
     DT_ACCUMULATION,
     DT_IMPACT,
@@ -102,7 +103,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
     rows, slip_j, slip_k, slip_c = act[0], act[2], act[3], act[4]
     M, rhs, Ad, gam, mu = dynamics(sy, t, q, v, p)
     qdd = kkt_solve(sy, M, rhs, Ad, gam, mu, rows, slip_j, slip_k, slip_c)[:n].copy()
-    if not np.all(np.isfinite(qdd)):
+    if not all_finite(qdd):
         return nev, ST_CONTACT
     a_gap = gam[j]
     for c in range(n):
@@ -126,7 +127,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
     none_i = np.zeros(0, dtype=np.int64)
     none_f = np.zeros(0)
     vp, imp = ev_impulses(M, A, b, v, mu, act, j, target, frows, (none_i, none_f))
-    if not np.all(np.isfinite(vp)):
+    if not all_finite(vp):
         return nev, ST_CONTACT
     trial = imp.copy()
     ns2 = 0
@@ -150,7 +151,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
             nst += 1
     if ns2 > 0:
         vp, imp = ev_impulses(M, A, b, v, mu, act, j, target, stay, (sj2, sc2))
-        if not np.all(np.isfinite(vp)):
+        if not all_finite(vp):
             return nev, ST_CONTACT
     rest = -1.0
     vb = vp
@@ -164,7 +165,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
         if a_n < 0.0:
             rest = 2.0 * e * abs(Fm) / (-a_n * (1.0 - e))
             vb, imb = ev_impulses(M, A, b, v, mu, act, j, -e * Fm - b[j], none_i, (none_i, none_f))
-            if not np.all(np.isfinite(vb)):
+            if not all_finite(vb):
                 return nev, ST_CONTACT
             ib = imb[j]
     yb = y.copy()

@@ -11,6 +11,7 @@ arrays are described in :mod:`.codes`.
 
 import numpy as np
 
+from .arrays import all_finite, max_abs, max_abs_diff
 from .codes import (
     DT_NONE,
     DT_REVERSAL,
@@ -131,7 +132,7 @@ def ev_run_one(sy, y0, p, tab, md, tl, lim, lg, y_out):
     if ev_all(lg[6], lim[LM_TO_END] == 1):
         return t, ST_FOUND, nev, 0
     bounds = tl.copy()
-    bounds[TL_BLOW_UP] = tl[TL_BLOW_UP] * (1.0 + np.max(np.abs(y)))
+    bounds[TL_BLOW_UP] = tl[TL_BLOW_UP] * (1.0 + max_abs(y))
     smp = (np.zeros(0), np.zeros((0, N)), np.zeros((0, m)), np.zeros((0, 4)))
     io = np.zeros(IO_SIZE, dtype=np.int64)
     fo = np.zeros(FO_SIZE)
@@ -385,7 +386,7 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
         if trials <= 0:
             return t, ST_STEP, nev, steps
         steps += 1
-        big = np.max(np.abs(ynew))
+        big = max_abs(ynew)
         if not np.isfinite(big) or big > tl[TL_BLOW_UP]:
             return t, ST_GROWTH, nev, steps
         yb = ynew.copy()
@@ -482,7 +483,7 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
             ev_sample(sy, TS[k], ys, p, act, fmode[2], k, smp)
             k += 1
         io[IO_NEXT] = k
-        moved = np.max(np.abs(yb - ynew))
+        moved = max_abs_diff(yb, ynew)
         if moved > fo[FO_MOVED]:
             fo[FO_MOVED] = moved
         if ev_arm(sy, t_new, yb, p, watch, md, tl):
@@ -494,7 +495,7 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
         y_out[:] = y
         f = rhs_kernel(sy, t, y, p, act[0], act[2], act[3], act[4])
         io[IO_EVALUATIONS] += 1
-        if not np.all(np.isfinite(f)):
+        if not all_finite(f):
             return t, ST_SINGULAR, nev, steps
         if t >= bound:  # the bounces accumulated: their contacts logged, a fresh start
             nev = ev_accumulated(sy, t, y, p, fmode, lg, nev)

@@ -5,6 +5,7 @@ settling of a mode (a constraint that pulls is released, friction beyond mu N sl
 
 import numpy as np
 
+from .arrays import all_finite, max_abs
 from .codes import (
     DT_INITIAL,
     DT_MULTIPLIER,
@@ -183,7 +184,7 @@ def ev_depth(tl, q):
     through a surface): 10 tl[TL_ARM_POS] (a contact is located at a gap of at most
     that arming distance below zero), or the start's tolerance tl[TL_PEN] (1 + max |q|)
     where that is larger."""
-    return max(tl[TL_PEN] * (1.0 + np.max(np.abs(q))), 10.0 * tl[TL_ARM_POS])
+    return max(tl[TL_PEN] * (1.0 + max_abs(q)), 10.0 * tl[TL_ARM_POS])
 
 
 def ev_lock(sy, t, y, p):
@@ -344,7 +345,7 @@ def ev_start(sy, t, y, p, md, tl, lg, nev):
     n = y.shape[0] // 2
     m = kinds.shape[1]
     f0, A0, b0 = constraints(sy, t, y[:n].copy(), p)
-    tol_q = tl[TL_TOL] * (1.0 + np.max(np.abs(y[:n])))
+    tol_q = tl[TL_TOL] * (1.0 + max_abs(y[:n]))
     F0 = np.empty(m)
     for j in range(m):
         F0[j] = b0[j]
@@ -387,7 +388,7 @@ def ev_settle(sy, t, y, p, md, tl, lg, nev):
         rows = act[0]
         ev_project(sy, t, y, p, rows, act[1], fmode[2])
         qdd, lam, mu = ev_lam(sy, t, y, p, m, act)
-        if not np.all(np.isfinite(qdd)):
+        if not all_finite(qdd):
             return nev, ST_SINGULAR
         scale = 0.0
         for j in range(m):

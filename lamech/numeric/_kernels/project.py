@@ -7,6 +7,16 @@ batch's).
 import numpy as np
 
 from ...linalg import gauss_inplace
+from .arrays import (
+    a_bt,
+    a_v,
+    all_finite,
+    any_nonzero,
+    at_v,
+    diagonal_weights,
+    max_abs,
+    max_abs_diff,
+)
 from .codes import borrowed
 from .kkt import batch_solve, borrowed_record, constraints, dynamics
 
@@ -28,12 +38,12 @@ def ev_correction(W, Ar, r):
     # Written with whole-array operations, not loops over entries: the simulator's own
     # steps (SciPy's integrators) run this as Python at every step, where a loop over
     # the 120-square W of a 60-link chain cost more than the step.
-    d = np.diag(W).copy()
-    if np.all(d > 0.0) and np.count_nonzero(W) == n:
+    d = diagonal_weights(W)
+    if d.shape[0] == n:
         ArW = Ar / d
-        w = batch_solve(ArW @ Ar.T, r)
-        if np.all(np.isfinite(w)):
-            return ArW.T @ w
+        w = batch_solve(a_bt(ArW, Ar), r)
+        if all_finite(w):
+            return at_v(ArW, w)
     K = np.zeros((n + k, n + k))
     x = np.zeros(n + k)
     K[:n, :n] = W
@@ -41,11 +51,11 @@ def ev_correction(W, Ar, r):
     K[n:, :n] = Ar
     x[n:] = r
     gauss_inplace(K, x)
-    if np.all(np.isfinite(x)):
+    if all_finite(x):
         return x[:n].copy()
-    G = Ar @ Ar.T
+    G = a_bt(Ar, Ar)
     w = batch_solve(G, r)
-    return Ar.T @ w
+    return at_v(Ar, w)
 
 
 def ev_project(sy, t, y, p, rows, hrows, offset):
@@ -64,21 +74,21 @@ def ev_project(sy, t, y, p, rows, hrows, offset):
             for a in range(hrows.shape[0]):
                 r[a] = -(f[hrows[a]] - offset[hrows[a]])
                 big = max(big, abs(r[a]))
-            scale = 1.0 + np.max(np.abs(q))
-            if big <= 2e-16 * scale * max(1.0, np.max(np.abs(A))):
+            scale = 1.0 + max_abs(q)
+            if big <= 2e-16 * scale * max(1.0, max_abs(A)):
                 break
             if not have_w:
                 W = dynamics(sy, t, q, v, p)[0]
                 have_w = True
             dq = ev_correction(W, A[hrows], r)
             q += dq
-            if np.max(np.abs(dq)) <= 1e-16 * scale:
+            if max_abs(dq) <= 1e-16 * scale:
                 break
     if rows.shape[0] > 0:
         f, A, b = constraints(sy, t, q, p)
         Ar = A[rows]
-        r = -(Ar @ v + b[rows])
-        if np.any(r != 0.0):
+        r = -(a_v(Ar, v) + b[rows])
+        if any_nonzero(r):
             W = dynamics(sy, t, q, v, p)[0]
             v += ev_correction(W, Ar, r)
     y[:n] = q
@@ -97,16 +107,16 @@ def batch_project(sy, t, y, p):
         big = 0.0
         for j in range(m):
             big = max(big, abs(f[j]))
-        if big <= 1e-15 * (1.0 + np.max(np.abs(q))):
+        if big <= 1e-15 * (1.0 + max_abs(q)):
             break
-        G = A @ A.T
+        G = a_bt(A, A)
         w = batch_solve(G, f)
-        q -= A.T @ w
+        q -= at_v(A, w)
     f, A, b = constraints(sy, t, q, p)
     v = y[n:].copy()
-    G = A @ A.T
-    w = batch_solve(G, A @ v + b)
-    v -= A.T @ w
+    G = a_bt(A, A)
+    w = batch_solve(G, a_v(A, v) + b)
+    v -= at_v(A, w)
     y[:n] = q
     y[n:] = v
 
@@ -155,7 +165,7 @@ def ev_restricted(sy, t, q, v, p, rows, free, what):
     for a in range(na):
         for c in range(nf):
             Af[a, c] = A[act[a], idx[c]]
-    if what == 0 and big <= 2e-16 * (1.0 + np.max(np.abs(q))) * max(1.0, np.max(np.abs(A))):
+    if what == 0 and big <= 2e-16 * (1.0 + max_abs(q)) * max(1.0, max_abs(A)):
         return dx, big, na, 0.0
     if what == 1 and big == 0.0:
         return dx, big, na, 0.0
@@ -178,7 +188,7 @@ def ev_consistent(sy, q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
     n = q.shape[0]
     m = kinds.shape[1]
     f, A, b = constraints(sy, 0.0, q, p)
-    tol_q = tol * (1.0 + np.max(np.abs(q)))
+    tol_q = tol * (1.0 + max_abs(q))
     nq = 0
     nv = 0
     inq = np.zeros(m, dtype=np.bool_)
@@ -208,15 +218,15 @@ def ev_consistent(sy, q, v, p, hold_q, hold_v, value_q, value_v, kinds, tol):
         if hold_v[i]:
             v[i] = value_v[i]
             free_v[i] = False
-    if nq > 0 and np.any(free_q):
+    if nq > 0 and any_nonzero(free_q):
         for _ in range(PROJECTION_ITERATIONS):
             dx, big, na, step = ev_restricted(sy, 0.0, q, v, p, rows_q, free_q, 0)
             if na == 0 or step == 0.0:
                 break
             q += dx
-            if step <= 1e-16 * (1.0 + np.max(np.abs(q - dx))):
+            if step <= 1e-16 * (1.0 + max_abs_diff(q, dx)):
                 break
-    if nv > 0 and np.any(free_v):
+    if nv > 0 and any_nonzero(free_v):
         dx, big, na, step = ev_restricted(sy, 0.0, q, v, p, rows_v[:nv].copy(), free_v, 1)
         v += dx
 
