@@ -66,11 +66,12 @@ def test_main_called_from_python_leaves_the_process_alone(capsys):
 
 _WHAT_LOADS = """
 import json, sys
+engine, modules = sys.argv[1], sys.argv[2:]
 sys.argv = ["lamech", "simulate", "cylinder", "--initial", "theta1=0.01", "--t-end", "0.5",
-            "--engine", sys.argv[1]]
+            "--engine", engine]
 from lamech.cli import main
 status = main()
-print(json.dumps([status] + [m in sys.modules for m in sys.argv[2:]]))
+print(json.dumps([status] + [m in sys.modules for m in modules]))
 """
 
 
@@ -95,7 +96,8 @@ def test_a_run_on_the_loop_does_not_load_scipys_linear_algebra(engine, compiled_
     ).stdout
     status, *loaded = json.loads(out.strip().splitlines()[-1])
     assert status == 0
-    assert ("engine: loop (Python)" in out) == (engine == "python")
+    assert ("engine: loop (Python)" in out) == (engine == "python"), out
+    assert ("engine: loop (numba)" in out) == (engine == "compiled"), out
     assert dict(zip(modules, loaded)) == {
         "scipy.linalg": False,
         "numba.np.arraymath": False,
