@@ -345,3 +345,29 @@ def test_slip_at_the_start_then_stick_and_a_slip_that_cannot_stick():
         if not math.isnan(a["stick:t"]):
             assert abs(a["stick:t"] - b["stick:t"]) < 1e-9
         assert abs(a["final:s"] - b["final:s"]) < 1e-7
+
+
+def test_starts_made_in_the_runs_are_the_starts_initial_states_makes():
+    """A sweep's starts are made consistent inside the loop's runs (``initial=``, in the
+    runs' threads, no entry point of their own to load): the same starts and runs as
+    initial_states' starts given to the loop, the caller's array untouched, and a start
+    that cannot be made (not finite) left to simulate as "start"."""
+    ns = _cylinder()
+    held = [("theta1", THETA_S)]
+    P = parameter_rows(ns, ["mu", "R2"], GRID[:3])
+    made = initial_states(ns, P, held)
+    raw = initial_states(ns, P)
+    assert not np.allclose(raw, made)  # the projection moves the problem's own start
+    before = raw.copy()
+    a = integrate_events(ns, made, 0.5, params=P)
+    b = integrate_events(ns, raw, 0.5, params=P, initial=held)
+    assert np.array_equal(raw, before)
+    assert a.status == b.status == ["end"] * 3
+    assert np.array_equal(a.y, b.y) and np.array_equal(a.t, b.t)
+    assert [[(e.kind, e.t) for e in x] for x in a.events] == [
+        [(e.kind, e.t) for e in x] for x in b.events
+    ]
+    raw[1, 0] = np.nan
+    c = integrate_events(ns, raw, 0.5, params=P, initial=held)
+    assert c.status == ["end", "start", "end"] and c.fallback.tolist() == [False, True, False]
+    assert np.array_equal(c.y[[0, 2]], b.y[[0, 2]])

@@ -385,20 +385,27 @@ def initial_states(
         Y[:, k] = np.broadcast_to(np.asarray(fn(*cols), dtype=float), B)
     if not initial:
         return Y
-    names = ns.coordinate_names
-    hold = np.zeros((2, n), dtype=np.bool_)
-    value = np.zeros((2, n))
-    for name, x in initial:
-        w = 1 if name.endswith("'") else 0
-        i = names.index(name.rstrip("'"))
-        hold[w, i] = True
-        value[w, i] = float(x)
+    hold, value = _held(ns, initial)
     Q = np.ascontiguousarray(Y[:, :n])
     V = np.ascontiguousarray(Y[:, n:])
     starts = _event_functions(ns, jit)["ev_starts"]
     with one_blas_thread():
         starts(Q, V, P, hold[0], hold[1], value[0], value[1], _kinds(system), INITIAL_TOLERANCE)
     return np.concatenate((Q, V), axis=1)
+
+
+def _held(ns: NumericSystem, initial) -> tuple[np.ndarray, np.ndarray]:
+    """(hold, value), (2, n) each: which coordinates (row 0) and velocities (row 1) a start
+    holds at ``initial`` [(coordinate or ``x'``, value)], and their values."""
+    names = ns.coordinate_names
+    hold = np.zeros((2, ns.n), dtype=np.bool_)
+    value = np.zeros((2, ns.n))
+    for name, x in initial:
+        w = 1 if name.endswith("'") else 0
+        i = names.index(name.rstrip("'"))
+        hold[w, i] = True
+        value[w, i] = float(x)
+    return hold, value
 
 
 def _of_parameters(syms: list, expr):
@@ -471,6 +478,7 @@ def integrate_events(
     threads: int | None = None,
     jit: bool | None = None,
     impacts: bool = False,
+    initial=(),
 ) -> EventBatchResult:
     """Every row of ``y0s`` ((B, 2n), consistent with the constraints) from t = 0 to
     ``t_end`` in the compiled loop with events: the DOP853 loop of :func:`integrate_batch`
@@ -514,12 +522,17 @@ def integrate_events(
     and ``"contact"`` with their details; ``max_events`` must then hold the bounces.
     ``rtol``, ``atol``, ``max_step``: by default those of :class:`~._options.Options` (the
     simulator's).
+
+    ``initial`` [(coordinate or ``x'``, value)]: each row of ``y0s`` is first made
+    consistent as :func:`initial_states` makes it (those held, the others moved onto the
+    constraints the row meets), in the run's own thread; a start that is then not finite
+    falls back (status ``"start"``). ``y0s`` itself is not changed.
     """
     from ._options import BLOW_UP, INITIAL_TOLERANCE
 
     if not (t_end > 0 and np.isfinite(t_end)):
         raise ValueError(f"t_end must be a positive finite number, got {t_end}")
-    Y0 = np.ascontiguousarray(np.atleast_2d(np.asarray(y0s, dtype=float)))
+    Y0 = np.atleast_2d(np.array(y0s, dtype=float, order="C"))  # a copy: starts made here
     B, N = Y0.shape
     if N != 2 * ns.n:
         raise ValueError(f"each initial state has {2 * ns.n} entries (q then q'), got {N}")
@@ -561,15 +574,16 @@ def integrate_events(
     )  # fmt: skip
     lim = codes.limits(
         max_steps=int(max_steps), to_end=bool(to_end), impacts=bool(impacts),
-        dips=ns.explicit_time,
+        dips=ns.explicit_time, starts=bool(initial),
     )  # fmt: skip
     tab = _tables()
+    start = _held(ns, initial)
 
     def part(a: int, b: int) -> None:
-        Y, Pp, I_, F_ = Y0[a:b], P[a:b], IM[a:b], FM[a:b]
+        Y, Pp, modes = Y0[a:b], P[a:b], (kinds, IM[a:b], FM[a:b])
         logs = tuple(x[a:b] for x in (EK, EJ, ET, EY, EX))
         outs = tuple(x[a:b] for x in (YOUT, TOUT, STATUS, NEV, STEPS))
-        run["ev_run"](Y, Pp, tab, kinds, I_, F_, tl, lim, wanted, logs, outs)
+        run["ev_run"](Y, Pp, tab, modes, start, tl, lim, wanted, logs, outs)
 
     k = 1 if not run["numba"] else max(1, min(int(threads or _cpus()), B))
     # trial states a step rejects may overflow (the Python loop's NumPy warns; numba not)

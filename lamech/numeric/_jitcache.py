@@ -506,14 +506,17 @@ def _entry_arguments(sy: tuple) -> dict:
         np.zeros((3, 1), dtype=np.int64),
         np.zeros((1, 4, 1), dtype=np.int64),
     )
-    b1 = np.zeros(1, dtype=np.bool_)
+    b1, b2 = np.zeros(1, dtype=np.bool_), np.zeros((2, 1), dtype=np.bool_)
     tab = _tables()
     x = 0.0
     # the records of :mod:`._kernels.codes`: the mode, an event record, the samples
     md, lg, smp = (i2, i2, f2), (i1, i1, f1, f2, f2, i2, b1), (f1, f2, f2, f2)
     return {
         "ev_segment": (f1, tab, md, f1, i1, lg, 0, smp, f1, i1, f1),
-        "ev_run": (f2, f2, tab, i2, i3, f3, f1, i1, i2, (i2, i2, f2, f3, f3), (f2, f1, i1, i1, i1)),
+        "ev_run": (
+            f2, f2, tab, (i2, i3, f3), (b2, f2), f1, i1, i2, (i2, i2, f2, f3, f3),
+            (f2, f1, i1, i1, i1),
+        ),
         "ev_starts": (f2, f2, f2, b1, b1, f1, f1, i2, x),
         "batch_run": (f2, f2, tab, f1, i1, f2, i1),
         "batch_run_serial": (f2, f2, tab, f1, i1, f2, i1),

@@ -81,7 +81,7 @@ def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[
         vals = np.array([[cases[i][k] for k in names] for i in chunk], dtype=float)
         try:
             P = parameter_rows(ns, names, vals)
-            Y0 = initial_states(ns, P, plan.initial, jit=jit)
+            Y0 = initial_states(ns, P)  # made consistent in the runs (initial=, below)
             ok = np.all(np.isfinite(Y0), axis=1)
             res = integrate_events(
                 ns,
@@ -97,6 +97,7 @@ def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[
                 jit=jit,
                 impacts=True,  # applied in the loop as simulate applies them
                 max_events=64,  # a bouncing case with more falls back to simulate
+                initial=plan.initial,
             )
         except Exception:  # e.g. an expression out of its domain (the Python loop raises):
             left.extend(chunk)  # simulate runs these cases and says what went wrong

@@ -80,7 +80,8 @@ LM_MAX_STEPS = 0
 LM_TO_END = 1  # 1: run to t_end even once every wanted event is found
 LM_IMPACTS = 2  # 1: apply impacts in the loop (else a located contact stops the run)
 LM_DIPS = 3  # points inside each step where force events are sought (t in the system)
-LM_SIZE = 4
+LM_STARTS = 4  # 1: ev_run makes each start consistent first (its held values kept)
+LM_SIZE = 5
 IO_NEXT = 0  # the next output time to sample
 IO_CONTACT = 1  # the constraint of a contact left to the simulator (ST_CONTACT)
 IO_EVALUATIONS = 2  # right-hand sides evaluated
@@ -188,11 +189,18 @@ sought (:func:`.loop.ev_dips`, and the simulator's own steps)."""
 
 
 def limits(
-    *, max_steps: int, to_end: bool = True, impacts: bool = True, dips: bool = False
+    *,
+    max_steps: int,
+    to_end: bool = True,
+    impacts: bool = True,
+    dips: bool = False,
+    starts: bool = False,
 ) -> np.ndarray:
     """The limits record ``lim`` (LM_*) of the named values; ``dips``: seek force events
-    inside each step (:data:`FORCE_SAMPLES` points), for a system with t in it."""
+    inside each step (:data:`FORCE_SAMPLES` points), for a system with t in it;
+    ``starts``: :func:`.loop.ev_run` makes each start consistent before its run."""
     lim = np.zeros(LM_SIZE, dtype=np.int64)
     lim[LM_MAX_STEPS], lim[LM_TO_END], lim[LM_IMPACTS] = max_steps, to_end, impacts
     lim[LM_DIPS] = FORCE_SAMPLES if dips else 0
+    lim[LM_STARTS] = starts
     return lim

@@ -33,6 +33,7 @@ from .codes import (
     LM_DIPS,
     LM_IMPACTS,
     LM_MAX_STEPS,
+    LM_STARTS,
     LM_TO_END,
     ST_BUDGET,
     ST_CONTACT,
@@ -43,11 +44,13 @@ from .codes import (
     ST_GROWTH,
     ST_PENETRATION,
     ST_SINGULAR,
+    ST_START,
     ST_STEP,
     TL_ARM_POS,
     TL_ARM_VEL,
     TL_BLOW_UP,
     TL_T_END,
+    TL_TOL,
     borrowed,
 )
 from .dop853 import (
@@ -75,7 +78,7 @@ from .modes import (
     ev_values,
     ev_watch,
 )
-from .project import ev_project
+from .project import ev_consistent, ev_project
 
 
 # KERNELS
@@ -91,14 +94,31 @@ def borrowed_log(lg):
             borrowed(lg[4]), borrowed(lg[5]), borrowed(lg[6]))  # fmt: skip
 
 
-def ev_run(sy, Y0, P, tab, kinds, IM, FM, tl, lim, want, logs, outs):
-    """Every row of Y0 (parameters P, modes IM, FM) through :func:`ev_run_one`, in one
-    thread (compiled with ``nogil``: the caller spreads slices of a batch over threads):
-    ``logs`` the event records (kinds, constraints, times, states, details) and ``outs``
-    the results (states, times, statuses, event counts, steps), a row per run."""
+def ev_run(sy, Y0, P, tab, modes, start, tl, lim, want, logs, outs):
+    """Every row of Y0 (parameters P) through :func:`ev_run_one`, in one thread (compiled
+    with ``nogil``: the caller spreads slices of a batch over threads): ``modes`` the
+    constraints' kinds and each run's mode (kinds, IM, FM), ``logs`` the event records
+    (kinds, constraints, times, states, details) and ``outs`` the results (states, times,
+    statuses, event counts, steps), a row per run. With ``lim[LM_STARTS]``, each row of
+    Y0 is first made consistent in place (:func:`.project.ev_consistent`: ``start`` the
+    held coordinates and velocities and their values, (2, n) each), and a start that is
+    then not finite ends its run with ST_START (``simulate`` says what is wrong); a
+    sweep's starts are so made in its runs' threads, with no entry point of their own
+    to load (:func:`.project.ev_starts`, 0.1 s of CPU per process)."""
+    kinds, IM, FM = modes
+    hold, value = start
+    n = Y0.shape[1] // 2
     EK, EJ, ET, EY, EX = logs
     YOUT, TOUT, STATUS, NEV, STEPS = outs
     for b in range(Y0.shape[0]):
+        if lim[LM_STARTS] == 1:
+            y0 = Y0[b]
+            q, v = y0[:n], y0[n:]
+            ev_consistent(sy, q, v, P[b], hold[0], hold[1], value[0], value[1], kinds, tl[TL_TOL])
+            if not all_finite(y0):
+                YOUT[b] = y0
+                TOUT[b], STATUS[b], NEV[b], STEPS[b] = 0.0, ST_START, 0, 0
+                continue
         found = np.zeros(want.shape[1], dtype=np.bool_)
         lg = (EK[b], EJ[b], ET[b], EY[b], EX[b], want, found)
         md = (kinds, IM[b], FM[b])
