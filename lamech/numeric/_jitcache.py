@@ -70,6 +70,7 @@ __all__ = [
     "quick_load",
     "compile_lock",
     "COMPILE_WAIT",
+    "loaded_entry_points",
 ]
 
 CACHE_ENV = "LAMECH_CACHE_DIR"
@@ -492,6 +493,19 @@ ENTRY_POINTS = (
     "accelerations", "kkt_solve",
 )  # fmt: skip
 """The engine's functions its callers call (:func:`_entry_arguments`)."""
+
+
+def loaded_entry_points() -> list[str]:
+    """The engine's entry points this process has loaded (or compiled), sorted: each is
+    its own machine code to load, 0.07-0.17 s of CPU (2026-11-27)."""
+    return sorted(
+        {
+            f
+            for space in _ENGINE.values()
+            for f in ENTRY_POINTS
+            if getattr(space[f], "overloads", None)
+        }
+    )
 
 
 def _entry_arguments(sy: tuple) -> dict:

@@ -70,6 +70,7 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
         compiled = False
     loop = Loop(run, _event_functions(ns, compiled)["ev_segment"], times)
     loop.name = "loop (numba)" if compiled else "loop (Python)"
+    run.solve_few()
     return loop
 
 
