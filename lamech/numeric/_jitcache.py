@@ -13,8 +13,8 @@ else by numba as the module ``lamech_<key>.py`` (:func:`system_text`: the genera
 functions and their cfunc wrappers, a few seconds), and loads them on its second run.
 Measured on the 2-core machine, whole process CPU (2026-11-27, ``lamech simulate
 cylinder --t-end 3``): a problem never run before simulates on the compiled loop in
-1.36 s (the loop cached; ``python -c "import sympy"`` 0.41 s in the same rounds), its
-second run in 1.25 s; the loop loads without numba's compiler set up
+1.17 s (the loop cached; ``python -c "import sympy"`` 0.39 s in the same rounds), its
+second run in 1.11 s; the loop loads without numba's compiler set up
 (:func:`_quick_cache_class`), one entry point a run (:func:`loaded_entry_points`).
 
 numba caches (``cache=True``) only functions defined in a real source file, at module
