@@ -37,7 +37,8 @@ def ev_correction(W, Ar, r):
     k = Ar.shape[0]
     # Written with whole-array operations, not loops over entries: the simulator's own
     # steps (SciPy's integrators) run this as Python at every step, where a loop over
-    # the 120-square W of a 60-link chain cost more than the step.
+    # the 120-square W of a 60-link chain cost more than the step. Compiled, arrays.py's
+    # operations are loops; as Python, the NumPy expressions they stand for.
     d = diagonal_weights(W)
     if d.shape[0] == n:
         ArW = Ar / d
