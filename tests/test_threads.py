@@ -111,3 +111,41 @@ def test_the_batch_integrator_uses_one_blas_thread(chain, two_threads):
     assert res.ok.all()
     assert seen and all(s == [1] for s in seen)
     assert _blas_threads() == [2]
+
+
+_SCIPY_LOADED_BY_THE_RUN = """
+import json, sys
+from threadpoolctl import threadpool_info, threadpool_limits
+import lamech
+from lamech.problem import chain_toml
+assert "scipy.linalg" not in sys.modules
+ns = lamech.compile_system(lamech.loads(chain_toml(3), "chain.toml"))
+seen = []
+def progress(t):
+    seen.append(sorted({(d["filepath"].split("/site-packages/")[-1].split("/")[0],
+                         d["num_threads"]) for d in threadpool_info() if d["user_api"] == "blas"}))
+with threadpool_limits(limits=2, user_api="blas"):
+    traj = lamech.simulate(ns, 0.05, method="Radau", progress=progress)
+print(json.dumps([traj.status, "scipy.linalg" in sys.modules, seen]))
+"""
+
+
+def test_a_run_that_loads_scipys_blas_runs_it_at_one_thread_too():
+    """lamech no longer imports scipy.linalg to find SciPy's OpenBLAS (0.2 s a process);
+    a run on SciPy's integrators loads it before the limit is set, so that SciPy's BLAS
+    (its stiff methods' LU) runs at one thread too, as NumPy's."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    environ = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    out = subprocess.run(
+        [sys.executable, "-c", _SCIPY_LOADED_BY_THE_RUN],
+        env=environ, capture_output=True, text=True, timeout=300, check=True,
+    ).stdout  # fmt: skip
+    status, loaded, seen = json.loads(out.strip().splitlines()[-1])
+    assert status == "ok" and loaded
+    libraries = {name for s in seen for name, _ in s}
+    assert len(libraries) >= 2, seen  # NumPy's and SciPy's OpenBLAS
+    assert seen and all(n == 1 for s in seen for _, n in s), seen

@@ -164,6 +164,8 @@ def simulate(
     times = sample_times(t0, t_end, samples, dt)
     run = Run(Setup.of(ns, p, options))
     loop = loop_for(run, engine, times)
+    if loop is None:  # SciPy's integrators: their BLAS is limited too, so loaded first
+        import scipy.linalg  # noqa: F401  (the integrators import it anyway)
     notes: list[str] = _degree_notes(ns, p, y0)
     # One BLAS thread for the run, entered once (issue 16: with other work on the 2 cores,
     # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the

@@ -26,8 +26,11 @@ libraries loaded then (1.5 ms; setting a limit then costs microseconds); it scan
 if SciPy's linear algebra (with its own OpenBLAS) has been loaded since. lamech does not
 load SciPy's linear algebra for this: neither the compiled loop (its products are loops,
 :mod:`._kernels.arrays`) nor the loop run as Python (NumPy's BLAS) uses it, and importing
-it cost 0.2 s of CPU per process (measured 2026-11-27). A BLAS loaded later by something
-other than NumPy and SciPy is not limited.
+it cost 0.2 s of CPU per process (measured 2026-11-27). A run on SciPy's integrators
+(whose stiff methods' LU use SciPy's BLAS) loads it before it enters the limit
+(:func:`lamech.numeric.simulate`): a library loaded inside the block is not limited until
+the next run. A BLAS loaded later by something other than NumPy and SciPy is not
+limited.
 """
 
 from __future__ import annotations
