@@ -46,6 +46,7 @@ import numpy as np
 from ._codegen import NumericSystem, numba_available
 from ._events import EventKind
 from ._kernels import codes
+from ._kkt import python_side_solve
 from ._options import Options
 from ._run import ConstraintKinds
 from ._tableau import _tables
@@ -86,14 +87,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
     from ._kernels import python_namespace
 
     namespace = python_namespace()
-    solve = ns.kkt_solve
-    if not ns.replaced:  # NumPy's, also for a compiled system: see below
-        from ._kkt import kkt_solve_numpy
-
-        solve = kkt_solve_numpy(ns.mass_diagonal)
-    # The rules run as Python solve a few KKT systems a run (the start's settling, an
-    # event), where the compiled solve would be an entry point of its own to load: 0.07 s
-    # of CPU in a compiled simulation, which needs none otherwise (measured 2026-11-27).
+    solve = python_side_solve(ns)
     namespace["kkt_solve"] = lambda sy, *args: solve(*args)
     namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
 

@@ -37,6 +37,15 @@ def slip_directions(A, rows, mu, slip_j, slip_k, slip_c) -> np.ndarray:
     return G
 
 
+def python_side_solve(ns):
+    """The KKT solve the Python side of a run uses (the rules run as Python, a compiled
+    run's first sample and handed-back segments): NumPy's (:func:`kkt_solve_numpy`), also
+    for a compiled system, where the compiled solve would be an entry point of its own to
+    load for a handful of solves (0.07 s of CPU, measured 2026-11-27); ``ns``' own where
+    one of its functions was replaced (``NumericSystem.replaced``)."""
+    return ns.kkt_solve if ns.replaced else kkt_solve_numpy(ns.mass_diagonal)
+
+
 def kkt_solve_numpy(diagonal: bool):
     """solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows] with
     NumPy/LAPACK (NaN where singular): the KKT system of :mod:`._kernels`, by the

@@ -26,7 +26,7 @@ from ..model._checks import without_inertia
 from ._codegen import NumericSystem
 from ._events import Event, EventKind
 from ._kernels import codes
-from ._kkt import slip_directions
+from ._kkt import python_side_solve, slip_directions
 from ._options import INITIAL_TOLERANCE, Options, Stop
 
 __all__ = ["Setup", "Run", "Accel", "ConstraintKinds", "rules"]
@@ -297,15 +297,10 @@ class Run:
 
     # ----- evaluations --------------------------------------------------------------
     def solve_few(self) -> None:
-        """:meth:`kkt` by NumPy's solve: for a run the loop integrates, which solves here
-        only at its first sample and a segment handed back, where the compiled solve
-        would be an entry point of its own to load (0.07 s of CPU, measured 2026-11-27);
-        SciPy's steps solve at every sample and keep the compiled one. A solve replaced
-        in the system is kept (:attr:`NumericSystem.replaced`)."""
-        if not self.setup.ns.replaced:
-            from ._kkt import kkt_solve_numpy
-
-            self.solve = kkt_solve_numpy(self.setup.ns.mass_diagonal)
+        """:meth:`kkt` by the Python side's solve (:func:`._kkt.python_side_solve`): for a
+        run the loop integrates, which solves here only at its first sample and a segment
+        handed back; SciPy's steps solve at every sample and keep the system's own."""
+        self.solve = python_side_solve(self.setup.ns)
 
     def kkt(self, t: float, q: np.ndarray, v: np.ndarray) -> Accel:
         """The KKT solve on the mode's rows; :class:`Stop` where it cannot be done."""
