@@ -70,9 +70,20 @@ class _Manifold:
                 num = sp.numer(sp.together(f))
                 if num.free_symbols & coords:
                     relations.append(sp.expand(num))
-        gens = [s for s in system.q + system.qd]
+        # a constraint that moves (y cos(w t) = x sin(w t)) is polynomial in the sine and
+        # cosine of its motion's angle: each becomes a generator, related by s^2 + c^2 = 1
+        derived = [r for r in relations] + [time_derivative(r, system) for r in relations]
+        self.clock = _clock_generators(derived, coords | set(system.qd))
+        to_gens = {e: g for e, g in self.clock.items()}
+        gens = [s for s in system.q + system.qd] + list(to_gens.values())
         self.relations: list[sp.Expr] = []
+        pairs: dict = {}
+        for e, g in to_gens.items():
+            pairs.setdefault(e.args[0], {})[e.func] = g
+        circles = [d[sp.sin] ** 2 + d[sp.cos] ** 2 - 1 for d in pairs.values() if len(d) == 2]
         for r in relations:
+            r_t = sp.expand(time_derivative(r, system))
+            r, r_t = (sp.expand(x.xreplace(to_gens)) for x in (r, r_t))
             try:
                 p = sp.Poly(r, *gens)
             except sp.PolynomialError:
@@ -81,12 +92,14 @@ class _Manifold:
                 continue
             if p.total_degree() > MAX_DEGREE:
                 continue
-            self.relations += [r, sp.expand(time_derivative(r, system))]
+            self.relations += [r, r_t]
         self.relations = [r for r in self.relations if r != 0][:MAX_RELATIONS]
+        if self.relations:
+            self.relations += circles
         used = set().union(*(r.free_symbols for r in self.relations)) if self.relations else set()
         self.gens = [g for g in gens if g in used]
-        positions = [g for g in self.gens if g in coords]
-        velocities = [g for g in self.gens if g not in coords]
+        positions = [g for g in self.gens if g in coords or g in to_gens.values()]
+        velocities = [g for g in self.gens if g not in positions]
         self.orders = (
             [positions + velocities, positions[::-1] + velocities[::-1]] if self.gens else []
         )
@@ -122,6 +135,8 @@ class _Manifold:
                 symbols = (num.free_symbols | den.free_symbols | _symbols(self.relations)) - set(
                     self.gens
                 )
+                if self.clock:
+                    symbols -= {self.system.t}
                 candidates += [self._normal(num, den, G) for G in self.bases(frozenset(symbols))]
         except (sp.PolynomialError, sp.CoercionFailed, ValueError, TypeError, RecursionError):
             return expr
@@ -149,6 +164,9 @@ class _Manifold:
 
     def _normal(self, num: sp.Expr, den: sp.Expr, G) -> sp.Expr | None:
         parts = []
+        to_gens = self.clock
+        if to_gens:
+            num, den = (sp.expand(_expanded_trig(x, to_gens)).xreplace(to_gens) for x in (num, den))
         for part in (num, den):
             if not part.free_symbols & set(self.gens):
                 parts.append(part)
@@ -160,7 +178,36 @@ class _Manifold:
             parts.append(sp.factor(r))
         if parts[1] == 0:
             return None
-        return sp.cancel(parts[0] / parts[1]) if parts[0] != 0 else sp.Integer(0)
+        out = sp.cancel(parts[0] / parts[1]) if parts[0] != 0 else sp.Integer(0)
+        back = {g: e for e, g in to_gens.items()}
+        return out.xreplace(back) if back else out
+
+
+def _clock_generators(exprs: list[sp.Expr], moving: set) -> dict:
+    """{sin(w t): S, cos(w t): C, ...}: a generator for the sine and the cosine of each
+    argument of a trigonometric function in ``exprs`` that is free of the ``moving``
+    symbols (the coordinates and velocities) but not of t: the angle through which a
+    constraint is driven. Both of a pair are made, so s^2 + c^2 = 1 relates them."""
+    args: set = set()
+    for e in exprs:
+        for a in sp.sympify(e).atoms(sp.sin, sp.cos, sp.tan):
+            arg = a.args[0]
+            if arg.free_symbols and not arg.free_symbols & moving:
+                args.add(arg)
+    out: dict = {}
+    for i, arg in enumerate(sorted(args, key=sp.default_sort_key)):
+        out[sp.sin(arg)] = sp.Dummy(f"S{i}")
+        out[sp.cos(arg)] = sp.Dummy(f"C{i}")
+    return out
+
+
+def _expanded_trig(e: sp.Expr, to_gens: dict) -> sp.Expr:
+    """``e`` with tan of a driven angle written sin/cos (the generators know no tan)."""
+    args = {k.args[0] for k in to_gens}
+    return e.replace(
+        lambda a: isinstance(a, sp.tan) and a.args[0] in args,
+        lambda a: sp.sin(a.args[0]) / sp.cos(a.args[0]),
+    )
 
 
 def _same(e: sp.Expr, P: sp.Expr) -> bool:

@@ -28,6 +28,7 @@ try:  # SymPy >= 1.13 keeps it here, and no longer at the top level
 except ImportError:  # pragma: no cover - SymPy 1.12
     from sympy.matrices.common import NonInvertibleMatrixError
 
+from ..expr import to_text
 from ..model import Coordinate, System
 from ..model._chart import satisfied_by_chart
 from ..model._checks import open_at_start
@@ -145,21 +146,47 @@ def _initial_numeric(system: System) -> dict:
     return {**pv, **env, system.t: 0.0}
 
 
-def _solve_closed(f: sp.Expr, x: sp.Symbol) -> list[sp.Expr] | None:
-    """Closed-form roots of f = 0 for x when f is a polynomial of degree 1 or 2 in x."""
+def _solve_closed(f: sp.Expr, x: sp.Symbol, moving: set) -> tuple[list[sp.Expr] | None, str | None]:
+    """Closed-form roots of f = 0 for x when f is a polynomial of degree 1 or 2 in x,
+    and each root is a function on the whole constraint: (roots, None); else (None,
+    why not, or None when f is no such polynomial).
+
+    ``moving`` are the symbols that change along the motion (the coordinates and t). A
+    root that divides by an expression of them (y = x tan(w t) from y cos(w t) = x
+    sin(w t)) is singular where that expression vanishes; a root that takes one sign of
+    a square root of them (y = +sqrt(l^2 - x^2)) is a chart of half the constraint,
+    which the motion may leave. Neither is used: the results then keep the coordinate
+    and hold on the whole constraint (reduced modulo it, :mod:`._manifold`). Two roots
+    whose square root is free of ``moving`` (r = +-l) are two separate pieces of the
+    constraint, and the motion stays on the one it starts on."""
     try:
         poly = sp.Poly(f, x)
     except (sp.PolynomialError, sp.GeneratorsNeeded):
-        return None
+        return None, None
     if poly.degree() not in (1, 2) or any(c.has(x) for c in poly.all_coeffs()):
-        return None
+        return None, None
     coeffs = poly.all_coeffs()
+    a = coeffs[0]
+    if a == 0:
+        return None, None
+    if a.free_symbols & moving:
+        return None, f"solving it for {x} divides by {to_text(student(a))}, which can vanish"
     if poly.degree() == 1:
-        a, b = coeffs
-        return [sp.expand(-b / a)] if a != 0 else None
-    a, b, c = coeffs
+        return [sp.expand(-coeffs[1] / a)], None
+    _, b, c = coeffs
     disc = sp.factor_terms(sp.expand(b**2 - 4 * a * c))  # sqrt(4 (l^2 - x^2)) = 2 sqrt(...)
-    return [(-b + sp.sqrt(disc)) / (2 * a), (-b - sp.sqrt(disc)) / (2 * a)]
+    root = sp.sqrt(disc)
+    if any(
+        e.exp.q != 1 and e.base.free_symbols & moving
+        for e in root.atoms(sp.Pow)
+        if e.exp.is_Rational
+    ):
+        return None, (
+            f"solving it for {x} takes one sign of a square root, {x} = "
+            f"{to_text(student((-b + root) / (2 * a)))} or the other, which holds on "
+            "part of it only"
+        )
+    return [(-b + root) / (2 * a), (-b - root) / (2 * a)], None
 
 
 def eliminate(system: System) -> Reduction:
@@ -188,15 +215,19 @@ def eliminate(system: System) -> Reduction:
         positions = dict(system.chart.substitution)
         order = [c for c in system.coordinates if c.symbol in positions]
         used = satisfied_by_chart(system)
+    moving = set(system.q) | {system.t}
     for con in system.constraints:
         if not con.holonomic or con.name in used:
             continue
         f = con.expr.xreplace(positions) if positions else con.expr
         done = False
+        refused: list[str] = []
         for coord in reversed(system.coordinates):
             if coord.keep or coord.symbol in positions or not f.has(coord.symbol):
                 continue
-            roots = _solve_closed(f, coord.symbol)
+            roots, why_not = _solve_closed(f, coord.symbol, moving)
+            if why_not:
+                refused.append(why_not)
             if not roots:
                 continue
             x0 = env0[coord.symbol]
@@ -239,13 +270,16 @@ def eliminate(system: System) -> Reduction:
                 if f.has(c.symbol) and not c.keep and c.symbol not in positions
             ]
             why = (
-                "no closed-form solution for " + ", ".join(free)
+                refused[0]
+                if refused
+                else "no closed-form solution for " + ", ".join(free)
                 if free
                 else "its coordinates are kept or already eliminated"
             )
             notes.append(
                 f"constraint `{con.name}` was not used to eliminate a coordinate "
                 f"({why}); results keep the full coordinates"
+                + (" and hold wherever the constraint does" if refused else "")
             )
     substitution: dict = {}
     eliminated = []
@@ -338,6 +372,15 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
             lams = _multipliers_projected(system, eqs, red, projected)
             if lams is not None:
                 return _closed(system, red, projected + lams, on_manifold)
+        if (
+            not red.eliminated
+            and system.chart is None
+            and on_manifold.relations
+            and len(unknowns) <= CLOSED_FORM_LIMIT
+        ):
+            schur = _solve_schur(dyn, red, on_manifold)
+            if schur is not None:
+                return _closed(system, red, schur, on_manifold)
         if small:
             K = K.applyfunc(on_manifold.radicals_replaced)
             rhs = rhs.applyfunc(on_manifold.radicals_replaced)
@@ -473,6 +516,39 @@ def _multipliers_projected(
     rhs = sp.Matrix([-r[2] for r in chosen])
     angles = angles_of(system, red)
     return [_tidy_angles(_pre(x), angles) for x in _solve_linear(K, rhs)]
+
+
+def _solve_schur(dyn: Dynamics, red: Reduction, on_manifold: Any) -> list[sp.Expr] | None:
+    """The accelerations and multipliers when every constraint is kept, as a physicist
+    solves them: q'' = M^-1 (A^T lambda + Q - h) into A q'' + gamma = 0 gives
+    (A M^-1 A^T) lambda = -gamma - A M^-1 (Q - h). Each entry of A M^-1 A^T and of the
+    right-hand side is a short expression, reduced modulo the constraints
+    (:mod:`._manifold`: x^2 + y^2 + z^2 -> R^2, y cos(w t) - x sin(w t) -> 0) before the
+    small system is solved, so the multipliers come out in the user's coordinates,
+    short and valid on the whole constraint (the spinning hoop's lambda_plane =
+    2 m w (x' cos(w t) + y' sin(w t)), its Coriolis force), where solving the whole KKT
+    system first leaves forms of thousands of operations that no reduction reaches.
+    None when a step runs out of work."""
+    system = dyn.system
+    M, A = dyn.M, dyn.A
+    n, m = M.rows, A.rows
+    rest = dyn.Q - dyn.h
+    columns = [sp.Matrix(A[j, :]).T for j in range(m)] + [rest]
+    probe = _probe(system, red, M.free_symbols | A.free_symbols | rest.free_symbols)
+    try:
+        solved = [solve_linear(M, col, probe) for col in columns]
+        X = [[on_manifold(e) for e in col] for col in solved[:m]]  # M^-1 A^T, by column
+        y = [on_manifold(e) for e in solved[m]]  # M^-1 (Q - h)
+        S = sp.Matrix(m, m, lambda i, j: on_manifold(sum(A[i, k] * X[j][k] for k in range(n))))
+        b = sp.Matrix(
+            [on_manifold(-dyn.gamma[i] - sum(A[i, k] * y[k] for k in range(n))) for i in range(m)]
+        )
+        probe_s = _probe(system, red, S.free_symbols | b.free_symbols)
+        lam = [on_manifold(e) for e in solve_linear(S, b, probe_s)]
+    except (OverBudget, ZeroDivisionError):
+        return None
+    acc = [on_manifold(y[k] + sum(X[j][k] * lam[j] for j in range(m))) for k in range(n)]
+    return acc + lam
 
 
 def _has_radical(expr: sp.Expr) -> bool:
