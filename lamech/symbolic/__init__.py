@@ -15,6 +15,7 @@ from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._modes import Equilibrium, Mode, Modes, modes
 from ._multipliers import multipliers
 from ._reduce import Reduction, eliminate
+from ._selfcheck import ClosedFormError
 from ._solution import Solution, solve
 from ._steps import Derivation, steps
 
@@ -25,6 +26,7 @@ __all__ = [
     "dynamics",
     "Dynamics",
     "DegenerateConstraintsError",
+    "ClosedFormError",
     "modes",
     "Modes",
     "Equilibrium",

@@ -11,23 +11,26 @@ projected onto the constraints' velocity forms; random t where the problem moves
 disagreement beyond :data:`RTOL` is a :class:`ClosedFormError` naming the result, the
 state and both values. :func:`check_along` does the same along a simulated motion.
 
-The states are generated on the coordinates that hold at the start; a point that lands
-on another piece of the manifold than the one a constant-root elimination chose (r = -l
-for a string r^2 = l^2) is not reachable by the motion and is skipped.
+A state on another piece of the manifold than the one a constant-root elimination chose
+(r = -l for a string r^2 = l^2) is not reachable by the motion and is skipped; a state
+that an eliminated coordinate's expression misses (a chart's other half) is a
+disagreement.
 """
 
 from __future__ import annotations
 
+import math
 import random
 from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
 
+from ..expr import to_text
 from ..model._checks import initial_values, numeric_matrix
 from ._derive import DegenerateConstraintsError, Dynamics, kkt_numeric
 
-__all__ = ["ClosedFormError", "Disagreement", "manifold_states", "check_forms"]
+__all__ = ["ClosedFormError", "Disagreement", "manifold_states", "check_forms", "printed_forms"]
 
 RTOL = 1e-6
 """Largest disagreement allowed, relative to the size of the result over all states
@@ -53,7 +56,7 @@ class Disagreement:
         )
 
 
-class ClosedFormError(ArithmeticError):
+class ClosedFormError(ValueError):
     """A printed closed form disagrees with the KKT system (a defect of lamech: please
     report it with the problem file). ``disagreements`` lists each."""
 
@@ -133,33 +136,46 @@ def manifold_states(dyn: Dynamics, count: int = POINTS, seed: int = 23) -> list[
     return out
 
 
-def check_forms(dyn: Dynamics, red, forms: dict, states: list[dict]) -> list[Disagreement]:
-    """The disagreements of ``forms`` ({label: (expr, kind, index)}, kind "lambda" with the
-    constraint's index or "acc" with the coordinate's index; expressions in the
-    independent coordinates of the reduction ``red``) with the KKT system at ``states``
-    (full states, :func:`manifold_states`). States on another piece of the manifold than
-    the eliminations chose are skipped; so are states where the KKT matrix is singular or
-    a form is not finite (a pole: said by the form's own domain, not a disagreement)."""
+def check_forms(
+    dyn: Dynamics, red, forms: dict, states: list[dict]
+) -> tuple[list[Disagreement], int]:
+    """(The disagreements, the number of values compared) of ``forms`` with the KKT
+    system at ``states`` (full states, :func:`manifold_states`). An eliminated
+    coordinate whose expression misses a state (the chart y = +sqrt(l^2 - x^2) at y < 0)
+    is a disagreement too, by its own name.
+
+    ``forms`` is {label: (expr, kind, index)}: kind "lambda" with the constraint's index
+    or "acc" with the coordinate's index, each expression in the independent coordinates
+    of the reduction ``red``. States on another piece of the manifold than the
+    eliminations chose (r = -l where r = l was chosen: the motion cannot reach it) are
+    skipped; so are states where the KKT matrix is singular or a form is not finite (a
+    pole: said by the form's own domain, not a disagreement)."""
     system = dyn.system
     pv = system.parameter_values
     sub = red.substitution
     rows: list[tuple[str, float, float, dict]] = []
+    moving = set(system.q)
     for st in states:
         env = {**pv, **st}
-        reached = True
-        for c, _ in red.eliminated:
+        missed: list[tuple[str, float, float]] = []
+        other_piece = False
+        for c, e in red.eliminated:
             for sym in (c.symbol, c.velocity):
                 want = st[sym]
                 try:
                     got = float(sp.sympify(sub[sym]).xreplace(_floats(env)).evalf())
                 except (TypeError, ValueError):
-                    reached = False
-                    break
-                if not abs(got - want) <= 1e-8 * (1 + abs(want)):
-                    reached = False
-                    break
-        if not reached:
+                    continue  # not real here: the form's own domain
+                if not math.isfinite(got) or abs(got - want) <= 1e-8 * (1 + abs(want)):
+                    continue
+                if not sp.sympify(e).free_symbols & moving:
+                    other_piece = True  # r = l chosen, the state has r = -l: unreachable
+                else:  # a chart that does not cover this state
+                    missed.append((f"{sym} (eliminated: {c.name} = {to_text(e)})", got, want))
+        if other_piece:
             continue
+        for label, got, want in missed:
+            rows.append((label, got, want, st))
         try:
             acc, lam = kkt_numeric(dyn, env)
         except (DegenerateConstraintsError, np.linalg.LinAlgError):
@@ -181,7 +197,23 @@ def check_forms(dyn: Dynamics, red, forms: dict, states: list[dict]) -> list[Dis
         if abs(a - b) > RTOL * (1 + scale[label]):
             named = {str(k): float(v) for k, v in st.items()}
             out.append(Disagreement(label, named, a, b))
-    return out
+    return out, len(rows)
+
+
+def printed_forms(system, red, forms) -> dict:
+    """The closed forms a solve prints, as :func:`check_forms` takes them: each readable
+    multiplier ("lambda_<name>") and each reduced acceleration of an original coordinate
+    ("<name>''"); those too long to print are not checked."""
+    checked: dict = {}
+    for j, c in enumerate(system.constraints):
+        if c.name in forms.readable_multipliers:
+            checked[f"lambda_{c.name}"] = (forms.multipliers[c.name], "lambda", j)
+    index = {s: i for i, s in enumerate(system.qdd)}
+    for coord in red.independent:
+        a = coord.acceleration
+        if a in forms.accelerations and a in index and not forms.is_long(a):
+            checked[f"{coord.name}''"] = (forms.accelerations[a], "acc", index[a])
+    return checked
 
 
 def _floats(env: dict) -> dict:

@@ -27,7 +27,7 @@ from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._normal import normal
 from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
-from ._selfcheck import ClosedFormError, check_forms, manifold_states
+from ._selfcheck import ClosedFormError, check_forms, manifold_states, printed_forms
 from ._work import interrupted, labelled, work_budget
 
 __all__ = ["Solution", "solve"]
@@ -322,21 +322,12 @@ def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> None:
     """Raise :class:`._selfcheck.ClosedFormError` when a printed multiplier or reduced
     acceleration disagrees with the KKT system at random states over the whole manifold
     (:mod:`._selfcheck`)."""
-    system = dyn.system
-    checked: dict = {}
-    for j, c in enumerate(system.constraints):
-        if c.name in forms.readable_multipliers:
-            checked[f"lambda_{c.name}"] = (forms.multipliers[c.name], "lambda", j)
-    index = {s: i for i, s in enumerate(system.qdd)}
-    for coord in red.independent:
-        a = coord.acceleration
-        if a in forms.accelerations and a in index and not forms.is_long(a):
-            checked[f"{coord.name}''"] = (forms.accelerations[a], "acc", index[a])
+    checked = printed_forms(dyn.system, red, forms)
     if not checked:
         return
-    bad = check_forms(dyn, red, checked, manifold_states(dyn))
+    bad, _ = check_forms(dyn, red, checked, manifold_states(dyn))
     if bad:
-        raise ClosedFormError(bad, f"for {system.title!r}")
+        raise ClosedFormError(bad, f"for {dyn.system.title!r}")
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:
