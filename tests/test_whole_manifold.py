@@ -17,7 +17,6 @@ import pytest
 import sympy as sp
 
 import lamech
-from lamech.symbolic import _reduce
 from lamech.symbolic._derive import dynamics, kkt_numeric
 from lamech.symbolic._selfcheck import (
     ClosedFormError,
@@ -39,20 +38,43 @@ def _solved(name):
     return lamech.solve(lamech.load(str(PROBLEMS / name)))
 
 
-def test_the_trammel_keeps_both_coordinates_and_its_tension_is_the_textbooks():
+def test_the_trammel_is_solved_in_its_circles_angle_as_a_pendulum():
+    """x^2 + y^2 = l^2 is a circle: in its angle (x = l sin(theta), y = -l cos(theta),
+    which covers all of it) the trammel is a pendulum: theta'' + g sin(theta)/l = 0,
+    with the energy shell from the exact start cos(theta0) = -4/5."""
     sol = _solved("trammel.toml")
-    assert sol.independent == ["x", "y"]  # no y = +sqrt(l^2 - x^2)
+    assert sol.independent == ["thetarod"]
+    m, g, l = (_sym(sol, n) for n in ("m", "g", "l"))
+    (angle,) = sol.reduction.independent
+    th, thd = angle.symbol, angle.velocity
+    tension = -m * (g * sp.cos(th) + l * thd**2) / (2 * l)
+    assert sp.simplify(sol.multipliers["rod"] - tension) == 0
+    assert sp.simplify(sol.reduced_equations[0] - (angle.acceleration + g * sp.sin(th) / l)) == 0
+    # the start kept exact: lambda on the shell is -m g (15 cos(theta) + 8)/(10 l)
+    shell = sol.on_energy_shell["rod"]
+    assert sp.simplify(shell + m * g * (15 * sp.cos(th) + 8) / (10 * l)) == 0
+    assert any("covers all of it" in n for n in sol.notes)
+
+
+TRAMMEL_KEPT = (
+    (PROBLEMS / "trammel.toml").read_text().replace("velocity = 0 }", "velocity = 0, keep = true }")
+)
+
+
+def test_the_trammel_kept_in_x_and_y_has_the_textbooks_tension_in_x_and_y():
+    """With x and y kept (no angle, no branch y = +sqrt(l^2 - x^2)), the tension comes
+    from A M^-1 A^T reduced modulo the circle: m (g y - x'^2 - y'^2) / (2 l^2)."""
+    sol = lamech.solve(lamech.loads(TRAMMEL_KEPT))
+    assert sol.independent == ["x", "y"]
     m, g, l, x, y = (_sym(sol, n) for n in ("m", "g", "l", "x", "y"))
     xd, yd = _sym(sol, "x'"), _sym(sol, "y'")
     # m x'' = 2 lam x, m y'' + m g = 2 lam y, x x'' + y y'' + v^2 = 0 on x^2 + y^2 = l^2
     truth = m * (g * y - xd**2 - yd**2) / (2 * l**2)
     assert sp.simplify(sol.multipliers["rod"] - truth) == 0
-    note = " ".join(sol.notes)
-    assert "one sign of a square root" in note and "hold wherever the constraint does" in note
 
 
 def test_the_trammels_tension_is_right_on_both_halves_of_the_circle():
-    sol = _solved("trammel.toml")
+    sol = lamech.solve(lamech.loads(TRAMMEL_KEPT))
     dyn = dynamics(sol.system)
     pv = sol.system.parameter_values
     lam = sol.multipliers["rod"]
@@ -66,6 +88,12 @@ def test_the_trammels_tension_is_right_on_both_halves_of_the_circle():
         _, want = kkt_numeric(dyn, state)
         got = float(lam.xreplace({k: sp.Float(v) for k, v in state.items()}))
         assert got == pytest.approx(float(want[0]), rel=1e-12, abs=1e-12)
+
+
+def test_an_ellipse_is_kept_whole_not_solved_for_one_sign_of_a_root():
+    sol = _solved("ellipse_bead.toml")
+    assert sol.independent == ["x", "y"]
+    assert any("one sign of a square root" in n for n in sol.notes)
 
 
 def test_the_spinning_hoop_in_x_y_z_gives_its_normal_force_and_coriolis_force():
@@ -105,32 +133,43 @@ def test_the_spinning_hoop_above_its_equator_as_the_issue_measured_it():
 
 
 def test_manifold_states_reach_both_halves_of_a_circle():
-    sol = _solved("trammel.toml")
+    sol = lamech.solve(lamech.loads(TRAMMEL_KEPT))
     states = manifold_states(dynamics(sol.system), count=12)
     y = _sym(sol, "y")
     assert len(states) >= 10
     assert min(st[y] for st in states) < 0 < max(st[y] for st in states)
 
 
-def test_the_self_check_catches_a_chart_that_holds_on_half_of_the_circle(monkeypatch):
-    """The elimination the code used to make (y = +sqrt(l^2 - x^2) through the start):
-    its tension is wrong below the rails, and the self-check says so by name."""
+def test_the_self_check_names_a_form_that_holds_on_half_of_the_circle():
+    """The form the old elimination y = +sqrt(l^2 - x^2) gave for the trammel's tension
+    (in x alone): right above the rails, wrong below; check_forms names it."""
+    sol = lamech.solve(lamech.loads(TRAMMEL_KEPT))
+    m, g, l, x = (_sym(sol, n) for n in ("m", "g", "l", "x"))
+    xd = _sym(sol, "x'")
+    half = m * g * sp.sqrt(l**2 - x**2) / (2 * l**2) - m * l**2 * xd**2 / (2 * l**2 * (l**2 - x**2))
+    dyn = dynamics(sol.system)
+    forms = {"lambda_rod": (half, "lambda", 0)}
+    bad, compared = check_forms(dyn, sol.reduction, forms, manifold_states(dyn, count=12))
+    assert compared == 12
+    assert bad and all(d.result == "lambda_rod" for d in bad)
+    assert all(d.state["y"] < 0 for d in bad)  # wrong exactly on the lower half
+    assert "the KKT system" in str(bad[0])
+    assert "lambda_rod" in str(ClosedFormError(bad, "for the trammel"))
 
-    def branch(f, x, moving):
-        try:
-            poly = sp.Poly(f, x)
-        except sp.PolynomialError:
-            return None, None
-        if poly.degree() == 2:
-            a, b, c = poly.all_coeffs()
-            disc = b**2 - 4 * a * c
-            return [(-b + sp.sqrt(disc)) / (2 * a), (-b - sp.sqrt(disc)) / (2 * a)], None
-        return None, None
 
-    monkeypatch.setattr(_reduce, "_solve_closed", branch)
-    with pytest.raises(ClosedFormError, match="lambda_rod") as info:
-        _solved("trammel.toml")
-    assert "KKT system" in str(info.value) and "y = -" in str(info.value)
+def test_a_parametrisation_that_covers_half_of_the_circle_is_said():
+    text = (
+        (PROBLEMS / "trammel.toml")
+        .read_text()
+        .replace(
+            "[lagrangian]",
+            '[parametrisation]\ncoordinates = ["u"]\nx = "u"\ny = "sqrt(l^2 - u^2)"\n'
+            "\n[lagrangian]",
+        )
+    )
+    sol = lamech.solve(lamech.loads(text))
+    assert sol.independent == ["u"]
+    assert any("does not reach every state on the constraints" in n for n in sol.notes)
 
 
 @pytest.mark.parametrize("name", EXAMPLES + TEST_PROBLEMS)
@@ -146,8 +185,6 @@ def test_every_printed_form_agrees_with_the_kkt_system_over_the_manifold(name, s
     forms = printed_forms(dyn.system, sol.reduction, sol.closed)
     if not forms:
         pytest.skip(f"{name}: every closed form is too long to print")
-    if sol.system.chart is not None:
-        pytest.skip(f"{name}: results in the file's own chart (states are in its coordinates)")
     bad, compared = check_forms(dyn, sol.reduction, forms, manifold_states(dyn, count=8))
     assert not bad, "\n".join(str(d) for d in bad)
     assert compared >= len(forms), f"{name}: only {compared} values compared"

@@ -41,6 +41,7 @@ __all__ = [
     "ChartProposal",
     "satisfied_by_chart",
     "with_chart",
+    "exact_start",
 ]
 
 
@@ -266,6 +267,80 @@ def chart_initial(system, coords_state: dict) -> dict | str:
     return out
 
 
+def exact_start(system, found: dict) -> dict:
+    """The chart's initial values as exact expressions of the parameters where the chart
+    gives them: an angle u whose sine and cosine the map states linearly (a circle's
+    x = c_x + R sin u, y = c_y - R cos u) is atan2(sin u0, cos u0) at the coordinates'
+    exact initial values, and its velocity follows from one map entry's derivative;
+    kept only where it equals the numeric value ``found`` (:func:`chart_initial`). A
+    start found numerically would put 17-digit integers into every form built on it
+    (12500000000000000 cos(psi) - 10969782023629659 for 2 cos(psi) - 2 cos(1/2))."""
+    chart = system.chart
+    pv = system.parameter_values
+    init = {c.symbol: c.initial for c in system.coordinates}
+    init.update({c.velocity: c.initial_velocity for c in system.coordinates})
+    out: dict = {}
+    S, C = sp.Dummy("S"), sp.Dummy("C")
+    for coord in chart.coordinates:
+        u = coord.symbol
+        rows = []
+        for x, e in chart.map:
+            if not e.has(u):
+                continue
+            g = e.xreplace({sp.sin(u): S, sp.cos(u): C})
+            if g.has(u) or (g.free_symbols & set(chart.symbols)):
+                rows = []
+                break
+            rows.append(sp.Eq(init.get(x, x), g))
+        if not rows:
+            continue
+        try:
+            sol = sp.solve(rows, [S, C], dict=True)
+        except (NotImplementedError, ValueError, TypeError):
+            continue
+        if len(sol) != 1 or S not in sol[0] or C not in sol[0]:
+            continue
+        s0, c0 = (sp.simplify(sol[0][k]) for k in (S, C))
+        u0 = sp.atan2(s0, c0)
+        try:
+            ok = abs(float(u0.subs(pv)) - found[u]) <= 1e-9 * (1 + abs(found[u]))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            continue
+        out[u] = u0
+        # the velocity: d/dt of one map entry that moves with u, x' = dg/du u' (+ the rest)
+        for x, e in chart.map:
+            du = sp.diff(e, u)
+            rest = time_derivative_free(e, system, u)
+            vel = {c.symbol: c.velocity for c in system.coordinates}.get(x)
+            if vel is None:
+                continue
+            slope = du.xreplace({u: u0, **{k: v for k, v in init.items()}})
+            if slope == 0 or not sp.simplify(slope).is_nonzero:
+                continue
+            v0 = sp.simplify((init[vel] - rest.xreplace({u: u0, **init})) / slope)
+            try:
+                if abs(float(v0.subs(pv)) - found[coord.velocity]) <= 1e-9 * (
+                    1 + abs(found[coord.velocity])
+                ):
+                    out[coord.velocity] = v0
+            except (TypeError, ValueError):
+                pass
+            break
+    return out
+
+
+def time_derivative_free(e: sp.Expr, system, u: sp.Symbol) -> sp.Expr:
+    """The part of d e/dt that does not come from u: from t and the coordinates not
+    parametrised (their velocities), for :func:`exact_start`."""
+    out = sp.diff(e, system.t)
+    for c in system.coordinates:
+        if e.has(c.symbol):
+            out += sp.diff(e, c.symbol) * c.velocity
+    return out
+
+
 def _periodic(exprs: list[sp.Expr], s: sp.Symbol) -> bool:
     """``s`` enters only through sin and cos: its value is read in (-pi, pi]."""
     trig = (sp.sin, sp.cos)
@@ -301,9 +376,11 @@ class ChartProposal:
         return "\n".join(lines)
 
 
-def circle_chart(system) -> ChartProposal | None:
+def circle_chart(system, *, unilateral: bool = False, spheres: bool = True) -> ChartProposal | None:
     """Angles for every holonomic constraint that is a circle or sphere in coordinates
-    not yet parametrised (see the module docstring), in file order; None if none is."""
+    not yet parametrised (see the module docstring), in file order; None if none is.
+    ``unilateral``: contacts too (the chart then holds while they do); ``spheres``:
+    spheres too (their angles are singular at the poles, a circle's angle nowhere)."""
     if system.chart is not None:
         return None
     coords = {c.symbol: c for c in system.coordinates}
@@ -313,10 +390,12 @@ def circle_chart(system) -> ChartProposal | None:
     used: list[str] = []
     out_map: list[tuple[str, sp.Expr]] = []
     for con in system.constraints:
-        if not con.holonomic or con.unilateral:
+        if not con.holonomic or (con.unilateral and not unilateral):
             continue
         f = con.expr
         free = [s for s in coords if f.has(s) and s not in sub and not coords[s].keep]
+        if len(free) == 3 and not spheres:
+            continue
         if len(free) not in (2, 3) or any(
             s not in free for s in f.free_symbols & set(coords) if s not in sub
         ):

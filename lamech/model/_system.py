@@ -27,7 +27,7 @@ from typing import Any
 import sympy as sp
 
 from ._base import Memo, ModelError, as_tuple
-from ._chart import Chart, chart_initial
+from ._chart import Chart, chart_initial, exact_start
 from ._checks import initial_values
 from ._hints import hints, is_hint
 from ._parts import Body, Constraint, Coordinate, Parameter, Scenery
@@ -101,14 +101,15 @@ class System:
         found = chart_initial(self, state)
         if isinstance(found, str):
             raise ModelError([("parametrisation", found)])
+        exact = exact_start(self, found)
         coords = tuple(
             Coordinate(
                 c.name,
                 c.symbol,
                 c.velocity,
                 c.acceleration,
-                sp.Float(found[c.symbol], 17),
-                sp.Float(found[c.velocity], 17),
+                exact.get(c.symbol, sp.Float(found[c.symbol], 17)),
+                exact.get(c.velocity, sp.Float(found[c.velocity], 17)),
             )
             for c in self.chart.coordinates
         )

@@ -67,8 +67,11 @@ class Root:
 
 
 def is_angle(system: System, symbol: sp.Symbol) -> bool:
-    """True when ``symbol`` appears in the file's L, and only inside sin/cos/tan."""
+    """True when ``symbol`` appears in the file's L, and only inside sin/cos/tan; a
+    chart's coordinate through the chart (x = l sin(theta) makes theta an angle)."""
     L = system.L
+    if system.chart is not None and symbol in system.chart.symbols:
+        L = L.xreplace(system.chart.substitution)
     if not L.has(symbol):
         return False
     trig = (sp.sin, sp.cos, sp.tan)
@@ -367,7 +370,16 @@ class Verdict:
 
 
 def _state_symbols(system: System) -> set:
-    return set(system.q) | set(system.qd) | {system.t}
+    """The symbols of the state: coordinates, velocities and t, the chart's too (a
+    multiplier in the chart's angle psi is not constant)."""
+    chart = system.chart_coordinates
+    return (
+        set(system.q)
+        | set(system.qd)
+        | {c.symbol for c in chart}
+        | {c.velocity for c in chart}
+        | {system.t}
+    )
 
 
 def _at_start(system: System, expr: sp.Expr) -> tuple[sp.Expr, float | None]:

@@ -27,6 +27,7 @@ import numpy as np
 import sympy as sp
 
 from ..expr import to_text
+from ..model._chart import chart_initial
 from ..model._checks import initial_values, numeric_matrix
 from ._derive import DegenerateConstraintsError, Dynamics, kkt_numeric
 
@@ -47,6 +48,7 @@ class Disagreement:
     state: dict  # name -> value (coordinates, velocities, t)
     printed: float
     kkt: float
+    chart_miss: bool = False  # the file's chart does not reach this state
 
     def __str__(self) -> str:
         at = ", ".join(f"{k} = {v:.6g}" for k, v in self.state.items())
@@ -154,11 +156,17 @@ def check_forms(
     pv = system.parameter_values
     sub = red.substitution
     rows: list[tuple[str, float, float, dict]] = []
-    moving = set(system.q)
+    moving = set(system.q) | set(system.chart.symbols if system.chart is not None else ())
     for st in states:
         env = {**pv, **st}
         missed: list[tuple[str, float, float]] = []
         other_piece = False
+        if system.chart is not None:  # the chart's coordinates of this state, if any
+            found = chart_initial(system, dict(st))
+            if isinstance(found, str):
+                rows.append(("[parametrisation]", math.nan, 0.0, st))
+                continue
+            env.update(found)
         for c, e in red.eliminated:
             for sym in (c.symbol, c.velocity):
                 want = st[sym]
@@ -191,12 +199,12 @@ def check_forms(
             rows.append((label, value.real, truth, st))
     scale: dict[str, float] = {}
     for label, a, b, _ in rows:
-        scale[label] = max(scale.get(label, 0.0), abs(a), abs(b))
+        scale[label] = max(scale.get(label, 0.0), *(abs(v) for v in (a, b) if math.isfinite(v)))
     out = []
     for label, a, b, st in rows:
-        if abs(a - b) > RTOL * (1 + scale[label]):
+        if not abs(a - b) <= RTOL * (1 + scale[label]):  # NaN: a state the chart misses
             named = {str(k): float(v) for k, v in st.items()}
-            out.append(Disagreement(label, named, a, b))
+            out.append(Disagreement(label, named, a, b, label == "[parametrisation]"))
     return out, len(rows)
 
 

@@ -10,7 +10,8 @@ from functools import cached_property
 import numpy as np
 import sympy as sp
 
-from ..model import System, circle_chart
+from ..expr import to_text
+from ..model import ModelError, System, circle_chart, with_chart
 from ..model._checks import holding_at_start, initial_values, numeric_matrix, open_at_start
 from ._budget import count_ops
 from ._conditions import (
@@ -26,7 +27,14 @@ from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
 from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._normal import normal
-from ._reduce import SIMPLIFY_OPS, ClosedForms, Reduction, closed_forms, eliminate
+from ._reduce import (
+    CLOSED_FORM_LIMIT,
+    SIMPLIFY_OPS,
+    ClosedForms,
+    Reduction,
+    closed_forms,
+    eliminate,
+)
 from ._selfcheck import ClosedFormError, check_forms, manifold_states, printed_forms
 from ._work import interrupted, labelled, work_budget
 
@@ -172,7 +180,8 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     TypeError."""
     from ..problem._coerce import as_system
 
-    system = as_system(system, "solve")
+    given = as_system(system, "solve")
+    system = in_circle_angles(given)
     if budget is not None and (
         isinstance(budget, bool) or not isinstance(budget, int) or budget <= 0
     ):
@@ -180,7 +189,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     with work_budget(budget) as work, labelled("the equations of motion"):
         sol = _solve(system)
     untidied = tuple(dict.fromkeys(work.untidied))
-    notes = sol.notes
+    notes = sol.notes if system is given else (_chart_note(system),) + sol.notes
     if interrupted():
         notes += (
             "partial: interrupted (Ctrl-C) while simplifying; "
@@ -199,6 +208,52 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     )
 
 
+def in_circle_angles(system: System) -> System:
+    """``system`` in the angle of each circle among its constraints (|r - c|^2 = R^2 in two
+    coordinates: r = c + R (sin theta, -cos theta), :func:`lamech.model.circle_chart`),
+    when the file gives no [parametrisation] and the closed forms stay within
+    :data:`._reduce.CLOSED_FORM_LIMIT` unknowns; else ``system`` itself.
+
+    A circle's angle covers all of it, where solving x^2 + y^2 = l^2 for y takes one
+    sign of a square root and covers half (the elimination refuses that, and the
+    results would keep x and y); in the angle the trammel, the Cartesian pendulum or a
+    bead on a hoop has one degree of freedom left, so the energy shell, where a contact
+    lets go and the equilibria follow. Contacts that hold at the start are charted too
+    (the results hold while they do, as for any eliminated contact); spheres are not
+    (their angles are singular at the poles): they keep their coordinates."""
+    if system.chart is not None:
+        return system
+    holding = holding_at_start(system)
+    proposal = circle_chart(holding, unilateral=True, spheres=False)
+    if proposal is None:
+        return system
+    mapped = {name for name, _ in proposal.map}
+    independent = (
+        len(proposal.coordinates)
+        + sum(1 for c in system.coordinates if c.name not in mapped)
+        - sum(1 for c in holding.constraints if c.holonomic and c.name not in proposal.constraints)
+    )
+    if independent + len(system.constraints) > CLOSED_FORM_LIMIT:
+        return system
+    try:
+        charted = with_chart(system, proposal)  # placed: the start reached by the angles
+    except ModelError:
+        return system
+    return charted
+
+
+def _chart_note(system: System) -> str:
+    """What :func:`in_circle_angles` did, in one note."""
+    chart = system.chart
+    names = ", ".join(c.name for c in chart.coordinates)
+    where = "; ".join(f"{k} = {to_text(e)}" for k, e in chart.map)
+    return (
+        f"results in the angle of each circle among the constraints, from the downward "
+        f"vertical ({names}: {where}), which covers all of it; a [parametrisation] in "
+        "the file chooses other coordinates"
+    )
+
+
 def _solve(system: System) -> Solution:
     dyn = dynamics(system)
     opened = open_at_start(system)
@@ -206,12 +261,13 @@ def _solve(system: System) -> Solution:
     dyn_h = dynamics(holding) if holding is not system else dyn
     red = eliminate(holding)
     forms = closed_forms(dyn_h, red)
+    checked_notes = []
     if not forms.skipped:
         with labelled("self-check"):
-            _self_check(dyn_h, red, forms)
+            checked_notes = _self_check(dyn_h, red, forms)
     with labelled("energy"):
         ints = integrals(dyn_h, red)
-    notes = list(system.notes) + list(red.notes)
+    notes = list(system.notes) + list(red.notes) + checked_notes
     proposal = circle_chart(system)
     if proposal is not None:
         circles = ", ".join(f"`{n}`" for n in proposal.constraints)
@@ -318,16 +374,26 @@ def _solve(system: System) -> Solution:
     )
 
 
-def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> None:
+def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> list[str]:
     """Raise :class:`._selfcheck.ClosedFormError` when a printed multiplier or reduced
     acceleration disagrees with the KKT system at random states over the whole manifold
-    (:mod:`._selfcheck`)."""
+    (:mod:`._selfcheck`); the note that the file's [parametrisation] misses part of the
+    manifold when it does (the results then hold where it reaches)."""
     checked = printed_forms(dyn.system, red, forms)
     if not checked:
-        return
+        return []
     bad, _ = check_forms(dyn, red, checked, manifold_states(dyn))
-    if bad:
-        raise ClosedFormError(bad, f"for {dyn.system.title!r}")
+    misses = [d for d in bad if d.chart_miss]
+    if len(misses) < len(bad):
+        raise ClosedFormError([d for d in bad if not d.chart_miss], f"for {dyn.system.title!r}")
+    if not misses:
+        return []
+    at = ", ".join(f"{k} = {v:.4g}" for k, v in misses[0].state.items() if k != "t")
+    return [
+        f"the [parametrisation] does not reach every state on the constraints (not "
+        f"{at}, for one): the results hold only where it does; an angle covers a whole "
+        "circle"
+    ]
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:
