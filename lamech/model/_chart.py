@@ -283,7 +283,7 @@ def exact_start(system, found: dict) -> dict:
     S, C = sp.Dummy("S"), sp.Dummy("C")
     for coord in chart.coordinates:
         u = coord.symbol
-        rows = []
+        rows: list[sp.Eq] = []
         for x, e in chart.map:
             if not e.has(u):
                 continue
