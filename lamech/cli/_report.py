@@ -93,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import check_output, write_output
     from ..present import report_page
     from ..problem import ProblemFileError, load
-    from ..symbolic import DegenerateConstraintsError, solve, steps
+    from ..symbolic import ClosedFormError, DegenerateConstraintsError, solve, steps
+    from ..symbolic._selfcheck import check_along
 
     name = shown_name(args.problem)
     try:
@@ -124,6 +125,18 @@ def run(args: argparse.Namespace) -> int:
             traj = simulate(system, args.t_end, initial=initial or None)
         except SimulationError as exc:
             note = f"no simulation: {exc}"
+    if traj is not None and not initial:  # the closed forms are of the file's start
+        bad = check_along(
+            sol,
+            traj.t,
+            traj.q,
+            traj.qd,
+            traj.lambdas,
+            until=traj.events[0].t if traj.events else None,
+        )
+        if bad:
+            print(f"lamech: {name}: {ClosedFormError(bad, 'along the motion')}", file=sys.stderr)
+            return 2
     page = report_page(sol, derivation, _source(args.problem), traj, None, note)
     out = Path(args.out)
     try:  # beside the target and renamed: a page is never left half-written

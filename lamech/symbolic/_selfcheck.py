@@ -31,7 +31,14 @@ from ..model._chart import chart_initial
 from ..model._checks import initial_values, numeric_matrix
 from ._derive import DegenerateConstraintsError, Dynamics, kkt_numeric
 
-__all__ = ["ClosedFormError", "Disagreement", "manifold_states", "check_forms", "printed_forms"]
+__all__ = [
+    "ClosedFormError",
+    "Disagreement",
+    "manifold_states",
+    "check_forms",
+    "printed_forms",
+    "check_along",
+]
 
 RTOL = 1e-6
 """Largest disagreement allowed, relative to the size of the result over all states
@@ -226,3 +233,64 @@ def printed_forms(system, red, forms) -> dict:
 
 def _floats(env: dict) -> dict:
     return {k: sp.Float(v, 30) if not isinstance(v, sp.Basic) else v for k, v in env.items()}
+
+
+ALONG_RTOL = 1e-5
+"""Largest disagreement allowed along a simulated motion, relative to the size of the
+result over the samples compared: the integrator's multipliers carry its own error
+(rtol 1e-9 by default), a form on the wrong chart is off by its whole size."""
+
+
+def check_along(
+    solution, t, q, qd, lambdas, until: float | None = None, samples: int = 40
+) -> list[Disagreement]:
+    """The disagreements of the multipliers ``solution`` prints with those a simulation
+    solved for, at up to ``samples`` of its samples (``t`` (N,), ``q`` and ``qd`` (N, n),
+    ``lambdas`` (N, m) in the order of the system's constraints), before ``until`` (the
+    first event: after a lift-off or a slip the active constraints are others than
+    those the closed forms are of) and before the first sample where a multiplier is
+    NaN (a contact open). Results in a file's own chart are not
+    checked here (each sample would need the chart's coordinates found by Newton's
+    method); every solve checks them at random states (:func:`check_forms`)."""
+    system = solution.system
+    if system.chart is not None:
+        return []
+    names = [c.name for c in system.constraints]
+    printed = {
+        name: expr
+        for name, expr in solution.closed.readable_multipliers.items()
+        if name in names and sp.sympify(expr).free_symbols
+    }
+    if not printed or len(t) == 0:
+        return []
+    lam = np.asarray(lambdas, dtype=float)
+    open_ = np.where(~np.all(np.isfinite(lam), axis=1))[0]
+    end = int(open_[0]) if len(open_) else len(t)
+    if until is not None:
+        end = min(end, int(np.searchsorted(np.asarray(t), until, side="left")))
+    if end == 0:
+        return []
+    picks = sorted({int(i) for i in np.linspace(0, end - 1, min(samples, end))})
+    pv = system.parameter_values
+    rows = []
+    for name, expr in printed.items():
+        j = names.index(name)
+        f = sp.lambdify(
+            [system.t, *system.q, *system.qd], sp.sympify(expr).xreplace(pv), modules="numpy"
+        )
+        for i in picks:
+            with np.errstate(all="ignore"):
+                value = complex(f(t[i], *q[i], *qd[i]))
+            if not np.isfinite(value):
+                continue
+            rows.append((f"lambda_{name}", value.real, float(lam[i, j]), i))
+    scale: dict[str, float] = {}
+    for label, a, b, _ in rows:
+        scale[label] = max(scale.get(label, 0.0), abs(a), abs(b))
+    out = []
+    for label, a, b, i in rows:
+        if not abs(a - b) <= ALONG_RTOL * (1 + scale[label]):
+            state = {"t": float(t[i])}
+            state.update({c.name: float(x) for c, x in zip(system.coordinates, q[i])})
+            out.append(Disagreement(label, state, a, b))
+    return out
