@@ -209,3 +209,16 @@ def test_the_printed_multipliers_agree_with_the_simulation_along_the_motion(name
     wrong = dataclasses.replace(sol, closed=dataclasses.replace(sol.closed, multipliers=lam))
     bad = check_along(wrong, traj.t, traj.q, traj.qd, traj.lambdas, until=until)
     assert bad and bad[0].result == f"lambda_{target}" and "t" in bad[0].state
+
+
+def test_a_multiplier_positive_in_every_state_never_lets_go():
+    """A particle in a paraboloidal bowl z = (x^2 + y^2)/(2a): lambda = a m (a g + x'^2 +
+    y'^2)/(a^2 + x^2 + y^2) > 0 whatever the state (two degrees of freedom: no shell), so
+    the bowl never lets go, not 'not determined'."""
+    sol = _solved("paraboloid_bowl.toml")
+    m, g, a, x, y = (_sym(sol, n) for n in ("m", "g", "a", "x", "y"))
+    xd, yd = _sym(sol, "x'"), _sym(sol, "y'")
+    truth = a * m * (a * g + xd**2 + yd**2) / (a**2 + x**2 + y**2)
+    assert sp.simplify(sol.multipliers["bowl"] - truth) == 0
+    assert sol.lets_go["bowl"].when == "never"
+    assert "in every state" in sol.lets_go["bowl"].reason

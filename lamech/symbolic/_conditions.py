@@ -418,6 +418,35 @@ def _at_least_zero(expr: sp.Expr) -> str:
     return f"{to_text(rest)} >= 0" if kept else f"{to_text(expr)} >= 0"
 
 
+POSITIVE_OPS = 200
+"""Multipliers up to this size are tested for being positive in every state."""
+
+
+def positive_everywhere(expr: sp.Expr, system: System) -> bool:
+    """Whether ``expr`` is positive for every real state and the parameters' signs as
+    their values have them (a m (a g + x'^2 + y'^2) / (a^2 + x^2 + y^2) with a, m, g > 0):
+    SymPy's assumptions on the expression with each parameter a positive or negative
+    symbol and each state symbol real. Bounded by size (:data:`POSITIVE_OPS`)."""
+    expr = sp.sympify(expr)
+    if count_ops(expr) > POSITIVE_OPS or not expr.free_symbols & _state_symbols(system):
+        return False
+    signs: dict = {}
+    for s, v in system.parameter_values.items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            return False
+        if x == 0:
+            continue
+        signs[s] = sp.Dummy(s.name, positive=True) * (1 if x > 0 else -1)
+    for s in _state_symbols(system):
+        signs[s] = sp.Dummy(s.name, real=True)
+    try:
+        return bool(expr.xreplace(signs).is_positive)
+    except (TypeError, ValueError, RecursionError):
+        return False
+
+
 def _depends_on_parameters(expr: sp.Expr, system: System) -> bool:
     return bool(expr.free_symbols & {p.symbol for p in system.parameters})
 
@@ -469,6 +498,15 @@ def lets_go_verdict(
             f"{lam_name} is constant: {to_text(multiplier)} = {value:.6g} > 0",
             cond,
             constant=True,
+        )
+    if value is not None and positive_everywhere(multiplier, system):
+        return Verdict(
+            kind,
+            "never",
+            f"{lam_name} = {to_text(multiplier)} > 0 in every state (a sum of positive "
+            "terms and squares, over a positive denominator)",
+            cond,
+            constant=True,  # for all time, as a constant lambda
         )
     if resting and value is not None:
         return Verdict(
