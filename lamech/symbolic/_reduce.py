@@ -2,10 +2,14 @@
 
 Elimination rule (the contract): for each holonomic constraint in file order, eliminate
 the last-listed coordinate not yet eliminated (and not ``keep``) that the constraint
-can be solved for in closed form (here: f is a polynomial of degree 1 or 2 in it);
-with two roots, take the branch through the initial state, and skip the coordinate
-when the initial state sits on the branch point. Velocity constraints are never used
-for elimination.
+can be solved for in closed form by a function on the whole constraint
+(:func:`_solve_closed`: f linear in it with a constant coefficient, or quadratic with
+roots whose square root is constant along the motion; never one sign of a square root
+of the coordinates, which is a chart of half the constraint, nor a division by what can
+vanish); with two roots, take the one through the initial state, and skip the
+coordinate when the initial state sits on the point where they meet. Velocity
+constraints are never used for elimination. A circle is solved in its angle before
+this rule runs (:func:`lamech.symbolic._solution.in_circle_angles`).
 
 The closed forms solve the KKT system of :mod:`lamech.symbolic._derive` with the eliminated
 coordinates substituted: unknowns are the independent accelerations and every
