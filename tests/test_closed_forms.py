@@ -47,6 +47,7 @@ from sympy.physics.mechanics import (
 import lamech
 from bench.run import DOUBLE_PENDULUM_CARTESIAN as CARTESIAN_DOUBLE_PENDULUM
 from bench.run import DOUBLE_PENDULUM_POLAR as POLAR_DOUBLE_PENDULUM
+from lamech.model._chart import chart_initial
 
 TIME = dynamicsymbols._t
 STATES = 6  # random states per problem, besides the initial one
@@ -508,7 +509,13 @@ def assert_on_manifold(system, vals: dict, tol: float = 1e-12) -> None:
 
 def assert_eliminated_agree(solution, vals: dict, tol: float = 1e-10) -> None:
     """The coordinates and velocities lamech eliminated take the state's values there
-    (so both sides are compared at one state, on the branch lamech chose)."""
+    (so both sides are compared at one state, on the branch lamech chose). Where lamech
+    solved in a chart (a circle's angle), ``vals`` gains the chart's coordinates of the
+    state (found as lamech places a chart's start)."""
+    if solution.system.chart is not None:
+        found = chart_initial(solution.system, vals)
+        assert not isinstance(found, str), found
+        vals.update(found)
     velocities = set(solution.system.qd)
     for key, expr in solution.reduction.substitution.items():
         if key in vals and (key in solution.system.q or key in velocities):

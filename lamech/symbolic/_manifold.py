@@ -33,6 +33,10 @@ MAX_RELATIONS = 6
 """At most this many polynomial relations (each constraint gives two)."""
 MAX_DEGREE = 4
 """Relations of higher total degree are not used (Groebner bases grow fast)."""
+MAX_ANGLES = 2
+"""At most this many angles (a coordinate or a driven w t) get sine and cosine
+generators: a four-bar's three loop angles make Groebner bases that cost seconds and
+reductions that cost minutes, for nothing shorter."""
 
 
 def _radical_rule(f: sp.Expr, coords: set) -> tuple[sp.Expr, sp.Expr] | None:
@@ -73,7 +77,7 @@ class _Manifold:
         # a constraint that moves (y cos(w t) = x sin(w t)) is polynomial in the sine and
         # cosine of its motion's angle: each becomes a generator, related by s^2 + c^2 = 1
         derived = [r for r in relations] + [time_derivative(r, system) for r in relations]
-        self.clock = _clock_generators(derived, coords | set(system.qd))
+        self.clock = _clock_generators(derived, coords, set(system.qd))
         to_gens = {e: g for e, g in self.clock.items()}
         gens = [s for s in system.q + system.qd] + list(to_gens.values())
         self.relations: list[sp.Expr] = []
@@ -183,17 +187,24 @@ class _Manifold:
         return out.xreplace(back) if back else out
 
 
-def _clock_generators(exprs: list[sp.Expr], moving: set) -> dict:
-    """{sin(w t): S, cos(w t): C, ...}: a generator for the sine and the cosine of each
-    argument of a trigonometric function in ``exprs`` that is free of the ``moving``
-    symbols (the coordinates and velocities) but not of t: the angle through which a
-    constraint is driven. Both of a pair are made, so s^2 + c^2 = 1 relates them."""
+def _clock_generators(exprs: list[sp.Expr], coords: set, velocities: set) -> dict:
+    """{sin(w t): S, cos(w t): C, sin(phi): S, ...}: a generator for the sine and the
+    cosine of each argument of a trigonometric function in ``exprs`` that is one
+    coordinate (the rod's inclination phi in r^2 - (x - a cos(phi))^2 - ...), or free of
+    the coordinates and velocities but not of t (the angle through which a constraint
+    is driven). Both of a pair are made, so s^2 + c^2 = 1 relates them; the constraints
+    are then polynomials in them."""
+    moving = coords | velocities
     args: set = set()
     for e in exprs:
         for a in sp.sympify(e).atoms(sp.sin, sp.cos, sp.tan):
             arg = a.args[0]
-            if arg.free_symbols and not arg.free_symbols & moving:
+            if arg in coords or (arg.free_symbols and not arg.free_symbols & moving):
                 args.add(arg)
+    if len(args) > MAX_ANGLES:  # too many: the driven ones only, if few enough
+        args = {a for a in args if a not in coords}
+        if len(args) > MAX_ANGLES:
+            return {}
     out: dict = {}
     for i, arg in enumerate(sorted(args, key=sp.default_sort_key)):
         out[sp.sin(arg)] = sp.Dummy(f"S{i}")
