@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import base64
 import html
+import json
 import re
 import tempfile
 from functools import cache
@@ -69,14 +70,26 @@ nav a { margin-right: .8rem; }
 footer { margin-top: 3rem; font-size: .75rem; color: #777; }
 """
 
-_RENDER = """
+KATEX_OPTIONS = {"throwOnError": False, "trust": False, "maxExpand": 1000, "maxSize": 20}
+"""KaTeX's options in the page: a bad block shows as red text, never stops the others;
+``trust`` off (no ``\\href``, ``\\url``, ``\\includegraphics`` nor HTML attributes from the
+TeX, though the TeX lamech writes has none: user text is escaped, :mod:`._plain`);
+macro expansions per block bounded (``\\def\\a{\\a\\a}\\a`` stops at 1000) and sizes
+(``\\rule``, ``\\kern``) at 20 em."""
+
+_RENDER = (
+    """
+var OPTIONS = """
+    + json.dumps(KATEX_OPTIONS)
+    + """;
 document.querySelectorAll(".math, .tex").forEach(function (el) {
-  var display = el.classList.contains("math");
-  try { katex.render(el.textContent, el, {displayMode: display, throwOnError: false}); }
+  var options = Object.assign({displayMode: el.classList.contains("math")}, OPTIONS);
+  try { katex.render(el.textContent, el, options); }
   catch (e) { el.classList.add("unrendered"); }
 });
 document.body.setAttribute("data-rendered", document.querySelectorAll(".katex").length);
 """
+)
 
 
 def _math(tex: str) -> str:
