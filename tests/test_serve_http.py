@@ -443,3 +443,97 @@ def test_checks_stay_quick_while_slow_work_runs():
         assert p99 < 5.0
     finally:
         server.stop()
+
+
+# ----- issue 44, item 7 ------------------------------------------------------------------
+def _line_with(stream, words: str, seconds: float) -> tuple[str | None, list[str]]:
+    """Read ``stream`` line by line until one holds ``words``: (that line or None after
+    ``seconds``, every line read). The wait ends at the line, not at a fixed time."""
+    lines: list[str] = []
+    found: list[str] = []
+
+    def read() -> None:
+        for raw in iter(stream.readline, b""):
+            lines.append(raw.decode("utf-8", "replace"))
+            if words in lines[-1]:
+                found.append(lines[-1])
+                return
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(seconds)
+    return (found[0] if found else None), lines
+
+
+def test_a_client_that_hangs_up_mid_body_costs_one_line_not_a_traceback():
+    server = Server()
+    try:
+        for path in ("/api/check", "/api/run", "/api/sweep"):
+            sock = socket.create_connection(("127.0.0.1", server.port))
+            sock.sendall(
+                f"POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+                f"Authorization: token {TOKEN}\r\nContent-Type: application/json\r\n"
+                'Content-Length: 1000\r\n\r\n{"text": "tit'.encode()
+            )
+            sock.close()
+            line, lines = _line_with(server.proc.stderr, "hung up", 30)
+            assert line is not None, "".join(lines)
+            assert path in line and len(line) < 120
+            assert not any("Traceback" in x or "ClientDisconnect" in x for x in lines), lines
+        assert server.request("POST", "/api/check", {"text": CYLINDER})[0] == 200
+    finally:
+        server.stop()
+    rest = server.proc.stderr.read().decode("utf-8", "replace")
+    assert "Traceback" not in rest and "ClientDisconnect" not in rest, rest
+
+
+@pytest.mark.parametrize("host", ["0.0.0.0", "192.168.1.10", "::"])
+def test_a_host_other_than_loopback_is_refused_with_the_reason(host):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "serve", "--host", host, "--port", str(_free_port())],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        first = proc.stderr.readline().decode()  # the refusal, or (before) a warning
+        assert f"--host {host}" in first and "loopback interface only" in first, first
+        assert "ssh -L" in first
+        assert proc.wait(30) == 2
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(5)
+
+
+def test_each_child_gets_an_address_space_limit():
+    code = (
+        "import multiprocessing as mp, resource\n"
+        "from lamech.cli import _workers\n"
+        "here, there = mp.Pipe(duplex=False)\n"
+        "_workers._child(there, 'check', 'title = 1', {}, 1.5)\n"
+        "print(here.recv()[1]['ok'], resource.getrlimit(resource.RLIMIT_AS)[0])\n"
+        "import numpy\n"
+        "try:\n"
+        "    numpy.ones(2 * 10**9 // 8)\n"
+        "except MemoryError:\n"
+        "    print('MemoryError')\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["False", str(1_500_000_000), "MemoryError"]
+
+
+def test_the_memory_option_is_checked_and_its_default_documented():
+    from lamech.cli._serve import DEFAULT_MEMORY_GB
+
+    run = subprocess.run(
+        [sys.executable, "-m", "lamech", "serve", "--memory", "0.1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and "--memory 0.1: give at least 0.5 GB" in run.stderr
+    helped = subprocess.run(
+        [sys.executable, "-m", "lamech", "serve", "--help"], capture_output=True, text=True
+    )
+    assert f"(default {DEFAULT_MEMORY_GB:g})" in " ".join(helped.stdout.split())
