@@ -505,22 +505,62 @@ def test_a_host_other_than_loopback_is_refused_with_the_reason(host):
             proc.wait(5)
 
 
+def _address_limit(pid: int) -> int | None:
+    """The soft RLIMIT_AS of process ``pid`` in bytes (None: unlimited)."""
+    for line in Path(f"/proc/{pid}/limits").read_text().splitlines():
+        if line.startswith("Max address space"):
+            soft = line.split()[3]
+            return None if soft == "unlimited" else int(soft)
+    raise AssertionError(f"no address-space line in /proc/{pid}/limits")
+
+
 def test_each_child_gets_an_address_space_limit():
-    code = (
-        "import multiprocessing as mp, resource\n"
-        "from lamech.cli import _workers\n"
-        "here, there = mp.Pipe(duplex=False)\n"
-        "_workers._child(there, 'check', 'title = 1', {}, 1.5)\n"
-        "print(here.recv()[1]['ok'], resource.getrlimit(resource.RLIMIT_AS)[0])\n"
-        "import numpy\n"
-        "try:\n"
-        "    numpy.ones(2 * 10**9 // 8)\n"
-        "except MemoryError:\n"
-        "    print('MemoryError')\n"
-    )
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.split() == ["False", str(1_500_000_000), "MemoryError"]
+    server = Server("--memory", "3")
+    try:
+        server.request("POST", "/api/check", {"text": CYLINDER})
+        idle = _alive(server.descendants())
+        body = json.dumps({"text": SLOW}).encode()
+        sock = socket.create_connection(("127.0.0.1", server.port))
+        sock.sendall(
+            f"POST /api/run HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+            f"Authorization: token {TOKEN}\r\nContent-Type: application/json\r\n"
+            f"Content-Length: {len(body)}\r\n\r\n".encode()
+            + body
+        )
+        assert _wait_for(lambda: len(_alive(server.descendants()) - idle) == 1, 20)
+        (worker,) = _alive(server.descendants()) - idle
+        assert _wait_for(lambda: _address_limit(worker) == 3_000_000_000, 20)
+        assert _address_limit(server.proc.pid) is None  # the server itself is not bounded
+        sock.close()
+    finally:
+        server.stop()
+
+
+def _allocate_past(gb: float, said) -> None:
+    import numpy as np
+
+    from lamech.cli._workers import limit_memory
+
+    limit_memory(gb)
+    try:
+        np.ones(int(1.5 * gb * 1e9) // 8)
+    except MemoryError:
+        said.put("MemoryError")
+    else:
+        said.put("allocated")
+
+
+def test_past_the_limit_an_allocation_fails_instead_of_filling_the_machine():
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")  # a process of its own: the limit stays there
+    said = ctx.Queue()
+    proc = ctx.Process(target=_allocate_past, args=(1.5, said))
+    proc.start()
+    try:
+        assert said.get(timeout=60) == "MemoryError"
+    finally:
+        proc.join(10)
 
 
 def test_the_memory_option_is_checked_and_its_default_documented():

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import asyncio
 
-__all__ = ["add_parser", "run", "make_app"]
+__all__ = ["add_parser", "run", "make_app", "host_refusal", "DEFAULT_MEMORY_GB"]
 
 MAX_BODY = 1_000_000
 """The largest request body accepted (bytes): the loader's limit for a problem file."""
@@ -304,8 +304,10 @@ def make_app(
     from starlette.responses import HTMLResponse, PlainTextResponse
     from starlette.routing import Route
 
+    from ..present._policy import served_policy, valid_nonce
     from ..problem import example_names, example_path, example_title
     from ._guard import LOOPBACK, Guard
+    from ._headers import Headers
     from ._workers import Busy, Lane, Runner, cancelled_answer
 
     JSONResponse = _json_response()
@@ -328,7 +330,11 @@ def make_app(
         return JSONResponse(answer)
 
     async def home(request: Request) -> HTMLResponse:
-        return HTMLResponse(PAGE.read_text(encoding="utf-8"))
+        nonce = secrets.token_urlsafe(18)  # one per answer: its scripts and styles carry it
+        page = PAGE.read_text(encoding="utf-8")
+        for tag in ("script", "style"):
+            page = page.replace(f"<{tag}>", f'<{tag} nonce="{nonce}">')
+        return HTMLResponse(page, headers={"Content-Security-Policy": served_policy(nonce)})
 
     async def examples(request: Request) -> Any:
         return JSONResponse([{"name": n, "title": example_title(n)} for n in example_names()])
@@ -363,6 +369,9 @@ def make_app(
         params = _params(data.get("params"))
         if isinstance(params, str):
             return _refuse(400, params)
+        nonce = data.get("nonce")
+        if nonce is not None and not valid_nonce(nonce):
+            return _refuse(400, "nonce: 16 to 64 letters, digits, - or _ (the page's own)")
         events_only = bool(data.get("events_only"))
         if (params or events_only) and not simulate:
             return _refuse(400, '"params" and "events_only" go with "simulate": true')
@@ -372,6 +381,7 @@ def make_app(
             "initial": initial,
             "params": params,
             "events_only": events_only,
+            "nonce": nonce,
         }
         return await work(request, "run", data["text"], options)
 
@@ -471,6 +481,7 @@ def make_app(
             Route("/api/run", solve, methods=["POST"]),
         ],
         middleware=[
+            Middleware(Headers),  # outermost: a refusal carries them too
             Middleware(Guard, token=token, names=(*LOOPBACK, host), port=port),
         ],
     )

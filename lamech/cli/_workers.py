@@ -10,6 +10,7 @@ hostile expression costs one process, never the server.
 from __future__ import annotations
 
 import asyncio
+import errno
 import math
 import multiprocessing as mp
 import os
@@ -17,7 +18,7 @@ import time
 from collections import deque
 from typing import Any
 
-__all__ = ["Busy", "Lane", "Runner", "errors"]
+__all__ = ["Busy", "Lane", "Runner", "errors", "limit_memory"]
 
 
 class Busy(Exception):
@@ -114,7 +115,7 @@ def _work(kind: str, text: str, options: dict) -> dict:
     answer: dict[str, Any] = {
         "ok": True,
         "title": system.title,
-        "page": report_page(sol, derivation, text, traj, None, note),
+        "page": report_page(sol, derivation, text, traj, None, note, options.get("nonce")),
         "lets_go": lift,
         "status": None if traj is None else str(traj.status),
         "note": note,
@@ -213,6 +214,16 @@ def limit_memory(gb: float | None) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
 
 
+def _short_of_memory(exc: BaseException) -> bool:
+    """Whether ``exc`` is what an allocation past the limit raises: a MemoryError, or a
+    library that could not be mapped (an ImportError "failed to map segment", ENOMEM)."""
+    if isinstance(exc, MemoryError):
+        return True
+    if isinstance(exc, OSError) and exc.errno == errno.ENOMEM:
+        return True
+    return isinstance(exc, ImportError) and "failed to map segment" in str(exc)
+
+
 def _out_of_memory(gb: float | None) -> str:
     return (
         f"out of memory: the work needed more than {gb:g} GB of address space (the "
@@ -233,10 +244,11 @@ def _child(conn, kind: str, text: str, options: dict, memory_gb: float | None = 
             conn.send(("done", _sweep(conn, text, options)))
             return
         conn.send(("done", _work(kind, text, options)))
-    except MemoryError:
-        conn.send(("done", _failed(_out_of_memory(memory_gb))))
     except BaseException as exc:  # noqa: BLE001 - whatever it is, say it, not a hang
-        conn.send(("done", _failed(f"internal error: {type(exc).__name__}: {exc}")))
+        if memory_gb is not None and _short_of_memory(exc):
+            conn.send(("done", _failed(_out_of_memory(memory_gb))))
+        else:
+            conn.send(("done", _failed(f"internal error: {type(exc).__name__}: {exc}")))
     finally:
         conn.close()
 
