@@ -13,12 +13,12 @@ from __future__ import annotations
 
 from ..present._policy import REFERRER
 
-__all__ = ["Headers", "DEFAULT_POLICY"]
+__all__ = ["PageHeaders", "DEFAULT_POLICY"]
 
 DEFAULT_POLICY = "default-src 'none'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'"
 
 
-class Headers:
+class PageHeaders:
     """ASGI middleware: adds the headers above to each ``http.response.start`` of
     ``app``, keeping a Content-Security-Policy the route set."""
 

@@ -2,9 +2,11 @@
 simulate it, the report shown beside the editor.
 
 Built on Starlette (routing, requests, JSON) and served by uvicorn: no HTTP is written
-here. Safe to leave running, as Jupyter's server is: loopback only by default, a token
+here. Safe to leave running, as Jupyter's server is: loopback only (:func:`host_refusal`), a token
 (random unless ``--token`` gives one, printed in the URL at start), the Host and Origin
-checked and work taken as JSON only (:mod:`lamech.cli._guard`). Every piece of work on
+checked and work taken as JSON only (:mod:`lamech.cli._guard`); every answer with a
+Content-Security-Policy and no referrer (:mod:`lamech.cli._headers`), the page's policy
+allowing its own scripts by a nonce drawn per answer. Every piece of work on
 user text runs in a child process bounded by ``--timeout``, in a few slots with a
 bounded queue (503 and ``Retry-After`` when full), killed when its client goes away;
 checks have their own slots, so a check is answered while slow solves run; SIGINT and
@@ -307,7 +309,7 @@ def make_app(
     from ..present._policy import served_policy, valid_nonce
     from ..problem import example_names, example_path, example_title
     from ._guard import LOOPBACK, Guard
-    from ._headers import Headers
+    from ._headers import PageHeaders
     from ._workers import Busy, Lane, Runner, cancelled_answer
 
     JSONResponse = _json_response()
@@ -481,7 +483,7 @@ def make_app(
             Route("/api/run", solve, methods=["POST"]),
         ],
         middleware=[
-            Middleware(Headers),  # outermost: a refusal carries them too
+            Middleware(PageHeaders),  # outermost: a refusal carries them too
             Middleware(Guard, token=token, names=(*LOOPBACK, host), port=port),
         ],
     )
