@@ -113,3 +113,17 @@ def test_a_tex_label_is_text_in_the_report_in_chromium(tmp_path, chromium):
     shown = re.sub(r"[\s\u200b]", "", row.inner_text())  # KaTeX's spans apart
     assert HOSTILE.replace(" ", "") in shown  # typeset letter for letter
     page.close()
+
+
+@pytest.mark.slow
+def test_a_sweep_picture_of_a_table_named_with_dollars_is_drawn(tmp_path):
+    import lamech
+    from lamech.present import plot_sweep
+
+    table = tmp_path / r"Tension $\lambda$ and $\frac{1}$.csv"
+    run = lamech.sweep(
+        "pendulum", {"theta0": "0.2,0.4"}, ["max:lambda:string"], t_end=1.0, out=table
+    )
+    png = tmp_path / "sweep.png"
+    plot_sweep(run, png)  # the table's name is the picture's title
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
