@@ -9,6 +9,7 @@ import csv
 import dataclasses
 import math
 import queue
+import re
 import signal
 import subprocess
 import sys
@@ -23,7 +24,7 @@ import lamech
 from lamech.cli import main
 from lamech.numeric import SimulationError, simulate
 from lamech.numeric._options import check_options
-from lamech.numeric._pace import Pace
+from lamech.numeric._pace import PILOT_STEPS, Pace, Projection
 from lamech.sweeps import SweepError, sweep
 
 G = 9.81
@@ -555,3 +556,56 @@ def test_a_resume_runs_the_failed_rows_again(tmp_path, capsys):
     )
     assert rc == 0
     assert "ran 1, kept 2 from the table, retried 1 that had failed" in capsys.readouterr().out
+
+
+# ----- issue 44, item 8: a run that cannot end says so from its first steps -------------
+RUNAWAY = """title = "runaway"
+[coordinates]
+x = { initial = 1, velocity = 0 }
+y = { initial = 1, velocity = 0 }
+[lagrangian]
+T = "x'^2/2 + y'^2/2"
+V = "-x^2/2 + 500*y^2"
+"""
+"""x grows as e^t (the run stops itself, blown up, at t = 29), while y's oscillation
+(period 0.28) keeps the step small: about 3,600 steps, the first 1000 to t = 8, so that
+t_end = 1e12 projects 1.3e14 steps. It ends on its own: the tests need no signal."""
+
+
+def test_the_projection_is_made_from_steps_after_the_pilot_steps_only():
+    system = lamech.loads(RUNAWAY)
+    seen: list[Projection] = []
+    traj = simulate(system, 1e12, samples=2, engine="scipy", projection=seen.append)
+    assert traj.status == "failed" and "grows without bound" in traj.message
+    assert len(seen) == 1
+    p = seen[0]
+    assert PILOT_STEPS <= p.steps < traj.steps
+    assert p.total == pytest.approx(p.steps * 1e12 / p.t)
+    assert 1e13 < p.total < 1e15  # about 125 steps per unit of time
+    short: list[Projection] = []
+    traj = simulate(lamech.load("pendulum"), 3.0, projection=short.append)
+    assert traj.status == "ok" and traj.steps < PILOT_STEPS and short == []
+
+
+@pytest.mark.slow
+def test_a_run_that_cannot_end_is_said_with_its_steps_and_how_to_go_on(tmp_path):
+    problem = tmp_path / "runaway.toml"
+    problem.write_text(RUNAWAY, encoding="utf-8")
+    said = {}
+    for extra in ([], ["--long-run"]):
+        run = subprocess.run(
+            [sys.executable, "-m", "lamech", "simulate", str(problem), "--t-end", "1e12", *extra],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+            timeout=600,
+        )
+        assert "grows without bound" in run.stdout, run.stderr
+        said[bool(extra)] = run.stderr
+    line = next(x for x in said[False].splitlines() if "steps, more than can be waited" in x)
+    found = re.match(r"lamech: a run of about (\S+) steps, .* over its first (\d+) steps", line)
+    assert found is not None, line
+    assert 1e13 < float(found.group(1)) < 1e15  # the same on any machine: counts, no clock
+    assert int(found.group(2)) >= PILOT_STEPS  # the compiled loop reports after its first chunk
+    assert "Ctrl-C, SIGTERM or SIGHUP stop it" in line and "--long-run goes on" in line
+    assert "more than can be waited" not in said[True] and "a long run" not in said[True]

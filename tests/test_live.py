@@ -501,7 +501,8 @@ def test_serve_sliders_rerun_the_simulation_debounced(chromium):
         page.fill("#initial", "theta1=0.01")
         page.click("#simulate")
         page.wait_for_function(
-            "document.getElementById('status').textContent.startsWith('done')", timeout=400_000
+            "() => document.getElementById('status').textContent.startsWith('done')",
+            timeout=400_000,
         )
         frame = page.frame_locator("#result")
         frame.locator("#live[data-updates]").wait_for(timeout=30_000)

@@ -117,3 +117,50 @@ def test_the_report_renders_offline_in_headless_chromium(cylinder_page, chromium
     page.screenshot(path=str(ARTEFACTS / "report-cylinder.png"), full_page=False)
     page.close()
     assert requested == []  # nothing asked of the network
+
+
+@pytest.mark.slow
+@pytest.mark.shared_cache
+def test_the_report_runs_under_its_own_policy_in_headless_chromium(cylinder_page, chromium):
+    """Issue 44, item 6: the page's Content-Security-Policy (a <meta>: a file has no
+    headers) lets its own scripts, styles, images and fonts work, without one console
+    error, and refuses anything else: a script added later, a request to the network."""
+    text = cylinder_page.read_text(encoding="utf-8")
+    head = text.split("</head>", 1)[0]
+    policy = re.search(r'<meta http-equiv="Content-Security-Policy" content="([^"]*)">', head)
+    assert policy is not None and head.index(policy.group(0)) < head.index("<style")
+    directives = policy.group(1).replace("&#x27;", "'")
+    assert directives.startswith("default-src 'none'; script-src 'sha256-")
+    assert directives.count("'sha256-") == 3 + 2  # three scripts, two styles
+    assert "unsafe" not in directives and "http" not in directives
+    assert '<meta name="referrer" content="no-referrer">' in head
+    page = chromium.new_page()
+    console: list[str] = []
+    page.on("console", lambda m: console.append(f"{m.type}: {m.text}"))
+    page.on("pageerror", lambda e: console.append(f"pageerror: {e}"))
+    page.goto(cylinder_page.as_uri())
+    page.wait_for_selector("body[data-rendered]", timeout=30_000)
+    page.wait_for_selector("#live[data-updates]", timeout=30_000)
+    blocks = page.locator(".math, .tex").count()
+    assert blocks > 100 and page.locator(".katex").count() == blocks
+    widths = page.locator("img").evaluate_all("xs => xs.map(x => x.complete && x.naturalWidth)")
+    assert len(widths) == 2 and all(w > 0 for w in widths)  # the plot and the animation
+    assert console == [], console
+    refused = page.evaluate(
+        """() => new Promise(done => {
+             const seen = [];
+             document.addEventListener("securitypolicyviolation", e => {
+               seen.push(e.effectiveDirective);
+               if (seen.length === 2) done(seen.sort());
+             });
+             const s = document.createElement("script");
+             s.textContent = "document.body.dataset.ran = 1";
+             document.body.appendChild(s);
+             const i = document.createElement("img");
+             i.src = "http://127.0.0.1:9/x.png";
+             document.body.appendChild(i);
+           })"""
+    )
+    assert refused == ["img-src", "script-src-elem"]
+    assert page.locator("body[data-ran]").count() == 0
+    page.close()

@@ -143,7 +143,7 @@ def test_the_page_in_headless_chromium(chromium):
         assert "valid" in page.inner_text("#status")
         page.click("#solve")
         page.wait_for_function(
-            "document.getElementById('status').textContent.startsWith('done')",
+            "() => document.getElementById('status').textContent.startsWith('done')",
             timeout=400_000,  # niced work on a busy 2-core machine
         )
         assert "contact lets go at theta1 = 55.15°" in page.inner_text("#status")
@@ -160,7 +160,7 @@ def test_the_page_in_headless_chromium(chromium):
         page.fill("#initial", "theta1=0.01")
         page.click("#simulate")
         page.wait_for_function(
-            "document.getElementById('status').textContent.startsWith('done')",
+            "() => document.getElementById('status').textContent.startsWith('done')",
             timeout=400_000,  # niced work on a busy 2-core machine
         )
         said = page.inner_text("#status")
@@ -176,7 +176,7 @@ def test_the_page_in_headless_chromium(chromium):
         page.fill("#sweep_measures", "slip")
         page.click("#sweep")
         page.wait_for_function(
-            "document.getElementById('status').textContent.startsWith('sweep done')",
+            "() => document.getElementById('status').textContent.startsWith('sweep done')",
             timeout=400_000,  # niced work on a busy 2-core machine
         )
         assert page.locator("#progress").get_attribute("max") == "3"
@@ -247,3 +247,83 @@ def test_a_sweep_reports_progress_then_its_table(client):
         time.sleep(0.1)
     assert job["ok"] is False and "nope" in job["errors"][0]["message"]
     assert client.get("/api/sweep/unknown").status_code == 404
+
+
+# ----- issue 44, item 6: the page's policy ---------------------------------------------
+def test_every_answer_carries_the_policy_and_no_referrer(client):
+    page = client.get("/")
+    policy = page.headers["content-security-policy"]
+    nonce = policy.split("'nonce-")[1].split("'")[0]
+    assert len(nonce) >= 16
+    assert page.text.count(f'<script nonce="{nonce}">') == 1
+    assert "<script>" not in page.text and 'style="' not in page.text
+    for directive in ("default-src 'none'", "connect-src 'self'", "frame-ancestors 'none'"):
+        assert directive in policy
+    assert client.get("/").headers["content-security-policy"] != policy  # a nonce per answer
+    refused = client.get("/api/examples", headers={"Authorization": "token wrong"})
+    for answer in (page, client.get("/api/examples"), refused):
+        assert answer.headers["referrer-policy"] == "no-referrer"
+        assert answer.headers["x-content-type-options"] == "nosniff"
+    assert refused.status_code == 403
+    assert refused.headers["content-security-policy"].startswith("default-src 'none'")
+    bad = client.post("/api/run", json={"text": CYLINDER, "nonce": "x'; script-src *"})
+    assert bad.status_code == 400 and "nonce" in bad.json()["errors"][0]["message"]
+
+
+@pytest.mark.slow
+@pytest.mark.shared_cache
+def test_the_page_keeps_its_policy_in_headless_chromium(chromium):
+    """The served page and the report in its frame run under the page's policy: the math
+    is typeset, the sliders run, a sweep's plot shows, and the console has no error (a
+    policy violation is one); the token has left the address bar."""
+    port = _free_port()
+    server = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "serve", "--port", str(port), "--token", TOKEN],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=dict(os.environ, LAMECH_SERVE_NICE="0"),
+    )
+    try:
+        url = f"http://127.0.0.1:{port}/"
+        for _ in range(100):
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                time.sleep(0.2)
+        page = chromium.new_page(viewport={"width": 1400, "height": 900})
+        console: list[str] = []
+        page.on("console", lambda m: console.append(f"{m.type}: {m.text}"))
+        page.on("pageerror", lambda e: console.append(f"pageerror: {e}"))
+        answer = page.goto(url + "?token=" + TOKEN)
+        assert answer is not None and answer.status == 200
+        assert "script-src 'nonce-" in answer.headers["content-security-policy"]
+        assert answer.headers["referrer-policy"] == "no-referrer"
+        assert page.url == url  # the token removed from the address bar (and the history)
+        page.fill("#editor", CYLINDER[:-1])
+        page.type("#editor", CYLINDER[-1])
+        page.wait_for_selector("#status.ok", timeout=60_000)
+        page.click("#solve")
+        page.wait_for_function(
+            "() => document.getElementById('status').textContent.startsWith('done')",
+            timeout=400_000,
+        )
+        report = page.frame_locator("#result")
+        report.locator("body[data-rendered]").wait_for(timeout=30_000)
+        blocks = report.locator(".math, .tex").count()
+        assert blocks > 100 and report.locator(".katex").count() == blocks
+        report.locator("#live[data-updates]").wait_for(timeout=30_000)  # the sliders ran
+        page.fill("#sweep_params", "mu=0.2,0.3,0.4")
+        page.fill("#sweep_measures", "slip")
+        page.click("#sweep")
+        report.locator("img").wait_for(timeout=400_000)
+        assert report.locator("img").evaluate("img => img.complete && img.naturalWidth") > 0
+        assert (
+            report.locator("body")
+            .evaluate("b => getComputedStyle(b).fontFamily")
+            .startswith("sans-serif")
+        )  # the sweep's style ran with the nonce
+        assert console == [], console
+    finally:
+        server.terminate()
+        server.wait(10)

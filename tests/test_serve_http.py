@@ -443,3 +443,137 @@ def test_checks_stay_quick_while_slow_work_runs():
         assert p99 < 5.0
     finally:
         server.stop()
+
+
+# ----- issue 44, item 7 ------------------------------------------------------------------
+def _line_with(stream, words: str, seconds: float) -> tuple[str | None, list[str]]:
+    """Read ``stream`` line by line until one holds ``words``: (that line or None after
+    ``seconds``, every line read). The wait ends at the line, not at a fixed time."""
+    lines: list[str] = []
+    found: list[str] = []
+
+    def read() -> None:
+        for raw in iter(stream.readline, b""):
+            lines.append(raw.decode("utf-8", "replace"))
+            if words in lines[-1]:
+                found.append(lines[-1])
+                return
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(seconds)
+    return (found[0] if found else None), lines
+
+
+def test_a_client_that_hangs_up_mid_body_costs_one_line_not_a_traceback():
+    server = Server()
+    try:
+        for path in ("/api/check", "/api/run", "/api/sweep"):
+            sock = socket.create_connection(("127.0.0.1", server.port))
+            sock.sendall(
+                f"POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+                f"Authorization: token {TOKEN}\r\nContent-Type: application/json\r\n"
+                'Content-Length: 1000\r\n\r\n{"text": "tit'.encode()
+            )
+            sock.close()
+            line, lines = _line_with(server.proc.stderr, "hung up", 30)
+            assert line is not None, "".join(lines)
+            assert path in line and len(line) < 120
+            assert not any("Traceback" in x or "ClientDisconnect" in x for x in lines), lines
+        assert server.request("POST", "/api/check", {"text": CYLINDER})[0] == 200
+    finally:
+        server.stop()
+    rest = server.proc.stderr.read().decode("utf-8", "replace")
+    assert "Traceback" not in rest and "ClientDisconnect" not in rest, rest
+
+
+@pytest.mark.parametrize("host", ["0.0.0.0", "192.168.1.10", "::"])
+def test_a_host_other_than_loopback_is_refused_with_the_reason(host):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lamech", "serve", "--host", host, "--port", str(_free_port())],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        first = proc.stderr.readline().decode()  # the refusal, or (before) a warning
+        assert f"--host {host}" in first and "loopback interface only" in first, first
+        assert "ssh -L" in first
+        assert proc.wait(30) == 2
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(5)
+
+
+def _address_limit(pid: int) -> int | None:
+    """The soft RLIMIT_AS of process ``pid`` in bytes (None: unlimited)."""
+    for line in Path(f"/proc/{pid}/limits").read_text().splitlines():
+        if line.startswith("Max address space"):
+            soft = line.split()[3]
+            return None if soft == "unlimited" else int(soft)
+    raise AssertionError(f"no address-space line in /proc/{pid}/limits")
+
+
+def test_each_child_gets_an_address_space_limit():
+    server = Server("--memory", "3")
+    try:
+        server.request("POST", "/api/check", {"text": CYLINDER})
+        idle = _alive(server.descendants())
+        body = json.dumps({"text": SLOW}).encode()
+        sock = socket.create_connection(("127.0.0.1", server.port))
+        sock.sendall(
+            f"POST /api/run HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+            f"Authorization: token {TOKEN}\r\nContent-Type: application/json\r\n"
+            f"Content-Length: {len(body)}\r\n\r\n".encode()
+            + body
+        )
+        assert _wait_for(lambda: len(_alive(server.descendants()) - idle) == 1, 20)
+        (worker,) = _alive(server.descendants()) - idle
+        assert _wait_for(lambda: _address_limit(worker) == 3_000_000_000, 20)
+        assert _address_limit(server.proc.pid) is None  # the server itself is not bounded
+        sock.close()
+    finally:
+        server.stop()
+
+
+def _allocate_past(gb: float, said) -> None:
+    import numpy as np
+
+    from lamech.cli._workers import limit_memory
+
+    limit_memory(gb)
+    try:
+        np.ones(int(1.5 * gb * 1e9) // 8)
+    except MemoryError:
+        said.put("MemoryError")
+    else:
+        said.put("allocated")
+
+
+def test_past_the_limit_an_allocation_fails_instead_of_filling_the_machine():
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")  # a process of its own: the limit stays there
+    said = ctx.Queue()
+    proc = ctx.Process(target=_allocate_past, args=(1.5, said))
+    proc.start()
+    try:
+        assert said.get(timeout=60) == "MemoryError"
+    finally:
+        proc.join(10)
+
+
+def test_the_memory_option_is_checked_and_its_default_documented():
+    from lamech.cli._serve import DEFAULT_MEMORY_GB
+
+    run = subprocess.run(
+        [sys.executable, "-m", "lamech", "serve", "--memory", "0.1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and "--memory 0.1: give at least 0.5 GB" in run.stderr
+    helped = subprocess.run(
+        [sys.executable, "-m", "lamech", "serve", "--help"], capture_output=True, text=True
+    )
+    assert f"(default {DEFAULT_MEMORY_GB:g})" in " ".join(helped.stdout.split())

@@ -2,15 +2,20 @@
 simulate it, the report shown beside the editor.
 
 Built on Starlette (routing, requests, JSON) and served by uvicorn: no HTTP is written
-here. Safe to leave running, as Jupyter's server is: loopback only by default, a token
+here. Safe to leave running, as Jupyter's server is: loopback only (:func:`host_refusal`), a token
 (random unless ``--token`` gives one, printed in the URL at start), the Host and Origin
-checked and work taken as JSON only (:mod:`lamech.cli._guard`). Every piece of work on
+checked and work taken as JSON only (:mod:`lamech.cli._guard`); every answer with a
+Content-Security-Policy and no referrer (:mod:`lamech.cli._headers`), the page's policy
+allowing its own scripts by a nonce drawn per answer. Every piece of work on
 user text runs in a child process bounded by ``--timeout``, in a few slots with a
 bounded queue (503 and ``Retry-After`` when full), killed when its client goes away;
 checks have their own slots, so a check is answered while slow solves run; SIGINT and
 SIGTERM end every child and stop the server within seconds (:mod:`lamech.cli._workers`).
 Requests over :data:`MAX_BODY` bytes are refused before they are read; every malformed
-request is a 4xx with a message. User text is only ever parsed by lamech's own
+request is a 4xx with a message; a client that hangs up in the middle of its request
+costs one line in the log. Each child's address space is bounded (``--memory``,
+:data:`DEFAULT_MEMORY_GB`): a problem that would fill the machine's memory ends its
+own process with a message. User text is only ever parsed by lamech's own
 expression parser (never ``eval``), and names no files (it has no folder).
 """
 
@@ -28,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import asyncio
 
-__all__ = ["add_parser", "run", "make_app"]
+__all__ = ["add_parser", "run", "make_app", "host_refusal", "DEFAULT_MEMORY_GB"]
 
 MAX_BODY = 1_000_000
 """The largest request body accepted (bytes): the loader's limit for a problem file."""
@@ -42,6 +47,12 @@ SLOTS, QUEUE = 2, 4
 """Solves, simulations and sweeps at once, and how many more may wait."""
 CHECK_SLOTS, CHECK_QUEUE = 1, 8
 RETRY_AFTER = 5
+DEFAULT_MEMORY_GB = 4.0
+"""The address space (virtual memory) each child process may take, in GB (10^9 bytes):
+a solve and simulation of the bundled examples peaks at 0.63 GB of address space
+(0.27 GB resident), a C compile beside it (which inherits the limit) under 0.7 GB."""
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
+"""The only interfaces ``--host`` may name: see :func:`host_refusal`."""
 SWEEP_IDLE = 30.0
 """A sweep whose page has not asked for it in this many seconds is cancelled."""
 PAGE = Path(__file__).resolve().parent.parent / "present" / "app.html"
@@ -59,7 +70,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "carry its token (open the URL it prints). Each request's work runs in a child "
         "process bounded by --timeout.",
     )
-    s.add_argument("--host", default="127.0.0.1", help="interface (default %(default)s)")
+    s.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="the loopback interface to listen on: 127.0.0.1, localhost or ::1 (default "
+        "%(default)s); to use the page from another machine, forward the port over SSH",
+    )
     s.add_argument("--port", type=int, default=8765, help="port (default %(default)s)")
     s.add_argument(
         "--token",
@@ -73,7 +89,37 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default=DEFAULT_TIMEOUT,
         help="seconds one request's work may take (default %(default)s)",
     )
+    s.add_argument(
+        "--memory",
+        type=float,
+        default=DEFAULT_MEMORY_GB,
+        metavar="GB",
+        help="the address space (virtual memory) one request's process may take, in GB "
+        f"(default {DEFAULT_MEMORY_GB:g}); past it the work ends with a message",
+    )
     return s
+
+
+def host_refusal(host: str) -> str | None:
+    """Why ``lamech serve`` will not listen on ``host``, or None for a loopback name.
+
+    Any other interface is refused rather than half supported. The page runs problems
+    (user text, SymPy, compiled code) on this machine for anyone who holds the token; it
+    has no TLS, so the token would cross the network in clear text; and its Host check
+    knows the loopback names only (a DNS-rebinding page is refused by it). Remote use
+    done properly needs an allow-list of host names, TLS and a long token (Jupyter's
+    ``allow_remote_access``); an SSH tunnel gives all three today, with nothing new to
+    get wrong here.
+    """
+    if host in LOOPBACK_HOSTS:
+        return None
+    return (
+        f"--host {host}: lamech serve listens on the loopback interface only "
+        f"({', '.join(LOOPBACK_HOSTS)}): the page runs problems on this machine for anyone "
+        "who has its token, and it has no TLS. To use it from another machine, forward "
+        "the port over SSH: ssh -L 8765:127.0.0.1:8765 THIS-MACHINE, then open the URL "
+        "it prints there"
+    )
 
 
 def _json_response():
@@ -138,12 +184,23 @@ def _surrogate(data: Any, depth: int = 0) -> str | None:
 
 async def _body(request) -> tuple[dict | None, Any]:
     """The request's JSON object, or (None, a 4xx response saying what is wrong)."""
+    from starlette.requests import ClientDisconnect
+
     size = request.headers.get("content-length")
     if size is None or not size.isdigit():
         return None, _refuse(411, "a request needs a Content-Length")
     if int(size) > MAX_BODY:
         return None, _refuse(413, f"the problem is over {MAX_BODY // 1000} kB")
-    raw = await request.body()
+    try:
+        raw = await request.body()
+    except ClientDisconnect:  # nobody to answer: one line in the log, no traceback
+        print(
+            f"lamech: serve: a client hung up in the middle of its request "
+            f"({request.method} {request.url.path}); nothing done",
+            file=sys.stderr,
+            flush=True,
+        )
+        return None, _refuse(400, "the request ended before its body was whole")
     if len(raw) > MAX_BODY:
         return None, _refuse(413, f"the problem is over {MAX_BODY // 1000} kB")
     try:
@@ -235,10 +292,12 @@ def make_app(
     host: str = "127.0.0.1",
     slots: int = SLOTS,
     queue: int = QUEUE,
+    memory_gb: float = DEFAULT_MEMORY_GB,
 ):
     """The Starlette application (also what the tests drive). ``token``: the one
     requests must carry (default: random, in ``app.state.token``); ``port``/``host``:
-    where it listens (the Host header must name it; ``port`` None: any port)."""
+    where it listens (the Host header must name it; ``port`` None: any port);
+    ``memory_gb``: the address space of each child process."""
     import asyncio
 
     from starlette.applications import Starlette
@@ -247,13 +306,15 @@ def make_app(
     from starlette.responses import HTMLResponse, PlainTextResponse
     from starlette.routing import Route
 
+    from ..present._policy import served_policy, valid_nonce
     from ..problem import example_names, example_path, example_title
     from ._guard import LOOPBACK, Guard
+    from ._headers import PageHeaders
     from ._workers import Busy, Lane, Runner, cancelled_answer
 
     JSONResponse = _json_response()
     token = token or secrets.token_urlsafe(32)
-    runner = Runner(Lane(slots, queue), Lane(CHECK_SLOTS, CHECK_QUEUE))
+    runner = Runner(Lane(slots, queue), Lane(CHECK_SLOTS, CHECK_QUEUE), memory_gb)
     jobs: dict[str, dict] = {}
     controls: dict[str, tuple[asyncio.Event, list[float]]] = {}  # job: (cancel, [seen])
     tasks: set[asyncio.Task] = set()
@@ -271,7 +332,11 @@ def make_app(
         return JSONResponse(answer)
 
     async def home(request: Request) -> HTMLResponse:
-        return HTMLResponse(PAGE.read_text(encoding="utf-8"))
+        nonce = secrets.token_urlsafe(18)  # one per answer: its scripts and styles carry it
+        page = PAGE.read_text(encoding="utf-8")
+        for tag in ("script", "style"):
+            page = page.replace(f"<{tag}>", f'<{tag} nonce="{nonce}">')
+        return HTMLResponse(page, headers={"Content-Security-Policy": served_policy(nonce)})
 
     async def examples(request: Request) -> Any:
         return JSONResponse([{"name": n, "title": example_title(n)} for n in example_names()])
@@ -306,6 +371,9 @@ def make_app(
         params = _params(data.get("params"))
         if isinstance(params, str):
             return _refuse(400, params)
+        nonce = data.get("nonce")
+        if nonce is not None and not valid_nonce(nonce):
+            return _refuse(400, "nonce: 16 to 64 letters, digits, - or _ (the page's own)")
         events_only = bool(data.get("events_only"))
         if (params or events_only) and not simulate:
             return _refuse(400, '"params" and "events_only" go with "simulate": true')
@@ -315,6 +383,7 @@ def make_app(
             "initial": initial,
             "params": params,
             "events_only": events_only,
+            "nonce": nonce,
         }
         return await work(request, "run", data["text"], options)
 
@@ -414,6 +483,7 @@ def make_app(
             Route("/api/run", solve, methods=["POST"]),
         ],
         middleware=[
+            Middleware(PageHeaders),  # outermost: a refusal carries them too
             Middleware(Guard, token=token, names=(*LOOPBACK, host), port=port),
         ],
     )
@@ -438,14 +508,19 @@ def run(args: argparse.Namespace) -> int:
     if args.token is not None and not args.token.strip():
         print("lamech: --token must not be empty (leave it out for a random one)", file=sys.stderr)
         return 2
-    if args.host not in ("127.0.0.1", "localhost", "::1"):
+    if not (math.isfinite(args.memory) and args.memory >= 0.5):
         print(
-            f"lamech: warning: serving on {args.host}: anyone who can reach it and has the "
-            "token can run problems on this machine",
+            f"lamech: --memory {args.memory:g}: give at least 0.5 GB (default "
+            f"{DEFAULT_MEMORY_GB:g}); a solve takes about 0.6 GB of address space",
             file=sys.stderr,
         )
+        return 2
+    refused = host_refusal(args.host)
+    if refused is not None:
+        print(f"lamech: {refused}", file=sys.stderr)
+        return 2
     token = args.token or secrets.token_urlsafe(32)
-    app = make_app(args.timeout, token=token, port=args.port, host=args.host)
+    app = make_app(args.timeout, token=token, port=args.port, host=args.host, memory_gb=args.memory)
     runner = app.state.runner
 
     class Server(uvicorn.Server):

@@ -121,6 +121,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "consistent one (mass-matrix metric) instead of failing",
     )
     s.add_argument(
+        "--long-run",
+        action="store_true",
+        help="the run is meant to be long: no warning of its length (by default one is "
+        "given after its first 1000 steps when they project beyond a billion steps, and "
+        "one after half a second when its pace projects beyond 30 s)",
+    )
+    s.add_argument(
         "--fps",
         type=positive_float,
         default=20.0,
@@ -306,7 +313,9 @@ def _run(args, phase: list[str]) -> int:
     except ValueError as exc:
         print(f"lamech: {shown_name(args.problem)}: {in_flags(str(exc))}", file=sys.stderr)
         return 2
-    progress = _Progress(args.t_end, bar=sys.stderr.isatty() and not args.json)
+    progress = _Progress(
+        args.t_end, bar=sys.stderr.isatty() and not args.json, long_run=args.long_run
+    )
     stopped_by: list[BaseException] = []
     try:
         with noting(stopped_by):
@@ -324,6 +333,7 @@ def _run(args, phase: list[str]) -> int:
                 project_initial=args.project_initial,
                 progress=progress,
                 pace=progress.pace,
+                projection=progress.projection,
                 jit=True if args.jit or args.engine == "compiled" else None,
                 engine=args.engine,
             )
@@ -437,6 +447,11 @@ def _json_default(x):
 LONG_RUN = 30.0
 """Wall seconds from which a run is long: its estimate is said, and progress shown on
 stderr even when it is not a terminal."""
+ENDLESS_STEPS = 1e9
+"""Projected steps from which a run cannot be expected to end: a billion DOP853 steps
+take hours on the compiled loop and days on SciPy's integrator (12 evaluations a step).
+Said after the run's first steps (:class:`lamech.numeric._pace.Projection`), from counts
+and step sizes, not the clock."""
 
 
 class _Progress:
@@ -444,25 +459,43 @@ class _Progress:
     When the run's pace (after the simulator's pilot) says it will take more than
     :data:`LONG_RUN` seconds: one line saying so and how to stop it (and, when its step
     is held down by stability, that the system is stiff and an implicit method is the
-    cure); then, when stderr is not a terminal, a line every 10 % or every 5 minutes."""
+    cure); then, when stderr is not a terminal, a line every 10 % or every 5 minutes.
+    Earlier, after the run's first steps, when they project beyond :data:`ENDLESS_STEPS`:
+    one line saying so, with how to stop it or go on. ``long_run`` (``--long-run``): the
+    user means the run to be long, and neither line about its length is written (the
+    stiffness advice is)."""
 
-    def __init__(self, t_end: float, bar: bool):
+    def __init__(self, t_end: float, bar: bool, long_run: bool = False):
         import time
 
         self.t_end, self.bar, self.last, self.clock = t_end, bar, -1, time.monotonic
+        self.long_run = long_run
         self.start = self.clock()
         self.shown = False
         self.lines = False  # a progress line now and then (not a terminal, a long run)
         self.line_at, self.line_pct = self.start, 0
 
+    def projection(self, p) -> None:
+        if self.long_run or p.total < ENDLESS_STEPS:
+            return
+        sys.stderr.write(
+            f"lamech: a run of about {p.total:.2g} steps, more than can be waited for: to "
+            f"t = {p.t_end:.4g} at its mean step so far ({p.mean_step:.3g} over its first "
+            f"{p.steps} steps), {_duration(p.estimate)} at their pace. Ctrl-C, SIGTERM or "
+            "SIGHUP stop it and keep the trajectory so far; a shorter --t-end ends it; "
+            "--long-run goes on without this warning\n"
+        )
+        sys.stderr.flush()
+
     def pace(self, p) -> None:
         if p.remaining < LONG_RUN:
             return
-        sys.stderr.write(
-            f"lamech: a long run: about {_duration(p.estimate)} at its pace so far (t = "
-            f"{p.t:.4g} of {p.t_end:.4g} after {p.seconds:.2g} s, {p.steps} steps); "
-            "Ctrl-C, SIGTERM or SIGHUP stop it and keep the trajectory so far\n"
-        )
+        if not self.long_run:
+            sys.stderr.write(
+                f"lamech: a long run: about {_duration(p.estimate)} at its pace so far (t = "
+                f"{p.t:.4g} of {p.t_end:.4g} after {p.seconds:.2g} s, {p.steps} steps); "
+                "Ctrl-C, SIGTERM or SIGHUP stop it and keep the trajectory so far\n"
+            )
         if p.stiff:
             sys.stderr.write(
                 f"lamech: the step ({p.step:.2g} s) is held down by stability, not accuracy: "

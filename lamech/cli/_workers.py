@@ -10,6 +10,7 @@ hostile expression costs one process, never the server.
 from __future__ import annotations
 
 import asyncio
+import errno
 import math
 import multiprocessing as mp
 import os
@@ -17,7 +18,7 @@ import time
 from collections import deque
 from typing import Any
 
-__all__ = ["Busy", "Lane", "Runner", "errors"]
+__all__ = ["Busy", "Lane", "Runner", "errors", "limit_memory"]
 
 
 class Busy(Exception):
@@ -114,7 +115,7 @@ def _work(kind: str, text: str, options: dict) -> dict:
     answer: dict[str, Any] = {
         "ok": True,
         "title": system.title,
-        "page": report_page(sol, derivation, text, traj, None, note),
+        "page": report_page(sol, derivation, text, traj, None, note, options.get("nonce")),
         "lets_go": lift,
         "status": None if traj is None else str(traj.status),
         "note": note,
@@ -195,7 +196,44 @@ def _niceness() -> int:
         return 10
 
 
-def _child(conn, kind: str, text: str, options: dict) -> None:
+def limit_memory(gb: float | None) -> None:
+    """Bound this process's address space to ``gb`` GB (``RLIMIT_AS``; inherited by the
+    processes it starts, a C compiler's included): past it an allocation fails, as a
+    :class:`MemoryError` in Python, instead of the machine swapping. None, or a
+    platform without ``resource``, leaves it unbounded."""
+    if gb is None:
+        return
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not POSIX
+        return
+    limit = int(gb * 1e9)
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+
+
+def _short_of_memory(exc: BaseException) -> bool:
+    """Whether ``exc`` is what an allocation past the limit raises: a MemoryError, or a
+    library that could not be mapped (an ImportError "failed to map segment", ENOMEM)."""
+    if isinstance(exc, MemoryError):
+        return True
+    if isinstance(exc, OSError) and exc.errno == errno.ENOMEM:
+        return True
+    return isinstance(exc, ImportError) and "failed to map segment" in str(exc)
+
+
+def _out_of_memory(gb: float | None) -> str:
+    return (
+        f"out of memory: the work needed more than {gb:g} GB of address space (the "
+        "server's --memory); the problem is too large for the page: try `lamech solve` "
+        "in a terminal, or a larger --memory"
+    )
+
+
+def _child(conn, kind: str, text: str, options: dict, memory_gb: float | None = None) -> None:
+    limit_memory(memory_gb)
     if kind != "check":
         try:  # slow work yields the processor to the checks one types
             os.nice(_niceness())
@@ -207,7 +245,10 @@ def _child(conn, kind: str, text: str, options: dict) -> None:
             return
         conn.send(("done", _work(kind, text, options)))
     except BaseException as exc:  # noqa: BLE001 - whatever it is, say it, not a hang
-        conn.send(("done", _failed(f"internal error: {type(exc).__name__}: {exc}")))
+        if memory_gb is not None and _short_of_memory(exc):
+            conn.send(("done", _failed(_out_of_memory(memory_gb))))
+        else:
+            conn.send(("done", _failed(f"internal error: {type(exc).__name__}: {exc}")))
     finally:
         conn.close()
 
@@ -273,10 +314,12 @@ class Runner:
     """Runs the work in child processes (a fork server with lamech loaded): ``work`` for
     solves, simulations and sweeps, ``checks`` for the checks as one types (their own
     slots, so a check is answered while slow work runs). Every live process is known,
-    so :meth:`stop` ends them all at once."""
+    so :meth:`stop` ends them all at once. Each child's address space is bounded to
+    ``memory_gb`` GB (:func:`limit_memory`; None: unbounded)."""
 
-    def __init__(self, work: Lane, checks: Lane):
+    def __init__(self, work: Lane, checks: Lane, memory_gb: float | None = None):
         self.work, self.checks = work, checks
+        self.memory_gb = memory_gb  # each child's address space (limit_memory)
         self.live: set = set()
         self.stopping = False
         self.ctx: Any
@@ -329,7 +372,9 @@ class Runner:
     async def _child(self, kind, text, options, gone, bound, job) -> dict:
         loop = asyncio.get_running_loop()
         here, there = self.ctx.Pipe(duplex=False)
-        proc = self.ctx.Process(target=_child, args=(there, kind, text, options), daemon=True)
+        proc = self.ctx.Process(
+            target=_child, args=(there, kind, text, options, self.memory_gb), daemon=True
+        )
         await asyncio.to_thread(proc.start)
         there.close()
         self.live.add(proc)

@@ -4,6 +4,13 @@ step is held down by stability rather than accuracy (a stiff system, which an im
 method integrates in far fewer steps). The result is a :class:`Pace`, given to the
 caller's ``pace`` callback once; the simulator itself never prints.
 
+Before that, after its first :data:`PILOT_STEPS` steps, a run projects how many steps
+it needs to reach t_end at its mean step so far (:class:`Projection`, given to the
+``projection`` callback once): counts and sizes only, no clock, so that the same run
+projects the same on any machine, and a run too long to end (``--t-end 1e12``) is told
+within milliseconds. A run of fewer steps is never projected; a longer one pays one
+comparison a step.
+
 Stiffness test: the spectral radius rho of the Jacobian of the right-hand side (the
 index-1 form, by finite differences at the present state) times the present step h.
 An explicit method's step that follows the motion's accuracy keeps h rho well below 1
@@ -22,10 +29,13 @@ import numpy as np
 from ._options import IMPLICIT
 from ._run import Run
 
-__all__ = ["PILOT_SECONDS", "STIFF", "Pace", "Watch", "stiffness"]
+__all__ = ["PILOT_SECONDS", "PILOT_STEPS", "STIFF", "Pace", "Projection", "Watch", "stiffness"]
 
 PILOT_SECONDS = 0.5
 """Wall time after which a run measures its pace (shorter runs are never measured)."""
+PILOT_STEPS = 1000
+"""Steps after which a run projects its step count (the compiled loop reports after each
+chunk of 2000 steps: after its first)."""
 STIFF = 1.0
 """h rho above this, with an explicit method: the step is held down by stability."""
 
@@ -64,6 +74,37 @@ class Pace:
         return self.method not in IMPLICIT and self.stiffness > STIFF
 
 
+@dataclass(frozen=True)
+class Projection:
+    """A run's step count projected after its first :data:`PILOT_STEPS` steps.
+
+    ``steps`` steps took it from ``t0`` to ``t`` (a mean step of :attr:`mean_step`); at
+    that mean step, :attr:`total` steps reach ``t_end``. Counts and sizes only: the
+    projection does not depend on the machine's speed. ``seconds``, the wall time so
+    far, is for the caller to say what the total would take at this pace.
+    """
+
+    t: float
+    t0: float
+    t_end: float
+    steps: int
+    seconds: float
+
+    @property
+    def mean_step(self) -> float:
+        return (self.t - self.t0) / self.steps
+
+    @property
+    def total(self) -> float:
+        """Projected steps of the whole run, t0 to t_end."""
+        return self.steps * (self.t_end - self.t0) / (self.t - self.t0)
+
+    @property
+    def estimate(self) -> float:
+        """Wall seconds of :attr:`total` steps at the pace of the steps so far."""
+        return self.seconds * self.total / self.steps
+
+
 def stiffness(run: Run, t: float, y: np.ndarray, h: float) -> tuple[float, float]:
     """(h rho, 1/rho) at (t, y): rho the spectral radius of d(rhs)/dy by forward
     differences (2n + 1 evaluations, once per run); (0, inf) where it cannot be had."""
@@ -85,8 +126,9 @@ def stiffness(run: Run, t: float, y: np.ndarray, h: float) -> tuple[float, float
 
 
 class Watch:
-    """Calls ``progress(t)`` after every accepted step and, once, ``pace(Pace)`` after the
-    pilot."""
+    """Calls ``progress(t)`` after every accepted step and, once each,
+    ``projection(Projection)`` after :data:`PILOT_STEPS` steps and ``pace(Pace)`` after
+    the pilot."""
 
     def __init__(
         self,
@@ -95,13 +137,18 @@ class Watch:
         method: str,
         progress: Callable[[float], None] | None,
         pace: Callable[[Pace], None] | None,
+        projection: Callable[[Projection], None] | None = None,
     ):
         self.t0, self.t_end, self.method = t0, t_end, method
-        self.progress, self.pace = progress, pace
+        self.progress, self.pace, self.projection = progress, pace, projection
         self.start = time.monotonic()
         self.first: tuple[float, float] | None = None  # (clock, t) after the first step
 
     def step(self, run: Run, t: float, y: np.ndarray, h: float, steps: int) -> None:
+        if self.projection is not None and steps >= PILOT_STEPS and t > self.t0:
+            report_steps, self.projection = self.projection, None
+            seconds = time.monotonic() - self.start
+            report_steps(Projection(t, self.t0, self.t_end, steps, seconds))
         if self.pace is not None:
             now = time.monotonic()
             if self.first is None:

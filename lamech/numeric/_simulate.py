@@ -73,7 +73,7 @@ from ._options import (
     check_options,
     sample_times,
 )
-from ._pace import Pace, Watch, stiffness
+from ._pace import Pace, Projection, Watch, stiffness
 from ._params import numeric_system
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
@@ -103,6 +103,7 @@ def simulate(
     pace: Callable[[Pace], None] | None = None,
     jit: bool | None = None,
     engine: str = "auto",
+    projection: Callable[[Projection], None] | None = None,
 ) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
 
@@ -124,7 +125,10 @@ def simulate(
     more than :data:`MAX_STEPS` steps. ``progress(t)`` is called after every accepted
     step; ``pace(Pace)`` once, after :data:`PILOT_SECONDS` of wall time, with the
     projected wall time of the whole run and whether its step is held down by stability
-    (:class:`Pace`; a callback may raise KeyboardInterrupt to stop the run there).
+    (:class:`Pace`; a callback may raise KeyboardInterrupt to stop the run there);
+    ``projection(Projection)`` once, after :data:`PILOT_STEPS` steps, with the steps
+    the whole run needs at its mean step so far (:class:`Projection`: from counts and
+    step sizes, the same on any machine; a run of fewer steps never calls it).
 
     A singular KKT matrix, NaN, a step-size collapse, chattering events (many events in
     a vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far
@@ -172,7 +176,7 @@ def simulate(
     # measurements are in ._threads).
     with one_blas_thread():
         y = initial_mode(run, t0, y0, project_initial, notes)
-        watch = Watch(t0, t_end, method, progress, pace)
+        watch = Watch(t0, t_end, method, progress, pace, projection)
         return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
 
 

@@ -28,6 +28,7 @@ import numpy as np
 import sympy as sp
 
 from ..outputs import atomic_output, write_output
+from ._plain import drawn
 
 __all__ = ["animate", "Scene", "FORMATS"]
 
@@ -373,7 +374,7 @@ def animate(
         recent = [e for e in events if e[0] <= tk < e[0] + hold]
         if recent:
             te, kind, con = recent[-1]
-            flash.set_text(f"{kind} ({con})" if con else kind)
+            flash.set_text(drawn(f"{kind} ({con})" if con else kind))
             flash.set_color(_EVENT_COLOURS.get(kind, "black"))
         else:
             flash.set_text("")
@@ -407,7 +408,7 @@ def _plane_view(fig, scene: Scene, heading: str) -> Callable[[int], None]:
     ax.grid(True, alpha=0.25)
     ax.set_xlabel("x")
     ax.set_ylabel("y")
-    ax.set_title(heading, fontsize=10)
+    ax.set_title(drawn(heading), fontsize=10)
     span = max(x1 - x0, y1 - y0)
 
     scenery: list[tuple[str, Circle | Line2D, np.ndarray, np.ndarray | None]] = []

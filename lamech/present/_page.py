@@ -5,13 +5,15 @@ plot with the events, the animation and the simulation summary, and opens offlin
 math is rendered in the browser by KaTeX, vendored in ``vendor/katex`` (MIT licence,
 kept beside it and quoted in the page), its script and style inlined and its fonts
 embedded as data URIs (woff2 only: every browser that runs KaTeX reads it); plots and
-the animation are embedded images. No CDN, no request leaves the page.
+the animation are embedded images. No CDN, no request leaves the page, and its
+Content-Security-Policy (:mod:`._policy`) lets none: it runs its own scripts only.
 """
 
 from __future__ import annotations
 
 import base64
 import html
+import json
 import re
 import tempfile
 from functools import cache
@@ -19,6 +21,7 @@ from pathlib import Path
 
 from ..symbolic import Derivation
 from ._live import LIVE_STYLE, live_section
+from ._policy import REFERRER, report_policy, tagged
 from ._report import latex_names
 from ._report import to_latex as _solution_latex
 from ._report import to_text as _solution_text
@@ -69,14 +72,26 @@ nav a { margin-right: .8rem; }
 footer { margin-top: 3rem; font-size: .75rem; color: #777; }
 """
 
-_RENDER = """
+KATEX_OPTIONS = {"throwOnError": False, "trust": False, "maxExpand": 1000, "maxSize": 20}
+"""KaTeX's options in the page: a bad block shows as red text, never stops the others;
+``trust`` off (no ``\\href``, ``\\url``, ``\\includegraphics`` nor HTML attributes from the
+TeX, though the TeX lamech writes has none: user text is escaped, :mod:`._plain`);
+macro expansions per block bounded (``\\def\\a{\\a\\a}\\a`` stops at 1000) and sizes
+(``\\rule``, ``\\kern``) at 20 em."""
+
+_RENDER = (
+    """
+var OPTIONS = """
+    + json.dumps(KATEX_OPTIONS)
+    + """;
 document.querySelectorAll(".math, .tex").forEach(function (el) {
-  var display = el.classList.contains("math");
-  try { katex.render(el.textContent, el, {displayMode: display, throwOnError: false}); }
+  var options = Object.assign({displayMode: el.classList.contains("math")}, OPTIONS);
+  try { katex.render(el.textContent, el, options); }
   catch (e) { el.classList.add("unrendered"); }
 });
 document.body.setAttribute("data-rendered", document.querySelectorAll(".katex").length);
 """
+)
 
 
 def _math(tex: str) -> str:
@@ -168,10 +183,19 @@ def equilibria(sol) -> tuple:
 
 
 def report_page(
-    sol, derivation: Derivation, source: str | None, traj=None, params=None, note: str = ""
+    sol,
+    derivation: Derivation,
+    source: str | None,
+    traj=None,
+    params=None,
+    note: str = "",
+    nonce: str | None = None,
 ) -> str:
     """The HTML page (a string) of a solved problem: ``source`` is the problem file's
-    text, ``traj`` an optional simulation of it (run with ``params``)."""
+    text, ``traj`` an optional simulation of it (run with ``params``). The page carries
+    its Content-Security-Policy (:func:`._policy.report_policy`: its own scripts and
+    styles by hash, no network); ``nonce``: the served page's, written on each script
+    and style for the frame that inherits that page's policy."""
     script, style, licence = _katex()
     title = html.escape(sol.system.title)
     sections = [
@@ -202,12 +226,19 @@ def report_page(
         + html.escape(licence)
         + "</pre></footer>"
     )
+    styles = [style, _STYLE + LIVE_STYLE]
+    scripts = [script, _RENDER] + ([live_script] if live_script else [])
+    policy = html.escape(report_policy(scripts, styles))
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">\n'
+        f'<meta http-equiv="Content-Security-Policy" content="{policy}">\n'
+        f'<meta name="referrer" content="{REFERRER}">\n'
         '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-        f"<title>{title}</title>\n<style>{style}</style>\n<style>{_STYLE}{LIVE_STYLE}</style>\n"
-        f"</head><body>\n" + "\n".join(body) + f"\n<script>{script}</script>\n"
-        f"<script>{_RENDER}</script>\n"
-        + (f"<script>{live_script}</script>\n" if live_script else "")
-        + "</body></html>\n"
+        f"<title>{title}</title>\n"
+        + "\n".join(tagged("style", s, nonce) for s in styles)
+        + "\n</head><body>\n"
+        + "\n".join(body)
+        + "\n"
+        + "\n".join(tagged("script", s, nonce) for s in scripts)
+        + "\n</body></html>\n"
     )

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..outputs import write_output
+from ._plain import drawn
 
 __all__ = ["plot_trajectory"]
 
@@ -32,15 +33,15 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     for j, name in enumerate(traj.constraints):
         lam = traj.lambdas[:, j]
         if np.any(np.isfinite(lam)):
-            ax1.plot(t, lam, lw=1.6, label=f"λ {name}")
+            ax1.plot(t, lam, lw=1.6, label=drawn(f"λ {name}"))
     for key, arr in traj.forces.items():
         c, d = key.split(":", 1)
         j = traj.constraints.index(c)
         if np.any(np.isfinite(arr)) and not np.allclose(arr, traj.lambdas[:, j], equal_nan=True):
-            ax1.plot(t, arr, lw=1.0, ls="--", label=f"{c} force along {d}")
+            ax1.plot(t, arr, lw=1.0, ls="--", label=drawn(f"{c} force along {d}"))
     ax1.axhline(0.0, color="0.6", lw=0.8)
     ax1.set_ylabel("multiplier λ / constraint force")  # units: those of the file
-    ax1.set_title(title or traj.title or "lamech simulation")
+    ax1.set_title(drawn(title or traj.title or "lamech simulation"))
     seen = set()
     ymax = ax1.get_ylim()[1]
     for e in traj.events:
@@ -49,7 +50,7 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
             ax.axvline(e.t, color=colour, lw=0.9, ls=":")
         if len(traj.events) <= 12 or e.kind not in seen:
             ax1.annotate(
-                f"{e.kind} ({e.constraint})\nt = {e.t:.4g}",
+                drawn(f"{e.kind} ({e.constraint})\nt = {e.t:.4g}"),
                 xy=(e.t, ymax),
                 xytext=(3, -3),
                 textcoords="offset points",
@@ -63,12 +64,13 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
         ax1.legend(fontsize=8, loc="best")
     ax1.grid(alpha=0.25)
     for i, name in enumerate(traj.coordinates):
-        ax2.plot(t, traj.q[:, i], lw=1.3, label=name)
+        ax2.plot(t, traj.q[:, i], lw=1.3, label=drawn(name))
     ax2.set_xlabel("time t")
     ax2.set_ylabel("coordinates")
     ax2.legend(fontsize=8, loc="best")
     ax2.grid(alpha=0.25)
     if traj.status != "ok":
-        fig.text(0.01, 0.005, f"{traj.status}: {traj.message}"[:160], fontsize=7, color="red")
+        message = drawn(f"{traj.status}: {traj.message}"[:160])
+        fig.text(0.01, 0.005, message, fontsize=7, color="red")
     fig.tight_layout()
     write_output(path, lambda tmp: fig.savefig(str(tmp), dpi=120), flag="`path=`")

@@ -7,7 +7,6 @@ Nothing is computed here; expressions print in the problem-file grammar
 from __future__ import annotations
 
 import math
-import re
 
 import sympy as sp
 
@@ -15,6 +14,7 @@ from ..expr import ExpressionError, latex, parse
 from ..expr import to_text as _expr_text
 from ..symbolic._budget import count_ops, graph_symbols
 from ..symbolic._reduce import READABLE_OPS
+from ._plain import tex_comment, tex_label, tex_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
@@ -380,14 +380,8 @@ def latex_names(system) -> dict:
         names[c.velocity] = rf"\dot{{{base}}}"
         names[c.acceleration] = rf"\ddot{{{base}}}"
     for c in system.constraints:
-        label = c.name.replace("_", r"\_")
-        names[c.multiplier] = rf"\lambda_{{\mathrm{{{label}}}}}"
+        names[c.multiplier] = rf"\lambda_{{{tex_label(c.name)}}}"
     return names
-
-
-def _tex_text(text: str) -> str:
-    """Plain text for LaTeX's \\text{}: special characters escaped."""
-    return re.sub(r"([#$%&_{}])", r"\\\1", text).replace("^", r"\^{}")
 
 
 def _tex(expr, names) -> str:
@@ -400,7 +394,7 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     rows: list[str] = []
 
     def add(label: str, lhs: str, rhs: str) -> None:
-        rows.append(rf"{lhs} &= {rhs} && \text{{{_tex_text(label)}}}")
+        rows.append(rf"{lhs} &= {rhs} && \text{{{tex_text(label)}}}")
 
     for name, e in zip(sol.coordinates, sol.equations):
         add(f"EL, {name}", _tex(e, names), "0")
@@ -436,8 +430,8 @@ def to_latex(sol, standalone_math: bool = False) -> str:
             if v is not None and (v.when in ("at the start", "open at the start") or v.constant):
                 add(
                     f"{k} {kind}: {v.when}",
-                    rf"\text{{{_tex_text(k)}}}",
-                    rf"\text{{{_tex_text(v.when)}: {_tex_text(v.reason)}}}",
+                    rf"\text{{{tex_text(k)}}}",
+                    rf"\text{{{tex_text(v.when)}: {tex_text(v.reason)}}}",
                 )
                 continue
             for i, r in enumerate(roots):
@@ -457,14 +451,14 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for k, comps in sol.forces.items():
         for d, e in comps.items():
             if e is not None:
-                add(f"{k} force", rf"F_{{\mathrm{{{d}}}}}", tex_or_size(e))
+                add(f"{k} force", rf"F_{{{tex_label(d)}}}", tex_or_size(e))
     for w, e in named.definitions:
         add("named subexpression", _tex(w, names), _tex(e, names))
     body = " \\\\\n".join(rows)
     if standalone_math:
         return "$$\\begin{aligned}\n" + body.replace("&&", "&\\quad") + "\n\\end{aligned}$$"
-    title = re.sub(r"([#$%&_{}])", r"\\\1", sol.system.title)
+    title = sol.system.title
     return (
-        f"% lamech: {title}\n% requires \\usepackage{{amsmath}}\n"
-        f"\\subsection*{{{title}}}\n\\begin{{align*}}\n{body}\n\\end{{align*}}\n"
+        f"% lamech: {tex_comment(title)}\n% requires \\usepackage{{amsmath}}\n"
+        f"\\subsection*{{{tex_text(title)}}}\n\\begin{{align*}}\n{body}\n\\end{{align*}}\n"
     )

@@ -12,7 +12,8 @@ import sympy as sp
 from ..symbolic import Derivation
 from ..symbolic._reduce import READABLE_OPS
 from ..symbolic._steps import Term
-from ._report import _t, _tex, _tex_text, latex_names
+from ._plain import tex_comment, tex_label, tex_text
+from ._report import _t, _tex, latex_names
 
 __all__ = ["steps_text", "steps_latex", "steps_json"]
 
@@ -95,7 +96,7 @@ def _name_tex(name: str) -> str:
     base, _, rest = name.partition("_")
     if not rest:
         return base
-    sub = rf"_{{\mathrm{{{_tex_text(rest)}}}}}"
+    sub = rf"_{{{tex_label(rest)}}}"
     return (r"\mathbf{r}" if base == "r" else base) + sub
 
 
@@ -108,11 +109,7 @@ def _term_tex(term, names) -> str:
         of = _tex(term.of, names)
     by = ""
     if term.by is not None:
-        by = (
-            rf"\mathrm{{{_tex_text(term.by)}}}"
-            if isinstance(term.by, str)
-            else _tex(term.by, names)
-        )
+        by = tex_label(term.by) if isinstance(term.by, str) else _tex(term.by, names)
     if term.op == "":
         return of
     if term.op == "d/dq":
@@ -124,9 +121,9 @@ def _term_tex(term, names) -> str:
     if term.op == "d2/dt2":
         return rf"\frac{{d^2{of}}}{{dt^2}}"
     if term.op == "Q":
-        return rf"Q^{{(\mathrm{{{_tex_text(str(term.of))}}})}}_{{{by}}}"
+        return rf"Q^{{({tex_label(str(term.of))})}}_{{{by}}}"
     if term.op == "F":
-        return rf"F_{{\mathrm{{{_tex_text(str(term.of))}}},\,{by}}}"
+        return rf"F_{{{tex_label(str(term.of))},\,{by}}}"
     if term.op == "|.|":
         return rf"\left|{of}\right|"
     if term.op == "p":
@@ -147,7 +144,7 @@ def step_rows(step, names) -> list[str]:
     """One step's lines as ``aligned`` rows: ``lhs &= rhs && \\text{label}``."""
     rows = []
     for line in step.lines:
-        label = rf"\text{{{_tex_text(line.label)}}}" if line.label else ""
+        label = rf"\text{{{tex_text(line.label)}}}" if line.label else ""
         rows.append(rf"{_term_tex(line.lhs, names)} &= {_value_tex(line.rhs, names)} && {label}")
     return rows
 
@@ -159,22 +156,22 @@ def steps_latex(d: Derivation, standalone_math: bool = False) -> str:
     names = latex_names(d.system)
     parts: list[str] = []
     if not standalone_math:
-        title = _tex_text(d.title)
+        title = tex_comment(d.title)
         parts.append(f"% lamech: {title}, step by step\n% requires \\usepackage{{amsmath}}")
     for k, step in enumerate(d.steps, 1):
         rows = step_rows(step, names)
         body = " \\\\\n".join(rows)
-        notes = "\n".join(_tex_text(n) + "\n" for n in step.notes)
+        notes = "\n".join(tex_text(n) + "\n" for n in step.notes)
         if standalone_math:
             math = (
                 "$$\\begin{aligned}\n" + body.replace("&&", "&\\quad") + "\n\\end{aligned}$$"
                 if rows
                 else ""
             )
-            parts.append(f"% Step {k}. {step.title}\n{math}\n{notes}")
+            parts.append(f"% Step {k}. {tex_comment(step.title)}\n{math}\n{notes}")
         else:
             math = f"\\begin{{align*}}\n{body}\n\\end{{align*}}" if rows else ""
             parts.append(
-                f"\\subsection*{{Step {k}. {_tex_text(step.title)}}}\n{math}\n{notes}".rstrip()
+                f"\\subsection*{{Step {k}. {tex_text(step.title)}}}\n{math}\n{notes}".rstrip()
             )
     return "\n\n".join(parts) + "\n"

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..outputs import write_output
 from ..sweeps import SweepError, SweepResult
+from ._plain import drawn
 
 __all__ = ["plot_sweep"]
 
@@ -52,8 +53,8 @@ def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -
                     label="run failed",
                 )
                 ax.legend(fontsize=7)
-            ax.set_xlabel(swept[0])
-            ax.set_ylabel(c)
+            ax.set_xlabel(drawn(swept[0]))
+            ax.set_ylabel(drawn(c))
         else:
             a, b = swept
             xa, xb = run.parameters[a], run.parameters[b]
@@ -69,7 +70,7 @@ def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -
                 _edges(xa), _edges(xb), np.ma.masked_invalid(np.where(F, np.nan, Z)), shading="flat"
             )
             bar = fig.colorbar(mesh, ax=ax)
-            bar.set_label(c, fontsize=8)
+            bar.set_label(drawn(c), fontsize=8)
             if F.any():  # failed runs: red cross-hatched cells
                 ax.pcolormesh(
                     _edges(xa),
@@ -82,9 +83,9 @@ def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -
                     hatch="xx",
                     alpha=0.9,
                 )
-            ax.set_xlabel(a)
-            ax.set_ylabel(b)
-        ax.set_title(c, fontsize=9)
+            ax.set_xlabel(drawn(a))
+            ax.set_ylabel(drawn(b))
+        ax.set_title(drawn(c), fontsize=9)
     for ax in list(axes.flat)[k:]:
         ax.set_visible(False)
     title = run.path.name if run.path else "sweep"
@@ -92,7 +93,7 @@ def plot_sweep(run: SweepResult, path: str | os.PathLike, max_panels: int = 9) -
         title += "  (" + ", ".join(f"{n} = {v:g}" for n, v in fixed.items()) + ")"
     if len(swept) == 2:
         title += "   grey: no such event" + ("; red hatched: run failed" if failed.any() else "")
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(drawn(title), fontsize=10)
     fig.tight_layout()
     write_output(path, lambda tmp: fig.savefig(tmp, dpi=110), flag="`path=`")
 

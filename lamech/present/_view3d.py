@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ._plain import drawn
+
 if TYPE_CHECKING:  # the annotation only: _animate imports this module to draw in space
     from ._animate import Scene
 
@@ -56,7 +58,7 @@ def space_view(fig, scene: Scene, heading: str) -> Callable[[int], None]:
     x0, x1, y0, y1, z0, z1 = scene.limits()
     ax.set_proj_type("ortho")
     ax.view_init(elev=22, azim=-58)
-    fig.suptitle(heading, y=0.9, va="top", fontsize=10)
+    fig.suptitle(drawn(heading), y=0.9, va="top", fontsize=10)
     for axis, label in zip((ax.xaxis, ax.yaxis, ax.zaxis), "xyz"):
         axis.set_label_text(label)
         axis.set_tick_params(labelsize=7)
