@@ -222,3 +222,12 @@ def test_a_multiplier_positive_in_every_state_never_lets_go():
     assert sp.simplify(sol.multipliers["bowl"] - truth) == 0
     assert sol.lets_go["bowl"].when == "never"
     assert "in every state" in sol.lets_go["bowl"].reason
+
+
+def test_a_form_that_divides_by_the_sine_of_an_angle_says_where_it_holds():
+    """The spherical pendulum's phi'' = -2 theta' phi' cot(theta): singular at the poles
+    of these coordinates (theta = 0), which the note names."""
+    sol = lamech.solve("spherical_pendulum")
+    (note,) = [n for n in sol.notes if "divide" in n]
+    assert note.startswith("phi'' divides by sin(theta)") and "sin(theta) != 0" in note
+    assert not any("divide" in n for n in lamech.solve("pendulum").notes)
