@@ -231,3 +231,20 @@ def test_a_form_that_divides_by_the_sine_of_an_angle_says_where_it_holds():
     (note,) = [n for n in sol.notes if "divide" in n]
     assert note.startswith("phi'' divides by sin(theta)") and "sin(theta) != 0" in note
     assert not any("divide" in n for n in lamech.solve("pendulum").notes)
+
+
+def test_the_trammels_modes_find_both_equilibria_on_the_whole_circle():
+    """With y = +sqrt(l^2 - x^2) modes missed the stable rest at y = -l; in the circle's
+    angle it finds it, omega^2 = g/l (the trammel is a pendulum of length l), and the
+    unstable one at y = +l."""
+    sol = _solved("trammel.toml")
+    pv = sol.system.parameter_values
+    g, l = pv[_sym(sol, "g")], pv[_sym(sol, "l")]
+    eqs = lamech.modes(sol).equilibria
+    assert len(eqs) == 2
+    by_y = {round(e.values["y"], 9): e for e in eqs}
+    assert set(by_y) == {-l, l}
+    low, high = by_y[-l], by_y[l]
+    assert low.stability == "stable" and high.stability == "unstable"
+    assert low.modes[0].frequency ** 2 == pytest.approx(g / l, rel=1e-12)
+    assert high.modes[0].growth ** 2 == pytest.approx(g / l, rel=1e-12)

@@ -759,7 +759,7 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
     if GqN.size and np.abs(GqN).max() > 1e-10:
         return None  # velocity constraints that tie positions to velocities: no split
     Nw = _null_basis(GvN, d)
-    own = [names.index(str(x)) for x in u]  # the independent coordinates, if regular
+    own = [names.index(str(x)) for x in u if str(x) in names]  # the independent ones, if regular
     S = own if len(own) == d and np.linalg.cond(Xq[own]) < 1e8 else _pick(Xq)
     own_v = own if len(own) == Nw.shape[1] and len(own) else []
     W = own_v if own_v and np.linalg.cond((Xq @ Nw)[own_v]) < 1e8 else _pick(Xq @ Nw)
