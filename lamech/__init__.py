@@ -26,6 +26,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from ._errors import LamechError
 from ._version import __version__
 
 _PUBLIC = {
@@ -75,6 +76,7 @@ _PUBLIC = {
 }
 
 __all__ = [
+    "LamechError",
     "Body",
     "Constraint",
     "Coordinate",

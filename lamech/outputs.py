@@ -22,12 +22,13 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from ._errors import LamechError
 from .expr import printable
 
 __all__ = ["OutputError", "check_output", "atomic_output", "write_output"]
 
 
-class OutputError(ValueError):
+class OutputError(LamechError, ValueError):
     """An output path lamech will not write: what is there, or its suffix."""
 
 

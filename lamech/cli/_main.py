@@ -10,6 +10,7 @@ import os
 import sys
 import time
 
+from .._version import __version__
 from ._args import add_assignments, evaluate_assignments
 from ._files import add_data_dir
 from ._report import add_parser as add_report
@@ -77,6 +78,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Constrained mechanics by Lagrange multipliers. With no arguments, "
         "solves the bundled cylinder-rolling-on-a-cylinder problem.",
     )
+    p.add_argument("--version", action="version", version=f"lamech {__version__}")
     sub = p.add_subparsers(dest="command")
     s = sub.add_parser(
         "solve", help="equations, multipliers, forces, lift-off and slip of a problem file"
@@ -135,7 +137,12 @@ def _parser() -> argparse.ArgumentParser:
     _angles(md)
     add_data_dir(md)
     _formats(md)
-    sub.add_parser("examples", help="list the bundled example problems")
+    ex = sub.add_parser(
+        "examples",
+        help="list the bundled example problems, or print one to copy and change "
+        "(lamech examples cylinder > my_problem.toml)",
+    )
+    ex.add_argument("name", nargs="?", help="a bundled example: print its problem file")
     add_simulate(sub)
     add_sweep(sub)
     add_report(sub)
@@ -147,9 +154,10 @@ def _angles(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--angles",
         action="store_true",
-        help="give the results in angles where a constraint is a circle or sphere in "
-        "Cartesian coordinates (x1 = l1 sin(theta1), y1 = -l1 cos(theta1)), as a "
-        "[parametrisation] in the file would",
+        help="give the results in angles where a constraint is a sphere in Cartesian "
+        "coordinates too (x = l sin(theta) cos(phi), ...: singular at its poles), as a "
+        "[parametrisation] in the file would; a circle is solved in its angle "
+        "(x1 = l1 sin(theta1), y1 = -l1 cos(theta1)) without it",
     )
 
 
@@ -239,8 +247,18 @@ def _dispatch(args: argparse.Namespace) -> int:
 
         return run_sweep(args)
     if command == "examples":
-        from ..problem import example_names, example_title
+        from ..problem import example_names, example_path, example_title
 
+        if args.name is not None:
+            if args.name not in example_names():
+                print(
+                    f"lamech: no bundled example `{args.name}`; known: "
+                    + ", ".join(example_names()),
+                    file=sys.stderr,
+                )
+                return 2
+            sys.stdout.write(example_path(args.name).read_text(encoding="utf-8"))
+            return 0
         for name in example_names():
             print(f"{name:<18} {example_title(name)}")
         return 0

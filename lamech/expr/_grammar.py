@@ -9,6 +9,8 @@ import re
 
 import sympy as sp
 
+from .._errors import LamechError
+
 MAX_LENGTH = 4000
 """Longest expression text accepted, in characters."""
 MAX_DEPTH = 60
@@ -24,7 +26,7 @@ MAX_TERMS = 10_000
 ``(a + b + c + d + e)^64`` (814,385) is refused before anything expands it."""
 
 
-class ExpressionError(ValueError):
+class ExpressionError(LamechError, ValueError):
     """An expression does not follow the grammar; ``message`` says what and how to fix it.
 
     ``column`` is the 1-based column in the expression text where known.

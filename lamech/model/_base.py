@@ -25,6 +25,7 @@ from typing import Any
 
 import sympy as sp
 
+from .._errors import LamechError
 from ..expr import FUNCTIONS, RESERVED
 
 __all__ = [
@@ -40,7 +41,7 @@ __all__ = [
 Issues = list[tuple[str, str]]
 
 
-class ModelError(ValueError):
+class ModelError(LamechError, ValueError):
     """A definition breaks a rule of the model. ``issues`` lists every (where, message)
     found, so that a user fixes everything in one pass."""
 

@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._errors import LamechError
+
 __all__ = [
     "DEFAULT_RTOL",
     "DEFAULT_ATOL",
@@ -46,7 +48,7 @@ MAX_SAMPLES = 10_000_000
 bound too): more is refused before the run, never a run that fills the memory."""
 
 
-class SimulationError(ValueError):
+class SimulationError(LamechError, ValueError):
     """Bad options or an inconsistent initial state (nothing was integrated)."""
 
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.printing.jscode import JavascriptCodePrinter
 
+from .._errors import LamechError
 from ..expr import to_text
 from ..symbolic._conditions import is_angle
 from ..symbolic._sensitivity import free_parameters, friction_mu, in_free_parameters
@@ -43,7 +44,7 @@ problem file's ``[sliders]`` section gives others (``mu = [0.05, 1.0]``), widene
 hold the value itself."""
 
 
-class LiveError(ValueError):
+class LiveError(LamechError, ValueError):
     """An expression that cannot be compiled to JavaScript (a function the printer does
     not know, or a symbol other than the coordinate and the parameters)."""
 

@@ -9,6 +9,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from .._errors import LamechError
 from ..expr import printable
 
 __all__ = ["Issue", "ProblemFileError", "MAX_BYTES", "LIMITS", "MAX_TABLE_ROWS"]
@@ -62,7 +63,7 @@ def repeated_key(text: str) -> tuple[int, str, int] | None:
     return None
 
 
-class ProblemFileError(ValueError):
+class ProblemFileError(LamechError, ValueError):
     """A problem file (or dict) cannot be used; ``problems`` lists everything wrong."""
 
     def __init__(self, source: str, problems: list[Issue]):

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._errors import LamechError
 from ..model import System
 
 __all__ = [
@@ -34,7 +35,7 @@ SERIES_MEASURES = ("max", "min", "final")
 MAX_CASES = 1_000_000
 
 
-class SweepError(ValueError):
+class SweepError(LamechError, ValueError):
     """Bad sweep input (names, ranges, measures, a table that does not fit); nothing ran."""
 
 

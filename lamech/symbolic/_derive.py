@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from .._errors import LamechError
 from ..linalg import kkt_matrix, kkt_rhs
 from ..model import System
 from ..model._checks import dependent_group, numeric_matrix, without_inertia
@@ -37,7 +38,7 @@ from ..model._kinematics import constraint_jacobian, gradient, jacobian
 __all__ = ["Dynamics", "dynamics", "kkt_numeric", "DegenerateConstraintsError"]
 
 
-class DegenerateConstraintsError(ValueError):
+class DegenerateConstraintsError(LamechError, ValueError):
     """The KKT matrix is singular: the multipliers are not uniquely determined."""
 
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from .._errors import LamechError
 from ..expr import to_text
 from ..model._chart import chart_initial
 from ..model._checks import initial_values, numeric_matrix
@@ -65,7 +66,7 @@ class Disagreement:
         )
 
 
-class ClosedFormError(ValueError):
+class ClosedFormError(LamechError, ValueError):
     """A printed closed form disagrees with the KKT system (a defect of lamech: please
     report it with the problem file). ``disagreements`` lists each."""
 
