@@ -74,19 +74,19 @@ class _Manifold:
                 num = sp.numer(sp.together(f))
                 if num.free_symbols & coords:
                     relations.append(sp.expand(num))
-        # a constraint that moves (y cos(w t) = x sin(w t)) is polynomial in the sine and
-        # cosine of its motion's angle: each becomes a generator, related by s^2 + c^2 = 1
-        derived = [r for r in relations] + [time_derivative(r, system) for r in relations]
-        self.clock = _clock_generators(derived, coords, set(system.qd))
-        to_gens = {e: g for e, g in self.clock.items()}
+        # a constraint in an angle (r^2 - (x - a cos(phi))^2 - ...) or driven through one
+        # (y cos(w t) = x sin(w t)) is polynomial in its sine and cosine: each becomes a
+        # generator, related by s^2 + c^2 = 1
+        rates = [sp.expand(time_derivative(r, system)) for r in relations]
+        self.angles = _angle_generators(relations + rates, coords, set(system.qd))
+        to_gens = self.angles
         gens = [s for s in system.q + system.qd] + list(to_gens.values())
         self.relations: list[sp.Expr] = []
         pairs: dict = {}
         for e, g in to_gens.items():
             pairs.setdefault(e.args[0], {})[e.func] = g
         circles = [d[sp.sin] ** 2 + d[sp.cos] ** 2 - 1 for d in pairs.values() if len(d) == 2]
-        for r in relations:
-            r_t = sp.expand(time_derivative(r, system))
+        for r, r_t in zip(relations, rates):
             r, r_t = (sp.expand(x.xreplace(to_gens)) for x in (r, r_t))
             try:
                 p = sp.Poly(r, *gens)
@@ -139,7 +139,7 @@ class _Manifold:
                 symbols = (num.free_symbols | den.free_symbols | _symbols(self.relations)) - set(
                     self.gens
                 )
-                if self.clock:
+                if self.angles:
                     symbols -= {self.system.t}
                 candidates += [self._normal(num, den, G) for G in self.bases(frozenset(symbols))]
         except (sp.PolynomialError, sp.CoercionFailed, ValueError, TypeError, RecursionError):
@@ -168,7 +168,7 @@ class _Manifold:
 
     def _normal(self, num: sp.Expr, den: sp.Expr, G) -> sp.Expr | None:
         parts = []
-        to_gens = self.clock
+        to_gens = self.angles
         if to_gens:
             num, den = (sp.expand(_expanded_trig(x, to_gens)).xreplace(to_gens) for x in (num, den))
         for part in (num, den):
@@ -187,7 +187,7 @@ class _Manifold:
         return out.xreplace(back) if back else out
 
 
-def _clock_generators(exprs: list[sp.Expr], coords: set, velocities: set) -> dict:
+def _angle_generators(exprs: list[sp.Expr], coords: set, velocities: set) -> dict:
     """{sin(w t): S, cos(w t): C, sin(phi): S, ...}: a generator for the sine and the
     cosine of each argument of a trigonometric function in ``exprs`` that is one
     coordinate (the rod's inclination phi in r^2 - (x - a cos(phi))^2 - ...), or free of
