@@ -1,8 +1,12 @@
 """The library's messages name its arguments (`` `max_step=` ``); the command line says
-its flags (``--max-step``) for the same messages (the command line's terms module)."""
+its flags (``--max-step``) for the same messages (the command line's terms module). And
+where a file is valid but probably not what its author meant (issue 43, section 5), a
+word: a bilateral contact whose multiplier changes sign, gravity's sign."""
 
 from __future__ import annotations
 
+import json
+import math
 import re
 
 import pytest
@@ -68,3 +72,68 @@ def test_the_help_states_the_library_s_own_default_tolerances(command, capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert f"relative tolerance (default {DEFAULT_RTOL:g};" in text
     assert f"absolute tolerance (default {DEFAULT_ATOL:g})" in text
+
+
+# ----- issue 43, section 5: silent where a user needs a word ---------------------------
+SPHERE = """
+title = "Particle on a smooth sphere, the contact written bilateral"
+[parameters]
+m = 1.0
+g = 9.81
+R = 1.0
+theta0 = {theta0}
+[coordinates]
+r = {{ initial = "R", velocity = 0 }}
+theta = {{ initial = "theta0", velocity = 0 }}
+[lagrangian]
+T = "m/2*(r'^2 + r^2*theta'^2)"
+V = "m*g*r*cos(theta)"
+[[constraints]]
+name = "surface"
+f = "{f}"
+"""
+
+
+def _sign_change_notes(sol) -> list[str]:
+    return [n for n in sol.notes if "changes sign along the motion" in n]
+
+
+@pytest.mark.parametrize("theta0", [0.3, 0.7])
+def test_a_bilateral_contact_whose_multiplier_changes_sign_says_where(theta0, tmp_path, capsys):
+    """Released at rest at theta0 from the top of a smooth sphere, the particle presses on
+    it with m g (3 cos(theta) - 2 cos(theta0)) (energy: v^2 = 2 g R (cos(theta0) -
+    cos(theta)), radial: m g cos(theta) - N = m v^2/R), zero where cos(theta) =
+    2 cos(theta0)/3: a contact written bilateral (unilateral = true forgotten) says so."""
+    text = SPHERE.format(theta0=theta0, f="r - R")
+    [note] = _sign_change_notes(lamech.solve(lamech.loads(text, "sphere.toml")))
+    assert "`surface` is bilateral" in note and "cos(theta) = 2*cos(theta0)/3" in note
+    found = re.search(r"theta = ([-+0-9.e]+) \(([-0-9.]+)°\)", note)
+    assert found, note
+    truth = math.acos(2 / 3 * math.cos(theta0))
+    assert float(found.group(1)) == pytest.approx(truth, rel=0, abs=1e-9)
+    assert float(found.group(2)) == pytest.approx(math.degrees(truth), abs=0.005)
+    assert "would let go there" in note and "unilateral = true" in note
+    # written the other way round (lambda < 0 at the start) it changes sign at the same place
+    [other] = _sign_change_notes(
+        lamech.solve(lamech.loads(SPHERE.format(theta0=theta0, f="R - r")))
+    )
+    assert float(re.search(r"theta = ([-+0-9.e]+)", other).group(1)) == pytest.approx(truth)
+    # and the note is in --json's notes
+    path = tmp_path / "sphere.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["solve", "--json", str(path)]) == 0
+    assert json.loads(capsys.readouterr().out)["notes"] == [note]
+
+
+def test_a_unilateral_contact_and_a_multiplier_of_one_sign_get_no_such_note():
+    """With unilateral = true the lift-off is reported where it belongs; a bilateral
+    multiplier that keeps its sign (the pendulum's tension from theta0 = 0.3) is not
+    remarked on."""
+    text = SPHERE.format(theta0=0.3, f="r - R").replace(
+        'f = "r - R"', 'f = "r - R"\nunilateral = true'
+    )
+    sol = lamech.solve(lamech.loads(text))
+    assert _sign_change_notes(sol) == []
+    assert sol.lets_go["surface"].when == "at the roots"
+    hanging = SPHERE.format(theta0=0.3, f="r - R").replace("m*g*r*cos", "-m*g*r*cos")
+    assert _sign_change_notes(lamech.solve(lamech.loads(hanging))) == []
