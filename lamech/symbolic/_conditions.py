@@ -278,9 +278,13 @@ def sign_change_note(system: System, shell: Shell, name: str, start: float | Non
         return None
     if any(c.friction is not None and c.friction.normal == name for c in system.constraints):
         return None  # a normal force: the friction hint (lamech.model._hints) speaks of it
-    roots = vanishing_points(system, shell, name)
-    if not roots:
+    lam = shell.multipliers.get(name)
+    if lam is None:
         return None
+    F = _numeric(system, lam, shell.coordinate.symbol)
+    roots = [r for r in vanishing_points(system, shell, name) if _crosses(F, r.value)]
+    if not roots:
+        return None  # no root, or a zero it touches without crossing (lambda = 0 throughout)
     r = roots[0]
     deg = f" ({r.degrees:.2f}°)" if r.degrees is not None else ""
     lam = f"lambda_{name}"
@@ -294,6 +298,13 @@ def sign_change_note(system: System, shell: Shell, name: str, start: float | Non
         "unilateral = true: lamech then gives where it lets go, and simulate follows the "
         "flight"
     )
+
+
+def _crosses(F, x: float) -> bool:
+    """F has opposite signs, both nonzero, just before and just after ``x``."""
+    h = 1e-6 * (1.0 + abs(x))
+    a, b = F(x - h), F(x + h)
+    return bool(math.isfinite(a) and math.isfinite(b) and a * b < 0)
 
 
 def closing_points(system: System, shell: Shell, f: sp.Expr, reduction) -> list[Root] | None:
