@@ -10,6 +10,7 @@ import math
 import re
 
 import pytest
+import sympy
 
 import lamech
 from lamech.cli import main
@@ -137,3 +138,89 @@ def test_a_unilateral_contact_and_a_multiplier_of_one_sign_get_no_such_note():
     assert sol.lets_go["surface"].when == "at the roots"
     hanging = SPHERE.format(theta0=0.3, f="r - R").replace("m*g*r*cos", "-m*g*r*cos")
     assert _sign_change_notes(lamech.solve(lamech.loads(hanging))) == []
+
+
+FLOOR = """
+title = "Block on a floor"
+[parameters]
+m = 2.0
+g = 9.81
+[coordinates]
+x = { initial = 0, velocity = 1 }
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "VALUE"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+"""
+
+
+def _gravity_notes(system) -> list[str]:
+    return [n for n in system.notes if "is its sign right?" in n]
+
+
+def test_gravity_that_pulls_up_is_questioned():
+    """V = -m g y with y up: at rest the block would accelerate upward (y'' = +g with the
+    floor gone, the reduced equation below), and the floor "lets go at the start" for
+    that reason alone. The warning names the coordinate, the slope and its value."""
+    system = lamech.loads(FLOOR.replace("VALUE", "-m*g*y"))
+    [note] = _gravity_notes(system)
+    assert "`y`" in note and "dV/dy = -g*m = -19.62" in note
+    assert "accelerate towards larger y, upward if y is measured up" in note
+    assert "+g*m*y" in note
+    assert lamech.solve(system).lets_go["floor"].when == "at the start"
+    free = lamech.solve(lamech.loads(FLOOR.split("[[constraints]]")[0].replace("VALUE", "-m*g*y")))
+    [y] = [c for c in free.system.coordinates if c.name == "y"]
+    assert free.closed.accelerations[y.acceleration] == sympy.Symbol("g", positive=True)
+    # the right sign, a slope that is not a weight, and a weight through a sum: no word
+    for V in ("m*g*y", "-m*g*y*x", "-(m + 1)*g*y", "-m*y", "m*g*(y + x/2)"):
+        assert _gravity_notes(lamech.loads(FLOOR.replace("VALUE", V))) == [], V
+
+
+def test_gravity_is_not_questioned_in_any_bundled_example():
+    """The 22 examples load without the warning: the incline's m g (n cos(alpha) - s
+    sin(alpha)) has a sine in its slope, and V made from the bodies is lamech's own."""
+    from lamech.problem._examples import example_names
+
+    names = example_names()
+    assert len(names) == 22
+    assert [n for n in names if _gravity_notes(lamech.load(n))] == []
+
+
+def test_a_zero_mass_the_constraints_carry_is_a_warning_and_one_nothing_carries_an_error():
+    """Atwood's machine with m2 = 0: y2 has no inertia but the string carries it, so the
+    accelerations exist (m1 falls freely: y1'' = -g, the tension 2 g m1 m2/(m1 + m2) = 0)
+    and the warning names m2; a block on a spring with m = 0 cannot move at all: refused
+    at m's line (tests/bad/132-zero-mass-parameter.toml), naming m and x."""
+    text = """
+title = "Atwood, one mass typed as 0"
+[parameters]
+m1 = 1.0
+m2 = 0
+g = 9.81
+l = 2.0
+[coordinates]
+y1 = { initial = 0.5, velocity = 0 }
+y2 = { initial = 1.5, velocity = 0 }
+[lagrangian]
+T = "m1/2*y1'^2 + m2/2*y2'^2"
+V = "m1*g*y1 + m2*g*y2"
+[[constraints]]
+name = "string"
+f = "l - y1 - y2"
+"""
+    system = lamech.loads(text)
+    [note] = [n for n in system.notes if "is 0 and is the mass of" in n]
+    assert note.startswith("parameter `m2` is 0 and is the mass of `y2`")
+    assert "give `m2` its value" in note
+    sol = lamech.solve(system)
+    assert sol.initial_multipliers["string"] == 0
+    assert [n for n in sol.notes if "changes sign" in n] == []  # lambda = 0 throughout
+    # the same T with m2 > 0 says nothing
+    assert [n for n in lamech.loads(text.replace("m2 = 0", "m2 = 2.0")).notes if "mass" in n] == []
+    with pytest.raises(lamech.ProblemFileError) as info:
+        lamech.loads(text.split("[[constraints]]")[0], "x.toml")
+    assert "x.toml:5: parameters.m2: parameter `m2` = 0 is the mass of `y2`" in str(info.value)
