@@ -309,12 +309,37 @@ def _no_velocity_issue(s: System) -> tuple[str, str]:
     return ("lagrangian.T", "T has no velocity in it; write velocities as x'")
 
 
+def _unused_issues(s: System) -> Issues:
+    """A coordinate declared but in none of T, V, the constraints and the forces (the
+    loads' included): nothing gives it inertia or moves it, its row of the KKT system is
+    0, and the accelerations cannot be found; said at its declaration's line. One that
+    places a body (a massless one: :func:`lamech.model._start.dependent_issues` names
+    the body) is used."""
+    placed = [e for b in s.bodies for e in (*b.position, b.angle) if e is not None]
+    parts = (s.T, s.V, *(c.expr for c in s.constraints), *s.forces, *placed)
+    exprs = [e for e in parts if is_expr(e)]
+    used: set = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+    return [
+        (
+            f"coordinates.{c.name}",
+            f"coordinate `{c.name}` is declared but appears in neither T, V, a constraint "
+            f"nor a force: nothing gives it inertia or moves it, so the accelerations "
+            f"cannot be found; remove `{c.name}` from [coordinates], or write it where "
+            f"it belongs ({c.name}'^2 in T for a coordinate that moves a mass)",
+        )
+        for c in s.coordinates
+        if c.symbol not in used and c.velocity not in used
+    ]
+
+
 def _structure_issues(s: System, scope: Scope) -> Issues:
 
     out: Issues = []
     qd = s.qd
     if is_expr(s.T) and (s.T == 0 or not s.T.has(*qd)):
         out.append(_no_velocity_issue(s))
+    else:
+        out += _unused_issues(s)
     names = [c.name for c in s.constraints]
     bodies = {b.name: b for b in s.bodies}
     for i, c in enumerate(s.constraints):
