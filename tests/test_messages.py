@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import pytest
 import sympy
@@ -224,3 +225,26 @@ f = "l - y1 - y2"
     with pytest.raises(lamech.ProblemFileError) as info:
         lamech.loads(text.split("[[constraints]]")[0], "x.toml")
     assert "x.toml:5: parameters.m2: parameter `m2` = 0 is the mass of `y2`" in str(info.value)
+
+
+def test_a_polar_radius_held_negative_is_refused_and_one_that_starts_negative_is_not(
+    tmp_path, capsys
+):
+    """tests/bad/135: the cylinder inside a trough of radius 0.5 with its own radius typed
+    as 10 (centimetres) is refused at the contact's line, never given a lift-off. With
+    R2 = 0.1 it loads; so does a bead on a turntable's rod that starts at r = -0.3 (the
+    rod's other half: r is not held by a constraint); and --param cannot make it so."""
+    bad = (Path(__file__).parent / "bad" / "135-negative-polar-radius.toml").read_text("utf-8")
+    with pytest.raises(lamech.ProblemFileError, match=r"R1 - R2 = -9\.5 < 0"):
+        lamech.loads(bad)
+    good = tmp_path / "trough.toml"
+    good.write_text(bad.replace("R2 = 10\n", "R2 = 0.1\n"), encoding="utf-8")
+    lamech.load(good)
+    table = (Path(lamech.__file__).parent / "examples" / "rotating_table.toml").read_text("utf-8")
+    lamech.loads(table.replace("initial = 0.8,", "initial = -0.3,"))
+    for f in ('"l - r"', '"r - l"'):  # a string or a rod of length l = -1
+        text = SPHERE.format(theta0=0.3, f="r - R").replace('"r - R"', f.replace("l", "R"))
+        with pytest.raises(lamech.ProblemFileError, match=r"holds `r` at R = -1 < 0"):
+            lamech.loads(text.replace("R = 1.0", "R = -1.0"))
+    assert main(["solve", str(good), "--param", "R2=10"]) == 2
+    assert "holds `r` at R1 - R2 = -9.5 < 0" in capsys.readouterr().err

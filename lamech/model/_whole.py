@@ -16,10 +16,11 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..expr import FUNCTIONS, Table, not_differentiable
+from ..expr import FUNCTIONS, Table, not_differentiable, to_text
 from ._base import FIELDS, ConstraintKind, Issues, Memo, is_expr, not_expr
 from ._chart import chart_issues
 from ._checks import massless, value
+from ._kinematics import polar_radii
 from ._parts import (
     Body,
     Constraint,
@@ -508,6 +509,7 @@ def _value_issues(s: System, scope: Scope) -> Issues:
                         f"a circle's radius must be >= 0, got {r:g}",
                     )
                 )
+    out += _negative_radius_issues(s, at_parameters)
     for i, c in enumerate(s.constraints):
         if c.unilateral:
             e = at_parameters(c.restitution)
@@ -529,4 +531,51 @@ def _value_issues(s: System, scope: Scope) -> Issues:
                     f"must be a coefficient of friction >= 0, got {v:g}",
                 )
             )
+    return out
+
+
+def _negative_radius_issues(s: System, at_parameters: Callable[[Any], float | None]) -> Issues:
+    """A constraint that holds a polar radius at a negative value: refused, since no
+    configuration has it.
+
+    The rule: a coordinate r is a polar radius when T has it as one (r^2 theta'^2:
+    :func:`lamech.model._kinematics.polar_radii`), and a holonomic constraint fixes it
+    when its f has no other coordinate and no t and is linear in r (``r - (R1 + R2)``,
+    ``l - r``, ``(R1 - R2) - r``); the value it fixes, -f(0)/(df/dr) at the parameter
+    values, must not be negative. So a trough of radius R1 = 0.5 with the cylinder's
+    radius typed as R2 = 10 (centimetres for metres) is refused at the constraint's
+    line, rather than a lift-off printed for a cylinder whose centre is 9.5 below the
+    trough's. A radius that merely starts negative is not refused: a bead on a rod
+    through the axis of a turntable passes r = 0, its r < 0 the rod's other half."""
+    radii = polar_radii(s)
+    if not radii:
+        return []
+    out: Issues = []
+    for i, c in enumerate(s.constraints):
+        if not c.holonomic or not is_expr(c.expr) or c.expr.has(s.t):
+            continue
+        held = c.expr.free_symbols & set(s.q)
+        if len(held) != 1 or next(iter(held)) not in radii:
+            continue
+        r = next(iter(held))
+        slope = sp.diff(c.expr, r)
+        if slope == 0 or slope.has(r):
+            continue
+        fixed = sp.cancel(-c.expr.subs(r, 0) / slope)
+        v = at_parameters(fixed)
+        if v is None or not math.isfinite(v) or v >= 0:
+            continue
+        angle = radii[r]
+        names = sorted(fixed.free_symbols, key=str)
+        values = ", ".join(f"{p} = {at_parameters(p):g}" for p in names)
+        check = f"the values and units of {values}" if values else "the numbers in f"
+        out.append(
+            (
+                f"constraints[{i + 1}] `{c.name}`",
+                f"holds `{r}` at {to_text(fixed)} = {v:g} < 0, but `{r}` is a polar "
+                f"radius ({r}^2*{angle}'^2 in T), a distance from the centre, never "
+                f"negative: no configuration has it. Check {check} (a length in "
+                "centimetres among metres?), or how f is written",
+            )
+        )
     return out
