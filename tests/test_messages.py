@@ -5,6 +5,7 @@ word: a bilateral contact whose multiplier changes sign, gravity's sign."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -176,6 +177,13 @@ def test_gravity_that_pulls_up_is_questioned():
     free = lamech.solve(lamech.loads(FLOOR.split("[[constraints]]")[0].replace("VALUE", "-m*g*y")))
     [y] = [c for c in free.system.coordinates if c.name == "y"]
     assert free.closed.accelerations[y.acceleration] == sympy.Symbol("g", positive=True)
+    # y measured down, as the body's position says: lamech's own V from [gravity] is
+    # -m*g*y and right; the same V without the [gravity] that made it is questioned
+    free = FLOOR.split("[[constraints]]")[0].replace("VALUE", "-m*g*y")
+    body = '[[bodies]]\nname = "block"\nmass = "m"\nposition = ["x", "-y"]\n'
+    made = lamech.loads(free + body + '[gravity]\nacceleration = "g"\n')
+    assert _gravity_notes(made) == []
+    assert len(_gravity_notes(dataclasses.replace(made, gravity=None))) == 1
     # the right sign, a slope that is not a weight, and a weight through a sum: no word
     for V in ("m*g*y", "-m*g*y*x", "-(m + 1)*g*y", "-m*y", "m*g*(y + x/2)"):
         assert _gravity_notes(lamech.loads(FLOOR.replace("VALUE", V))) == [], V
