@@ -192,9 +192,7 @@ def test_gravity_that_pulls_up_is_questioned():
 def test_gravity_is_not_questioned_in_any_bundled_example():
     """The 22 examples load without the warning: the incline's m g (n cos(alpha) - s
     sin(alpha)) has a sine in its slope, and V made from the bodies is lamech's own."""
-    from lamech.problem._examples import example_names
-
-    names = example_names()
+    names = lamech.example_names()
     assert len(names) == 22
     assert [n for n in names if _gravity_notes(lamech.load(n))] == []
 
