@@ -547,17 +547,18 @@ def _negative_radius_issues(s: System, at_parameters: Callable[[Any], float | No
     line, rather than a lift-off printed for a cylinder whose centre is 9.5 below the
     trough's. A radius that merely starts negative is not refused: a bead on a rod
     through the axis of a turntable passes r = 0, its r < 0 the rod's other half."""
-    radii = polar_radii(s)
-    if not radii:
-        return []
+    coords = set(s.q)
+    alone = [
+        (i, c, held.pop())
+        for i, c in enumerate(s.constraints)
+        if c.holonomic and is_expr(c.expr) and not c.expr.has(s.t)
+        if len(held := c.expr.free_symbols & coords) == 1
+    ]
+    radii = polar_radii(s) if alone else {}
     out: Issues = []
-    for i, c in enumerate(s.constraints):
-        if not c.holonomic or not is_expr(c.expr) or c.expr.has(s.t):
+    for i, c, r in alone:
+        if r not in radii:
             continue
-        held = c.expr.free_symbols & set(s.q)
-        if len(held) != 1 or next(iter(held)) not in radii:
-            continue
-        r = next(iter(held))
         slope = sp.diff(c.expr, r)
         if slope == 0 or slope.has(r):
             continue
