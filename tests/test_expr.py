@@ -204,6 +204,16 @@ def test_acceleration_not_allowed():
         ("(x", ["syntax error"]),
         ("x)", ["syntax error"]),
         ("1e999", ["out of range"]),
+        # products written as on paper: the fix in the message (issue 43, section 5)
+        ("2m", ["`2m` is a number written against a name", "write `2*m`"]),
+        ("m*g + 1.5e-3theta1", ["write `1.5e-3*theta1`"]),
+        ("3x'^2", ["write `3*x'`"]),
+        ("m g", ["`m g` is two terms side by side", "write `m*g`"]),
+        ("2 x", ["write `2*x`"]),
+        ("2(x + 1)", ["`2` is not a function", "write `2*(x + 1)`"]),
+        ("(m + g)(x + 1)", ["write `(m + g)*(x + 1)`"]),
+        ("m(x + 1)", ["`m` is not a function", "write `m*(x + 1)`"]),
+        ("x(t)", ["a coordinate is a function of time", "write `x`"]),
     ],
 )
 def test_errors(text, words):

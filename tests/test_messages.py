@@ -1,11 +1,18 @@
 """The library's messages name its arguments (`` `max_step=` ``); the command line says
-its flags (``--max-step``) for the same messages (the command line's terms module)."""
+its flags (``--max-step``) for the same messages (the command line's terms module). And
+where a file is valid but probably not what its author meant (issue 43, section 5), a
+word: a bilateral contact whose multiplier changes sign, gravity's sign."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
+import math
 import re
+from pathlib import Path
 
 import pytest
+import sympy
 
 import lamech
 from lamech.cli import main
@@ -68,3 +75,183 @@ def test_the_help_states_the_library_s_own_default_tolerances(command, capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert f"relative tolerance (default {DEFAULT_RTOL:g};" in text
     assert f"absolute tolerance (default {DEFAULT_ATOL:g})" in text
+
+
+# ----- issue 43, section 5: silent where a user needs a word ---------------------------
+SPHERE = """
+title = "Particle on a smooth sphere, the contact written bilateral"
+[parameters]
+m = 1.0
+g = 9.81
+R = 1.0
+theta0 = {theta0}
+[coordinates]
+r = {{ initial = "R", velocity = 0 }}
+theta = {{ initial = "theta0", velocity = 0 }}
+[lagrangian]
+T = "m/2*(r'^2 + r^2*theta'^2)"
+V = "m*g*r*cos(theta)"
+[[constraints]]
+name = "surface"
+f = "{f}"
+"""
+
+
+def _sign_change_notes(sol) -> list[str]:
+    return [n for n in sol.notes if "changes sign along the motion" in n]
+
+
+@pytest.mark.parametrize("theta0", [0.3, 0.7])
+def test_a_bilateral_contact_whose_multiplier_changes_sign_says_where(theta0, tmp_path, capsys):
+    """Released at rest at theta0 from the top of a smooth sphere, the particle presses on
+    it with m g (3 cos(theta) - 2 cos(theta0)) (energy: v^2 = 2 g R (cos(theta0) -
+    cos(theta)), radial: m g cos(theta) - N = m v^2/R), zero where cos(theta) =
+    2 cos(theta0)/3: a contact written bilateral (unilateral = true forgotten) says so."""
+    text = SPHERE.format(theta0=theta0, f="r - R")
+    [note] = _sign_change_notes(lamech.solve(lamech.loads(text, "sphere.toml")))
+    assert "`surface` is bilateral" in note and "cos(theta) = 2*cos(theta0)/3" in note
+    found = re.search(r"theta = ([-+0-9.e]+) \(([-0-9.]+)°\)", note)
+    assert found, note
+    truth = math.acos(2 / 3 * math.cos(theta0))
+    assert float(found.group(1)) == pytest.approx(truth, rel=0, abs=1e-9)
+    assert float(found.group(2)) == pytest.approx(math.degrees(truth), abs=0.005)
+    assert "would let go there" in note and "unilateral = true" in note
+    # written the other way round (lambda < 0 at the start) it changes sign at the same place
+    [other] = _sign_change_notes(
+        lamech.solve(lamech.loads(SPHERE.format(theta0=theta0, f="R - r")))
+    )
+    assert float(re.search(r"theta = ([-+0-9.e]+)", other).group(1)) == pytest.approx(truth)
+    # and the note is in --json's notes
+    path = tmp_path / "sphere.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["solve", "--json", str(path)]) == 0
+    assert json.loads(capsys.readouterr().out)["notes"] == [note]
+
+
+def test_a_unilateral_contact_and_a_multiplier_of_one_sign_get_no_such_note():
+    """With unilateral = true the lift-off is reported where it belongs; a bilateral
+    multiplier that keeps its sign (the pendulum's tension from theta0 = 0.3) is not
+    remarked on."""
+    text = SPHERE.format(theta0=0.3, f="r - R").replace(
+        'f = "r - R"', 'f = "r - R"\nunilateral = true'
+    )
+    sol = lamech.solve(lamech.loads(text))
+    assert _sign_change_notes(sol) == []
+    assert sol.lets_go["surface"].when == "at the roots"
+    hanging = SPHERE.format(theta0=0.3, f="r - R").replace("m*g*r*cos", "-m*g*r*cos")
+    assert _sign_change_notes(lamech.solve(lamech.loads(hanging))) == []
+
+
+FLOOR = """
+title = "Block on a floor"
+[parameters]
+m = 2.0
+g = 9.81
+[coordinates]
+x = { initial = 0, velocity = 1 }
+y = { initial = 0, velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "VALUE"
+[[constraints]]
+name = "floor"
+f = "y"
+unilateral = true
+"""
+
+
+def _gravity_notes(system) -> list[str]:
+    return [n for n in system.notes if "is its sign right?" in n]
+
+
+def test_gravity_that_pulls_up_is_questioned():
+    """V = -m g y with y up: at rest the block would accelerate upward (y'' = +g with the
+    floor gone, the reduced equation below), and the floor "lets go at the start" for
+    that reason alone. The warning names the coordinate, the slope and its value."""
+    system = lamech.loads(FLOOR.replace("VALUE", "-m*g*y"))
+    [note] = _gravity_notes(system)
+    assert "`y`" in note and "dV/dy = -g*m = -19.62" in note
+    assert "accelerate towards larger y, upward if y is measured up" in note
+    assert "+g*m*y" in note
+    assert lamech.solve(system).lets_go["floor"].when == "at the start"
+    free = lamech.solve(lamech.loads(FLOOR.split("[[constraints]]")[0].replace("VALUE", "-m*g*y")))
+    [y] = [c for c in free.system.coordinates if c.name == "y"]
+    assert free.closed.accelerations[y.acceleration] == sympy.Symbol("g", positive=True)
+    # y measured down, as the body's position says: lamech's own V from [gravity] is
+    # -m*g*y and right; the same V without the [gravity] that made it is questioned
+    free = FLOOR.split("[[constraints]]")[0].replace("VALUE", "-m*g*y")
+    body = '[[bodies]]\nname = "block"\nmass = "m"\nposition = ["x", "-y"]\n'
+    made = lamech.loads(free + body + '[gravity]\nacceleration = "g"\n')
+    assert _gravity_notes(made) == []
+    assert len(_gravity_notes(dataclasses.replace(made, gravity=None))) == 1
+    # the right sign, a slope that is not a weight, and a weight through a sum: no word
+    for V in ("m*g*y", "-m*g*y*x", "-(m + 1)*g*y", "-m*y", "m*g*(y + x/2)"):
+        assert _gravity_notes(lamech.loads(FLOOR.replace("VALUE", V))) == [], V
+
+
+@pytest.mark.slow  # loads the 22 examples: 5 s
+def test_gravity_is_not_questioned_in_any_bundled_example():
+    """The 22 examples load without the warning: the incline's m g (n cos(alpha) - s
+    sin(alpha)) has a sine in its slope, and V made from the bodies is lamech's own."""
+    names = lamech.example_names()
+    assert len(names) == 22
+    assert [n for n in names if _gravity_notes(lamech.load(n))] == []
+
+
+def test_a_zero_mass_the_constraints_carry_is_a_warning_and_one_nothing_carries_an_error():
+    """Atwood's machine with m2 = 0: y2 has no inertia but the string carries it, so the
+    accelerations exist (m1 falls freely: y1'' = -g, the tension 2 g m1 m2/(m1 + m2) = 0)
+    and the warning names m2; a block on a spring with m = 0 cannot move at all: refused
+    at m's line (tests/bad/132-zero-mass-parameter.toml), naming m and x."""
+    text = """
+title = "Atwood, one mass typed as 0"
+[parameters]
+m1 = 1.0
+m2 = 0
+g = 9.81
+l = 2.0
+[coordinates]
+y1 = { initial = 0.5, velocity = 0 }
+y2 = { initial = 1.5, velocity = 0 }
+[lagrangian]
+T = "m1/2*y1'^2 + m2/2*y2'^2"
+V = "m1*g*y1 + m2*g*y2"
+[[constraints]]
+name = "string"
+f = "l - y1 - y2"
+"""
+    system = lamech.loads(text)
+    [note] = [n for n in system.notes if "is 0 and is the mass of" in n]
+    assert note.startswith("parameter `m2` is 0 and is the mass of `y2`")
+    assert "give `m2` its value" in note
+    sol = lamech.solve(system)
+    assert sol.initial_multipliers["string"] == 0
+    assert [n for n in sol.notes if "changes sign" in n] == []  # lambda = 0 throughout
+    # the same T with m2 > 0 says nothing
+    assert [n for n in lamech.loads(text.replace("m2 = 0", "m2 = 2.0")).notes if "mass" in n] == []
+    with pytest.raises(lamech.ProblemFileError) as info:
+        lamech.loads(text.split("[[constraints]]")[0], "x.toml")
+    assert "x.toml:5: parameters.m2: parameter `m2` = 0 is the mass of `y2`" in str(info.value)
+
+
+def test_a_polar_radius_held_negative_is_refused_and_one_that_starts_negative_is_not(
+    tmp_path, capsys
+):
+    """tests/bad/135: the cylinder inside a trough of radius 0.5 with its own radius typed
+    as 10 (centimetres) is refused at the contact's line, never given a lift-off. With
+    R2 = 0.1 it loads; so does a bead on a turntable's rod that starts at r = -0.3 (the
+    rod's other half: r is not held by a constraint); and --param cannot make it so."""
+    bad = (Path(__file__).parent / "bad" / "135-negative-polar-radius.toml").read_text("utf-8")
+    with pytest.raises(lamech.ProblemFileError, match=r"R1 - R2 = -9\.5 < 0"):
+        lamech.loads(bad)
+    good = tmp_path / "trough.toml"
+    good.write_text(bad.replace("R2 = 10\n", "R2 = 0.1\n"), encoding="utf-8")
+    lamech.load(good)
+    table = (Path(lamech.__file__).parent / "examples" / "rotating_table.toml").read_text("utf-8")
+    lamech.loads(table.replace("initial = 0.8,", "initial = -0.3,"))
+    for f in ('"l - r"', '"r - l"'):  # a string or a rod of length l = -1
+        text = SPHERE.format(theta0=0.3, f="r - R").replace('"r - R"', f.replace("l", "R"))
+        with pytest.raises(lamech.ProblemFileError, match=r"holds `r` at R = -1 < 0"):
+            lamech.loads(text.replace("R = 1.0", "R = -1.0"))
+    assert main(["solve", str(good), "--param", "R2=10"]) == 2
+    assert "holds `r` at R1 - R2 = -9.5 < 0" in capsys.readouterr().err

@@ -461,7 +461,25 @@ class _Builder:
             )
 
     def _Call(self, node: ast.Call) -> sp.Expr:
-        if not isinstance(node.func, ast.Name):
+        if not isinstance(node.func, ast.Name) or (
+            node.func.id not in FUNCTIONS and node.func.id in self.names
+        ):
+            # 2(x + 1), (a + b)(c + d), m(x + 1): a product written as on paper
+            whole = self.segment(node)
+            if isinstance(node.func, ast.Name) and [self.segment(a) for a in node.args] == ["t"]:
+                raise self.fail(
+                    f"`{whole}`: `{node.func.id}` is not a function; a coordinate is a "
+                    f"function of time without saying so: write `{node.func.id}`",
+                    node,
+                )
+            cut = _opening(whole)
+            if cut and len(node.args) == 1 and not isinstance(node.func, ast.Attribute):
+                left, right = whole[:cut].strip(), whole[cut:]
+                raise self.fail(
+                    f"`{whole}`: `{left}` is not a function, and lamech multiplies only "
+                    f"with `*`: write `{left}*{right}`",
+                    node,
+                )
             raise self.fail(
                 f"only the functions {', '.join(sorted(FUNCTIONS))} may be called", node
             )
@@ -585,3 +603,16 @@ class _Builder:
             "and/or are not allowed here: they join conditions, only inside piecewise(...)",
             node,
         )
+
+
+def _opening(call: str) -> int:
+    """The index of the bracket that opens the arguments of ``call`` (text ending in
+    ``)``: the match of its last bracket); 0 when there is none after some text."""
+    if not call.endswith(")"):
+        return 0
+    depth = 0
+    for i in range(len(call) - 1, -1, -1):
+        depth += {")": 1, "(": -1}.get(call[i], 0)
+        if depth == 0:
+            return i
+    return 0

@@ -5,6 +5,7 @@ the builder."""
 from __future__ import annotations
 
 import ast
+import keyword
 import math
 import re
 import warnings
@@ -67,6 +68,39 @@ def _lex(text: str) -> tuple[str, list[int]]:
             final.append(ch)
             final_origin.append(k)
     return "".join(final), final_origin
+
+
+_NUMBER = r"\d+(?:\.\d*)?(?:[eE][-+]?\d+)?"
+_NAME = r"[A-Za-z_]\w*(?:\s*''?)?"
+# a number written against a name (2m2, 1.5e-3x, 2pi), and two terms side by side (m g)
+_AGAINST = re.compile(rf"(?<![\w.'])({_NUMBER})([A-Za-z]\w*(?:''?)?)")
+_SIDE_BY_SIDE = re.compile(rf"(?<![\w.'])({_NAME}|{_NUMBER})[ \t]+({_NAME}|{_NUMBER})")
+
+
+def _juxtaposed(text: str) -> tuple[str, int] | None:
+    """(message, column) for text that Python cannot parse because two factors are
+    written without `*` between them, as on paper: ``2m2`` (write ``2*m2``), ``m g``
+    (``m*g``); None when the text has no such pair (the syntax error is something
+    else). Keywords of the conditions (``and``, ``or``, ``not``) are not factors."""
+    m = _AGAINST.search(text)
+    if m is not None:
+        number, name = m.group(1), m.group(2)
+        return (
+            f"`{m.group(0)}` is a number written against a name, and lamech multiplies "
+            f"only with `*`: write `{number}*{name}`",
+            m.start() + 1,
+        )
+    for m in _SIDE_BY_SIDE.finditer(text):
+        left, right = m.group(1), m.group(2)
+        words = (left.rstrip("' "), right.rstrip("' "))
+        if any(keyword.iskeyword(w) for w in words):
+            continue
+        return (
+            f"`{m.group(0)}` is two terms side by side, and lamech multiplies only with "
+            f"`*`: write `{left}*{right}`",
+            m.start() + 1,
+        )
+    return None
 
 
 def _depth(text: str) -> int:
@@ -169,6 +203,9 @@ def parse(
         if hint and dotted is not None:
             message = f"syntax error at `{dotted.group(0)}`: {hint}"
             raise ExpressionError(message, text, col) from None
+        juxtaposed = _juxtaposed(text)
+        if juxtaposed is not None:
+            raise ExpressionError(juxtaposed[0], text, juxtaposed[1]) from None
         raise ExpressionError(f"syntax error: {exc.msg}", text, col) from None
     except (RecursionError, MemoryError, ValueError):
         raise ExpressionError("expression too complex to parse", text) from None

@@ -25,6 +25,7 @@ __all__ = [
     "constraint_jacobian",
     "jacobian",
     "gradient",
+    "polar_radii",
 ]
 
 
@@ -259,3 +260,26 @@ def constraint_jacobian(system: System) -> tuple[sp.Matrix, sp.Matrix]:
     if not system.constraints:
         return sp.zeros(0, len(system.coordinates)), F
     return jacobian(F, system.qd), F
+
+
+def polar_radii(system: System) -> dict[sp.Symbol, sp.Symbol]:
+    """{radius: angle}: the coordinates that are a polar (or spherical) radius, each with
+    an angle it is the radius of. A coordinate r is the radius of coordinate theta when
+    T's d^2T/dtheta'^2 is r^2 times something without r (m r^2 in m/2 (r'^2 +
+    r^2 theta'^2), m r^2 sin(theta)^2 for the azimuth of a sphere, m r^2 for the lecture's
+    cylinder beside its own spin): a distance from the centre, which a configuration
+    never has negative. T is the system's own (given, or made from the bodies)."""
+    T = sp.sympify(system.T)
+    coords = [c for c in system.coordinates if T.has(c.symbol)]
+    out: dict[sp.Symbol, sp.Symbol] = {}
+    for angle in system.coordinates:
+        entry = sp.expand(sp.diff(T, angle.velocity, 2))
+        if entry == 0:
+            continue
+        for r in coords:
+            if r is angle or r.symbol in out or not entry.has(r.symbol):
+                continue
+            rest = sp.expand(entry / r.symbol**2)
+            if rest != 0 and not rest.has(r.symbol):
+                out[r.symbol] = angle.symbol
+    return out

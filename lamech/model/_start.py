@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import sympy as sp
 
+from ..expr import to_text
 from ._base import Issues
 from ._checks import (
     INITIAL_TOLERANCE,
@@ -23,6 +24,7 @@ from ._checks import (
     value,
     without_inertia,
 )
+from ._hints import zero_masses
 from ._kinematics import constraint_jacobian, gradient, jacobian, time_derivative
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -204,13 +206,16 @@ def dependent_issues(s: System) -> Issues:
 
 
 def _massless_issues(s: System) -> Issues:
-    """A massless body (mass 0 at the parameter values) that leaves a motion the
-    constraints allow without inertia at the initial state: the KKT matrix is singular
-    and the accelerations cannot be found. Only systems with a massless body pay for
-    this check (M at numbers)."""
+    """A massless body (mass 0 at the parameter values), or a parameter that is 0 and is a
+    coordinate's mass in T (:func:`lamech.model._hints.zero_masses`: m = 0 in
+    T = m/2*x'^2), that leaves a motion the constraints allow without inertia at the
+    initial state: the KKT matrix is singular and the accelerations cannot be found.
+    The issue is placed at the body's mass, or at the parameter's line. Only systems
+    with a massless body or a zero mass pay for this check (M at numbers)."""
 
     pv = s.parameter_values
-    if not massless(s, pv):
+    light = zero_masses(s)
+    if not massless(s, pv) and not light:
         return []
     try:
         env = {**pv, **initial_values(s), s.t: 0.0}
@@ -220,7 +225,22 @@ def _massless_issues(s: System) -> Issues:
     except (TypeError, ValueError):
         return []  # not numbers at the start: reported elsewhere, or left to solve
     weak = without_inertia(s, M, A.reshape(-1, len(s.coordinates)), env)
-    if weak is None or not weak.massless:
+    if weak is None:
+        return []
+    named = [(p, c) for p, c in light if c.name in weak.coordinates]
+    if not weak.massless and named:
+        p, c = named[0]
+        return [
+            (
+                f"parameters.{p.name}",
+                f"parameter `{p.name}` = 0 is the mass of `{c.name}` (d^2T/d{c.name}'^2 = "
+                f"{to_text(sp.diff(s.T, c.velocity, 2))}), so {weak.describe(s)} and the "
+                "accelerations cannot be found (the KKT matrix is singular at the initial "
+                f"state); give `{p.name}` its value (a mass > 0), or a constraint that ties "
+                f"`{c.name}` to something with mass",
+            )
+        ]
+    if not weak.massless:
         return []  # no massless body in it: solve names the coordinate
     i = weak.massless[0]
     return [

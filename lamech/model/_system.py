@@ -35,7 +35,7 @@ from ._whole import CHART, system_issues
 
 _REMEMBERED = Memo()
 """What the checks found clean, the hints and the placed charts, by the values read."""
-_HINTED = ("parameters", "coordinates", "constraints", "bodies", "T", "V", "forces")
+_HINTED = ("parameters", "coordinates", "constraints", "bodies", "gravity", "T", "V", "forces", "t")
 """The fields the hints read (:mod:`._hints`)."""
 _PLACED = ("chart", "parameters", "coordinates", "t")
 """The fields placing a chart reads (:func:`lamech.model._chart.chart_initial`)."""

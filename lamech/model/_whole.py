@@ -16,10 +16,11 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..expr import FUNCTIONS, Table, not_differentiable
+from ..expr import FUNCTIONS, Table, not_differentiable, to_text
 from ._base import FIELDS, ConstraintKind, Issues, Memo, is_expr, not_expr
 from ._chart import chart_issues
 from ._checks import massless, value
+from ._kinematics import polar_radii
 from ._parts import (
     Body,
     Constraint,
@@ -309,12 +310,37 @@ def _no_velocity_issue(s: System) -> tuple[str, str]:
     return ("lagrangian.T", "T has no velocity in it; write velocities as x'")
 
 
+def _unused_issues(s: System) -> Issues:
+    """A coordinate declared but in none of T, V, the constraints and the forces (the
+    loads' included): nothing gives it inertia or moves it, its row of the KKT system is
+    0, and the accelerations cannot be found; said at its declaration's line. One that
+    places a body (a massless one: :func:`lamech.model._start.dependent_issues` names
+    the body) is used."""
+    placed = [e for b in s.bodies for e in (*b.position, b.angle) if e is not None]
+    parts = (s.T, s.V, *(c.expr for c in s.constraints), *s.forces, *placed)
+    exprs = [e for e in parts if is_expr(e)]
+    used: set = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+    return [
+        (
+            f"coordinates.{c.name}",
+            f"coordinate `{c.name}` is declared but appears in neither T, V, a constraint "
+            f"nor a force: nothing gives it inertia or moves it, so the accelerations "
+            f"cannot be found; remove `{c.name}` from [coordinates], or write it where "
+            f"it belongs ({c.name}'^2 in T for a coordinate that moves a mass)",
+        )
+        for c in s.coordinates
+        if c.symbol not in used and c.velocity not in used
+    ]
+
+
 def _structure_issues(s: System, scope: Scope) -> Issues:
 
     out: Issues = []
     qd = s.qd
     if is_expr(s.T) and (s.T == 0 or not s.T.has(*qd)):
         out.append(_no_velocity_issue(s))
+    else:
+        out += _unused_issues(s)
     names = [c.name for c in s.constraints]
     bodies = {b.name: b for b in s.bodies}
     for i, c in enumerate(s.constraints):
@@ -483,6 +509,7 @@ def _value_issues(s: System, scope: Scope) -> Issues:
                         f"a circle's radius must be >= 0, got {r:g}",
                     )
                 )
+    out += _negative_radius_issues(s, at_parameters)
     for i, c in enumerate(s.constraints):
         if c.unilateral:
             e = at_parameters(c.restitution)
@@ -504,4 +531,52 @@ def _value_issues(s: System, scope: Scope) -> Issues:
                     f"must be a coefficient of friction >= 0, got {v:g}",
                 )
             )
+    return out
+
+
+def _negative_radius_issues(s: System, at_parameters: Callable[[Any], float | None]) -> Issues:
+    """A constraint that holds a polar radius at a negative value: refused, since no
+    configuration has it.
+
+    The rule: a coordinate r is a polar radius when T has it as one (r^2 theta'^2:
+    :func:`lamech.model._kinematics.polar_radii`), and a holonomic constraint fixes it
+    when its f has no other coordinate and no t and is linear in r (``r - (R1 + R2)``,
+    ``l - r``, ``(R1 - R2) - r``); the value it fixes, -f(0)/(df/dr) at the parameter
+    values, must not be negative. So a trough of radius R1 = 0.5 with the cylinder's
+    radius typed as R2 = 10 (centimetres for metres) is refused at the constraint's
+    line, rather than a lift-off printed for a cylinder whose centre is 9.5 below the
+    trough's. A radius that merely starts negative is not refused: a bead on a rod
+    through the axis of a turntable passes r = 0, its r < 0 the rod's other half."""
+    coords = set(s.q)
+    alone = [
+        (i, c, held.pop())
+        for i, c in enumerate(s.constraints)
+        if c.holonomic and is_expr(c.expr) and not c.expr.has(s.t)
+        if len(held := c.expr.free_symbols & coords) == 1
+    ]
+    radii = polar_radii(s) if alone else {}
+    out: Issues = []
+    for i, c, r in alone:
+        if r not in radii:
+            continue
+        slope = sp.diff(c.expr, r)
+        if slope == 0 or slope.has(r):
+            continue
+        fixed = sp.cancel(-c.expr.subs(r, 0) / slope)
+        v = at_parameters(fixed)
+        if v is None or not math.isfinite(v) or v >= 0:
+            continue
+        angle = radii[r]
+        names = sorted(fixed.free_symbols, key=str)
+        values = ", ".join(f"{p} = {at_parameters(p):g}" for p in names)
+        check = f"the values and units of {values}" if values else "the numbers in f"
+        out.append(
+            (
+                f"constraints[{i + 1}] `{c.name}`",
+                f"holds `{r}` at {to_text(fixed)} = {v:g} < 0, but `{r}` is a polar "
+                f"radius ({r}^2*{angle}'^2 in T), a distance from the centre, never "
+                f"negative: no configuration has it. Check {check} (a length in "
+                "centimetres among metres?), or how f is written",
+            )
+        )
     return out

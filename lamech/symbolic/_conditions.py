@@ -31,6 +31,7 @@ __all__ = [
     "Root",
     "Verdict",
     "vanishing_points",
+    "sign_change_note",
     "closing_points",
     "slip_points",
     "is_angle",
@@ -260,6 +261,53 @@ def vanishing_points(system: System, shell: Shell, name: str) -> list[Root]:
     if lam is None:
         return []
     return _zeros(system, shell, lam)
+
+
+def sign_change_note(system: System, shell: Shell, name: str, start: float | None) -> str | None:
+    """What to say of bilateral constraint ``name`` when its multiplier on the energy
+    shell changes sign where the motion goes (found as :func:`vanishing_points` finds
+    where a unilateral one lets go); None when it keeps its sign, or when the
+    constraint is a rolling or friction constraint, a velocity constraint or a drive (its
+    f depends on t): their multipliers change sign without anything letting go.
+    ``start``: the multiplier's value at the initial state, if known.
+
+    A rod, or a bead threaded on a wire, holds both ways; a string or a one-sided contact
+    (a particle on a sphere, the student's forgotten ``unilateral = true``) lets go at
+    the first root, and that is what the note says: the particle released at rest at
+    theta0 from the top of a smooth sphere, f = r - R, leaves it where
+    cos(theta) = 2 cos(theta0)/3."""
+    con = system.constraint(name)
+    if con.unilateral or not con.holonomic or con.friction is not None or con.expr.has(system.t):
+        return None
+    if any(c.friction is not None and c.friction.normal == name for c in system.constraints):
+        return None  # a normal force: the friction hint (lamech.model._hints) speaks of it
+    lam = shell.multipliers.get(name)
+    if lam is None:
+        return None
+    F = _numeric(system, lam, shell.coordinate.symbol)
+    roots = [r for r in vanishing_points(system, shell, name) if _crosses(F, r.value)]
+    if not roots:
+        return None  # no root, or a zero it touches without crossing (lambda = 0 throughout)
+    r = roots[0]
+    deg = f" ({r.degrees:.2f}°)" if r.degrees is not None else ""
+    lam = f"lambda_{name}"
+    was = f" (it is {start:.6g} at the start)" if start is not None else ""
+    return (
+        f"`{name}` is bilateral and {lam} changes sign along the motion{was}: on the "
+        f"energy shell it is 0 where {r.equation}, {r.coordinate} = {r.value:.10g}{deg}, "
+        "and has the other sign beyond. A rod, or a bead threaded on a wire, holds both "
+        "ways; a string or a one-sided contact would let go there. If "
+        f"`{name}` is one, write f with its allowed side f >= 0 and set "
+        "unilateral = true: lamech then gives where it lets go, and simulate follows the "
+        "flight"
+    )
+
+
+def _crosses(F, x: float) -> bool:
+    """F has opposite signs, both nonzero, just before and just after ``x``."""
+    h = 1e-6 * (1.0 + abs(x))
+    a, b = F(x - h), F(x + h)
+    return bool(math.isfinite(a) and math.isfinite(b) and a * b < 0)
 
 
 def closing_points(system: System, shell: Shell, f: sp.Expr, reduction) -> list[Root] | None:

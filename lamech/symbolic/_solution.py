@@ -19,6 +19,7 @@ from ._conditions import (
     Verdict,
     closing_points,
     lets_go_verdict,
+    sign_change_note,
     slip_points,
     slip_verdict,
     vanishing_points,
@@ -329,6 +330,8 @@ def _solve(system: System) -> Solution:
                 continue
             if c.unilateral:
                 vanishes[c.name] = vanishing_points(holding, shell, c.name) if shell else []
+            elif shell and (said := sign_change_note(holding, shell, c.name, initial.get(c.name))):
+                notes.append(said)  # a string or contact written bilateral: where it lets go
             if c.friction is not None:
                 slips[c.name] = slip_points(holding, shell, c.name) if shell else []
     if shell:
