@@ -530,7 +530,7 @@ def test_the_atwood_mass_stops_at_the_pulley_when_the_closed_form_says():
 def test_results_read_as_a_student_would_write_them():
     """X sin(a)/cos(a) was left for X tan(a); sin(2a) over a denominator with a leading
     minus for the wedge's textbook acceleration m g sin(a) cos(a)/(M + m sin(a)^2);
-    factors 10000 from an initial velocity 0.01; sqrt(4 l^2 - 4 x^2)/2 for sqrt(l^2 - x^2);
+    factors 10000 from an initial velocity 0.01; a chain's links in their angles;
     -m theta'^2 (-R + a) for m theta'^2 (R - a). Each shown form equals the derived one."""
     import sympy as sp
 
@@ -553,7 +553,10 @@ def test_results_read_as_a_student_would_write_them():
     assert "10000*g" not in fast and "30000" not in fast
     assert "theta1'^2 = 4*g*(1 - cos(theta1))/(3*(R1 + R2)) + 1/10000" in fast
     chain = lamech.to_text(lamech.solve(lamech.loads(lamech.problem.chain_toml(2), "c.toml")))
-    assert "eliminated: y1 = -sqrt(l^2 - x1^2)" in chain
+    # the links are circles: solved in their angles (no y1 = -sqrt(l^2 - x1^2), which
+    # held below the pivot only; issue 43)
+    assert "eliminated: y1 = -l*cos(theta1)" in chain
+    assert "eliminated: x2 = l*sin(theta1) + l*sin(theta2)" in chain
     loop = lamech.solve(lamech.loads(LOOP, "loop.toml"))
     assert "lambda_contact = g*m*cos(theta) + m*theta'^2*(R - a)" in lamech.to_text(loop)
     th, thd, R, a = (loop.symbols[k] for k in ("theta", "theta'", "R", "a"))
