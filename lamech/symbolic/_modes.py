@@ -23,6 +23,7 @@ rate, has its drive eliminated, so its relative equilibria are equilibria here).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +34,7 @@ from ..model import System
 from ._conditions import is_angle
 from ._integrals import _coordinate_jacobian
 from ._reduce import tidy
+from ._rest import Rest, RestTest, rest_test
 from ._solution import Solution
 
 __all__ = ["Equilibrium", "Linear", "Mode", "Modes", "check_modes", "modes"]
@@ -248,9 +250,14 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
                 f"every value of {', '.join(map(str, free))} rests as well "
                 f"(no force acts along it at rest); shown at {shown}"
             )
-    out = []
+    kkt = rest_test(sol.dynamics)
+    out: list[Equilibrium] = []
     for point, condition in points:
-        out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds))
+        e = _equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds, kkt)
+        if e is not None:
+            out.append(e)
+    if at is None and kkt is not None and system.chart is None:
+        out += _other_branches(sol, u, ud, F, kept, pv, kkt, out)
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None, free_note)
 
@@ -387,13 +394,22 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     starts = list(itertools.product(*axes))[:256] + [tuple(init.get(x, 0.0) for x in u)]
     found: list[np.ndarray] = []
     for x0 in starts:
-        try:
-            r = least_squares(
-                lambda x: np.asarray(f(x), dtype=float), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14
-            )
-        except (ValueError, TypeError, ZeroDivisionError):
-            continue
-        if np.abs(np.asarray(f(r.x), dtype=float)).max() > 1e-9:
+        # the generated function is NaN off the real manifold (a square root of a
+        # negative number): read as "not here", never printed
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            try:
+                r = least_squares(
+                    lambda x: np.asarray(f(x), dtype=float),
+                    x0,
+                    xtol=1e-14,
+                    ftol=1e-14,
+                    gtol=1e-14,
+                )
+                res = np.abs(np.asarray(f(r.x), dtype=float))
+            except (ValueError, TypeError, ZeroDivisionError):
+                continue
+        if not np.all(res <= 1e-9):
             continue
         x = np.array(r.x, dtype=float)
         for i, sym in enumerate(u):
@@ -475,9 +491,14 @@ def _condition(point: dict) -> str | None:
     return " and ".join(dict.fromkeys(parts)) or None
 
 
-def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) -> Equilibrium:
+def _equilibrium(
+    sol, u, ud, F, kept, point, condition, pv, given, speeds=None, rest: RestTest | None = None
+) -> Equilibrium | None:
     """The equilibrium at ``point`` (or, with ``speeds``, the steady motion: the state
-    with those velocities, a fixed point when the accelerations vanish there)."""
+    with those velocities, a fixed point when the accelerations vanish there); None for
+    a point found (not ``given``) that fails the KKT test in the file's coordinates
+    (:meth:`~._rest.RestTest.check`: the reduced equations' chart is singular there, or
+    the point is no solution at all)."""
     system, red, forms = sol.system, sol.reduction, sol.closed
     speeds = speeds or {}
     at_point = {**point, **{v: speeds.get(v, 0) for v in ud}}
@@ -494,14 +515,38 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
     uval = uval.real
     env = {**num, **dict(zip(u, uval)), **{v: _real(speeds.get(v, 0), num) for v in ud}}
     values = {}
-    for c in system.coordinates:
-        expr = red.position_substitution.get(c.symbol, c.symbol)
-        values[c.name] = _real(expr, env)
+    try:
+        for c in system.coordinates:
+            expr = red.position_substitution.get(c.symbol, c.symbol)
+            values[c.name] = _real(expr, env)
+    except (TypeError, ValueError):  # an eliminated coordinate is not real there
+        if not given:
+            return None
+        raise ValueError(
+            "`at=`: the eliminated coordinates are not real at "
+            + ", ".join(f"{x} = {v:.6g}" for x, v in zip(u, uval))
+        ) from None
     for v, x in zip(ud, u):
         if v in speeds:
             values[f"{x}'"] = env[v]
+    verdict = _kkt_test(sol, rest, env, u, ud, speeds) if rest is not None else None
+    if verdict is not None and not verdict.ok and not given:
+        return None  # not an equilibrium of the equations as written
     notes = []
-    residual = [_real(f, env) for f in F]
+    try:
+        residual = [_real(f, env) for f in F]
+    except (TypeError, ValueError):
+        residual = None  # the reduced equations are singular here (0/0)
+    if residual is None or not all(map(np.isfinite, residual)):
+        if rest is not None and verdict is not None and not verdict.singular and not speeds:
+            q = np.array([values[c.name] for c in sol.system.coordinates])
+            return _full_equilibrium(sol, rest, q, verdict.multipliers, condition, point)
+        return Equilibrium(
+            {str(x): v for x, v in point.items()},
+            values,
+            condition,
+            note="the reduced equations are singular here (their coordinates are)",
+        )
     resting = max(map(abs, residual), default=0.0) <= 1e-9
     if given and not resting:
         notes.append(
@@ -510,7 +555,6 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
             + ", ".join(f"{x}'' = {r:.6g}" for x, r in zip(u, residual))
         )
     lam = {}
-    holds = True
     for c in system.constraints:
         expr = forms.multipliers.get(c.name)
         if expr is None:
@@ -519,14 +563,7 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
             lam[c.name] = _real(expr, env)
         except (TypeError, ValueError):
             continue
-        if c.unilateral and lam[c.name] < -1e-12:
-            holds = False
-            notes.append(
-                f"`{c.name}` cannot hold it (lambda_{c.name} = {lam[c.name]:.6g} < 0 at rest: "
-                "it would have to pull)"
-            )
-    big = max(map(abs, lam.values()), default=0.0)
-    lam = {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}  # rounding
+    lam, holds = _holding(system, lam, notes)
     stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
     check = None
     if (
@@ -549,6 +586,176 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
         linear,
         check,
     )
+
+
+def _holding(system, lam: dict, notes: list) -> tuple[dict, bool]:
+    """The multipliers with rounding zeros made 0, and whether every unilateral
+    constraint can hold the point (a note in ``notes`` for each that cannot)."""
+    holds = True
+    for c in system.constraints:
+        if c.name in lam and c.unilateral and lam[c.name] < -1e-12:
+            holds = False
+            notes.append(
+                f"`{c.name}` cannot hold it (lambda_{c.name} = {lam[c.name]:.6g} < 0 at rest: "
+                "it would have to pull)"
+            )
+    big = max(map(abs, lam.values()), default=0.0)
+    return {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}, holds
+
+
+def _kkt_test(sol, rest: RestTest, env: dict, u, ud, speeds) -> Rest | None:
+    """The KKT test (:meth:`~._rest.RestTest.check`) of the state the point stands
+    for: every coordinate, velocity and acceleration from the reduction with the
+    independent coordinates at ``env``, their velocities ``speeds`` (0 at rest) and
+    their accelerations 0; None where the reduction cannot be evaluated there."""
+    system, red = sol.system, sol.reduction
+    full = {**env, system.t: 0.0, **{c.acceleration: 0.0 for c in red.independent}}
+    state = []
+    try:
+        for c in system.coordinates:
+            for sym in (c.symbol, c.velocity, c.acceleration):
+                e = red.substitution.get(sym, sym)
+                state.append(_real(e, full) if e not in full else float(full[e]))
+    except (TypeError, ValueError, KeyError):
+        return None
+    q, qd, qdd = (np.array(state[i::3]) for i in range(3))
+    moving = bool(np.any(qd) or np.any(qdd))
+    return rest.check(q, qd, 0.0, qdd if moving else None)
+
+
+def _other_branches(sol, u, ud, F, kept, pv, rest: RestTest, found) -> list[Equilibrium]:
+    """The equilibria the search in the file's coordinates finds
+    (:meth:`~._rest.RestTest.search`: every branch of the constraints) that the reduced
+    equations did not: one on their branch through them (:func:`_equilibrium`), one
+    elsewhere (the trammel hanging at y = -l while y = +sqrt(l^2 - x^2) was eliminated)
+    in the file's coordinates (:func:`_full_equilibrium`)."""
+    system, red = sol.system, sol.reduction
+    names = [c.name for c in system.coordinates]
+    try:
+        init = np.array([_real(c.initial, pv) for c in system.coordinates])
+    except (TypeError, ValueError):
+        init = np.zeros(len(names))
+    known = [
+        np.array([e.values[n] for n in names])
+        for e in found
+        if e.exists and all(n in e.values for n in names)
+    ]
+    out = []
+    for q, lam in rest.search(init):
+        if any(rest.same(q, k) for k in known):
+            continue
+        known.append(q)
+        env = {**pv, system.t: 0.0, **dict(zip(system.q, q))}
+        off = _off_branch(red, env)
+        e = None
+        if not off:
+            point = {x: _snapped(env[x]) for x in u}
+            e = _equilibrium(sol, u, ud, F, kept, point, None, pv, False, None, rest)
+        if e is None or not e.exists:
+            e = _full_equilibrium(sol, rest, q, lam, None, None, off)
+        out.append(e)
+    return out
+
+
+def _off_branch(red, env: dict) -> list[str]:
+    """The eliminated coordinates whose elimination (a branch of a root) does not give
+    their value in ``env`` (a point of the constraints), as "y = sqrt(l^2 - x^2)"."""
+    out = []
+    for c, expr in red.eliminated:
+        try:
+            v = _real(red.position_substitution[c.symbol], env)
+        except (TypeError, ValueError):
+            v = float("nan")
+        if not abs(v - env[c.symbol]) <= 1e-7 * (1 + abs(env[c.symbol])):
+            out.append(f"{c.name} = {to_text(expr)}")
+    return out
+
+
+def _full_equilibrium(sol, rest: RestTest, q, lam, condition, point, off=()) -> Equilibrium:
+    """The equilibrium at q (every coordinate; multipliers ``lam`` from the KKT solve)
+    linearised in the file's coordinates with every constraint kept
+    (:meth:`~._rest.RestTest.linearised`): where the reduced equations do not reach
+    (``off``: the eliminations whose branch it is not on) or are singular."""
+    system = sol.system
+    names = [c.name for c in system.coordinates]
+    if point is None:
+        at = {n: _snapped(float(v)) for n, v in zip(names, q)}
+    else:
+        at = {str(x): v for x, v in point.items()}
+    values = {n: float(_snapped(float(v))) + 0.0 for n, v in zip(names, q)}  # no 1e-17
+    notes: list[str] = []
+    if off:
+        notes.append(
+            "off the branch the reduced equations take ("
+            + "; ".join(off)
+            + "): found and linearised in the file's coordinates, every constraint kept"
+        )
+    else:
+        notes.append(
+            "the reduced equations are singular here: linearised in the file's "
+            "coordinates, every constraint kept"
+        )
+    multipliers = {c.name: float(x) for c, x in zip(system.constraints, lam)}
+    multipliers, holds = _holding(system, multipliers, notes)
+    lin = rest.linearised(np.asarray(q, dtype=float), np.asarray(lam, dtype=float))
+    stability: str | None = None
+    found: tuple[Mode, ...] = ()
+    linear, check = None, None
+    if lin is not None:
+        J, N = lin
+        w, Y = np.linalg.eig(J)
+        stability, found = _spectrum(system, w, Y, N, N.shape[1], [], {})
+        linear = _full_named(rest, np.asarray(q, dtype=float), J, N, names)
+        # the same law by SymPy's Jacobians, evaluated apart from the generated code
+        check = _tangent_check(sol, dict(zip(names, map(float, q))), multipliers, found)
+        if check is not None and check.startswith("DISAGREES"):
+            notes.append(check)
+            check = None
+    return Equilibrium(
+        at,
+        values,
+        condition,
+        True,
+        multipliers,
+        holds,
+        "; ".join(notes),
+        stability,
+        found,
+        linear,
+        check,
+    )
+
+
+def _full_named(
+    rest: RestTest, q: np.ndarray, J: np.ndarray, N: np.ndarray, names
+) -> Linear | None:
+    """The linear system J (in (z, z'), q = q0 + N z) in the coordinates regular at q0
+    (picked from N), with each multiplier's first-order change from the KKT solve
+    (central differences)."""
+    d = N.shape[1]
+    S = _pick(N)
+    Tp = N[S]
+    if d and np.linalg.cond(Tp) > 1e10:
+        return None
+    T = np.block([[Tp, np.zeros((d, d))], [np.zeros((d, d)), Tp]])
+    Ti = np.linalg.inv(T) if d else np.zeros((0, 0))
+    A = T @ J @ Ti
+    eps = 1e-6 * (1.0 + float(np.abs(q).max(initial=0.0)))
+    rows = []
+    for i in range(2 * d):
+        z = Ti[:, i]
+        dq, dqd = N @ z[:d], N @ z[d:]
+        plus = rest.solve(q + eps * dq, eps * dqd)[1]
+        minus = rest.solve(q - eps * dq, -eps * dqd)[1]
+        rows.append((plus - minus) / (2 * eps))
+    lam = {}
+    if rows:
+        G = np.array(rows).T  # (n_constraints, 2 d)
+        for c, row in zip(rest.system.constraints, G):
+            if np.isfinite(row).all():
+                lam[c.name] = tuple(float(round(x, 9)) + 0.0 for x in row)
+    state = tuple(names[i] for i in S) + tuple(names[i] + "'" for i in S)
+    return Linear(state, tuple(tuple(float(round(x, 12)) + 0.0 for x in r) for r in A), lam)
 
 
 def _real(expr, env) -> float:
@@ -606,6 +813,16 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     Y = P @ V  # eigenvectors in (z, w)
     Xq = Xq @ N  # d q_all / d z: the shapes in every coordinate
     squared = _closed_squares(Fu, Fv, at_point, kept, k) if not velocity else []
+    stability, out = _spectrum(system, w, Y, Xq, d, squared, env)
+    linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
+    return stability, out, linear
+
+
+def _spectrum(system, w, Y, Xq, d, squared, env) -> tuple[str, tuple[Mode, ...]]:
+    """The stability and the modes of the eigenvalues ``w`` with eigenvectors ``Y``
+    (columns, in (z, z')) of a linear system whose positions are z, d of them, seen in
+    every coordinate through ``Xq`` (n_coords, d); ``squared``: closed forms of omega^2
+    to name the frequencies with."""
     # zero to this tolerance: a defective zero eigenvalue (the rolling disc's free
     # drift, a Jordan block) comes out of LAPACK as about sqrt(machine epsilon)
     tol = 1e-6 * max(1.0, float(np.abs(w).max(initial=0.0)))
@@ -649,8 +866,7 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
         stability = "stable"
     else:
         stability = "marginal"
-    linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
-    return stability, tuple(out), linear
+    return stability, tuple(out)
 
 
 def check_modes(solution: Solution, equilibrium: Equilibrium, modes=None) -> str | None:
