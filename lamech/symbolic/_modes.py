@@ -23,6 +23,7 @@ rate, has its drive eliminated, so its relative equilibria are equilibria here).
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass, field
 
@@ -31,6 +32,7 @@ import sympy as sp
 
 from ..expr import to_text
 from ..model import System
+from ._budget import count_ops
 from ._conditions import is_angle
 from ._integrals import _coordinate_jacobian
 from ._reduce import tidy
@@ -41,6 +43,10 @@ __all__ = ["Equilibrium", "Linear", "Mode", "Modes", "check_modes", "modes"]
 
 SOLVE_OPS = 400
 """Equilibrium equations larger than this (operations) are not solved symbolically."""
+LINEARISE_OPS = 2000
+"""Reduced accelerations and multipliers longer than this (operations, together) are
+linearised numerically in the file's coordinates, not differentiated symbolically (the
+rod in a bowl's: 20,000, 13 s an equilibrium)."""
 SOLVE_UNKNOWNS = 3
 """At most this many independent coordinates are solved for symbolically."""
 
@@ -532,6 +538,20 @@ def _equilibrium(
     verdict = _kkt_test(sol, rest, env, u, ud, speeds) if rest is not None else None
     if verdict is not None and not verdict.ok and not given:
         return None  # not an equilibrium of the equations as written
+    if (
+        rest is not None
+        and verdict is not None
+        and verdict.ok
+        and not verdict.singular
+        and not given
+        and _reduced_size(sol) > LINEARISE_OPS
+    ):
+        q = np.array([values[c.name] for c in system.coordinates])
+        why = (
+            "the reduced equations are too long to linearise symbolically: linearised in "
+            "the file's coordinates, every constraint kept"
+        )
+        return _full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
     notes = []
     try:
         residual = [_real(f, env) for f in F]
@@ -540,7 +560,11 @@ def _equilibrium(
     if residual is None or not all(map(np.isfinite, residual)):
         if rest is not None and verdict is not None and not verdict.singular and not speeds:
             q = np.array([values[c.name] for c in sol.system.coordinates])
-            return _full_equilibrium(sol, rest, q, verdict.multipliers, condition, point)
+            why = (
+                "the reduced equations are singular here: linearised in the file's "
+                "coordinates, every constraint kept"
+            )
+            return _full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
         return Equilibrium(
             {str(x): v for x, v in point.items()},
             values,
@@ -586,6 +610,12 @@ def _equilibrium(
         linear,
         check,
     )
+
+
+def _reduced_size(sol) -> int:
+    """The length (operations) of the reduced accelerations and multipliers."""
+    forms = sol.closed
+    return sum(count_ops(e) for e in (*forms.accelerations.values(), *forms.multipliers.values()))
 
 
 def _holding(system, lam: dict, notes: list) -> tuple[dict, bool]:
@@ -652,7 +682,12 @@ def _other_branches(sol, u, ud, F, kept, pv, rest: RestTest, found) -> list[Equi
             point = {x: _snapped(env[x]) for x in u}
             e = _equilibrium(sol, u, ud, F, kept, point, None, pv, False, None, rest)
         if e is None or not e.exists:
-            e = _full_equilibrium(sol, rest, q, lam, None, None, off)
+            why = (
+                "off the branch the reduced equations take ("
+                + "; ".join(off or ["they are singular here"])
+                + "): found and linearised in the file's coordinates, every constraint kept"
+            )
+            e = _full_equilibrium(sol, rest, q, lam, None, None, why)
         out.append(e)
     return out
 
@@ -671,11 +706,12 @@ def _off_branch(red, env: dict) -> list[str]:
     return out
 
 
-def _full_equilibrium(sol, rest: RestTest, q, lam, condition, point, off=()) -> Equilibrium:
+def _full_equilibrium(sol, rest: RestTest, q, lam, condition, point, why: str) -> Equilibrium:
     """The equilibrium at q (every coordinate; multipliers ``lam`` from the KKT solve)
     linearised in the file's coordinates with every constraint kept
-    (:meth:`~._rest.RestTest.linearised`): where the reduced equations do not reach
-    (``off``: the eliminations whose branch it is not on) or are singular."""
+    (:meth:`~._rest.RestTest.linearised`), where the reduced equations do not reach, are
+    singular or too long (``why`` says which, in the note); ``point`` its independent
+    coordinates (None: every coordinate, as found)."""
     system = sol.system
     names = [c.name for c in system.coordinates]
     if point is None:
@@ -683,18 +719,7 @@ def _full_equilibrium(sol, rest: RestTest, q, lam, condition, point, off=()) -> 
     else:
         at = {str(x): v for x, v in point.items()}
     values = {n: float(_snapped(float(v))) + 0.0 for n, v in zip(names, q)}  # no 1e-17
-    notes: list[str] = []
-    if off:
-        notes.append(
-            "off the branch the reduced equations take ("
-            + "; ".join(off)
-            + "): found and linearised in the file's coordinates, every constraint kept"
-        )
-    else:
-        notes.append(
-            "the reduced equations are singular here: linearised in the file's "
-            "coordinates, every constraint kept"
-        )
+    notes = [why]
     multipliers = {c.name: float(x) for c, x in zip(system.constraints, lam)}
     multipliers, holds = _holding(system, multipliers, notes)
     lin = rest.linearised(np.asarray(q, dtype=float), np.asarray(lam, dtype=float))
@@ -758,6 +783,18 @@ def _full_named(
     return Linear(state, tuple(tuple(float(round(x, 12)) + 0.0 for x in r) for r in A), lam)
 
 
+@functools.lru_cache(maxsize=256)
+def _diff(expr: sp.Expr, x: sp.Symbol) -> sp.Expr:
+    """d expr / d x, kept for the next equilibrium of the same system (the rod in a
+    bowl's reduced equations take seconds to differentiate)."""
+    return sp.diff(expr, x)
+
+
+def _jacobian(exprs: tuple, symbols: tuple) -> sp.Matrix:
+    """The Jacobian of ``exprs`` in ``symbols`` (entries by :func:`_diff`)."""
+    return sp.Matrix([[_diff(e, x) for x in symbols] for e in exprs])
+
+
 def _real(expr, env) -> float:
     """``expr`` at the numbers ``env`` (a real number, or TypeError)."""
     return float(sp.N(sp.sympify(sp.sympify(expr).xreplace(env))))
@@ -781,8 +818,8 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     as SymPy's ``Linearizer`` does; the eigenvalues are those of J on that subspace."""
     system, red = sol.system, sol.reduction
     k = len(u)
-    Fu = sp.Matrix(F).jacobian(u)
-    Fv = sp.Matrix(F).jacobian(ud)
+    Fu = _jacobian(tuple(F), tuple(u))
+    Fv = _jacobian(tuple(F), tuple(ud))
     velocity = [
         red.apply(c.expr)
         for c in system.constraints
@@ -794,7 +831,7 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
 
     try:
         A21, A22 = num(Fu), num(Fv)
-        G = num(sp.Matrix(kept).jacobian(u)) if kept else np.zeros((0, k))
+        G = num(_jacobian(tuple(kept), tuple(u))) if kept else np.zeros((0, k))
         g = sp.Matrix(velocity)
         Gq = num(g.jacobian(u)) if velocity else np.zeros((0, k))
         Gv = num(g.jacobian(ud)) if velocity else np.zeros((0, k))
@@ -994,8 +1031,8 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
         if expr is None:
             continue
         try:
-            du = [_real(sp.diff(expr, x), env) for x in u]
-            dv_ = [_real(sp.diff(expr, v), env) for v in ud]
+            du = [_real(_diff(expr, x), env) for x in u]
+            dv_ = [_real(_diff(expr, v), env) for v in ud]
         except (TypeError, ValueError):
             continue
         row = np.concatenate([np.array(du) @ N @ Tp_inv, np.array(dv_) @ N @ Nw @ Tv_inv])
