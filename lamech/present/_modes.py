@@ -52,6 +52,8 @@ def modes_text(md) -> str:
     lines.append(
         "independent coordinates: " + (", ".join(md.independent) or "(none)") + "  (at rest)"
     )
+    if md.frame:
+        lines.append(f"relative equilibria: {md.frame}")
     if md.free:
         lines.append(f"free: {md.free}")
     if md.reason:

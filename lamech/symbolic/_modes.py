@@ -160,13 +160,16 @@ class Equilibrium:
 @dataclass(frozen=True)
 class Modes:
     """Every equilibrium found (``equilibria``), or why none could be (``reason``);
-    ``free`` says which coordinates rest at every value (shown at one)."""
+    ``free`` says which coordinates rest at every value (shown at one); ``frame``, for a
+    problem whose equations depend on t, the chart in which they do not and the
+    equilibria are relative ones (``system`` is then the problem in that chart)."""
 
     system: System
     independent: tuple[str, ...]
     equilibria: tuple[Equilibrium, ...]
     reason: str | None = None
     free: str | None = None
+    frame: str | None = None
 
     def to_json(self) -> dict:
         return {
@@ -175,6 +178,7 @@ class Modes:
             "equilibria": [e.to_json() for e in self.equilibria],
             "reason": self.reason,
             "free": self.free,
+            "frame": self.frame,
         }
 
 
@@ -199,21 +203,14 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         return Modes(system, names, (), forms.skipped or "no closed-form accelerations")
     ud = [c.velocity for c in red.independent]
     F = [forms.accelerations[c.acceleration] for c in red.independent]
-    if any(f.has(system.t) for f in F):
-        return Modes(
-            system,
-            names,
-            (),
-            "the reduced equations depend on t explicitly: no equilibrium at rest",
-        )
     kept = [
         c.expr
         for c in system.constraints
         if c.holonomic and c.name not in red.eliminated_constraints
     ]
     kept = [red.apply(f) for f in kept]
-    if any(f.has(system.t) for f in kept):
-        return Modes(system, names, (), "a kept constraint depends on t explicitly")
+    if any(f.has(system.t) for f in F) or any(f.has(system.t) for f in kept):
+        return _in_a_steady_frame(sol, names, at)
     rest = {v: 0 for v in ud}
     pv = system.parameter_values
     free_note = None
@@ -265,7 +262,52 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
     if at is None and kkt is not None and system.chart is None:
         out += _other_branches(sol, u, ud, F, kept, pv, kkt, out)
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
-    return Modes(system, names, tuple(out), reason if not out else None, free_note)
+    return Modes(system, names, tuple(out), reason if not out else None, free_note, _frame(system))
+
+
+def _frame(system: System) -> str | None:
+    """What the equilibria are when the system's chart moves with t (the hoop's angle
+    in x = R sin(theta) cos(wt), ...): relative ones; None for a chart that does not."""
+    chart = system.chart
+    if chart is None or not any(e.has(system.t) for _, e in chart.map):
+        return None
+    shown = "; ".join(f"{s} = {to_text(e)}" for s, e in chart.map)
+    return (
+        f"in the chart {shown}, which moves with t and satisfies every constraint on "
+        "those coordinates identically, the equations do not depend on t: the equilibria "
+        "are relative ones, at rest in that moving frame (steady motions of the file's "
+        "coordinates)"
+    )
+
+
+def _in_a_steady_frame(sol: Solution, names: tuple[str, ...], at) -> Modes:
+    """The modes of a problem whose reduced equations depend on t, as relative
+    equilibria in a chart where they do not (:func:`~._steady.autonomous_chart`: the
+    spun hoop's own angle); else no equilibria, with what to do."""
+    from ._solution import solve
+    from ._steady import autonomous_chart
+
+    system = sol.system
+    charted = autonomous_chart(system)
+    if charted is not None:
+        again = solve(charted)
+        forms = again.closed
+        t_free = not forms.skipped and not any(
+            e.has(system.t) for e in forms.accelerations.values()
+        )
+        if t_free:
+            return modes(again, at)
+    return Modes(
+        system,
+        names,
+        (),
+        "the reduced equations depend on t explicitly, so nothing rests in these "
+        "coordinates, and no chart in the angles of the constraints' circles and spheres "
+        "that satisfies every constraint identically takes t out. For steady motions "
+        "(relative equilibria), give a [parametrisation] in coordinates in which the "
+        "problem does not depend on t (a turning frame's angle), or follow the motion "
+        "with `lamech simulate`",
+    )
 
 
 def _checked_point(at) -> dict[str, float]:
@@ -295,9 +337,12 @@ def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
     """J^T (h - Q) at rest, J = d q / d u: the generalized forces in u, which separate
     where the accelerations mix them (the double pendulum's sin(th1) = 0, sin(th2) = 0).
     The eliminated constraints' forces drop out (A J = 0); with constraints kept in u
-    they would not, so then the accelerations themselves are used."""
+    they would not, so then the accelerations themselves are used; and so they are where
+    the elimination moves with t (a turning frame: at rest in it the coordinates
+    accelerate, and M q'' carries the centrifugal force J^T (h - Q) leaves out)."""
     red, dyn = sol.reduction, sol.dynamics
-    if len(red.eliminated_constraints) != len(sol.system.constraints):
+    moving = any(e.has(sol.system.t) for e in red.position_substitution.values())
+    if len(red.eliminated_constraints) != len(sol.system.constraints) or moving:
         return [f.xreplace(rest) for f in F]
     J = _coordinate_jacobian(sol.system, red)
     h = (dyn.h - dyn.Q).applyfunc(lambda e: red.apply(e).xreplace(rest))
@@ -455,7 +500,7 @@ def _snapped(v: float) -> sp.Expr:
 
 def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
     """An angle in (-pi, pi] (2 pi - acos(a) is -acos(a)); other coordinates as they are."""
-    if not is_angle(system, x):
+    if not _is_angle(system, x):
         return value
     try:
         v = float(sp.N(value.xreplace(system.parameter_values)))
@@ -463,6 +508,18 @@ def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
         return value
     turns = int(np.floor((v + np.pi) / (2 * np.pi) - 1e-12))
     return sp.expand(value - 2 * sp.pi * turns) if turns else value
+
+
+def _is_angle(system: System, x: sp.Symbol) -> bool:
+    """An angle of the file's L, or a chart's coordinate that its map takes only
+    through sin and cos (the hoop's theta)."""
+    from ..model._chart import _periodic
+
+    if is_angle(system, x):
+        return True
+    if system.chart is None or x not in system.chart.symbols:
+        return False
+    return _periodic([e for _, e in system.chart.map], x)
 
 
 def _numeric_point(point: dict, system: System, order) -> np.ndarray | None:
@@ -520,7 +577,8 @@ def _equilibrium(
         )
     uval = uval.real
     env = {**num, **dict(zip(u, uval)), **{v: _real(speeds.get(v, 0), num) for v in ud}}
-    values = {}
+    # a chart's own coordinates first (the hoop's angle), then every file coordinate
+    values = {str(x): float(env[x]) for x in u if x not in set(system.q)}
     try:
         for c in system.coordinates:
             expr = red.position_substitution.get(c.symbol, c.symbol)
@@ -729,7 +787,7 @@ def _full_equilibrium(sol, rest: RestTest, q, lam, condition, point, why: str) -
     if lin is not None:
         J, N = lin
         w, Y = np.linalg.eig(J)
-        stability, found = _spectrum(system, w, Y, N, N.shape[1], [], {})
+        stability, found = _spectrum(names, w, Y, N, N.shape[1], [], {})
         linear = _full_named(rest, np.asarray(q, dtype=float), J, N, names)
         # the same law by SymPy's Jacobians, evaluated apart from the generated code
         check = _tangent_check(sol, dict(zip(names, map(float, q))), multipliers, found)
@@ -850,16 +908,21 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     Y = P @ V  # eigenvectors in (z, w)
     Xq = Xq @ N  # d q_all / d z: the shapes in every coordinate
     squared = _closed_squares(Fu, Fv, at_point, kept, k) if not velocity else []
-    stability, out = _spectrum(system, w, Y, Xq, d, squared, env)
+    # a chart's own coordinates (the hoop's angle) lead the shapes: at a relative
+    # equilibrium the file's coordinates move, so theirs hold at t = 0 only
+    names = [c.name for c in system.coordinates]
+    chart = [i for i, x in enumerate(u) if str(x) not in names]
+    shapes = np.vstack([N[chart], Xq]) if chart else Xq
+    stability, out = _spectrum([str(u[i]) for i in chart] + names, w, Y, shapes, d, squared, env)
     linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
     return stability, out, linear
 
 
-def _spectrum(system, w, Y, Xq, d, squared, env) -> tuple[str, tuple[Mode, ...]]:
+def _spectrum(names, w, Y, Xq, d, squared, env) -> tuple[str, tuple[Mode, ...]]:
     """The stability and the modes of the eigenvalues ``w`` with eigenvectors ``Y``
     (columns, in (z, z')) of a linear system whose positions are z, d of them, seen in
-    every coordinate through ``Xq`` (n_coords, d); ``squared``: closed forms of omega^2
-    to name the frequencies with."""
+    the coordinates ``names`` through ``Xq`` (len(names), d); ``squared``: closed forms
+    of omega^2 to name the frequencies with."""
     # zero to this tolerance: a defective zero eigenvalue (the rolling disc's free
     # drift, a Jordan block) comes out of LAPACK as about sqrt(machine epsilon)
     tol = 1e-6 * max(1.0, float(np.abs(w).max(initial=0.0)))
@@ -876,8 +939,8 @@ def _spectrum(system, w, Y, Xq, d, squared, env) -> tuple[str, tuple[Mode, ...]]
         phases = None
         if np.abs(shape.imag).max(initial=0.0) > 1e-9:  # gyroscopic: out of phase
             phases = {
-                c.name: float(round(np.degrees(np.angle(x)), 9)) + 0.0
-                for c, x in zip(system.coordinates, shape)
+                name: float(round(np.degrees(np.angle(x)), 9)) + 0.0
+                for name, x in zip(names, shape)
                 if abs(x) > 1e-12
             }
             shape = np.abs(shape)
@@ -890,7 +953,7 @@ def _spectrum(system, w, Y, Xq, d, squared, env) -> tuple[str, tuple[Mode, ...]]
                 lam,
                 freq,
                 growth,
-                {c.name: float(round(x, 12)) + 0.0 for c, x in zip(system.coordinates, shape)},
+                {name: float(round(x, 12)) + 0.0 for name, x in zip(names, shape)},
                 sq,
                 phases,
             )
@@ -1012,6 +1075,10 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
     if GqN.size and np.abs(GqN).max() > 1e-10:
         return None  # velocity constraints that tie positions to velocities: no split
     Nw = _null_basis(GvN, d)
+    if not all(str(x) in names for x in u):
+        # a chart's coordinates (the hoop's angle): the linear system in them, the
+        # file's coordinates moving at a relative equilibrium
+        names, Xq = [str(x) for x in u], N
     own = [names.index(str(x)) for x in u]  # the independent coordinates, if regular
     S = own if len(own) == d and np.linalg.cond(Xq[own]) < 1e8 else _pick(Xq)
     own_v = own if len(own) == Nw.shape[1] and len(own) else []
