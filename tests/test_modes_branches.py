@@ -7,6 +7,7 @@ textbooks'. Nothing from generated code reaches the terminal."""
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -194,3 +195,18 @@ def test_the_trammel_hangs_stably_on_the_branch_the_elimination_did_not_take():
     assert "agrees" in down.check
     (grow,) = up.modes
     assert grow.growth**2 == pytest.approx(p["g"] / p["l"], rel=1e-10)
+
+
+def test_simulate_mode_releases_the_trammel_about_its_hanging_equilibrium(tmp_path, capsys):
+    """`simulate --mode` starts at the equilibrium on its own branch (the file starts
+    above): released 0.05 from y = -l it swings at omega^2 = g/l, so after the four
+    periods it runs it is back where it started (it fell from the top before)."""
+    path = tmp_path / "trammel.toml"
+    path.write_text(TRAMMEL)
+    assert main(["simulate", str(path), "--mode", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "of equilibrium 2 (x = 0, y = -1), amplitude 0.05" in out
+    final = re.search(r"final state: x = (\S+), y = (\S+),", out)
+    assert final is not None, out
+    assert float(final.group(1)) == pytest.approx(0.05, abs=1e-5)
+    assert float(final.group(2)) == pytest.approx(-math.sqrt(1 - 0.05**2), abs=1e-6)
