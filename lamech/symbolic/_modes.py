@@ -10,6 +10,16 @@ rate, has its drive eliminated, so its relative equilibria are equilibria here).
   an acos within [-1, 1], of a square root >= 0) and the multipliers at rest there. A
   unilateral constraint whose multiplier at rest is negative cannot hold it: such a
   point is listed as no equilibrium of the real system.
+* **Checked, on every branch** (:mod:`._rest`): the reduced equations live on a chart
+  (one branch of each root the elimination took, singular where it is), so each
+  solution must also pass the KKT test at rest in the file's coordinates (q'' = 0), or
+  it is dropped; and equilibria are sought there too, from seeded starts on every
+  branch. One off the elimination's branch, where the reduced equations are singular,
+  or where they are too long to differentiate (:data:`LINEARISE_OPS`) is linearised in
+  the file's coordinates on the constraints' tangent space.
+* **Moving constraints** (:mod:`._steady`): where F depends on t, a chart in which it
+  does not (the spun hoop's own angle) is looked for; the equilibria there are relative
+  ones (``Modes.frame`` says so).
 * **Linearisation**: d/dt [du, du'] = J [du, du'], J = [[0, I], [dF/du, dF/du']], on the
   tangent space of the constraints kept in u (an orthonormal basis of the null space of
   their Jacobian, so the coordinates used are regular there whatever the elimination).
@@ -260,7 +270,7 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         if e is not None:
             out.append(e)
     if at is None and kkt is not None and system.chart is None:
-        out += _other_branches(sol, u, ud, F, kept, pv, kkt, out)
+        out += _other_branches(sol, pv, kkt, out)
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None, free_note, _frame(system))
 
@@ -711,12 +721,13 @@ def _kkt_test(sol, rest: RestTest, env: dict, u, ud, speeds) -> Rest | None:
     return rest.check(q, qd, 0.0, qdd if moving else None)
 
 
-def _other_branches(sol, u, ud, F, kept, pv, rest: RestTest, found) -> list[Equilibrium]:
+def _other_branches(sol, pv, rest: RestTest, found) -> list[Equilibrium]:
     """The equilibria the search in the file's coordinates finds
-    (:meth:`~._rest.RestTest.search`: every branch of the constraints) that the reduced
-    equations did not: one on their branch through them (:func:`_equilibrium`), one
-    elsewhere (the trammel hanging at y = -l while y = +sqrt(l^2 - x^2) was eliminated)
-    in the file's coordinates (:func:`_full_equilibrium`)."""
+    (:meth:`~._rest.RestTest.search`: every branch of the constraints, every constraint
+    active) that the reduced equations did not give (the trammel hanging at y = -l while
+    y = +sqrt(l^2 - x^2) was eliminated), linearised in the file's coordinates
+    (:func:`_full_equilibrium`): the reduced equations' closed forms hold on their
+    branch and with the start's contacts only."""
     system, red = sol.system, sol.reduction
     names = [c.name for c in system.coordinates]
     try:
@@ -733,20 +744,13 @@ def _other_branches(sol, u, ud, F, kept, pv, rest: RestTest, found) -> list[Equi
         if any(rest.same(q, k) for k in known):
             continue
         known.append(q)
-        env = {**pv, system.t: 0.0, **dict(zip(system.q, q))}
-        off = _off_branch(red, env)
-        e = None
-        if not off:
-            point = {x: _snapped(env[x]) for x in u}
-            e = _equilibrium(sol, u, ud, F, kept, point, None, pv, False, None, rest)
-        if e is None or not e.exists:
-            why = (
-                "off the branch the reduced equations take ("
-                + "; ".join(off or ["they are singular here"])
-                + "): found and linearised in the file's coordinates, every constraint kept"
-            )
-            e = _full_equilibrium(sol, rest, q, lam, None, None, why)
-        out.append(e)
+        off = _off_branch(red, {**pv, system.t: 0.0, **dict(zip(system.q, q))})
+        if off:
+            why = "off the branch the reduced equations take (" + "; ".join(off) + ")"
+        else:
+            why = "not a solution the reduced equations gave"
+        why += ": found and linearised in the file's coordinates, every constraint kept"
+        out.append(_full_equilibrium(sol, rest, q, lam, None, None, why))
     return out
 
 
@@ -1084,7 +1088,7 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
     own_v = own if len(own) == Nw.shape[1] and len(own) else []
     W = own_v if own_v and np.linalg.cond((Xq @ Nw)[own_v]) < 1e8 else _pick(Xq @ Nw)
     Tp, Tv = Xq[S], (Xq @ Nw)[W]
-    if np.linalg.cond(Tp) > 1e10 or (Tv.size and np.linalg.cond(Tv) > 1e10):
+    if (Tp.size and np.linalg.cond(Tp) > 1e10) or (Tv.size and np.linalg.cond(Tv) > 1e10):
         return None
     Tp_inv = np.linalg.inv(Tp)
     Tv_inv = np.linalg.inv(Tv) if Tv.size else np.zeros((0, 0))
