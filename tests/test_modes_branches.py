@@ -210,3 +210,20 @@ def test_simulate_mode_releases_the_trammel_about_its_hanging_equilibrium(tmp_pa
     assert final is not None, out
     assert float(final.group(1)) == pytest.approx(0.05, abs=1e-5)
     assert float(final.group(2)) == pytest.approx(-math.sqrt(1 - 0.05**2), abs=1e-6)
+
+
+def test_the_bundled_double_pendulum_in_its_chart_has_the_textbook_frequencies():
+    """Cartesian bobs with results in the rods' angles (a [parametrisation]): hanging,
+    omega^2 = (2 -+ sqrt 2) g/l for equal masses and rods, linearised in the angles (it
+    stopped with "'theta1' is not in list"); every equilibrium at rest by the KKT solve."""
+    system = lamech.load("double_pendulum")
+    p = _values(system)
+    md = lamech.modes(system)
+    assert len(md.equilibria) == 4
+    assert_every_equilibrium_rests(md, p["g"])
+    down = next(e for e in md.equilibria if e.values["y2"] == pytest.approx(-2.0))
+    assert down.stability == "stable"
+    assert down.linear.state == ("theta1", "theta2", "theta1'", "theta2'")
+    squares = sorted(m.frequency**2 for m in down.modes)
+    g = p["g"]
+    assert squares == pytest.approx([(2 - math.sqrt(2)) * g, (2 + math.sqrt(2)) * g], rel=1e-12)
