@@ -10,13 +10,14 @@ rate, has its drive eliminated, so its relative equilibria are equilibria here).
   an acos within [-1, 1], of a square root >= 0) and the multipliers at rest there. A
   unilateral constraint whose multiplier at rest is negative cannot hold it: such a
   point is listed as no equilibrium of the real system.
-* **Checked, on every branch** (:mod:`._rest`): the reduced equations live on a chart
-  (one branch of each root the elimination took, singular where it is), so each
-  solution must also pass the KKT test at rest in the file's coordinates (q'' = 0), or
-  it is dropped; and equilibria are sought there too, from seeded starts on every
-  branch. One off the elimination's branch, where the reduced equations are singular,
-  or where they are too long to differentiate (:data:`LINEARISE_OPS`) is linearised in
-  the file's coordinates on the constraints' tangent space.
+* **Checked, on every branch** (:mod:`._rest`, :mod:`._branches`): the reduced
+  equations live on a chart (one branch of each root the elimination took, singular
+  where it is), so each solution must also pass the KKT test at rest in the file's
+  coordinates (q'' = 0), or it is dropped; and equilibria are sought there too, from
+  seeded starts on every branch. One only that search finds, one where the reduced
+  equations are singular, or where they are too long to differentiate
+  (:data:`LINEARISE_OPS`), is linearised in the file's coordinates on the constraints'
+  tangent space.
 * **Moving constraints** (:mod:`._steady`): where F depends on t, a chart in which it
   does not (the spun hoop's own angle) is looked for; the equilibria there are relative
   ones (``Modes.frame`` says so).
@@ -270,7 +271,9 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         if e is not None:
             out.append(e)
     if at is None and kkt is not None and system.chart is None:
-        out += _other_branches(sol, pv, kkt, out)
+        from ._branches import other_branches  # built on this module
+
+        out += other_branches(sol, pv, kkt, out)
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
     return Modes(system, names, tuple(out), reason if not out else None, free_note, _frame(system))
 
@@ -603,6 +606,8 @@ def _equilibrium(
     for v, x in zip(ud, u):
         if v in speeds:
             values[f"{x}'"] = env[v]
+    from ._branches import full_equilibrium  # built on this module
+
     verdict = _kkt_test(sol, rest, env, u, ud, speeds) if rest is not None else None
     if verdict is not None and not verdict.ok and not given:
         return None  # not an equilibrium of the equations as written
@@ -619,7 +624,7 @@ def _equilibrium(
             "the reduced equations are too long to linearise symbolically: linearised in "
             "the file's coordinates, every constraint kept"
         )
-        return _full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
+        return full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
     notes = []
     try:
         residual = [_real(f, env) for f in F]
@@ -632,7 +637,7 @@ def _equilibrium(
                 "the reduced equations are singular here: linearised in the file's "
                 "coordinates, every constraint kept"
             )
-            return _full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
+            return full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
         return Equilibrium(
             {str(x): v for x, v in point.items()},
             values,
@@ -719,130 +724,6 @@ def _kkt_test(sol, rest: RestTest, env: dict, u, ud, speeds) -> Rest | None:
     q, qd, qdd = (np.array(state[i::3]) for i in range(3))
     moving = bool(np.any(qd) or np.any(qdd))
     return rest.check(q, qd, 0.0, qdd if moving else None)
-
-
-def _other_branches(sol, pv, rest: RestTest, found) -> list[Equilibrium]:
-    """The equilibria the search in the file's coordinates finds
-    (:meth:`~._rest.RestTest.search`: every branch of the constraints, every constraint
-    active) that the reduced equations did not give (the trammel hanging at y = -l while
-    y = +sqrt(l^2 - x^2) was eliminated), linearised in the file's coordinates
-    (:func:`_full_equilibrium`): the reduced equations' closed forms hold on their
-    branch and with the start's contacts only."""
-    system, red = sol.system, sol.reduction
-    names = [c.name for c in system.coordinates]
-    try:
-        init = np.array([_real(c.initial, pv) for c in system.coordinates])
-    except (TypeError, ValueError):
-        init = np.zeros(len(names))
-    known = [
-        np.array([e.values[n] for n in names])
-        for e in found
-        if e.exists and all(n in e.values for n in names)
-    ]
-    out = []
-    for q, lam in rest.search(init):
-        if any(rest.same(q, k) for k in known):
-            continue
-        known.append(q)
-        off = _off_branch(red, {**pv, system.t: 0.0, **dict(zip(system.q, q))})
-        if off:
-            why = "off the branch the reduced equations take (" + "; ".join(off) + ")"
-        else:
-            why = "not a solution the reduced equations gave"
-        why += ": found and linearised in the file's coordinates, every constraint kept"
-        out.append(_full_equilibrium(sol, rest, q, lam, None, None, why))
-    return out
-
-
-def _off_branch(red, env: dict) -> list[str]:
-    """The eliminated coordinates whose elimination (a branch of a root) does not give
-    their value in ``env`` (a point of the constraints), as "y = sqrt(l^2 - x^2)"."""
-    out = []
-    for c, expr in red.eliminated:
-        try:
-            v = _real(red.position_substitution[c.symbol], env)
-        except (TypeError, ValueError):
-            v = float("nan")
-        if not abs(v - env[c.symbol]) <= 1e-7 * (1 + abs(env[c.symbol])):
-            out.append(f"{c.name} = {to_text(expr)}")
-    return out
-
-
-def _full_equilibrium(sol, rest: RestTest, q, lam, condition, point, why: str) -> Equilibrium:
-    """The equilibrium at q (every coordinate; multipliers ``lam`` from the KKT solve)
-    linearised in the file's coordinates with every constraint kept
-    (:meth:`~._rest.RestTest.linearised`), where the reduced equations do not reach, are
-    singular or too long (``why`` says which, in the note); ``point`` its independent
-    coordinates (None: every coordinate, as found)."""
-    system = sol.system
-    names = [c.name for c in system.coordinates]
-    if point is None:
-        at = {n: _snapped(float(v)) for n, v in zip(names, q)}
-    else:
-        at = {str(x): v for x, v in point.items()}
-    values = {n: float(_snapped(float(v))) + 0.0 for n, v in zip(names, q)}  # no 1e-17
-    notes = [why]
-    multipliers = {c.name: float(x) for c, x in zip(system.constraints, lam)}
-    multipliers, holds = _holding(system, multipliers, notes)
-    lin = rest.linearised(np.asarray(q, dtype=float), np.asarray(lam, dtype=float))
-    stability: str | None = None
-    found: tuple[Mode, ...] = ()
-    linear, check = None, None
-    if lin is not None:
-        J, N = lin
-        w, Y = np.linalg.eig(J)
-        stability, found = _spectrum(names, w, Y, N, N.shape[1], [], {})
-        linear = _full_named(rest, np.asarray(q, dtype=float), J, N, names)
-        # the same law by SymPy's Jacobians, evaluated apart from the generated code
-        check = _tangent_check(sol, dict(zip(names, map(float, q))), multipliers, found)
-        if check is not None and check.startswith("DISAGREES"):
-            notes.append(check)
-            check = None
-    return Equilibrium(
-        at,
-        values,
-        condition,
-        True,
-        multipliers,
-        holds,
-        "; ".join(notes),
-        stability,
-        found,
-        linear,
-        check,
-    )
-
-
-def _full_named(
-    rest: RestTest, q: np.ndarray, J: np.ndarray, N: np.ndarray, names
-) -> Linear | None:
-    """The linear system J (in (z, z'), q = q0 + N z) in the coordinates regular at q0
-    (picked from N), with each multiplier's first-order change from the KKT solve
-    (central differences)."""
-    d = N.shape[1]
-    S = _pick(N)
-    Tp = N[S]
-    if d and np.linalg.cond(Tp) > 1e10:
-        return None
-    T = np.block([[Tp, np.zeros((d, d))], [np.zeros((d, d)), Tp]])
-    Ti = np.linalg.inv(T) if d else np.zeros((0, 0))
-    A = T @ J @ Ti
-    eps = 1e-6 * (1.0 + float(np.abs(q).max(initial=0.0)))
-    rows = []
-    for i in range(2 * d):
-        z = Ti[:, i]
-        dq, dqd = N @ z[:d], N @ z[d:]
-        plus = rest.solve(q + eps * dq, eps * dqd)[1]
-        minus = rest.solve(q - eps * dq, -eps * dqd)[1]
-        rows.append((plus - minus) / (2 * eps))
-    lam = {}
-    if rows:
-        G = np.array(rows).T  # (n_constraints, 2 d)
-        for c, row in zip(rest.system.constraints, G):
-            if np.isfinite(row).all():
-                lam[c.name] = tuple(float(round(x, 9)) + 0.0 for x in row)
-    state = tuple(names[i] for i in S) + tuple(names[i] + "'" for i in S)
-    return Linear(state, tuple(tuple(float(round(x, 12)) + 0.0 for x in r) for r in A), lam)
 
 
 @functools.lru_cache(maxsize=256)
