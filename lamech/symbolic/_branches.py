@@ -50,7 +50,8 @@ def other_branches(sol, pv, rest: RestTest, found) -> list[Equilibrium]:
         if any(rest.same(q, k) for k in known):
             continue
         known.append(q)
-        off = _off_branch(red, {**pv, system.t: 0.0, **dict(zip(system.q, q))})
+        env = {**pv, system.t: 0.0, **dict(zip(system.q, q))}
+        off = _off_branch(red, env) if system.chart is None else []  # (a chart: in u)
         if off:
             why = "off the branch the reduced equations take (" + "; ".join(off) + ")"
         else:

@@ -270,7 +270,7 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         e = _equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds, kkt)
         if e is not None:
             out.append(e)
-    if at is None and kkt is not None and system.chart is None:
+    if at is None and kkt is not None:
         from ._branches import other_branches  # built on this module
 
         out += other_branches(sol, pv, kkt, out)
