@@ -293,6 +293,9 @@ class RestTest:
             if not np.all(np.isfinite(r.fun)):
                 continue
             q = self.wrap(r.x[:n])
+            gap = self.f(q, 0.0)
+            if not np.all(np.abs(gap) <= 1e-9 * (1.0 + float(np.abs(q).max(initial=0.0))) ** 2):
+                continue  # not on the constraints: the search stopped short
             if np.any(np.abs(q[~np.array(self.periodic, dtype=bool)]) > reach):
                 continue  # outside the region searched (the tautochrone's next arch)
             if any(self.same(q, p) for p, _ in found):
@@ -372,7 +375,7 @@ def rest_test(dyn: Dynamics) -> RestTest | None:
     residual = jacobian = stiffness = damping = None
     size = sum(sp.count_ops(e) for e in (*dyn.h, *dyn.Q, *A, *f))
     if autonomous and all(hol) and size <= SEARCH_OPS:
-        lam = sp.Matrix(sp.symbols(f"_lam0:{m}")) if m else sp.zeros(0, 1)
+        lam = sp.Matrix([sp.Dummy(f"lambda{j}") for j in range(m)]) if m else sp.zeros(0, 1)
         rest = {v: 0 for v in qd}
         tangential = (-force).xreplace(rest) - (A.T * lam if m else sp.zeros(n, 1))
         R = sp.Matrix.vstack(tangential, f) if m else tangential
