@@ -8,6 +8,7 @@ cos(theta) = g/(R w^2) with Omega^2 = w^2 - g^2/(R^2 w^2)."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -146,3 +147,21 @@ def test_a_problem_no_chart_makes_autonomous_is_refused_with_what_to_do():
     md = lamech.modes(lamech.loads(BREATHING, "breathing.toml"))
     assert md.equilibria == ()
     assert "depend on t explicitly" in md.reason and "[parametrisation]" in md.reason
+
+
+def test_simulate_mode_releases_the_bead_on_the_turning_hoop(tmp_path, capsys):
+    """`simulate --mode` on the Cartesian hoop: released 0.05 rad from the relative
+    equilibrium in the hoop's angle (x, y, z and their velocities from the chart, the
+    bead carried round by the hoop), after the four periods of Omega it runs it is back
+    at that angle: z = -R cos(theta) (and the chart's angle reached `simulate`, which
+    knew only x, y, z, as file coordinates)."""
+    path = tmp_path / "hoop.toml"
+    path.write_text(HOOP)
+    assert main(["simulate", str(path), "--mode", "1"]) == 0
+    out = capsys.readouterr().out
+    theta = -math.acos(9.81 / (0.5 * 36.0)) + 0.05
+    final = re.search(r"final state: x = (\S+), y = (\S+), z = (\S+),", out)
+    assert final is not None, out
+    x, y, z = (float(final.group(i)) for i in (1, 2, 3))
+    assert z == pytest.approx(-0.5 * math.cos(theta), abs=1e-4)  # (amplitude: 1e-5 off)
+    assert math.hypot(x, y) == pytest.approx(0.5 * abs(math.sin(theta)), abs=1e-4)

@@ -222,6 +222,7 @@ def _mode_start(system: System, params: dict, args) -> tuple[System, dict, float
 
     from ..model import ModelError, with_values
     from ..symbolic import modes
+    from ..symbolic._steady import file_state
 
     found = modes(with_values(system, parameters=params) if params else system)
     eqs = found.equilibria
@@ -240,7 +241,8 @@ def _mode_start(system: System, params: dict, args) -> tuple[System, dict, float
             raise ValueError("--mode: no equilibrium the constraints can hold has modes")
         number = (stable or usable)[0]
     e = eqs[number - 1]
-    start = e.displaced(args.mode - 1, args.amplitude)
+    # in the file's coordinates: a chart's angle (the spun hoop's) is not the simulator's
+    start = file_state(found.system, e.displaced(args.mode - 1, args.amplitude))
     m = e.modes[args.mode - 1]
     if m.frequency is not None:
         t_end = 4 * 2 * math.pi / m.frequency
@@ -256,7 +258,7 @@ def _mode_start(system: System, params: dict, args) -> tuple[System, dict, float
         f"released at rest along mode {args.mode} ({what}) of equilibrium {number} "
         f"({where}), amplitude {args.amplitude:g}"
     )
-    if system.chart is None:
+    if found.system.chart is None:
         at_rest = {c.name: e.values[c.name] for c in system.coordinates}
         at_rest.update({c.name + "'": 0.0 for c in system.coordinates})
         try:

@@ -110,3 +110,33 @@ def _solve_for_angle(g: sp.Expr, angles: list[sp.Symbol], points) -> tuple | Non
             if _vanishes(g.xreplace({s: value}), points)[0]:
                 return s, value
     return None
+
+
+def file_state(system: System, state: dict[str, float], t: float = 0.0) -> dict[str, float]:
+    """``state`` ({coordinate or ``x'``: value}, in a chart's coordinates where the
+    system has a chart) in the file's coordinates and velocities at time t: each
+    parametrised coordinate from the chart's map, its velocity d/dt of the map (the
+    turning hoop's bead moves with it at rest in the chart); the others as given. For
+    ``lamech simulate --mode``, which runs in the file's coordinates."""
+    chart = system.chart
+    if chart is None:
+        return dict(state)
+    pv = system.parameter_values
+    env: dict = {**pv, system.t: t}
+    for c in (*system.chart_coordinates, *system.coordinates):
+        if c.name in state:
+            env[c.symbol] = state[c.name]
+        env[c.velocity] = state.get(c.name + "'", 0.0)
+    out = {k: v for k, v in state.items() if k.rstrip("'") not in {n for n in _names(chart)}}
+    for s, e in chart.map:
+        name = next(c.name for c in system.coordinates if c.symbol == s)
+        rate = sp.diff(e, system.t) + sum(
+            (sp.diff(e, c.symbol) * c.velocity for c in system.chart_coordinates), sp.Integer(0)
+        )
+        out[name] = float(sp.N(e.xreplace(env)))
+        out[name + "'"] = float(sp.N(rate.xreplace(env)))
+    return out
+
+
+def _names(chart) -> list[str]:
+    return [c.name for c in chart.coordinates]
