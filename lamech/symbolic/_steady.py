@@ -39,7 +39,7 @@ import sympy as sp
 from ..model import ModelError, System, circle_chart, with_chart
 from ..model._chart import ChartProposal, _random_points, _vanishes
 
-__all__ = ["autonomous_chart", "complete_chart"]
+__all__ = ["autonomous_chart", "complete_chart", "file_state"]
 
 
 def autonomous_chart(system: System) -> System | None:
@@ -127,7 +127,8 @@ def file_state(system: System, state: dict[str, float], t: float = 0.0) -> dict[
         if c.name in state:
             env[c.symbol] = state[c.name]
         env[c.velocity] = state.get(c.name + "'", 0.0)
-    out = {k: v for k, v in state.items() if k.rstrip("'") not in {n for n in _names(chart)}}
+    own = {c.name for c in chart.coordinates}
+    out = {k: v for k, v in state.items() if k.rstrip("'") not in own}
     for s, e in chart.map:
         name = next(c.name for c in system.coordinates if c.symbol == s)
         rate = sp.diff(e, system.t) + sum(
@@ -137,6 +138,3 @@ def file_state(system: System, state: dict[str, float], t: float = 0.0) -> dict[
         out[name + "'"] = float(sp.N(rate.xreplace(env)))
     return out
 
-
-def _names(chart) -> list[str]:
-    return [c.name for c in chart.coordinates]
