@@ -137,4 +137,3 @@ def file_state(system: System, state: dict[str, float], t: float = 0.0) -> dict[
         out[name] = float(sp.N(e.xreplace(env)))
         out[name + "'"] = float(sp.N(rate.xreplace(env)))
     return out
-
