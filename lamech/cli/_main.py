@@ -352,8 +352,12 @@ if __name__ == "__main__":  # pragma: no cover
 
 def _in_angles(system):
     """``--angles``: the system with the circle/sphere chart of
-    :func:`lamech.model.circle_chart` applied, or an error saying why there is none."""
+    :func:`lamech.model.circle_chart` applied, the other constraints on its coordinates
+    solved for its angles where they must be (the spun hoop's turning plane:
+    :func:`lamech.symbolic._steady.complete_chart`), or an error saying why there is
+    none."""
     from ..model import ModelError, circle_chart, with_chart
+    from ..symbolic._steady import complete_chart
 
     if system.chart is not None:
         raise ValueError("--angles: the file already gives a [parametrisation]")
@@ -366,7 +370,10 @@ def _in_angles(system):
     try:
         return with_chart(system, proposal)
     except ModelError as exc:
-        raise ValueError(f"--angles: {exc}") from None
+        completed = complete_chart(system, proposal)
+        if completed is None:
+            raise ValueError(f"--angles: {exc}") from None
+        return completed
 
 
 def _overridden(system, param_pairs, initial_pairs):

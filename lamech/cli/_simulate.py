@@ -7,6 +7,7 @@ import argparse
 import dataclasses
 import json
 import sys
+from typing import TYPE_CHECKING
 
 from ._args import (
     add_tolerance_options,
@@ -21,6 +22,9 @@ from ._args import (
 from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
 from ._terms import in_flags
+
+if TYPE_CHECKING:
+    from ..model import System
 
 __all__ = ["add_parser", "run"]
 
@@ -215,13 +219,17 @@ def _check_outputs(args) -> None:
         check_output(args.animate, ANIMATION_FORMATS, "--animate")
 
 
-def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
-    """Initial values along the chosen mode, the default end time, and a line saying so
-    (ValueError with what to do when there is no such mode)."""
+def _mode_start(system: System, params: dict, args) -> tuple[System, dict, float, str]:
+    """The system started at the chosen equilibrium, initial values along the chosen
+    mode, the default end time, and a line saying so (ValueError with what to do when
+    there is no such mode). The coordinates the mode does not give start from the
+    equilibrium's values, so they are moved onto the constraints on its branch (the
+    trammel hanging at y = -l, not above at the file's start)."""
     import math
 
-    from ..model import with_values
+    from ..model import ModelError, with_values
     from ..symbolic import modes
+    from ..symbolic._steady import file_state
 
     found = modes(with_values(system, parameters=params) if params else system)
     eqs = found.equilibria
@@ -240,7 +248,8 @@ def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
             raise ValueError("--mode: no equilibrium the constraints can hold has modes")
         number = (stable or usable)[0]
     e = eqs[number - 1]
-    start = e.displaced(args.mode - 1, args.amplitude)
+    # in the file's coordinates: a chart's angle (the spun hoop's) is not the simulator's
+    start = file_state(found.system, e.displaced(args.mode - 1, args.amplitude))
     m = e.modes[args.mode - 1]
     if m.frequency is not None:
         t_end = 4 * 2 * math.pi / m.frequency
@@ -256,7 +265,14 @@ def _mode_start(system, params: dict, args) -> tuple[dict, float, str]:
         f"released at rest along mode {args.mode} ({what}) of equilibrium {number} "
         f"({where}), amplitude {args.amplitude:g}"
     )
-    return start, t_end, line
+    if found.system.chart is None:
+        at_rest = {c.name: e.values[c.name] for c in system.coordinates}
+        at_rest.update({c.name + "'": 0.0 for c in system.coordinates})
+        try:
+            system = with_values(system, initial=at_rest)
+        except (ModelError, ValueError):
+            pass  # (a moving constraint: not at rest there) the file's start, as before
+    return system, start, t_end, line
 
 
 def run(args) -> int:
@@ -301,7 +317,7 @@ def _run(args, phase: list[str]) -> int:
         _check_outputs(args)
         released = None
         if args.mode is not None:
-            start, t_mode, released = _mode_start(system, params, args)
+            system, start, t_mode, released = _mode_start(system, params, args)
             initial = {**start, **initial}  # an --initial given as well wins
             if args.t_end is None:
                 args.t_end = t_mode

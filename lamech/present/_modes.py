@@ -52,6 +52,8 @@ def modes_text(md) -> str:
     lines.append(
         "independent coordinates: " + (", ".join(md.independent) or "(none)") + "  (at rest)"
     )
+    if md.frame:
+        lines.append(f"relative equilibria: {md.frame}")
     if md.free:
         lines.append(f"free: {md.free}")
     if md.reason:
@@ -85,6 +87,9 @@ def modes_text(md) -> str:
                 "linearise, write the problem in coordinates regular at this point"
             )
             continue
+        if not e.modes and e.linear is not None and not e.linear.state:
+            lines.append("  locked: the constraints leave no motion there (no modes)")
+            continue
         lines.append(f"  {e.stability}: {len(e.modes)} mode(s)")
         for label, m in _merged(e.modes):
             first, *rest = _mode_line(m)
@@ -92,7 +97,7 @@ def modes_text(md) -> str:
             lines += [f"      {r}" for r in rest]
         if e.check:
             lines.append(f"  check: {e.check}")
-        if e.linear is not None:
+        if e.linear is not None and e.linear.state:  # (a system locked there has none)
             lines += _linear_lines(e)
     return "\n".join(lines) + "\n"
 

@@ -10,6 +10,17 @@ rate, has its drive eliminated, so its relative equilibria are equilibria here).
   an acos within [-1, 1], of a square root >= 0) and the multipliers at rest there. A
   unilateral constraint whose multiplier at rest is negative cannot hold it: such a
   point is listed as no equilibrium of the real system.
+* **Checked, on every branch** (:mod:`._rest`, :mod:`._branches`): the reduced
+  equations live on a chart (one branch of each root the elimination took, singular
+  where it is), so each solution must also pass the KKT test at rest in the file's
+  coordinates (q'' = 0), or it is dropped; and equilibria are sought there too, from
+  seeded starts on every branch. One only that search finds, one where the reduced
+  equations are singular, or where they are too long to differentiate
+  (:data:`LINEARISE_OPS`), is linearised in the file's coordinates on the constraints'
+  tangent space.
+* **Moving constraints** (:mod:`._steady`): where F depends on t, a chart in which it
+  does not (the spun hoop's own angle) is looked for; the equilibria there are relative
+  ones (``Modes.frame`` says so).
 * **Linearisation**: d/dt [du, du'] = J [du, du'], J = [[0, I], [dF/du, dF/du']], on the
   tangent space of the constraints kept in u (an orthonormal basis of the null space of
   their Jacobian, so the coordinates used are regular there whatever the elimination).
@@ -23,6 +34,8 @@ rate, has its drive eliminated, so its relative equilibria are equilibria here).
 
 from __future__ import annotations
 
+import functools
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,15 +43,21 @@ import sympy as sp
 
 from ..expr import to_text
 from ..model import System
+from ._budget import count_ops
 from ._conditions import is_angle
 from ._integrals import _coordinate_jacobian
 from ._reduce import tidy
+from ._rest import Rest, RestTest, rest_test
 from ._solution import Solution
 
 __all__ = ["Equilibrium", "Linear", "Mode", "Modes", "check_modes", "modes"]
 
 SOLVE_OPS = 400
 """Equilibrium equations larger than this (operations) are not solved symbolically."""
+LINEARISE_OPS = 2000
+"""Reduced accelerations and multipliers longer than this (operations, together) are
+linearised numerically in the file's coordinates, not differentiated symbolically (the
+rod in a bowl's: 20,000, 13 s an equilibrium)."""
 SOLVE_UNKNOWNS = 3
 """At most this many independent coordinates are solved for symbolically."""
 
@@ -152,13 +171,16 @@ class Equilibrium:
 @dataclass(frozen=True)
 class Modes:
     """Every equilibrium found (``equilibria``), or why none could be (``reason``);
-    ``free`` says which coordinates rest at every value (shown at one)."""
+    ``free`` says which coordinates rest at every value (shown at one); ``frame``, for a
+    problem whose equations depend on t, the chart in which they do not and the
+    equilibria are relative ones (``system`` is then the problem in that chart)."""
 
     system: System
     independent: tuple[str, ...]
     equilibria: tuple[Equilibrium, ...]
     reason: str | None = None
     free: str | None = None
+    frame: str | None = None
 
     def to_json(self) -> dict:
         return {
@@ -167,6 +189,7 @@ class Modes:
             "equilibria": [e.to_json() for e in self.equilibria],
             "reason": self.reason,
             "free": self.free,
+            "frame": self.frame,
         }
 
 
@@ -191,21 +214,14 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         return Modes(system, names, (), forms.skipped or "no closed-form accelerations")
     ud = [c.velocity for c in red.independent]
     F = [forms.accelerations[c.acceleration] for c in red.independent]
-    if any(f.has(system.t) for f in F):
-        return Modes(
-            system,
-            names,
-            (),
-            "the reduced equations depend on t explicitly: no equilibrium at rest",
-        )
     kept = [
         c.expr
         for c in system.constraints
         if c.holonomic and c.name not in red.eliminated_constraints
     ]
     kept = [red.apply(f) for f in kept]
-    if any(f.has(system.t) for f in kept):
-        return Modes(system, names, (), "a kept constraint depends on t explicitly")
+    if any(f.has(system.t) for f in F) or any(f.has(system.t) for f in kept):
+        return _in_a_steady_frame(sol, names, at)
     rest = {v: 0 for v in ud}
     pv = system.parameter_values
     free_note = None
@@ -248,11 +264,63 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
                 f"every value of {', '.join(map(str, free))} rests as well "
                 f"(no force acts along it at rest); shown at {shown}"
             )
-    out = []
+    kkt = rest_test(sol.dynamics)
+    out: list[Equilibrium] = []
     for point, condition in points:
-        out.append(_equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds))
+        e = _equilibrium(sol, u, ud, F, kept, point, condition, pv, at is not None, speeds, kkt)
+        if e is not None:
+            out.append(e)
+    if at is None and kkt is not None:
+        from ._branches import other_branches  # built on this module
+
+        out += other_branches(sol, pv, kkt, out)
     out.sort(key=lambda e: (not e.exists, not e.holds, [e.values.get(n, 0.0) for n in names]))
-    return Modes(system, names, tuple(out), reason if not out else None, free_note)
+    return Modes(system, names, tuple(out), reason if not out else None, free_note, _frame(system))
+
+
+def _frame(system: System) -> str | None:
+    """What the equilibria are when the system's chart moves with t (the hoop's angle
+    in x = R sin(theta) cos(wt), ...): relative ones; None for a chart that does not."""
+    chart = system.chart
+    if chart is None or not any(e.has(system.t) for _, e in chart.map):
+        return None
+    shown = "; ".join(f"{s} = {to_text(e)}" for s, e in chart.map)
+    return (
+        f"in the chart {shown}, which moves with t and satisfies every constraint on "
+        "those coordinates identically, the equations do not depend on t: the equilibria "
+        "are relative ones, at rest in that moving frame (steady motions of the file's "
+        "coordinates)"
+    )
+
+
+def _in_a_steady_frame(sol: Solution, names: tuple[str, ...], at) -> Modes:
+    """The modes of a problem whose reduced equations depend on t, as relative
+    equilibria in a chart where they do not (:func:`~._steady.autonomous_chart`: the
+    spun hoop's own angle); else no equilibria, with what to do."""
+    from ._solution import solve
+    from ._steady import autonomous_chart
+
+    system = sol.system
+    charted = autonomous_chart(system)
+    if charted is not None:
+        again = solve(charted)
+        forms = again.closed
+        t_free = not forms.skipped and not any(
+            e.has(system.t) for e in forms.accelerations.values()
+        )
+        if t_free:
+            return modes(again, at)
+    return Modes(
+        system,
+        names,
+        (),
+        "the reduced equations depend on t explicitly, so nothing rests in these "
+        "coordinates, and no chart in the angles of the constraints' circles and spheres "
+        "that satisfies every constraint identically takes t out. For steady motions "
+        "(relative equilibria), give a [parametrisation] in coordinates in which the "
+        "problem does not depend on t (a turning frame's angle), or follow the motion "
+        "with `lamech simulate`",
+    )
 
 
 def _checked_point(at) -> dict[str, float]:
@@ -282,9 +350,12 @@ def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
     """J^T (h - Q) at rest, J = d q / d u: the generalized forces in u, which separate
     where the accelerations mix them (the double pendulum's sin(th1) = 0, sin(th2) = 0).
     The eliminated constraints' forces drop out (A J = 0); with constraints kept in u
-    they would not, so then the accelerations themselves are used."""
+    they would not, so then the accelerations themselves are used; and so they are where
+    the elimination moves with t (a turning frame: at rest in it the coordinates
+    accelerate, and M q'' carries the centrifugal force J^T (h - Q) leaves out)."""
     red, dyn = sol.reduction, sol.dynamics
-    if len(red.eliminated_constraints) != len(sol.system.constraints):
+    moving = any(e.has(sol.system.t) for e in red.position_substitution.values())
+    if len(red.eliminated_constraints) != len(sol.system.constraints) or moving:
         return [f.xreplace(rest) for f in F]
     J = _coordinate_jacobian(sol.system, red)
     h = (dyn.h - dyn.Q).applyfunc(lambda e: red.apply(e).xreplace(rest))
@@ -387,13 +458,22 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     starts = list(itertools.product(*axes))[:256] + [tuple(init.get(x, 0.0) for x in u)]
     found: list[np.ndarray] = []
     for x0 in starts:
-        try:
-            r = least_squares(
-                lambda x: np.asarray(f(x), dtype=float), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14
-            )
-        except (ValueError, TypeError, ZeroDivisionError):
-            continue
-        if np.abs(np.asarray(f(r.x), dtype=float)).max() > 1e-9:
+        # the generated function is NaN off the real manifold (a square root of a
+        # negative number): read as "not here", never printed
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            try:
+                r = least_squares(
+                    lambda x: np.asarray(f(x), dtype=float),
+                    x0,
+                    xtol=1e-14,
+                    ftol=1e-14,
+                    gtol=1e-14,
+                )
+                res = np.abs(np.asarray(f(r.x), dtype=float))
+            except (ValueError, TypeError, ZeroDivisionError):
+                continue
+        if not np.all(res <= 1e-9):
             continue
         x = np.array(r.x, dtype=float)
         for i, sym in enumerate(u):
@@ -433,7 +513,7 @@ def _snapped(v: float) -> sp.Expr:
 
 def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
     """An angle in (-pi, pi] (2 pi - acos(a) is -acos(a)); other coordinates as they are."""
-    if not is_angle(system, x):
+    if not _is_angle(system, x):
         return value
     try:
         v = float(sp.N(value.xreplace(system.parameter_values)))
@@ -441,6 +521,18 @@ def _principal(value: sp.Expr, x: sp.Symbol, system: System) -> sp.Expr:
         return value
     turns = int(np.floor((v + np.pi) / (2 * np.pi) - 1e-12))
     return sp.expand(value - 2 * sp.pi * turns) if turns else value
+
+
+def _is_angle(system: System, x: sp.Symbol) -> bool:
+    """An angle of the file's L, or a chart's coordinate that its map takes only
+    through sin and cos (the hoop's theta)."""
+    from ..model._chart import _periodic
+
+    if is_angle(system, x):
+        return True
+    if system.chart is None or x not in system.chart.symbols:
+        return False
+    return _periodic([e for _, e in system.chart.map], x)
 
 
 def _numeric_point(point: dict, system: System, order) -> np.ndarray | None:
@@ -475,9 +567,14 @@ def _condition(point: dict) -> str | None:
     return " and ".join(dict.fromkeys(parts)) or None
 
 
-def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) -> Equilibrium:
+def _equilibrium(
+    sol, u, ud, F, kept, point, condition, pv, given, speeds=None, rest: RestTest | None = None
+) -> Equilibrium | None:
     """The equilibrium at ``point`` (or, with ``speeds``, the steady motion: the state
-    with those velocities, a fixed point when the accelerations vanish there)."""
+    with those velocities, a fixed point when the accelerations vanish there); None for
+    a point found (not ``given``) that fails the KKT test in the file's coordinates
+    (:meth:`~._rest.RestTest.check`: the reduced equations' chart is singular there, or
+    the point is no solution at all)."""
     system, red, forms = sol.system, sol.reduction, sol.closed
     speeds = speeds or {}
     at_point = {**point, **{v: speeds.get(v, 0) for v in ud}}
@@ -493,15 +590,60 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
         )
     uval = uval.real
     env = {**num, **dict(zip(u, uval)), **{v: _real(speeds.get(v, 0), num) for v in ud}}
-    values = {}
-    for c in system.coordinates:
-        expr = red.position_substitution.get(c.symbol, c.symbol)
-        values[c.name] = _real(expr, env)
+    # a chart's own coordinates first (the hoop's angle), then every file coordinate
+    values = {str(x): float(env[x]) for x in u if x not in set(system.q)}
+    try:
+        for c in system.coordinates:
+            expr = red.position_substitution.get(c.symbol, c.symbol)
+            values[c.name] = _real(expr, env)
+    except (TypeError, ValueError):  # an eliminated coordinate is not real there
+        if not given:
+            return None
+        raise ValueError(
+            "`at=`: the eliminated coordinates are not real at "
+            + ", ".join(f"{x} = {v:.6g}" for x, v in zip(u, uval))
+        ) from None
     for v, x in zip(ud, u):
         if v in speeds:
             values[f"{x}'"] = env[v]
+    from ._branches import full_equilibrium  # built on this module
+
+    verdict = _kkt_test(sol, rest, env, u, ud, speeds) if rest is not None else None
+    if verdict is not None and not verdict.ok and not given:
+        return None  # not an equilibrium of the equations as written
+    if (
+        rest is not None
+        and verdict is not None
+        and verdict.ok
+        and not verdict.singular
+        and not given
+        and _reduced_size(sol) > LINEARISE_OPS
+    ):
+        q = np.array([values[c.name] for c in system.coordinates])
+        why = (
+            "the reduced equations are too long to linearise symbolically: linearised in "
+            "the file's coordinates, every constraint kept"
+        )
+        return full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
     notes = []
-    residual = [_real(f, env) for f in F]
+    try:
+        residual = [_real(f, env) for f in F]
+    except (TypeError, ValueError):
+        residual = None  # the reduced equations are singular here (0/0)
+    if residual is None or not all(map(np.isfinite, residual)):
+        if rest is not None and verdict is not None and not verdict.singular and not speeds:
+            q = np.array([values[c.name] for c in sol.system.coordinates])
+            why = (
+                "the reduced equations are singular here: linearised in the file's "
+                "coordinates, every constraint kept"
+            )
+            return full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
+        return Equilibrium(
+            {str(x): v for x, v in point.items()},
+            values,
+            condition,
+            note="the reduced equations are singular here (their coordinates are)",
+        )
     resting = max(map(abs, residual), default=0.0) <= 1e-9
     if given and not resting:
         notes.append(
@@ -510,7 +652,6 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
             + ", ".join(f"{x}'' = {r:.6g}" for x, r in zip(u, residual))
         )
     lam = {}
-    holds = True
     for c in system.constraints:
         expr = forms.multipliers.get(c.name)
         if expr is None:
@@ -519,14 +660,7 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
             lam[c.name] = _real(expr, env)
         except (TypeError, ValueError):
             continue
-        if c.unilateral and lam[c.name] < -1e-12:
-            holds = False
-            notes.append(
-                f"`{c.name}` cannot hold it (lambda_{c.name} = {lam[c.name]:.6g} < 0 at rest: "
-                "it would have to pull)"
-            )
-    big = max(map(abs, lam.values()), default=0.0)
-    lam = {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}  # rounding
+    lam, holds = _holding(system, lam, notes)
     stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
     check = None
     if (
@@ -549,6 +683,59 @@ def _equilibrium(sol, u, ud, F, kept, point, condition, pv, given, speeds=None) 
         linear,
         check,
     )
+
+
+def _reduced_size(sol) -> int:
+    """The length (operations) of the reduced accelerations and multipliers."""
+    forms = sol.closed
+    return sum(count_ops(e) for e in (*forms.accelerations.values(), *forms.multipliers.values()))
+
+
+def _holding(system, lam: dict, notes: list) -> tuple[dict, bool]:
+    """The multipliers with rounding zeros made 0, and whether every unilateral
+    constraint can hold the point (a note in ``notes`` for each that cannot)."""
+    holds = True
+    for c in system.constraints:
+        if c.name in lam and c.unilateral and lam[c.name] < -1e-12:
+            holds = False
+            notes.append(
+                f"`{c.name}` cannot hold it (lambda_{c.name} = {lam[c.name]:.6g} < 0 at rest: "
+                "it would have to pull)"
+            )
+    big = max(map(abs, lam.values()), default=0.0)
+    return {k: (0.0 if abs(v) <= 1e-12 * big else v) for k, v in lam.items()}, holds
+
+
+def _kkt_test(sol, rest: RestTest, env: dict, u, ud, speeds) -> Rest | None:
+    """The KKT test (:meth:`~._rest.RestTest.check`) of the state the point stands
+    for: every coordinate, velocity and acceleration from the reduction with the
+    independent coordinates at ``env``, their velocities ``speeds`` (0 at rest) and
+    their accelerations 0; None where the reduction cannot be evaluated there."""
+    system, red = sol.system, sol.reduction
+    full = {**env, system.t: 0.0, **{c.acceleration: 0.0 for c in red.independent}}
+    state = []
+    try:
+        for c in system.coordinates:
+            for sym in (c.symbol, c.velocity, c.acceleration):
+                e = red.substitution.get(sym, sym)
+                state.append(_real(e, full) if e not in full else float(full[e]))
+    except (TypeError, ValueError, KeyError):
+        return None
+    q, qd, qdd = (np.array(state[i::3]) for i in range(3))
+    moving = bool(np.any(qd) or np.any(qdd))
+    return rest.check(q, qd, 0.0, qdd if moving else None)
+
+
+@functools.lru_cache(maxsize=256)
+def _diff(expr: sp.Expr, x: sp.Symbol) -> sp.Expr:
+    """d expr / d x, kept for the next equilibrium of the same system (the rod in a
+    bowl's reduced equations take seconds to differentiate)."""
+    return sp.diff(expr, x)
+
+
+def _jacobian(exprs: tuple, symbols: tuple) -> sp.Matrix:
+    """The Jacobian of ``exprs`` in ``symbols`` (entries by :func:`_diff`)."""
+    return sp.Matrix([[_diff(e, x) for x in symbols] for e in exprs])
 
 
 def _real(expr, env) -> float:
@@ -574,8 +761,8 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     as SymPy's ``Linearizer`` does; the eigenvalues are those of J on that subspace."""
     system, red = sol.system, sol.reduction
     k = len(u)
-    Fu = sp.Matrix(F).jacobian(u)
-    Fv = sp.Matrix(F).jacobian(ud)
+    Fu = _jacobian(tuple(F), tuple(u))
+    Fv = _jacobian(tuple(F), tuple(ud))
     velocity = [
         red.apply(c.expr)
         for c in system.constraints
@@ -587,7 +774,7 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
 
     try:
         A21, A22 = num(Fu), num(Fv)
-        G = num(sp.Matrix(kept).jacobian(u)) if kept else np.zeros((0, k))
+        G = num(_jacobian(tuple(kept), tuple(u))) if kept else np.zeros((0, k))
         g = sp.Matrix(velocity)
         Gq = num(g.jacobian(u)) if velocity else np.zeros((0, k))
         Gv = num(g.jacobian(ud)) if velocity else np.zeros((0, k))
@@ -606,6 +793,21 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     Y = P @ V  # eigenvectors in (z, w)
     Xq = Xq @ N  # d q_all / d z: the shapes in every coordinate
     squared = _closed_squares(Fu, Fv, at_point, kept, k) if not velocity else []
+    # a chart's own coordinates (the hoop's angle) lead the shapes: at a relative
+    # equilibrium the file's coordinates move, so theirs hold at t = 0 only
+    names = [c.name for c in system.coordinates]
+    chart = [i for i, x in enumerate(u) if str(x) not in names]
+    shapes = np.vstack([N[chart], Xq]) if chart else Xq
+    stability, out = _spectrum([str(u[i]) for i in chart] + names, w, Y, shapes, d, squared, env)
+    linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
+    return stability, out, linear
+
+
+def _spectrum(names, w, Y, Xq, d, squared, env) -> tuple[str, tuple[Mode, ...]]:
+    """The stability and the modes of the eigenvalues ``w`` with eigenvectors ``Y``
+    (columns, in (z, z')) of a linear system whose positions are z, d of them, seen in
+    the coordinates ``names`` through ``Xq`` (len(names), d); ``squared``: closed forms
+    of omega^2 to name the frequencies with."""
     # zero to this tolerance: a defective zero eigenvalue (the rolling disc's free
     # drift, a Jordan block) comes out of LAPACK as about sqrt(machine epsilon)
     tol = 1e-6 * max(1.0, float(np.abs(w).max(initial=0.0)))
@@ -622,8 +824,8 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
         phases = None
         if np.abs(shape.imag).max(initial=0.0) > 1e-9:  # gyroscopic: out of phase
             phases = {
-                c.name: float(round(np.degrees(np.angle(x)), 9)) + 0.0
-                for c, x in zip(system.coordinates, shape)
+                name: float(round(np.degrees(np.angle(x)), 9)) + 0.0
+                for name, x in zip(names, shape)
                 if abs(x) > 1e-12
             }
             shape = np.abs(shape)
@@ -636,7 +838,7 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
                 lam,
                 freq,
                 growth,
-                {c.name: float(round(x, 12)) + 0.0 for c, x in zip(system.coordinates, shape)},
+                {name: float(round(x, 12)) + 0.0 for name, x in zip(names, shape)},
                 sq,
                 phases,
             )
@@ -649,8 +851,7 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
         stability = "stable"
     else:
         stability = "marginal"
-    linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
-    return stability, tuple(out), linear
+    return stability, tuple(out)
 
 
 def check_modes(solution: Solution, equilibrium: Equilibrium, modes=None) -> str | None:
@@ -759,12 +960,16 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
     if GqN.size and np.abs(GqN).max() > 1e-10:
         return None  # velocity constraints that tie positions to velocities: no split
     Nw = _null_basis(GvN, d)
-    own = [names.index(str(x)) for x in u if str(x) in names]  # the independent ones, if regular
+    if not all(str(x) in names for x in u):
+        # a chart's coordinates (the hoop's angle): the linear system in them, the
+        # file's coordinates moving at a relative equilibrium
+        names, Xq = [str(x) for x in u], N
+    own = [names.index(str(x)) for x in u]  # the independent coordinates, if regular
     S = own if len(own) == d and np.linalg.cond(Xq[own]) < 1e8 else _pick(Xq)
     own_v = own if len(own) == Nw.shape[1] and len(own) else []
     W = own_v if own_v and np.linalg.cond((Xq @ Nw)[own_v]) < 1e8 else _pick(Xq @ Nw)
     Tp, Tv = Xq[S], (Xq @ Nw)[W]
-    if np.linalg.cond(Tp) > 1e10 or (Tv.size and np.linalg.cond(Tv) > 1e10):
+    if (Tp.size and np.linalg.cond(Tp) > 1e10) or (Tv.size and np.linalg.cond(Tv) > 1e10):
         return None
     Tp_inv = np.linalg.inv(Tp)
     Tv_inv = np.linalg.inv(Tv) if Tv.size else np.zeros((0, 0))
@@ -778,8 +983,8 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
         if expr is None:
             continue
         try:
-            du = [_real(sp.diff(expr, x), env) for x in u]
-            dv_ = [_real(sp.diff(expr, v), env) for v in ud]
+            du = [_real(_diff(expr, x), env) for x in u]
+            dv_ = [_real(_diff(expr, v), env) for v in ud]
         except (TypeError, ValueError):
             continue
         row = np.concatenate([np.array(du) @ N @ Tp_inv, np.array(dv_) @ N @ Nw @ Tv_inv])
