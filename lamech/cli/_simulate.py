@@ -265,7 +265,7 @@ def _mode_start(system: System, params: dict, args) -> tuple[System, dict, float
         f"released at rest along mode {args.mode} ({what}) of equilibrium {number} "
         f"({where}), amplitude {args.amplitude:g}"
     )
-    if found.system.chart is None:
+    if found.system.chart is None or found.system.chart.automatic:  # the file's coordinates
         at_rest = {c.name: e.values[c.name] for c in system.coordinates}
         at_rest.update({c.name + "'": 0.0 for c in system.coordinates})
         try:

@@ -52,10 +52,14 @@ class Chart:
     ``coordinates`` are :class:`~lamech.model.Coordinate` objects (their ``initial`` and
     ``initial_velocity`` are filled from the system's initial state when the System is
     made); ``map`` pairs each parametrised coordinate's symbol with its expression.
+    ``automatic``: lamech chose it (a circle's angle, so that the closed forms hold on the
+    whole circle); results the user reads in coordinates (a linearisation) stay in the
+    file's own then.
     """
 
     coordinates: tuple
     map: tuple[tuple[sp.Symbol, sp.Expr], ...]
+    automatic: bool = False  # chosen by lamech (a circle's angle), not by the file
 
     @property
     def substitution(self) -> dict:
@@ -509,8 +513,9 @@ def satisfied_by_chart(system) -> list[str]:
     return out
 
 
-def with_chart(system, proposal: ChartProposal):
-    """``system`` with the proposed chart applied (results then in its angles)."""
+def with_chart(system, proposal: ChartProposal, automatic: bool = False):
+    """``system`` with the proposed chart applied (results then in its angles);
+    ``automatic``: lamech's choice, not the user's (:attr:`Chart.automatic`)."""
     new = tuple(
         Coordinate(
             n,
@@ -528,7 +533,7 @@ def with_chart(system, proposal: ChartProposal):
         (by_name[name], e.xreplace({sp.Symbol(k, real=True): v for k, v in symbols.items()}))
         for name, e in proposal.map
     )
-    return dataclasses.replace(system, chart=Chart(new, pairs))
+    return dataclasses.replace(system, chart=Chart(new, pairs, automatic))
 
 
 def _derivative(name: str) -> sp.Symbol:

@@ -113,7 +113,7 @@ class System:
             )
             for c in self.chart.coordinates
         )
-        return Chart(coords, self.chart.map)
+        return Chart(coords, self.chart.map, self.chart.automatic)
 
     # ----- views -----------------------------------------------------------------
     @property

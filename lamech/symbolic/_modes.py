@@ -795,8 +795,10 @@ def _linearise(sol, u, ud, F, kept, at_point, env, point):
     squared = _closed_squares(Fu, Fv, at_point, kept, k) if not velocity else []
     # a chart's own coordinates (the hoop's angle) lead the shapes: at a relative
     # equilibrium the file's coordinates move, so theirs hold at t = 0 only
+    # (not lamech's own chart, a circle's angle: the shapes in the file's coordinates)
     names = [c.name for c in system.coordinates]
-    chart = [i for i, x in enumerate(u) if str(x) not in names]
+    own = system.chart is not None and system.chart.automatic
+    chart = [] if own else [i for i, x in enumerate(u) if str(x) not in names]
     shapes = np.vstack([N[chart], Xq]) if chart else Xq
     stability, out = _spectrum([str(u[i]) for i in chart] + names, w, Y, shapes, d, squared, env)
     linear = _named(sol, u, ud, env, Jz, N, Xq, Gq @ N, Gv @ N)
@@ -960,11 +962,14 @@ def _named(sol, u, ud, env, Jz, N, Xq, GqN, GvN) -> Linear | None:
     if GqN.size and np.abs(GqN).max() > 1e-10:
         return None  # velocity constraints that tie positions to velocities: no split
     Nw = _null_basis(GvN, d)
-    if not all(str(x) in names for x in u):
-        # a chart's coordinates (the hoop's angle): the linear system in them, the
+    chosen = system.chart is not None and not system.chart.automatic
+    if chosen and not all(str(x) in names for x in u):
+        # the file's chart (the hoop's angle): the linear system in its coordinates, the
         # file's coordinates moving at a relative equilibrium
         names, Xq = [str(x) for x in u], N
-    own = [names.index(str(x)) for x in u]  # the independent coordinates, if regular
+    # the independent coordinates, if regular; lamech's own chart (a circle's angle):
+    # the file's coordinates regular at the point (the Cartesian pendulum's x)
+    own = [names.index(str(x)) for x in u if str(x) in names]
     S = own if len(own) == d and np.linalg.cond(Xq[own]) < 1e8 else _pick(Xq)
     own_v = own if len(own) == Nw.shape[1] and len(own) else []
     W = own_v if own_v and np.linalg.cond((Xq @ Nw)[own_v]) < 1e8 else _pick(Xq @ Nw)

@@ -237,7 +237,7 @@ def in_circle_angles(system: System) -> System:
     if independent + len(system.constraints) > CLOSED_FORM_LIMIT:
         return system
     try:
-        charted = with_chart(system, proposal)  # placed: the start reached by the angles
+        charted = with_chart(system, proposal, automatic=True)  # placed at the start
     except ModelError:
         return system
     return charted

@@ -119,8 +119,8 @@ def file_state(system: System, state: dict[str, float], t: float = 0.0) -> dict[
     turning hoop's bead moves with it at rest in the chart); the others as given. For
     ``lamech simulate --mode``, which runs in the file's coordinates."""
     chart = system.chart
-    if chart is None:
-        return dict(state)
+    if chart is None or not all(c.name in state for c in chart.coordinates):
+        return dict(state)  # in the file's coordinates already (lamech's own chart)
     pv = system.parameter_values
     env: dict = {**pv, system.t: t}
     for c in (*system.chart_coordinates, *system.coordinates):
