@@ -224,9 +224,11 @@ def test_a_state_below_the_floor_with_no_contact_located_stops_the_run_as_penetr
     # step's crossing was located at its start and the same impact applied again, some
     # forty times at one instant, until the contact engaged below the surface ("ok", y
     # down to -5). Which side is rounding of the step sizes (a free fall's error
-    # estimate is rounding only), so it differed between the roads and SciPy versions
-    # (SciPy 1.17's DOP853: b off by 5); before the fix, b off by 3, 4.5 and 7.5 ended
-    # "ok" on both roads, by 4 on the loop
+    # estimate is rounding only): the loop's sums are in a fixed order, SciPy's RK stages
+    # are np.dot, whose OpenBLAS kernel depends on the CPU (b off by 5 passed with
+    # OPENBLAS_CORETYPE=SkylakeX and ended "ok" with Haswell or Zen, whatever the SciPy
+    # (1.16.3, 1.17.1) and NumPy (2.3.5, 2.4.6)). Before the fix the loop ended "ok" with
+    # b off by 3, 4, 4.5 and 7.5 on every CPU
     tr = simulate(_with_floor(_drift_by(off)), 2.0, samples=201, engine=engine)
     assert tr.engine == {"scipy": "SciPy DOP853", "python": "loop (Python)"}[engine]
     assert tr.status == "penetrated", tr.message
