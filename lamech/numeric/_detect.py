@@ -101,10 +101,12 @@ def locate(
 ) -> tuple[float, int]:
     """(te, i): the first of the events ``hit`` (indices into the mode's watch list)
     within (t_a, t_b] (for event i in ``brackets``, within that bracket), located on
-    the dense output."""
+    the dense output; (t_b, -1) where each was a contact's impact just applied found
+    again (:func:`._kernels.modes.ev_again`, as the loop drops it)."""
 
     te, ie = t_b, -1
     brackets = brackets or {}
+    kinds, constraints = run.watch
     for i in hit:
         t_from, t_to = brackets.get(int(i), (t_a, t_b))
 
@@ -112,6 +114,8 @@ def locate(
             return run.values(s, dense(s))[i]
 
         r = _root(g, t_from, t_to, t_b)
+        if run.rules.ev_again(kinds[i], constraints[i], r, t_b, run.md[2]):
+            continue
         if r < te or ie < 0:
             te, ie = r, int(i)
     return te, ie

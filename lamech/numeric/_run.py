@@ -81,7 +81,8 @@ def rules(ns: NumericSystem) -> SimpleNamespace:
                  "ev_accumulated", "ev_consistent", "ev_dips", "ev_lock",
                  "ev_crossed", "ev_switch"):  # fmt: skip
         bound[name] = functools.partial(space[name], sy)
-    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth", "dip_time"):
+    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth", "dip_time",
+                 "ev_again"):  # fmt: skip
         bound[name] = space[name]
     out = SimpleNamespace(**bound)
     if len(_RULES) >= 32:

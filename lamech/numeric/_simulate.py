@@ -321,14 +321,13 @@ def _segment(
             crossed[i] = hi < t_b or g_new[i] <= 0  # a dip, or a crossing after the apex
         hit = np.nonzero(crossed)[0]
         switched = switches_crossed(run, t_b, yb)
-        if len(hit) or len(switched):
-            located = locate(run, dense(), hit, t_a, t_b, brackets) if len(hit) else None
-            first = locate_switch(run, dense(), switched, t_a, t_b) if len(switched) else None
-            if first is not None and (located is None or first[0] <= located[0]):
-                _switch(run, rec, at, dense(), first, zeno)
-            else:
-                assert located is not None
-                _event(run, rec, at, dense(), located, zeno)
+        located = locate(run, dense(), hit, t_a, t_b, brackets) if len(hit) else (t_b, -1)
+        first = locate_switch(run, dense(), switched, t_a, t_b) if len(switched) else None
+        if first is not None and (located[1] < 0 or first[0] <= located[0]):
+            _switch(run, rec, at, dense(), first, zeno)
+        elif located[1] >= 0:
+            _event(run, rec, at, dense(), located, zeno)
+        if first is not None or located[1] >= 0:
             watch.step(run, at.t, at.y, t_b - t_a, at.steps)
             return
         _check_penetration(run, t_b, yb)

@@ -6,9 +6,10 @@ The loop keeps the contact and friction mode in arrays: ``kinds`` (3, m) int64 r
 unilateral, holonomic, normal (-1: not friction); ``imode`` (4, m) int64 rows engaged,
 friction state (``FR_*``), contact armed, stick armed; ``fmode`` (5, m) rows sigma (slip
 sign), sN (sign of a bilateral normal), offset (f held while friction sticks), the
-accumulation time of a Zeno sequence's contact (NaN: none) and the
-time of its impact. Each run ends with a status (``ST_*``); each logged event has a kind
-(``EV_*``) and a detail code (``DT_*``) with up to three values.
+accumulation time of a Zeno sequence's contact (NaN: none) and the time of the
+constraint's last impact (NaN: none; a bounce's too). Each run ends with a status
+(``ST_*``); each logged event has a kind (``EV_*``) and a detail code (``DT_*``) with up
+to three values.
 """
 
 from __future__ import annotations

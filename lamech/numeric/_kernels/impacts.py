@@ -83,10 +83,11 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
     disarmed) or, when e = 0 or the bounce is too small to resolve, engages (EV_CONTACT)
     with its friction sticking or slipping through the impact; a Zeno sequence (0 < e <
     1, pressed back onto the surface) logs the bounce, engages, and keeps its
-    accumulation time in fmode[3, j] (the impact's time in fmode[4, j]) for
-    :func:`ev_accumulated`. y's velocities jump in place. (count, 0), or (count,
-    ST_CONTACT) with nothing changed where the simulator must apply it (a singular
-    matrix), or (0, ST_EVENTS). ``md`` the mode, ``lg`` the event record."""
+    accumulation time in fmode[3, j] for :func:`ev_accumulated`; every impact's time
+    goes in fmode[4, j] (for that, and :func:`.modes.ev_again`). y's velocities jump
+    in place. (count, 0), or (count, ST_CONTACT) with nothing changed where the
+    simulator must apply it (a singular matrix), or (0, ST_EVENTS). ``md`` the mode,
+    ``lg`` the event record."""
     kinds, imode, fmode = md
     arm_pos, arm_vel = tl[TL_ARM_POS], tl[TL_ARM_VEL]
     ev_x = lg[4]
@@ -168,6 +169,7 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
             if not all_finite(vb):
                 return nev, ST_CONTACT
             ib = imb[j]
+    fmode[4, j] = t  # its last impact (:func:`.modes.ev_again`, ev_accumulated)
     yb = y.copy()
     yb[n:] = vb
     y[n:] = vp
@@ -212,7 +214,6 @@ def ev_impact(sy, t, y, p, j, md, tl, lg, nev):
         ev_x[nev - 1, 3] = e
     else:
         fmode[3, j] = t + rest
-        fmode[4, j] = t
     for s in range(ns2):
         i = sj2[s]
         nev = ev_log(lg, EV_SLIP, i, t, y, DT_IMPULSE, imp[i], nev)

@@ -64,6 +64,7 @@ from .dop853 import (
 from .impacts import ev_accumulated, ev_bound, ev_impact
 from .kkt import borrowed_record, constraints, energy, rhs_kernel
 from .modes import (
+    ev_again,
     ev_all,
     ev_brent,
     ev_crossed,
@@ -442,6 +443,8 @@ def ev_segment(sy, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
             for i in range(wk.shape[0]):
                 if (g_old[i] > 0.0 and g_new[i] <= 0.0) or upper[i] < t_new:
                     r = ev_brent(sy, i, t, upper[i], dn, p, watch, md, act, tl)
+                    if ev_again(wk[i], watch[1][i], r, t_new, fmode):
+                        continue  # the impact just applied: no event
                     if r < te or ie < 0:
                         te = r
                         ie = i

@@ -313,6 +313,23 @@ def ev_brent(sy, i, xa, xb, dn, p, watch, md, act, tl):
     return xcur
 
 
+def ev_again(kind, j, r, xb, fmode):
+    """Whether the root r (in a step ending at xb) of the watched event (kind, j) is the
+    root of contact j's last impact found again: a contact located at the time of that
+    impact (fmode[4, j]) to the location's tolerance (:func:`ev_brent`'s). It is no new
+    contact: the step begins on the root just applied. A bounce met at the disarmed
+    threshold (f = -arm_pos: the gap still closing after an impact, which a b that is
+    not df/dt makes) leaves the gap on that threshold, its function positive or negative
+    by rounding; where positive, the next step's crossing was located at its start and
+    the impact applied again at the same time, F+ = -e F- back and forth some forty
+    times until the bounce was too small and the contact engaged, below the surface,
+    with status ok. Both loops drop such a root: no event, and the gap below the
+    surface at the step's end is a penetration."""
+    if kind != EV_CONTACT:
+        return False
+    return r - fmode[4, j] <= 1e-15 * max(1.0, abs(xb)) + 4.0 * 2.220446049250313e-16 * abs(r)
+
+
 def ev_log(lg, kind, j, t, y, code, value, nev):
     """Record event (kind, j) at (t, y) in the event record ``lg`` with its detail
     (``code``: DT_*, ``value``); mark the wanted events it is; the new count, or -1 when
