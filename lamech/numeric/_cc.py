@@ -24,7 +24,6 @@ the first found); ``0`` or ``none``: no C (numba compiles the system's functions
 
 from __future__ import annotations
 
-import atexit
 import ctypes
 import hashlib
 import os
@@ -35,7 +34,7 @@ import tempfile
 from pathlib import Path
 
 from ._integrity import digest, mismatch, read_record, replace_durably, say_rebuilt, write_record
-from ._trust import cache_place, file_problem
+from ._trust import cache_place, file_problem, process_dir
 
 __all__ = ["FLAGS", "FUNCTIONS", "compiler", "library_path", "load", "CompileFailed"]
 
@@ -137,25 +136,6 @@ def _build(c_source: str, target: Path) -> None:
         replace_durably(out, target, mode=0o700)
 
 
-_PROCESS_DIR: list[Path] = []  # this process's temporary folder, removed at its exit
-
-
-def _process_dir() -> Path:
-    """A folder of this process's own (``0o700``), for libraries built where the cache
-    cannot keep them; removed when the process ends (not by a forked child's exit)."""
-    if not _PROCESS_DIR:
-        folder = Path(tempfile.mkdtemp(prefix="lamech-c-"))
-        owner = os.getpid()
-
-        def remove() -> None:
-            if os.getpid() == owner:
-                shutil.rmtree(folder, ignore_errors=True)
-
-        atexit.register(remove)
-        _PROCESS_DIR.append(folder)
-    return _PROCESS_DIR[0]
-
-
 def _whole(library: Path, writable: bool) -> bool:
     """Whether ``library`` is there to load as it is; one that is there but damaged or
     not to be trusted (:func:`_damage`) is said on stderr, once, and is a miss."""
@@ -195,7 +175,7 @@ def load(c_source: str, folder: Path) -> tuple[ctypes.CDLL, tuple[int, ...], str
     elif path is not None and place.writable and _built_in_place(c_source, path):
         state = "compiled"
     else:
-        path = library_path(c_source, _process_dir())
+        path = library_path(c_source, process_dir())
         if not path.is_file():
             _build(c_source, path)
         state = "memory"

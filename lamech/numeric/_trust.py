@@ -24,15 +24,27 @@ Nothing here knows numba or the C compiler: :mod:`._cc` and :mod:`._jitcache` as
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import stat
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Place", "cache_place", "file_problem", "folder_problem", "say_once", "user_cache_dir"]
+__all__ = [
+    "Place",
+    "cache_place",
+    "file_problem",
+    "folder_problem",
+    "process_dir",
+    "say_once",
+    "user_cache_dir",
+]
 
 _SAID: set[str] = set()
+_PROCESS_DIR: list[Path] = []  # this process's temporary folder, removed at its exit
 
 
 @dataclass(frozen=True)
@@ -161,3 +173,20 @@ def say_once(text: str) -> None:
         return
     _SAID.add(text)
     print(text, file=sys.stderr, flush=True)
+
+
+def process_dir() -> Path:
+    """A folder of this process's own (``0o700``, under ``$TMPDIR``), for what is
+    compiled where no cache folder keeps it; removed when the process ends (by this
+    process only: a forked child's exit leaves it)."""
+    if not _PROCESS_DIR:
+        folder = Path(tempfile.mkdtemp(prefix="lamech-c-"))
+        owner = os.getpid()
+
+        def remove() -> None:
+            if os.getpid() == owner:
+                shutil.rmtree(folder, ignore_errors=True)
+
+        atexit.register(remove)
+        _PROCESS_DIR.append(folder)
+    return _PROCESS_DIR[0]
