@@ -40,6 +40,7 @@ compiled functions.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import errno
 import functools
@@ -91,10 +92,11 @@ def cache_dir() -> Path:
     return user_cache_dir()
 
 
-def _place() -> Place:
+def _place(make: bool = True) -> Place:
     """The place compiled code is kept this process (:func:`._trust.cache_place` of
-    :func:`cache_dir`): a folder lamech writes in, one shared read-only, or none."""
-    return cache_place(cache_dir())
+    :func:`cache_dir`, made where missing if ``make``): a folder lamech writes in, one
+    shared read-only, or none."""
+    return cache_place(cache_dir(), make)
 
 
 def engine_text() -> str:
@@ -296,6 +298,8 @@ def _on_disk(text: str, name: str) -> dict | None:
             _write(path, text)
         (folder / "__pycache__").mkdir(mode=0o700, exist_ok=True)
         _checked_machine_code(folder, name)
+        if place.writable:
+            _record_at_exit(folder, name)
         return _import(path, name)
     except Exception:  # unwritable, unreadable, full disk, ...: compile in memory
         return None
@@ -337,17 +341,38 @@ def _record_machine_code(folder: Path, name: str) -> None:
     try:
         record = _record_path(folder, name)
         old = read_record(record) or {}
+        since = record.stat().st_mtime_ns if old else 0
         files = {}
         for path in _machine_code(folder, name):
-            os.chmod(path, 0o600)
+            st = path.stat()
+            if st.st_mode & 0o077:
+                os.chmod(path, 0o600)
             known = old.get(path.name)
-            files[path.name] = (
-                known if known and mismatch(path, known, False) is None else digest(path)
-            )
+            same = st.st_mtime_ns <= since and not mismatch(path, known, False)
+            files[path.name] = known if known and same else digest(path)
         if files != old:
             write_record(record, files)
     except OSError:  # a folder that cannot be written: nothing recorded, nothing lost
         pass
+
+
+_AT_EXIT: set[tuple[Path, str]] = set()  # (folder, module) recorded again at exit
+
+
+def _record_at_exit(folder: Path, name: str) -> None:
+    """Record the module ``name``'s files in ``folder`` again when the process ends: numba
+    rewrites a function's index when it compiles a signature it lacked, and the record
+    must follow (else the next process takes the index for a damaged one)."""
+    if not _AT_EXIT:
+        owner = os.getpid()
+
+        def record_all() -> None:
+            if os.getpid() == owner:  # not a forked worker's exit
+                for where, module in _AT_EXIT:
+                    _record_machine_code(where, module)
+
+        atexit.register(record_all)
+    _AT_EXIT.add((folder, name))
 
 
 def _copy_checked(source: Path, target: Path, name: str) -> None:
@@ -903,7 +928,7 @@ def _nbi(name: str, function: str, folder: Path | None = None) -> bool:
     if numba_dir:
         return any(Path(numba_dir).rglob(f"{name}.{function}-*.nbi"))
     if folder is None:
-        folder = _place().path
+        folder = _place(make=False).path
         if folder is None:
             return False
     return any((folder / "__pycache__").glob(f"{name}.{function}-*.nbi"))

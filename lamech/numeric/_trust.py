@@ -130,10 +130,14 @@ def _make(path: Path) -> None:
         os.chmod(folder, 0o700)
 
 
-def _checked(folder: Path) -> tuple[Place | None, str | None]:
-    """(the place ``folder`` gives, or None, and why it is refused, or None)."""
+def _checked(folder: Path, make: bool = True) -> tuple[Place | None, str | None]:
+    """(the place ``folder`` gives, or None, and why it is refused, or None); ``make``:
+    made where missing, else a missing folder gives no place."""
     try:
-        _make(folder)
+        if make:
+            _make(folder)
+        elif not folder.is_dir():
+            return None, None
     except OSError:  # under a file, no permission: no folder here (not a trust problem)
         return None, None
     for path in (folder.parent, folder):  # the root lamech made, then ``kernels``
@@ -143,19 +147,20 @@ def _checked(folder: Path) -> tuple[Place | None, str | None]:
     return Place(folder, _writable(folder)), None
 
 
-def cache_place(folder: Path) -> Place:
+def cache_place(folder: Path, make: bool = True) -> Place:
     """The place to keep compiled code, ``folder`` asked for (made ``0o700`` where
-    missing): ``folder`` itself where the trust rule allows it (writable or shared
-    read-only), else the user's own folder (:func:`user_cache_dir`) where that is a
-    different one and allowed, else ``Place(None, False)``: compile in memory. A refused
-    folder is said once per process, on stderr, with the fix."""
-    place, problem = _checked(folder)
+    missing, if ``make``; a caller that only asks what is there passes False):
+    ``folder`` itself where the trust rule allows it (writable or shared read-only),
+    else the user's own folder (:func:`user_cache_dir`) where that is a different one
+    and allowed, else ``Place(None, False)``: compile in memory. A refused folder is
+    said once per process, on stderr, with the fix."""
+    place, problem = _checked(folder, make)
     if place is not None:
         return place
     if problem is None:
         return Place(None, False)
     own = user_cache_dir()
-    fallback, own_problem = _checked(own) if own != folder else (None, None)
+    fallback, own_problem = _checked(own, make) if own != folder else (None, None)
     instead = f"using {own} instead" if fallback is not None else "compiling in memory"
     say_once(
         f"lamech: not loading compiled code from the cache folder {problem}: anyone who "
