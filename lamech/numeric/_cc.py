@@ -88,7 +88,7 @@ def is_built(c_source: str, folder: Path) -> bool:
     """
     if compiler() is None:
         return False
-    place = cache_place(folder)
+    place = cache_place(folder, make=False)
     if place.path is None:
         return False
     return _damage(library_path(c_source, place.path), hash_it=False) is None

@@ -61,7 +61,15 @@ import numpy as np
 from ..linalg import cholesky_inplace, gauss_inplace
 from ._integrity import digest, mismatch, read_record, say_rebuilt, write_durably, write_record
 from ._kernels import INLINE, PROJECTION_ITERATIONS, STAGES, SYSTEM_FIELDS, kernel_text
-from ._trust import Place, cache_place, file_problem, process_dir, user_cache_dir
+from ._trust import (
+    Place,
+    cache_place,
+    file_problem,
+    folder_problem,
+    process_dir,
+    say_once,
+    user_cache_dir,
+)
 
 __all__ = [
     "cache_dir",
@@ -324,6 +332,10 @@ def _checked_machine_code(folder: Path, name: str) -> None:
     misses and compiles those functions again, as it does where there is no file. A file
     written but not yet recorded (its process still compiling, or ended first) is left
     to numba."""
+    cache = folder / "__pycache__"
+    if folder_problem(cache) is not None:  # numba made it with the umask's mode: ours
+        with contextlib.suppress(OSError):
+            os.chmod(cache, 0o700)
     files = read_record(_record_path(folder, name)) or {}
     for path in _machine_code(folder, name):
         problem = file_problem(path)
@@ -386,6 +398,12 @@ def _copy_checked(source: Path, target: Path, name: str) -> None:
     shutil.copy2(module, target / module.name)
     files = read_record(_record_path(source, name)) or {}
     (target / "__pycache__").mkdir(mode=0o700, exist_ok=True)
+    problem = folder_problem(source / "__pycache__")
+    if not (source / "__pycache__").is_dir():
+        return
+    if problem is not None:  # none of it copied: numba compiles it in ``target``
+        say_once(f"lamech: not loading compiled code from {source / '__pycache__'}: it {problem}")
+        return
     for path in _machine_code(source, name):
         problem = file_problem(path) or mismatch(path, files.get(path.name))
         if problem is not None:
