@@ -30,8 +30,13 @@ Two processes may write the same file at once (a sweep's workers): a file is wri
 under a temporary name and renamed into place (atomic), and both write the same text.
 The loop itself is compiled by one process at a time (:func:`compile_lock`): another
 that needs it meanwhile waits, then loads it.
-Where the directory cannot be created or written, the modules run from memory (``exec``)
-and numba compiles them in this process only, silently.
+The folder is code: it is used only where the trust rule allows (:mod:`._trust`: no one
+else can write it), and numba's files are checked against the sizes and hashes recorded
+when they were written before numba reads them (:mod:`._integrity`): a damaged one is
+removed, said, and compiled again. A shared read-only folder (an administrator's) is
+loaded from: its files are checked and copied into the process's temporary folder, as
+numba keeps its cache only where it can write. Where no folder can be used, the modules
+run from memory (``exec``) and numba compiles them in this process only, silently.
 
 Within one process, the same text is compiled once (:data:`_LOADED`, :data:`_ENGINE`):
 compiling a system again (the same problem with other parameter values) reuses its
