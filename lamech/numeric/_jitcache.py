@@ -682,14 +682,41 @@ def _cache_state(cfuncs: list) -> str:
     return "loaded" if hits == len(cfuncs) else "compiled"
 
 
+_CHECKED_ENTRIES: set[tuple[str, str]] = set()  # (engine's file, entry point)
+
+
+def _checked_entry(engine: dict, entry: str) -> None:
+    """Check the machine code of the engine's entry point ``entry`` against the SHA-256
+    recorded (:func:`_record_machine_code`) just before numba loads it, once per process:
+    :func:`_checked_machine_code` checks every file's size before numba sees the module,
+    but hashes only the (small) indexes; the entry point a run loads is 1-3 MB, hashed
+    here in 1-3 ms. Damaged: its files removed, said, and numba compiles it again."""
+    where = engine.get("__file__")
+    if where is None or (where, entry) in _CHECKED_ENTRIES:
+        return
+    _CHECKED_ENTRIES.add((where, entry))
+    folder, name = Path(where).parent, engine["__name__"]
+    files = read_record(_record_path(folder, name)) or {}
+    cache = folder / "__pycache__"
+    for path in sorted(cache.glob(f"{name}.{entry}-*.nbc")):
+        problem = mismatch(path, files[path.name]) if path.name in files else None
+        if problem is not None:
+            say_rebuilt(path, problem, "compiling it again")
+            for stale in cache.glob(f"{name}.{entry}-*"):
+                with contextlib.suppress(OSError):
+                    stale.unlink()
+
+
 def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
     """The functions callers use, the system record bound to the engine's."""
 
-    def bound(f):
+    def bound(k):
+        f = engine[k]
         first = [True]
 
         def call(*args):
             if first[0]:  # compiled or loaded now: numba's notices silenced (see above)
+                _checked_entry(engine, k)
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     out = f(sy, *args)
@@ -701,7 +728,7 @@ def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
         call.engine_function = f
         return call
 
-    out = {k: bound(engine[k]) for k in (
+    out = {k: bound(k) for k in (
         "kkt_solve", "rhs_kernel", "accelerations", "batch_run", "batch_run_serial", "ev_run",
         "ev_starts", "ev_segment",
     )}  # fmt: skip
