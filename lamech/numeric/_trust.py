@@ -182,9 +182,13 @@ def say_once(text: str) -> None:
 
 def process_dir() -> Path:
     """A folder of this process's own (``0o700``, under ``$TMPDIR``), for what is
-    compiled where no cache folder keeps it; removed when the process ends (by this
-    process only: a forked child's exit leaves it)."""
+    compiled where no cache folder keeps it (or copied from a read-only one); removed
+    when the process ends, by this process only (a forked child's exit leaves it).
+    multiprocessing's finalizers run at the end of the main process (at exit) and of a
+    sweep's worker, which ends by ``os._exit`` (no ``atexit`` there)."""
     if not _PROCESS_DIR:
+        from multiprocessing import util
+
         folder = Path(tempfile.mkdtemp(prefix="lamech-c-"))
         owner = os.getpid()
 
@@ -192,6 +196,7 @@ def process_dir() -> Path:
             if os.getpid() == owner:
                 shutil.rmtree(folder, ignore_errors=True)
 
-        atexit.register(remove)
+        util.Finalize(None, remove, exitpriority=0)
+        atexit.register(remove)  # where multiprocessing's own exit hook is not reached
         _PROCESS_DIR.append(folder)
     return _PROCESS_DIR[0]
