@@ -50,7 +50,8 @@ def _cylinder_c() -> str:
 def _energy(lib) -> float:
     """The cylinder's c_energy at one state: the library works."""
     out = np.zeros(2)
-    q, v, p = np.array([1.5, 0.2, 0.3]), np.array([0.0, 0.1, 0.2]), np.ones(8)
+    # r, theta1, theta2 and their rates; m, g, R1, R2
+    q, v, p = np.array([1.5, 0.2, 0.3]), np.array([0.0, 0.1, 0.2]), np.ones(4)
     f = lib.c_energy
     f.restype = None
     f(ctypes.c_double(0.0), *(ctypes.c_void_p(a.ctypes.data) for a in (q, v, p, out)))
