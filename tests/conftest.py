@@ -248,6 +248,9 @@ def compiled_loop_in(shared_cache_dir):
         (target / "__pycache__").mkdir(parents=True, exist_ok=True)
         # copy2 keeps the times: numba checks its index against the source's stamp
         shutil.copy2(source / f"{name}.py", target / f"{name}.py")
+        record = source / f"{name}.files.json"  # the sizes and hashes lamech checks
+        if record.is_file():
+            shutil.copy2(record, target / record.name)
         for path in (source / "__pycache__").glob(f"{name}.*"):
             shutil.copy2(path, target / "__pycache__" / path.name)
 

@@ -634,25 +634,45 @@ def test_ctrl_c_where_no_command_handles_it_is_one_line_and_130(monkeypatch, cap
     assert (out, err) == ("", "lamech: interrupted\n")
 
 
+# ``python -m lamech`` as run by ``-m`` (runpy, sys.argv the command's), with an import
+# hook that stops the import of SymPy until the test's signal comes: the signal lands
+# while lamech is starting up, whatever the machine's speed (a fixed sleep before the
+# signal once let a fast machine finish starting and interrupt the solve instead)
+PAUSED_AT_SYMPY = """
+import importlib.abc, runpy, sys, time
+
+class PauseAtSympy(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name == "sympy":
+            sys.meta_path.remove(self)
+            print("importing sympy", file=sys.stderr, flush=True)
+            time.sleep(120)  # until the signal
+        return None
+
+sys.meta_path.insert(0, PauseAtSympy())
+sys.argv = ["lamech", *sys.argv[1:]]
+runpy.run_module("lamech", run_name="__main__", alter_sys=True)
+"""
+
+
 def test_ctrl_c_during_start_up_of_the_real_command():
     import signal
-    import time
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "lamech", "solve", "cylinder"],
+        [sys.executable, "-c", PAUSED_AT_SYMPY, "solve", "cylinder"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
-    time.sleep(0.5)  # importing SymPy
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=120)
+    try:
+        assert proc.stderr.readline() == "importing sympy\n"  # lamech is starting up
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
     assert "Traceback" not in err
-    # 130 from lamech; -SIGINT if the signal came before Python's handler was set
-    assert proc.returncode in (130, -signal.SIGINT), (proc.returncode, err)
-    if proc.returncode == 130:
-        assert err.endswith("lamech: interrupted\n")
+    assert (proc.returncode, out, err) == (130, "", "lamech: interrupted\n")
 
 
 @pytest.mark.slow

@@ -33,6 +33,9 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from ._integrity import digest, mismatch, read_record, replace_durably, say_rebuilt, write_record
+from ._trust import cache_place, file_problem, process_dir
+
 __all__ = ["FLAGS", "FUNCTIONS", "compiler", "library_path", "load", "CompileFailed"]
 
 FUNCTIONS = (
@@ -80,56 +83,107 @@ def library_path(c_source: str, folder: Path) -> Path:
 
 
 def is_built(c_source: str, folder: Path) -> bool:
-    """Whether the library of ``c_source`` is in ``folder`` (and a compiler is in use)."""
-    return compiler() is not None and library_path(c_source, folder).is_file()
+    """Whether the library of ``c_source`` is in the place ``folder`` gives
+    (:func:`._trust.cache_place`), whole by its recorded size (and a compiler is in use).
+    """
+    if compiler() is None:
+        return False
+    place = cache_place(folder, make=False)
+    if place.path is None:
+        return False
+    return _damage(library_path(c_source, place.path), hash_it=False) is None
+
+
+def record_path(library: Path) -> Path:
+    """The record of ``library``'s size and SHA-256 (:mod:`._integrity`), beside it."""
+    return library.with_suffix(".json")
+
+
+def _damage(library: Path, hash_it: bool = True) -> str | None:
+    """Why ``library`` may not be loaded (None: it may): missing, not to be trusted
+    (:func:`._trust.file_problem`), or not what its record says was written."""
+    problem = file_problem(library)
+    if problem is not None:
+        return problem
+    files = read_record(record_path(library))
+    return mismatch(library, None if files is None else files.get(library.name), hash_it)
 
 
 def _build(c_source: str, target: Path) -> None:
-    """Compile ``c_source`` into the shared library ``target`` (written under another
-    name and renamed into place: two processes may build it at once)."""
+    """Compile ``c_source`` into the shared library ``target`` (built in a private folder
+    beside it, its record written, then the library renamed into place once on the disk:
+    two processes may build it at once, and a crash leaves no library cut short)."""
     command = compiler()
     if command is None:
         raise CompileFailed("no C compiler")
-    target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent, prefix=".build-") as tmp:
-        src, out = Path(tmp) / "system.c", Path(tmp) / target.name
-        src.write_text(c_source, encoding="utf-8")
-        try:
+        (Path(tmp) / "system.c").write_text(c_source, encoding="utf-8")
+        try:  # names relative to the build folder: the same bytes from every build
             done = subprocess.run(
-                [*command, *FLAGS, "-o", str(out), str(src), "-lm"],
+                [*command, *FLAGS, "-o", target.name, "system.c", "-lm"],
                 capture_output=True,
                 text=True,
                 timeout=600,
                 check=False,
+                cwd=tmp,
             )
         except (OSError, subprocess.SubprocessError) as exc:
             raise CompileFailed(str(exc)) from exc
+        out = Path(tmp) / target.name
         if done.returncode != 0 or not out.is_file():
             raise CompileFailed(done.stderr[-2000:])
-        os.replace(out, target)
+        write_record(record_path(target), {target.name: digest(out)})
+        replace_durably(out, target, mode=0o700)
+
+
+def _whole(library: Path, writable: bool) -> bool:
+    """Whether ``library`` is there to load as it is; one that is there but damaged or
+    not to be trusted (:func:`_damage`) is said on stderr, once, and is a miss."""
+    if not (library.exists() or library.is_symlink()):
+        return False
+    problem = _damage(library)
+    if problem is None:
+        return True
+    say_rebuilt(
+        library, problem, "building it again" if writable else "building it for this process"
+    )
+    return False
+
+
+def _built_in_place(c_source: str, library: Path) -> bool:
+    """Build ``library`` in the cache folder; False where the folder cannot be written
+    after all (a full disk, a read-only mount): the caller builds it elsewhere."""
+    try:
+        _build(c_source, library)
+    except OSError:
+        return False
+    return True
 
 
 def load(c_source: str, folder: Path) -> tuple[ctypes.CDLL, tuple[int, ...], str]:
     """(the library, the addresses of :data:`FUNCTIONS`, "loaded" or "compiled" or
-    "memory") of ``c_source``: from ``folder`` where it was built before, else built
-    there now, else (the folder not writable) built in a temporary folder and loaded
-    from there. Raises :class:`CompileFailed`."""
-    path = library_path(c_source, folder)
-    state = "loaded"
-    if not path.is_file():
-        try:
+    "memory") of ``c_source``: from the place ``folder`` gives
+    (:func:`._trust.cache_place`: ``folder`` where it may be trusted, shared read-only
+    included) where it was built before, whole (:func:`_damage`); else built there now
+    (a damaged one said on stderr and built again); else (no place, a read-only one
+    without it, a folder that cannot be written) built in this process's temporary
+    folder and loaded from there. Raises :class:`CompileFailed`."""
+    place = cache_place(folder)
+    path = None if place.path is None else library_path(c_source, place.path)
+    if path is not None and _whole(path, place.writable):
+        state = "loaded"
+    elif path is not None and place.writable and _built_in_place(c_source, path):
+        state = "compiled"
+    else:
+        path = library_path(c_source, process_dir())
+        if not path.is_file():
             _build(c_source, path)
-            state = "compiled"
-        except OSError:  # the folder cannot be written: build it in a private folder
-            # of this process's (never a shared one, where another user could plant it)
-            path = library_path(c_source, Path(tempfile.mkdtemp(prefix="lamech-c-")))
-            _build(c_source, path)
-            state = "memory"
+        state = "memory"
     lib = _LIBRARIES.get(str(path))
     if lib is None:
         try:
             lib = ctypes.CDLL(str(path))
-        except OSError as exc:  # a damaged file in the cache: build it again
+        except OSError as exc:  # not a library this machine can load
             raise CompileFailed(str(exc)) from exc
         _LIBRARIES[str(path)] = lib
     addresses = tuple(ctypes.cast(getattr(lib, f), ctypes.c_void_p).value or 0 for f in FUNCTIONS)

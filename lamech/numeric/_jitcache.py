@@ -30,8 +30,13 @@ Two processes may write the same file at once (a sweep's workers): a file is wri
 under a temporary name and renamed into place (atomic), and both write the same text.
 The loop itself is compiled by one process at a time (:func:`compile_lock`): another
 that needs it meanwhile waits, then loads it.
-Where the directory cannot be created or written, the modules run from memory (``exec``)
-and numba compiles them in this process only, silently.
+The folder is code: it is used only where the trust rule allows (:mod:`._trust`: no one
+else can write it), and numba's files are checked against the sizes and hashes recorded
+when they were written before numba reads them (:mod:`._integrity`): a damaged one is
+removed, said, and compiled again. A shared read-only folder (an administrator's) is
+loaded from: its files are checked and copied into the process's temporary folder, as
+numba keeps its cache only where it can write. Where no folder can be used, the modules
+run from memory (``exec``) and numba compiles them in this process only, silently.
 
 Within one process, the same text is compiled once (:data:`_LOADED`, :data:`_ENGINE`):
 compiling a system again (the same problem with other parameter values) reuses its
@@ -40,6 +45,7 @@ compiled functions.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import errno
 import functools
@@ -47,9 +53,9 @@ import hashlib
 import importlib.util
 import inspect
 import os
+import shutil
 import struct
 import sys
-import tempfile
 import threading
 import time
 import warnings
@@ -58,7 +64,17 @@ from pathlib import Path
 import numpy as np
 
 from ..linalg import cholesky_inplace, gauss_inplace
+from ._integrity import digest, mismatch, read_record, say_rebuilt, write_durably, write_record
 from ._kernels import INLINE, PROJECTION_ITERATIONS, STAGES, SYSTEM_FIELDS, kernel_text
+from ._trust import (
+    Place,
+    cache_place,
+    file_problem,
+    folder_problem,
+    process_dir,
+    say_once,
+    user_cache_dir,
+)
 
 __all__ = [
     "cache_dir",
@@ -81,13 +97,19 @@ CACHE_ENV = "LAMECH_CACHE_DIR"
 
 def cache_dir() -> Path:
     """Where compiled systems are kept: ``$LAMECH_CACHE_DIR``, else
-    ``$XDG_CACHE_HOME/lamech``, else ``~/.cache/lamech`` (the ``kernels`` folder in it)."""
+    ``$XDG_CACHE_HOME/lamech``, else ``~/.cache/lamech`` (the ``kernels`` folder in it),
+    where the trust rule allows it (:func:`._trust.cache_place`, :func:`_place`)."""
     env = os.environ.get(CACHE_ENV)
     if env:
         return Path(env).expanduser() / "kernels"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg).expanduser() if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
-    return base / "lamech" / "kernels"
+    return user_cache_dir()
+
+
+def _place(make: bool = True) -> Place:
+    """The place compiled code is kept this process (:func:`._trust.cache_place` of
+    :func:`cache_dir`, made where missing if ``make``): a folder lamech writes in, one
+    shared read-only, or none."""
+    return cache_place(cache_dir(), make)
 
 
 def engine_text() -> str:
@@ -250,20 +272,10 @@ def module_key(text: str, prefix: str = "lamech_") -> str:
 
 
 def _write(path: Path, text: str) -> None:
-    """``text`` to ``path`` atomically (a temporary file in the same folder, renamed):
-    a reader sees the whole file or none, and two writers of the same text both win."""
-    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the user's own: it is run
-    fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """``text`` to ``path`` atomically and durably (:func:`._integrity.write_durably`,
+    mode ``0o600``): a reader sees the whole file or none, and two writers of the same
+    text both win."""
+    write_durably(path, text.encode("utf-8"))
 
 
 def _import(path: Path, name: str) -> dict:
@@ -282,17 +294,127 @@ def _import(path: Path, name: str) -> dict:
 
 
 def _on_disk(text: str, name: str) -> dict | None:
-    """The module's namespace imported from its file in :func:`cache_dir` (written first
-    if missing), or None where the cache cannot be used."""
+    """The module's namespace imported from its file in the cache folder (:func:`_place`;
+    written first if missing), numba's files for it checked first
+    (:func:`_checked_machine_code`); from a shared read-only folder, the module and its
+    files copied into this process's temporary folder (numba keeps its cache only in a
+    folder it can write); None where there is no cache folder to use."""
     try:
-        path = cache_dir() / f"{name}.py"
-        if not (path.is_file() and path.read_text(encoding="utf-8") == text):
-            _write(path, text)
-        if not os.access(path.parent, os.W_OK):  # numba's cache would go elsewhere
+        place = _place()
+        if place.path is None:
             return None
+        folder = place.path if place.writable else process_dir()
+        path = folder / f"{name}.py"
+        if not place.writable:
+            _copy_checked(place.path, folder, name)
+        if not (file_problem(path) is None and path.read_text(encoding="utf-8") == text):
+            _write(path, text)
+        (folder / "__pycache__").mkdir(mode=0o700, exist_ok=True)
+        _checked_machine_code(folder, name)
+        if place.writable:
+            _record_at_exit(folder, name)
         return _import(path, name)
     except Exception:  # unwritable, unreadable, full disk, ...: compile in memory
         return None
+
+
+def _record_path(folder: Path, name: str) -> Path:
+    """The record (:mod:`._integrity`) of the files numba keeps for the module ``name``."""
+    return folder / f"{name}.files.json"
+
+
+def _machine_code(folder: Path, name: str) -> list[Path]:
+    """The files numba (and Python) keep for the module ``name`` in ``folder``: its
+    functions' indexes and machine code, its bytecode; not one still being written."""
+    cache = folder / "__pycache__"
+    return sorted(p for p in cache.glob(f"{name}.*") if ".tmp" not in p.name)
+
+
+def _checked_machine_code(folder: Path, name: str) -> None:
+    """Remove (saying so, one line each) the files of the module ``name`` in ``folder``
+    that are damaged (not the size recorded when they were written; an index, small, not
+    the bytes either) or not to be trusted (:func:`._trust.file_problem`): numba then
+    misses and compiles those functions again, as it does where there is no file. A file
+    written but not yet recorded (its process still compiling, or ended first) is left
+    to numba."""
+    cache = folder / "__pycache__"
+    if folder_problem(cache) is not None:  # numba made it with the umask's mode: ours
+        with contextlib.suppress(OSError):
+            os.chmod(cache, 0o700)
+    files = read_record(_record_path(folder, name)) or {}
+    for path in _machine_code(folder, name):
+        problem = file_problem(path)
+        if problem is None and path.name in files:
+            problem = mismatch(path, files[path.name], hash_it=path.suffix == ".nbi")
+        if problem is not None:
+            say_rebuilt(path, problem, "compiling it again")
+            path.unlink()
+
+
+def _record_machine_code(folder: Path, name: str) -> None:
+    """Record the size and SHA-256 of every file numba (and Python) now keeps for the
+    module ``name`` in ``folder``, each made ``0o600`` (numba writes them with the
+    umask's mode); the files recorded before and unchanged are not read again."""
+    try:
+        record = _record_path(folder, name)
+        old = read_record(record) or {}
+        since = record.stat().st_mtime_ns if old else 0
+        files = {}
+        for path in _machine_code(folder, name):
+            st = path.stat()
+            if st.st_mode & 0o077:
+                os.chmod(path, 0o600)
+            known = old.get(path.name)
+            same = st.st_mtime_ns <= since and not mismatch(path, known, False)
+            files[path.name] = known if known and same else digest(path)
+        if files != old:
+            write_record(record, files)
+    except OSError:  # a folder that cannot be written: nothing recorded, nothing lost
+        pass
+
+
+_AT_EXIT: set[tuple[Path, str]] = set()  # (folder, module) recorded again at exit
+
+
+def _record_at_exit(folder: Path, name: str) -> None:
+    """Record the module ``name``'s files in ``folder`` again when the process ends: numba
+    rewrites a function's index when it compiles a signature it lacked, and the record
+    must follow (else the next process takes the index for a damaged one)."""
+    if not _AT_EXIT:
+        owner = os.getpid()
+
+        def record_all() -> None:
+            if os.getpid() == owner:  # not a forked worker's exit
+                for where, module in _AT_EXIT:
+                    _record_machine_code(where, module)
+
+        atexit.register(record_all)
+    _AT_EXIT.add((folder, name))
+
+
+def _copy_checked(source: Path, target: Path, name: str) -> None:
+    """Copy the module ``name`` and numba's files for it from the shared read-only
+    folder ``source`` into ``target`` (times kept: numba checks the module's), each
+    checked against the record (size and SHA-256, read once as it is copied) and to be
+    trusted; a damaged one is left behind, said (numba compiles it in ``target``)."""
+    module = source / f"{name}.py"
+    if file_problem(module) is not None or (target / module.name).exists():
+        return
+    shutil.copy2(module, target / module.name)
+    files = read_record(_record_path(source, name)) or {}
+    (target / "__pycache__").mkdir(mode=0o700, exist_ok=True)
+    problem = folder_problem(source / "__pycache__")
+    if not (source / "__pycache__").is_dir():
+        return
+    if problem is not None:  # none of it copied: numba compiles it in ``target``
+        say_once(f"lamech: not loading compiled code from {source / '__pycache__'}: it {problem}")
+        return
+    for path in _machine_code(source, name):
+        problem = file_problem(path) or mismatch(path, files.get(path.name))
+        if problem is not None:
+            say_rebuilt(path, problem, "compiling it for this process")
+            continue
+        shutil.copy2(path, target / "__pycache__" / path.name)
 
 
 class Kernels:
@@ -560,14 +682,41 @@ def _cache_state(cfuncs: list) -> str:
     return "loaded" if hits == len(cfuncs) else "compiled"
 
 
+_CHECKED_ENTRIES: set[tuple[str, str]] = set()  # (engine's file, entry point)
+
+
+def _checked_entry(engine: dict, entry: str) -> None:
+    """Check the machine code of the engine's entry point ``entry`` against the SHA-256
+    recorded (:func:`_record_machine_code`) just before numba loads it, once per process:
+    :func:`_checked_machine_code` checks every file's size before numba sees the module,
+    but hashes only the (small) indexes; the entry point a run loads is 1-3 MB, hashed
+    here in 1-3 ms. Damaged: its files removed, said, and numba compiles it again."""
+    where = engine.get("__file__")
+    if where is None or (where, entry) in _CHECKED_ENTRIES:
+        return
+    _CHECKED_ENTRIES.add((where, entry))
+    folder, name = Path(where).parent, engine["__name__"]
+    files = read_record(_record_path(folder, name)) or {}
+    cache = folder / "__pycache__"
+    for path in sorted(cache.glob(f"{name}.{entry}-*.nbc")):
+        problem = mismatch(path, files[path.name]) if path.name in files else None
+        if problem is not None:
+            say_rebuilt(path, problem, "compiling it again")
+            for stale in cache.glob(f"{name}.{entry}-*"):
+                with contextlib.suppress(OSError):
+                    stale.unlink()
+
+
 def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
     """The functions callers use, the system record bound to the engine's."""
 
-    def bound(f):
+    def bound(k):
+        f = engine[k]
         first = [True]
 
         def call(*args):
             if first[0]:  # compiled or loaded now: numba's notices silenced (see above)
+                _checked_entry(engine, k)
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     out = f(sy, *args)
@@ -579,7 +728,7 @@ def _bind(engine: dict, sy: tuple, namespace: dict) -> dict:
         call.engine_function = f
         return call
 
-    out = {k: bound(engine[k]) for k in (
+    out = {k: bound(k) for k in (
         "kkt_solve", "rhs_kernel", "accelerations", "batch_run", "batch_run_serial", "ev_run",
         "ev_starts", "ev_segment",
     )}  # fmt: skip
@@ -656,24 +805,30 @@ COMPILE_WAIT = 1200.0
 
 
 @contextlib.contextmanager
-def compile_lock(name: str, wait: float | None = None):
-    """Held while this process compiles the loop into the cache folder, so that another
-    process needing it meanwhile (a sweep's workers on a new machine, two terminals)
-    waits and then loads it, instead of compiling it too (2.5 minutes of CPU and about
-    0.5 GB each). The operating system releases the lock of a process that dies. After
-    ``wait`` seconds (default :data:`COMPILE_WAIT`: a process stopped mid-compile), or
-    where there is no ``fcntl`` (Windows) or no lock file can be made, no lock: both
-    compile, each writing the same files, as numba's cache allows."""
+def compile_lock(name: str, wait: float | None = None, folder: Path | None = None):
+    """Held while this process compiles the loop into the cache folder (``folder``,
+    default :func:`cache_dir`), so that another process needing it meanwhile (a sweep's
+    workers on a new machine, two terminals) waits and then loads it, instead of
+    compiling it too (2.5 minutes of CPU and about 0.5 GB each). The holder writes its
+    process id in the lock file; a process that waits says so on stderr, once: for which
+    process, and how not to wait (:func:`_say_waiting`). The operating system releases
+    the lock of a process that dies. After ``wait`` seconds (default
+    :data:`COMPILE_WAIT`: a process stopped mid-compile), or where there is no ``fcntl``
+    (Windows) or no lock file can be made, no lock: both compile, each writing the same
+    files, as numba's cache allows."""
+    path = (cache_dir() if folder is None else folder) / f"{name}.lock"
     try:
         import fcntl
 
-        handle = open(cache_dir() / f"{name}.lock", "a")  # noqa: SIM115 (held below)
+        handle = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o600), "r+")
     except (ImportError, OSError):
         yield
         return
     held = False
     try:
-        deadline = time.monotonic() + (COMPILE_WAIT if wait is None else wait)
+        limit = COMPILE_WAIT if wait is None else wait
+        deadline = time.monotonic() + limit
+        said = False
         while True:
             try:
                 fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -685,7 +840,16 @@ def compile_lock(name: str, wait: float | None = None):
                     break
                 if time.monotonic() > deadline:
                     break
+                if not said:
+                    _say_waiting(path, handle, limit)
+                    said = True
                 time.sleep(0.25)
+        if held:
+            with contextlib.suppress(OSError):  # who holds it, for those who wait
+                handle.seek(0)
+                handle.truncate()
+                handle.write(f"{os.getpid()}\n")
+                handle.flush()
         yield
     finally:
         if held:
@@ -693,23 +857,45 @@ def compile_lock(name: str, wait: float | None = None):
         handle.close()
 
 
+def _say_waiting(lock: Path, handle, limit: float) -> None:
+    """One line on stderr: this process waits for the one holding ``lock`` (its id as it
+    wrote it in the file, where it did), how long at most, and how not to wait."""
+    try:
+        handle.seek(0)
+        pid = handle.read(32).strip()
+    except (OSError, ValueError):
+        pid = ""
+    who = f"process {pid}" if pid.isdigit() else "another process"
+    print(
+        f"lamech: waiting for {who} to finish compiling the loop into {lock.parent} (it "
+        f"holds {lock.name}; at most {limit / 60:.0f} min), then loading it; not to wait: "
+        "--engine scipy, or LAMECH_CACHE_DIR set to another folder (which compiles the "
+        "loop again there)",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
 def _precompile(engine: dict, sy: tuple) -> None:
     """Compile (or load) every entry point of the engine not yet in the cache on disk:
     the loop is compiled once per machine, whichever of simulate, a sweep or the batch
-    loop runs first, and by one process at a time (:func:`compile_lock`). Types only:
-    nothing runs."""
+    loop runs first, and by one process at a time (:func:`compile_lock`); what numba
+    wrote is then recorded (:func:`_record_machine_code`). Types only: nothing runs."""
     import numba
 
-    name = engine["__name__"]
+    if "__file__" not in engine:  # compiled in memory: no cache to fill
+        return
+    name, folder = engine["__name__"], Path(engine["__file__"]).parent
     entries = _entry_arguments(sy)
     assert tuple(entries) == ENTRY_POINTS
-    if all(_nbi(name, entry) for entry in entries):
+    if all(_nbi(name, entry, folder) for entry in entries):
         return
-    with compile_lock(name), warnings.catch_warnings():
+    with compile_lock(name, folder=folder), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for entry, args in entries.items():
-            if not _nbi(name, entry):  # another process may have compiled it meanwhile
+            if not _nbi(name, entry, folder):  # another process may have compiled it
                 engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
+        _record_machine_code(folder, name)
 
 
 def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "", slots=()) -> Kernels:
@@ -743,6 +929,8 @@ def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "", s
             try:
                 _jit_system(namespace, cache=True)
                 state = _cache_state([namespace[c] for c, _, _ in _CFUNCS])
+                if path is not None:
+                    _record_machine_code(path.parent, name)
             except Exception:  # numba could not use the cache: compile in memory
                 sys.modules.pop(name, None)
                 namespace = None
@@ -776,17 +964,24 @@ def _c_kernels(engine: dict, c_source: str, pattern, diagonal: bool, slots) -> K
     sy = _record(addresses, pattern, diagonal, True, slots)
     if state != "memory":  # a cache on disk: the whole engine, once per machine
         _precompile(engine, sy)
-    path = _cc.library_path(c_source, folder) if state != "memory" else None
+    place = _place().path
+    path = _cc.library_path(c_source, place) if state != "memory" and place else None
     kernels = Kernels(_bind(engine, sy, {"dynamics": None, "constraints": None}), sy, state, path)
     kernels.namespace = {"library": lib}  # keeps it loaded
     return kernels
 
 
-def _nbi(name: str, function: str) -> bool:
+def _nbi(name: str, function: str, folder: Path | None = None) -> bool:
+    """Whether numba's index of the module ``name``'s ``function`` is on disk, in
+    ``folder``'s ``__pycache__`` (default: the cache folder's, :func:`_place`)."""
     numba_dir = os.environ.get("NUMBA_CACHE_DIR")
     if numba_dir:
         return any(Path(numba_dir).rglob(f"{name}.{function}-*.nbi"))
-    return any((cache_dir() / "__pycache__").glob(f"{name}.{function}-*.nbi"))
+    if folder is None:
+        folder = _place(make=False).path
+        if folder is None:
+            return False
+    return any((folder / "__pycache__").glob(f"{name}.{function}-*.nbi"))
 
 
 def engine_is_cached(function: str = "ev_segment") -> bool:
