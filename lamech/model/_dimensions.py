@@ -1,0 +1,439 @@
+"""Dimensions inferred and checked (issue 46): where a problem gives any quantity a unit,
+the dimension of every parameter, coordinate and velocity that has none is inferred from
+where it appears, and every rule of dimensional homogeneity is checked.
+
+The rules (each an equation between the dimensions of two expressions):
+
+* every term of a sum, both sides of a comparison, the arguments of ``min``, ``max``,
+  ``atan2`` and the values of a ``piecewise`` have one dimension;
+* the arguments of sin, cos, tan, their inverses, sinh, cosh, tanh, exp and log are
+  dimensionless (an angle in radians is), and so is a symbolic exponent;
+* V has the dimension of energy and T the dimension of V (T alone: energy);
+* a body's position and a force's point are lengths, its mass a mass, its inertia a mass
+  times a length squared, gravity an acceleration;
+* a generalized force on x has the dimension of energy over x's, a coefficient of
+  friction and of restitution is dimensionless;
+* a parameter given as an expression has that expression's dimension; t is a time, and a
+  velocity x' the dimension of x over a time.
+
+Numbers are dimensionless in products and fit any dimension in a sum (``x^2 + y^2 - 1``
+with x in metres reads the 1 as 1 m^2, as Modelica reads a literal). The equations are
+solved by propagation, in the order of the list above from the most trusted (the
+constraints, V, the bodies) to T and the forces: an equation with one unknown dimension
+left gives it; one with none left is checked, and a conflict is reported with where it
+is, both dimensions and the probable mistake. A dimension found with a fractional power
+(a coordinate of dimension M^(1/2)*L, what T = x'^2/2 with energy would give x) is
+reported as a conflict too. The result, :class:`Units`, gives each multiplier's unit:
+energy over the unit of its f (N for f in metres, N*m for f in radians, N/m for f in m^2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import TYPE_CHECKING
+
+import sympy as sp
+
+from ..expr import Table
+from ..expr._units import (
+    DIMENSIONLESS,
+    ENERGY,
+    LENGTH,
+    MASS,
+    TIME,
+    Dimension,
+)
+from ._base import ModelError
+
+if TYPE_CHECKING:
+    from ._system import System
+
+__all__ = ["Units", "infer_units"]
+
+ACCELERATION = LENGTH / TIME**2
+_DIMENSIONLESS_ARGUMENT = (
+    sp.sin, sp.cos, sp.tan, sp.cot, sp.asin, sp.acos, sp.atan, sp.sinh, sp.cosh,
+    sp.tanh, sp.exp, sp.log,
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Units:
+    """A system's dimensions, where its file uses units: by name, those of its parameters,
+    coordinates (``x``) and velocities (``x'``) and ``t`` that are known (given or
+    inferred), each constraint's multiplier and Cartesian force (by constraint name).
+    A name missing had its dimension undetermined (it appears nowhere that fixes it)."""
+
+    symbols: tuple[tuple[str, Dimension], ...] = ()
+    multipliers: tuple[tuple[str, Dimension], ...] = ()
+    forces: tuple[tuple[str, Dimension], ...] = ()
+
+    def of(self, name: str) -> Dimension | None:
+        return dict(self.symbols).get(name)
+
+    def multiplier(self, constraint: str) -> Dimension | None:
+        return dict(self.multipliers).get(constraint)
+
+    def force(self, constraint: str) -> Dimension | None:
+        return dict(self.forces).get(constraint)
+
+
+# ----- dimensions linear in the unknown ones ----------------------------------------
+@dataclass(frozen=True)
+class _Lin:
+    """const * prod(dim(s)^p for s, p in unknown): an expression's dimension."""
+
+    const: Dimension = DIMENSIONLESS
+    unknown: tuple[tuple[sp.Symbol, Fraction], ...] = ()
+
+    @staticmethod
+    def of(const: Dimension, unknown: Mapping[sp.Symbol, Fraction] | None = None) -> _Lin:
+        kept = {s: p for s, p in (unknown or {}).items() if p != 0}
+        return _Lin(const, tuple(sorted(kept.items(), key=lambda kv: kv[0].name)))
+
+    def __mul__(self, other: _Lin) -> _Lin:
+        u = dict(self.unknown)
+        for s, p in other.unknown:
+            u[s] = u.get(s, Fraction(0)) + p
+        return _Lin.of(self.const * other.const, u)
+
+    def __pow__(self, p: Fraction) -> _Lin:
+        return _Lin.of(self.const**p, {s: q * p for s, q in self.unknown})
+
+    def __truediv__(self, other: _Lin) -> _Lin:
+        return self * other ** Fraction(-1)
+
+    def known(self, dims: Mapping[sp.Symbol, Dimension]) -> _Lin:
+        c, u = self.const, {}
+        for s, p in self.unknown:
+            if s in dims:
+                c = c * dims[s] ** p
+            else:
+                u[s] = p
+        return _Lin.of(c, u)
+
+    def text(self, names: Mapping[sp.Symbol, str]) -> str:
+        if not self.unknown:
+            return self.const.described()
+        parts = [str(self.const)] if not self.const.dimensionless else []
+        for s, p in self.unknown:
+            n = f"dim({names.get(s, s.name)})"
+            parts.append(n if p == 1 else f"{n}^{p}" if p.denominator == 1 else f"{n}^({p})")
+        return "*".join(parts)
+
+
+_NUMBER = None
+"""A number: dimensionless in a product, any dimension in a sum."""
+_UNKNOWN = "unknown"
+"""An expression whose dimension cannot be told (a tabulated input's)."""
+
+
+@dataclass
+class _Equation:
+    lhs: _Lin
+    rhs: _Lin
+    where: str
+    say: Callable[[str, str, Dimension | None], str]  # (lhs text, rhs text, ratio) -> message
+    rank: int
+    done: bool = False
+
+
+@dataclass
+class _Rules:
+    """The equations found in a system's expressions, with where each comes from."""
+
+    symbols: dict[sp.Symbol, _Lin]
+    names: dict[sp.Symbol, str]
+    equations: list[_Equation] = field(default_factory=list)
+
+    def add(self, lhs, rhs, where: str, say, rank: int) -> None:
+        if isinstance(lhs, _Lin) and isinstance(rhs, _Lin):
+            self.equations.append(_Equation(lhs, rhs, where, say, rank))
+
+    def walk(self, e: sp.Basic, where: str, rank: int):
+        """The dimension of ``e`` (a :class:`_Lin`, :data:`_NUMBER` or :data:`_UNKNOWN`),
+        adding the equations its sums and functions need."""
+        if isinstance(e, sp.Symbol):
+            return self.symbols.get(e, _UNKNOWN)
+        if e.is_number:
+            return _NUMBER
+        if isinstance(e, Table):
+            return _UNKNOWN
+        if isinstance(e, sp.Add) or isinstance(e, (sp.Min, sp.Max)):
+            return self._same(list(e.args), where, rank, "sum" if e.is_Add else "arguments")
+        if isinstance(e, sp.Mul):
+            out = _Lin()
+            for a in e.args:
+                d = self.walk(a, where, rank)
+                if d is _UNKNOWN:
+                    return _UNKNOWN
+                if d is not _NUMBER:
+                    out = out * d
+            return out
+        if isinstance(e, sp.Pow):
+            base, exp = e.args
+            if exp.is_Rational:
+                d = self.walk(base, where, rank)
+                if d is _NUMBER or d is _UNKNOWN:
+                    return d
+                return d ** Fraction(int(exp.p), int(exp.q))
+            for part, what in ((base, "the base"), (exp, "the exponent")):
+                self._dimensionless(part, where, rank, f"{what} of a power with a symbolic exponent")
+            return _Lin()
+        if isinstance(e, _DIMENSIONLESS_ARGUMENT):
+            name = type(e).__name__
+            self._dimensionless(e.args[0], where, rank, f"the argument of {name}")
+            return _Lin()
+        if isinstance(e, sp.atan2):
+            self._same(list(e.args), where, rank, "arguments of atan2")
+            return _Lin()
+        if isinstance(e, sp.Abs):
+            return self.walk(e.args[0], where, rank)
+        if isinstance(e, (sp.sign, sp.Heaviside)):
+            self.walk(e.args[0], where, rank)
+            return _Lin()
+        if isinstance(e, sp.Piecewise):
+            for _, cond in e.args:
+                self.walk(cond, where, rank)
+            return self._same([v for v, _ in e.args], where, rank, "values of piecewise")
+        if isinstance(e, sp.core.relational.Relational):
+            self._same(list(e.args), where, rank, "sides of a comparison")
+            return _NUMBER
+        if isinstance(e, (sp.And, sp.Or, sp.Not)):
+            for a in e.args:
+                self.walk(a, where, rank)
+            return _NUMBER
+        return _UNKNOWN
+
+    def _same(self, items: list, where: str, rank: int, what: str):
+        dims = [(a, self.walk(a, where, rank)) for a in items]
+        kept = [(a, d) for a, d in dims if isinstance(d, _Lin)]
+        if not kept:
+            return _UNKNOWN if any(d is _UNKNOWN for _, d in dims) else _NUMBER
+        first, d0 = kept[0]
+        for a, d in kept[1:]:
+            self.add(d, d0, where, _terms(what, a, first), rank)
+        return d0
+
+    def _dimensionless(self, e: sp.Basic, where: str, rank: int, what: str) -> None:
+        d = self.walk(e, where, rank)
+        self.add(d, _Lin(), where, _argument(what, e), rank)
+
+
+# ----- messages ------------------------------------------------------------------------
+def _short(e: sp.Basic) -> str:
+    from ..expr import to_text
+
+    text = to_text(e)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _cause(ratio: Dimension | None, what: str) -> str:
+    """What probably went wrong when ``what`` has ``ratio`` times the dimension it needs."""
+    if ratio is None:
+        return ""
+    causes = {
+        MASS**-1: f"is a mass missing from {what}?",
+        MASS: f"is there a mass too many in {what}?",
+        LENGTH**-1: f"is a length missing from {what} (a radius, a height)?",
+        LENGTH: f"is there a length too many in {what}, or a length where an angle was meant?",
+        LENGTH**-2: f"is a length squared missing from {what} (a moment of inertia m*R^2)?",
+        TIME: f"is a position in {what} where a velocity was meant (x for x')?",
+        TIME**-1: f"is a velocity in {what} where a position was meant (x' for x)?",
+    }
+    return causes.get(ratio, f"they differ by a factor of dimension {ratio}")
+
+
+def _terms(what: str, a: sp.Basic, b: sp.Basic):
+    def say(da: str, db: str, ratio: Dimension | None) -> str:
+        hint = _cause(ratio, f"`{_short(a)}`")
+        if ratio is not None and (ratio == LENGTH or ratio == LENGTH**-1):
+            hint = "a length and an angle (dimensionless) cannot be added: is a radius missing (R*theta)?"
+        return (
+            f"the {what} `{_short(a)}` and `{_short(b)}` differ in dimension: "
+            f"`{_short(a)}` has {da}, `{_short(b)}` has {db}; {hint}"
+        )
+
+    return say
+
+
+def _argument(what: str, e: sp.Basic):
+    def say(da: str, db: str, ratio: Dimension | None) -> str:
+        return (
+            f"{what}, `{_short(e)}`, has dimension {da}; it must be dimensionless (an angle "
+            "in radians is): divide it by a quantity of that dimension, or give the "
+            "symbol the unit it is meant to have (an angle: unit = \"rad\")"
+        )
+
+    return say
+
+
+def _needs(what: str, needed: str):
+    def say(da: str, db: str, ratio: Dimension | None) -> str:
+        return f"{what} has dimension {da}; {needed} needs {db}; {_cause(ratio, what)}".rstrip(
+            "; "
+        )
+
+    return say
+
+
+def _energies(ratio_what: str = "T"):
+    def say(da: str, db: str, ratio: Dimension | None) -> str:
+        return f"T has dimension {da}, V has {db}: {_cause(ratio, ratio_what)}"
+
+    return say
+
+
+# ----- the rules of a system -----------------------------------------------------------
+def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V: str) -> _Rules:
+    symbols: dict[sp.Symbol, _Lin] = {}
+    names: dict[sp.Symbol, str] = {}
+    for p in system.parameters:
+        symbols[p.symbol] = _Lin.of(DIMENSIONLESS, {p.symbol: Fraction(1)})
+        names[p.symbol] = p.name
+    time = _Lin(TIME)
+    for c in system.coordinates:
+        x = _Lin.of(DIMENSIONLESS, {c.symbol: Fraction(1)})
+        symbols[c.symbol] = x
+        symbols[c.velocity] = x / time
+        symbols[c.acceleration] = x / time**2
+        names[c.symbol] = c.name
+    symbols[system.t] = time
+    rules = _Rules(symbols, names)
+    for p in system.parameters:
+        if p.value.free_symbols:
+            d = rules.walk(p.value, f"parameters.{p.name}", 0)
+            rules.add(
+                symbols[p.symbol], d, f"parameters.{p.name}",
+                _needs(f"parameter `{p.name}`", "its value"), 0,
+            )  # fmt: skip
+    for j, c in enumerate(system.constraints, 1):
+        where = f"constraints[{j}] `{c.name}`"
+        rules.walk(c.expr, f"{where} {'f' if c.holonomic else 'velocity'}", 1)
+        if c.friction is not None:
+            mu = rules.walk(c.friction.mu, f"{where} friction.mu", 1)
+            rules.add(mu, _Lin(), f"{where} friction.mu", _needs("mu", "a friction coefficient"), 1)
+        if c.force is not None:
+            for x in c.force.at:
+                d = rules.walk(x, f"{where} force.at", 1)
+                rules.add(d, _Lin(LENGTH), f"{where} force.at", _needs("the point", "a point"), 1)
+    for j, b in enumerate(system.bodies, 1):
+        where = f"bodies[{j}] `{b.name}`"
+        for x in b.position:
+            d = rules.walk(x, f"{where} position", 1)
+            rules.add(d, _Lin(LENGTH), f"{where} position", _needs("the position", "a position"), 1)
+        d = rules.walk(b.mass, f"{where} mass", 1)
+        rules.add(d, _Lin(MASS), f"{where} mass", _needs("the mass", "a mass"), 1)
+        if isinstance(b.inertia, sp.Expr):
+            d = rules.walk(b.inertia, f"{where} inertia", 1)
+            inertia = _Lin(MASS * LENGTH**2)
+            rules.add(d, inertia, f"{where} inertia", _needs("the inertia", "an inertia"), 1)
+    if system.gravity is not None:
+        d = rules.walk(system.gravity, "gravity.acceleration", 1)
+        rules.add(d, _Lin(ACCELERATION), "gravity.acceleration", _needs("g", "gravity"), 1)
+    V = rules.walk(system.V, where_V, 2)
+    rules.add(V, _Lin(ENERGY), where_V, _needs("V", "an energy"), 2)
+    T = rules.walk(system.T, where_T, 3)
+    if isinstance(V, _Lin):
+        rules.add(T, V, where_T, _energies(), 4)
+    else:
+        rules.add(T, _Lin(ENERGY), where_T, _needs("T", "an energy"), 4)
+    for c, Q in zip(system.coordinates, system.forces):
+        where = f"forces.{c.name}"
+        d = rules.walk(Q, where, 5)
+        need = _Lin(ENERGY) / symbols[c.symbol]
+        rules.add(
+            d, need, where,
+            _needs(f"the generalized force on {c.name}", f"a force on {c.name} (energy/{c.name})"),
+            5,
+        )  # fmt: skip
+    return rules
+
+
+def infer_units(
+    system: System,
+    given: Mapping[str, Dimension],
+    where_T: str = "lagrangian.T",
+    where_V: str = "lagrangian.V",
+) -> Units:
+    """The dimensions of ``system``'s symbols from those ``given`` (by parameter or
+    coordinate name), checked by the rules of the module docstring.
+
+    Raises
+    ------
+    ModelError
+        Every conflict: (where, the two dimensions and the probable mistake).
+    """
+    rules = _rules(system, given, where_T, where_V)
+    dims: dict[sp.Symbol, Dimension] = {}
+    by_name = {n: s for s, n in rules.names.items()}
+    for name, d in given.items():
+        if name in by_name:
+            dims[by_name[name]] = d
+    issues: list[tuple[str, str]] = []
+    order = sorted(rules.equations, key=lambda q: q.rank)
+    progress = True
+    while progress:
+        progress = False
+        for eq in order:
+            if eq.done:
+                continue
+            diff = (eq.lhs / eq.rhs).known(dims)
+            if len(diff.unknown) > 1:
+                continue
+            eq.done = True
+            if not diff.unknown:
+                if not diff.const.dimensionless:
+                    issues.append((eq.where, _message(eq, dims, rules.names)))
+                continue
+            ((s, p),) = diff.unknown
+            found = diff.const ** (-1 / p)
+            if any(q.denominator != 1 for _, q in found.powers):
+                issues.append((eq.where, _message(eq, dims, rules.names)))
+                continue
+            dims[s] = found
+            progress = True
+            break
+    ModelError.check(issues)
+    return _units(system, dims, rules)
+
+
+def _message(eq: _Equation, dims, names) -> str:
+    lhs, rhs = eq.lhs.known(dims), eq.rhs.known(dims)
+    ratio = None
+    if not lhs.unknown and not rhs.unknown:
+        ratio = rhs.const / lhs.const
+    else:  # an unknown symbol (a coordinate) carries no mass: judge by the mass alone
+        m = rhs.const.power("M") - lhs.const.power("M")
+        ratio = MASS**m if m and all(s.name != "m" for s, _ in lhs.unknown) else None
+    return eq.say(lhs.text(names), rhs.text(names), ratio)
+
+
+def _units(system: System, dims: dict[sp.Symbol, Dimension], rules: _Rules) -> Units:
+    symbols = []
+    for p in system.parameters:
+        if p.symbol in dims:
+            symbols.append((p.name, dims[p.symbol]))
+    for c in system.coordinates:
+        if c.symbol in dims:
+            symbols.append((c.name, dims[c.symbol]))
+            symbols.append((c.name + "'", dims[c.symbol] / TIME))
+    symbols.append(("t", TIME))
+    multipliers, forces = [], []
+    for c in system.constraints:
+        d = rules.walk(c.expr, "", 9)
+        if not isinstance(d, _Lin):
+            continue
+        known = d.known(dims)
+        if known.unknown:
+            continue
+        f = known.const if c.holonomic else known.const * TIME
+        lam = ENERGY / f
+        multipliers.append((c.name, lam))
+        if c.force is not None and c.force.at:
+            at = rules.walk(c.force.at[0], "", 9)
+            if isinstance(at, _Lin) and not at.known(dims).unknown:
+                forces.append((c.name, ENERGY / at.known(dims).const))
+    return Units(tuple(symbols), tuple(multipliers), tuple(forces))
