@@ -58,7 +58,7 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
     evaluated at ``env`` (default: the file's parameter values)."""
     import sympy as sp
 
-    from ..expr import ExpressionError, parse
+    from ..expr import ExpressionError, is_quantity, parse
 
     names = {p.name: p.symbol for p in system.parameters}
     env = system.parameter_values if env is None else env
@@ -66,6 +66,10 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
     out = {}
     for name, text in pairs:
         try:
+            if is_quantity(text):  # "30 cm": in SI, of the dimension the file gives it
+                value = float(_quantity(text, name, system, option))
+                out[name] = value
+                continue
             # a parameter's name alone (theta=theta0) is replaced by a number: sympify
             # makes it a SymPy number again
             value = float(sp.sympify(parse(text, names, f"{option} {name}").xreplace(env)))
@@ -77,6 +81,24 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
             raise ValueError(f"{option} {name}={text}: not a finite number")
         out[name] = value
     return out
+
+
+def _quantity(text: str, name: str, system, option: str):
+    """The quantity ``text`` of ``NAME=text`` in SI; a ValueError when the file's units
+    give ``name`` another dimension."""
+    from ..expr import quantity
+
+    q = quantity(text)
+    units = getattr(system, "units", None)
+    known = units.of(name) if units is not None else None
+    if option == "--initial" and units is not None and name.endswith("'"):
+        known = units.of(name)
+    if known is not None and known != q.dimension:
+        raise ValueError(
+            f"{option} {name}={text}: has dimension {q.dimension.described()}, but `{name}` "
+            f"has {known.described()} in the problem file"
+        )
+    return q.value
 
 
 def positive_int(text: str) -> int:

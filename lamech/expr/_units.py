@@ -104,7 +104,7 @@ class Dimension:
         return Dimension._make(out)
 
     def __truediv__(self, other: Dimension) -> Dimension:
-        return self * other ** -1
+        return self * other**-1
 
     def __pow__(self, p: Any) -> Dimension:
         p = Fraction(p)
@@ -212,13 +212,12 @@ def quantity(text: str) -> Quantity:
     """
     m = _QUANTITY.match(text)
     if m is None:
-        raise ExpressionError("not a number followed by a unit (e.g. \"30 cm\")", text)
+        raise ExpressionError('not a number followed by a unit (e.g. "30 cm")', text)
     number = m.group("number")
     exponent = re.search(r"[eE]([+-]?[0-9]+)$", number)
     if exponent and abs(int(exponent.group(1))) > _MAX_DECIMAL_EXPONENT:
         raise ExpressionError(
-            f"the number {number} is out of range (powers of ten up to "
-            f"{_MAX_DECIMAL_EXPONENT})",
+            f"the number {number} is out of range (powers of ten up to {_MAX_DECIMAL_EXPONENT})",
             text,
         )
     factor, dimension = unit(m.group("unit"), text)
@@ -264,7 +263,7 @@ def unit(text: str, whole: str | None = None) -> tuple[sp.Expr, Dimension]:
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ExpressionError(
             f"unknown unit `{words}` ({detail}); write units such as m, cm, kg, s, N, J, "
-            "rad, deg, m/s^2, N/m, kg*m^2 (a unit follows the number: \"30 cm\")",
+            'rad, deg, m/s^2, N/m, kg*m^2 (a unit follows the number: "30 cm")',
             shown,
         ) from None
     factor: sp.Expr = sp.Integer(1)

@@ -180,7 +180,8 @@ class _Rules:
                     return d
                 return d ** Fraction(int(exp.p), int(exp.q))
             for part, what in ((base, "the base"), (exp, "the exponent")):
-                self._dimensionless(part, where, rank, f"{what} of a power with a symbolic exponent")
+                what = f"{what} of a power with a symbolic exponent"
+                self._dimensionless(part, where, rank, what)
             return _Lin()
         if isinstance(e, _DIMENSIONLESS_ARGUMENT):
             name = type(e).__name__
@@ -250,7 +251,10 @@ def _terms(what: str, a: sp.Basic, b: sp.Basic):
     def say(da: str, db: str, ratio: Dimension | None) -> str:
         hint = _cause(ratio, f"`{_short(a)}`")
         if ratio is not None and (ratio == LENGTH or ratio == LENGTH**-1):
-            hint = "a length and an angle (dimensionless) cannot be added: is a radius missing (R*theta)?"
+            hint = (
+                "a length and an angle (dimensionless) cannot be added: is a radius "
+                "missing (R*theta)?"
+            )
         return (
             f"the {what} `{_short(a)}` and `{_short(b)}` differ in dimension: "
             f"`{_short(a)}` has {da}, `{_short(b)}` has {db}; {hint}"
@@ -264,7 +268,7 @@ def _argument(what: str, e: sp.Basic):
         return (
             f"{what}, `{_short(e)}`, has dimension {da}; it must be dimensionless (an angle "
             "in radians is): divide it by a quantity of that dimension, or give the "
-            "symbol the unit it is meant to have (an angle: unit = \"rad\")"
+            'symbol the unit it is meant to have (an angle: unit = "rad")'
         )
 
     return say
@@ -272,9 +276,7 @@ def _argument(what: str, e: sp.Basic):
 
 def _needs(what: str, needed: str):
     def say(da: str, db: str, ratio: Dimension | None) -> str:
-        return f"{what} has dimension {da}; {needed} needs {db}; {_cause(ratio, what)}".rstrip(
-            "; "
-        )
+        return f"{what} has dimension {da}; {needed} needs {db}; {_cause(ratio, what)}".rstrip("; ")
 
     return say
 
@@ -401,13 +403,15 @@ def infer_units(
 
 
 def _message(eq: _Equation, dims, names) -> str:
+    """The equation's message, with ``ratio`` = lhs / rhs (what the left side has over
+    what it needs) where both are known."""
     lhs, rhs = eq.lhs.known(dims), eq.rhs.known(dims)
     ratio = None
     if not lhs.unknown and not rhs.unknown:
-        ratio = rhs.const / lhs.const
-    else:  # an unknown symbol (a coordinate) carries no mass: judge by the mass alone
-        m = rhs.const.power("M") - lhs.const.power("M")
-        ratio = MASS**m if m and all(s.name != "m" for s, _ in lhs.unknown) else None
+        ratio = lhs.const / rhs.const
+    else:  # an unknown coordinate carries no mass: judge by the mass alone
+        m = lhs.const.power("M") - rhs.const.power("M")
+        ratio = MASS**m if m else None
     return eq.say(lhs.text(names), rhs.text(names), ratio)
 
 

@@ -18,6 +18,31 @@ from ._plain import tex_comment, tex_label, tex_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
 
+
+def _unit(dimension) -> str:
+    """`` [N]``: a result's unit in SI symbols, beside it in the text; "" when unknown."""
+    return "" if dimension is None else f" [{dimension.si()}]"
+
+
+def _units_json(system) -> dict:
+    """``"units"`` of ``--json`` (issue 46): the unit of each multiplier and Cartesian
+    force, and of each coordinate and velocity whose dimension is known (an angle, of
+    dimension 1, in rad), in SI symbols."""
+    u = system.units
+    coordinates = {}
+    for c in system.coordinates:
+        for name in (c.name, c.name + "'"):
+            d = u.of(name)
+            if d is not None:
+                text = d.si()
+                coordinates[name] = "rad" if text == "1" else "rad/s" if text == "1/s" else text
+    return {
+        "multipliers": {k: d.si() for k, d in u.multipliers},
+        "forces": {k: d.si() for k, d in u.forces},
+        "coordinates": coordinates,
+    }
+
+
 CONVENTION = (
     "d/dt dL/dq' - dL/dq - sum_j lambda_j df_j/dq = Q  (unilateral: f >= 0 holds while lambda >= 0)"
 )
@@ -187,6 +212,8 @@ def to_json(sol) -> dict:
         out["initial_multipliers"] = sol.initial_multipliers
     if named.definitions:
         out["subexpressions"] = {_t_whole(w): _t_whole(e) for w, e in named.definitions}
+    if system.units is not None:
+        out["units"] = _units_json(system)
     out["notes"] = list(sol.notes)
     return out
 
@@ -250,6 +277,13 @@ def to_text(sol) -> str:
     s = sol.system
     named = _Named(_long_results(sol))
     _shown = named.shown
+    units = s.units
+
+    def unit(constraint: str, force: bool = False) -> str:
+        if units is None:
+            return ""
+        return _unit(units.force(constraint) if force else units.multiplier(constraint))
+
     lines: list[str] = [s.title, "=" * len(s.title), ""]
     if getattr(sol, "partial", False):
         lines += [
@@ -302,12 +336,12 @@ def to_text(sol) -> str:
     if sol.multipliers:
         lines += ["", "Multipliers (on the constraint manifold)"]
         lines += [
-            f"  lambda_{k} = {_shown(v, sol.initial_multipliers.get(k))}"
+            f"  lambda_{k} = {_shown(v, sol.initial_multipliers.get(k))}{unit(k)}"
             for k, v in sol.multipliers.items()
         ]
     elif sol.initial_multipliers:
         lines += ["", "Multipliers at the initial state (numeric)"]
-        lines += [f"  lambda_{k} = {v:.12g}" for k, v in sol.initial_multipliers.items()]
+        lines += [f"  lambda_{k} = {v:.12g}{unit(k)}" for k, v in sol.initial_multipliers.items()]
     lines += ["", "Conserved quantities"]
     if sol.energy is not None:
         label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
@@ -324,7 +358,7 @@ def to_text(sol) -> str:
             f"On the energy shell (initial state {_initial_text(sol)})",
             f"  {x}'^2 = {_t(sh.speed_squared)}",
         ]
-        lines += [f"  lambda_{k} = {_t(v)}" for k, v in sh.multipliers.items()]
+        lines += [f"  lambda_{k} = {_t(v)}{unit(k)}" for k, v in sh.multipliers.items()]
         lines += [f"  lambda_{k}: omitted, {why}" for k, why in sh.omitted.items()]
     if sol.vanishes:
         lines += ["", "Where a unilateral constraint lets go (lambda = 0)"]
@@ -354,7 +388,7 @@ def to_text(sol) -> str:
                 value = (
                     "undetermined (the point's motion cannot do work along it)"
                     if e is None
-                    else _shown(e)
+                    else _shown(e) + unit(k, force=True)
                 )
                 lines.append(f"    {d} = {value}")
     if named.definitions:

@@ -36,8 +36,8 @@ from ..model._kinematics import angular_velocity, time_derivative
 from ..model._parts import parameter_numbers, signed_symbol
 from ._examples import example_names, example_path
 from ._files import LIMITS, MAX_BYTES, Issue, ProblemFileError, read_table, repeated_key
-from ._sections import PartsReader
 from ._quantities import coordinate_values, parameter_value
+from ._sections import PartsReader
 
 if sys.version_info >= (3, 11):
     import tomllib
