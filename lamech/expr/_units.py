@@ -119,9 +119,9 @@ class Dimension:
         return _formula(self.powers, dict(zip(_BASES, _BASES))) or "1"
 
     def described(self) -> str:
-        """``M*L^2/T^2 (energy)``, ``L (length)``, ``dimensionless``."""
+        """``M*L^2/T^2 (energy)``, ``L (length)``, ``1 (dimensionless)``."""
         if self.dimensionless:
-            return "dimensionless"
+            return "1 (dimensionless)"
         name = _NAMES.get(self)
         return f"{self} ({name})" if name else str(self)
 
@@ -180,7 +180,7 @@ _NAMES = {
 # ----- quantities ---------------------------------------------------------------------
 _QUANTITY = re.compile(
     r"^\s*(?P<number>[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)"
-    r"\s*(?P<unit>[A-Za-z_°µΩ][^\n]*?)\s*$"
+    r"\s*(?![eE][+-]?[0-9])(?P<unit>[A-Za-z_°µΩ][^\n]*?)\s*$"
 )
 """A number followed by a unit: what tells a quantity from an expression."""
 _UNIT_TEXT = re.compile(r"^[A-Za-z_°µΩ0-9\s*/^().+-]+$")

@@ -137,6 +137,7 @@ class _Equation:
     where: str
     say: Callable[[str, str, Dimension | None], str]  # (lhs text, rhs text, ratio) -> message
     rank: int
+    group: int  # the equations of one sum: none gives a dimension once one has failed
     done: bool = False
 
 
@@ -146,11 +147,13 @@ class _Rules:
 
     symbols: dict[sp.Symbol, _Lin]
     names: dict[sp.Symbol, str]
+    given: dict[sp.Symbol, Dimension]
     equations: list[_Equation] = field(default_factory=list)
 
-    def add(self, lhs, rhs, where: str, say, rank: int) -> None:
+    def add(self, lhs, rhs, where: str, say, rank: int, group: int | None = None) -> None:
         if isinstance(lhs, _Lin) and isinstance(rhs, _Lin):
-            self.equations.append(_Equation(lhs, rhs, where, say, rank))
+            group = len(self.equations) if group is None else group
+            self.equations.append(_Equation(lhs, rhs, where, say, rank, -1 - group))
 
     def walk(self, e: sp.Basic, where: str, rank: int):
         """The dimension of ``e`` (a :class:`_Lin`, :data:`_NUMBER` or :data:`_UNKNOWN`),
@@ -162,7 +165,12 @@ class _Rules:
         if isinstance(e, Table):
             return _UNKNOWN
         if isinstance(e, sp.Add) or isinstance(e, (sp.Min, sp.Max)):
-            return self._same(list(e.args), where, rank, "sum" if e.is_Add else "arguments")
+            return self._same(
+                list(e.args),
+                where,
+                rank,
+                "terms of a sum" if e.is_Add else "arguments of min or max",
+            )
         if isinstance(e, sp.Mul):
             out = _Lin()
             for a in e.args:
@@ -213,9 +221,14 @@ class _Rules:
         kept = [(a, d) for a, d in dims if isinstance(d, _Lin)]
         if not kept:
             return _UNKNOWN if any(d is _UNKNOWN for _, d in dims) else _NUMBER
-        first, d0 = kept[0]
-        for a, d in kept[1:]:
-            self.add(d, d0, where, _terms(what, a, first), rank)
+        # the reference: a term with the fewest unknown dimensions, so that terms whose
+        # dimensions are given are compared with each other before any is inferred
+        ref = min(range(len(kept)), key=lambda i: len(kept[i][1].known(self.given).unknown))
+        first, d0 = kept[ref]
+        group = len(self.equations)
+        for i, (a, d) in enumerate(kept):
+            if i != ref:
+                self.add(d, d0, where, _terms(what, a, first), rank, group)
         return d0
 
     def _dimensionless(self, e: sp.Basic, where: str, rank: int, what: str) -> None:
@@ -250,13 +263,14 @@ def _cause(ratio: Dimension | None, what: str) -> str:
 def _terms(what: str, a: sp.Basic, b: sp.Basic):
     def say(da: str, db: str, ratio: Dimension | None) -> str:
         hint = _cause(ratio, f"`{_short(a)}`")
-        if ratio is not None and (ratio == LENGTH or ratio == LENGTH**-1):
+        angle = "dimensionless" in da or "dimensionless" in db
+        if angle and ratio is not None and (ratio == LENGTH or ratio == LENGTH**-1):
             hint = (
                 "a length and an angle (dimensionless) cannot be added: is a radius "
                 "missing (R*theta)?"
             )
         return (
-            f"the {what} `{_short(a)}` and `{_short(b)}` differ in dimension: "
+            f"`{_short(a)}` and `{_short(b)}` ({what}) differ in dimension: "
             f"`{_short(a)}` has {da}, `{_short(b)}` has {db}; {hint}"
         )
 
@@ -281,6 +295,13 @@ def _needs(what: str, needed: str):
     return say
 
 
+def _friction(da: str, db: str, ratio: Dimension | None) -> str:
+    return (
+        f"mu has dimension {da}; a coefficient of friction is a ratio of two forces "
+        "(|F_t| <= mu N), dimensionless: give it without a unit"
+    )
+
+
 def _energies(ratio_what: str = "T"):
     def say(da: str, db: str, ratio: Dimension | None) -> str:
         return f"T has dimension {da}, V has {db}: {_cause(ratio, ratio_what)}"
@@ -303,7 +324,8 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
         symbols[c.acceleration] = x / time**2
         names[c.symbol] = c.name
     symbols[system.t] = time
-    rules = _Rules(symbols, names)
+    by_name = {n: s for s, n in names.items()}
+    rules = _Rules(symbols, names, {by_name[n]: d for n, d in given.items() if n in by_name})
     for p in system.parameters:
         if p.value.free_symbols:
             d = rules.walk(p.value, f"parameters.{p.name}", 0)
@@ -316,7 +338,7 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
         rules.walk(c.expr, f"{where} {'f' if c.holonomic else 'velocity'}", 1)
         if c.friction is not None:
             mu = rules.walk(c.friction.mu, f"{where} friction.mu", 1)
-            rules.add(mu, _Lin(), f"{where} friction.mu", _needs("mu", "a friction coefficient"), 1)
+            rules.add(mu, _Lin(), f"{where} friction.mu", _friction, 1)
         if c.force is not None:
             for x in c.force.at:
                 d = rules.walk(x, f"{where} force.at", 1)
@@ -336,12 +358,13 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
         d = rules.walk(system.gravity, "gravity.acceleration", 1)
         rules.add(d, _Lin(ACCELERATION), "gravity.acceleration", _needs("g", "gravity"), 1)
     V = rules.walk(system.V, where_V, 2)
-    rules.add(V, _Lin(ENERGY), where_V, _needs("V", "an energy"), 2)
+    energy = len(rules.equations)  # V's check and T's: T is not judged by a wrong V
+    rules.add(V, _Lin(ENERGY), where_V, _needs("V", "an energy"), 2, energy)
     T = rules.walk(system.T, where_T, 3)
     if isinstance(V, _Lin):
-        rules.add(T, V, where_T, _energies(), 4)
+        rules.add(T, V, where_T, _energies(), 4, energy)
     else:
-        rules.add(T, _Lin(ENERGY), where_T, _needs("T", "an energy"), 4)
+        rules.add(T, _Lin(ENERGY), where_T, _needs("T", "an energy"), 4, energy)
     for c, Q in zip(system.coordinates, system.forces):
         where = f"forces.{c.name}"
         d = rules.walk(Q, where, 5)
@@ -369,36 +392,39 @@ def infer_units(
         Every conflict: (where, the two dimensions and the probable mistake).
     """
     rules = _rules(system, given, where_T, where_V)
-    dims: dict[sp.Symbol, Dimension] = {}
-    by_name = {n: s for s, n in rules.names.items()}
-    for name, d in given.items():
-        if name in by_name:
-            dims[by_name[name]] = d
-    issues: list[tuple[str, str]] = []
+    dims: dict[sp.Symbol, Dimension] = dict(rules.given)
+    issues: dict[str, str] = {}  # the first conflict in each place: the others follow from it
     order = sorted(rules.equations, key=lambda q: q.rank)
-    progress = True
-    while progress:
-        progress = False
+
+    def fail(eq: _Equation) -> None:
+        issues.setdefault(eq.where, _message(eq, dims, rules.names))
+        for other in order:  # a sum whose terms disagree gives no dimension
+            if other.group == eq.group:
+                other.done = True
+
+    while True:
+        # the checks first (equations with no unknown left), then one inference
         for eq in order:
-            if eq.done:
-                continue
+            if not eq.done and not (eq.lhs / eq.rhs).known(dims).unknown:
+                eq.done = True
+                if not (eq.lhs / eq.rhs).known(dims).const.dimensionless:
+                    fail(eq)
+        for eq in order:
             diff = (eq.lhs / eq.rhs).known(dims)
-            if len(diff.unknown) > 1:
-                continue
-            eq.done = True
-            if not diff.unknown:
-                if not diff.const.dimensionless:
-                    issues.append((eq.where, _message(eq, dims, rules.names)))
+            if eq.done or len(diff.unknown) != 1:
                 continue
             ((s, p),) = diff.unknown
             found = diff.const ** (-1 / p)
             if any(q.denominator != 1 for _, q in found.powers):
-                issues.append((eq.where, _message(eq, dims, rules.names)))
+                eq.done = True
+                fail(eq)
                 continue
             dims[s] = found
-            progress = True
+            eq.done = True
             break
-    ModelError.check(issues)
+        else:
+            break
+    ModelError.check(list(issues.items()))
     return _units(system, dims, rules)
 
 
