@@ -321,7 +321,7 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
         x = _Lin.of(DIMENSIONLESS, {c.symbol: Fraction(1)})
         symbols[c.symbol] = x
         symbols[c.velocity] = x / time
-        symbols[c.acceleration] = x / time**2
+        symbols[c.acceleration] = x / time ** Fraction(2)
         names[c.symbol] = c.name
     symbols[system.t] = time
     by_name = {n: s for s, n in names.items()}
@@ -333,14 +333,14 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
                 symbols[p.symbol], d, f"parameters.{p.name}",
                 _needs(f"parameter `{p.name}`", "its value"), 0,
             )  # fmt: skip
-    for j, c in enumerate(system.constraints, 1):
-        where = f"constraints[{j}] `{c.name}`"
-        rules.walk(c.expr, f"{where} {'f' if c.holonomic else 'velocity'}", 1)
-        if c.friction is not None:
-            mu = rules.walk(c.friction.mu, f"{where} friction.mu", 1)
+    for j, con in enumerate(system.constraints, 1):
+        where = f"constraints[{j}] `{con.name}`"
+        rules.walk(con.expr, f"{where} {'f' if con.holonomic else 'velocity'}", 1)
+        if con.friction is not None:
+            mu = rules.walk(con.friction.mu, f"{where} friction.mu", 1)
             rules.add(mu, _Lin(), f"{where} friction.mu", _friction, 1)
-        if c.force is not None:
-            for x in c.force.at:
+        if con.force is not None:
+            for x in con.force.at:
                 d = rules.walk(x, f"{where} force.at", 1)
                 rules.add(d, _Lin(LENGTH), f"{where} force.at", _needs("the point", "a point"), 1)
     for j, b in enumerate(system.bodies, 1):
@@ -452,18 +452,14 @@ def _units(system: System, dims: dict[sp.Symbol, Dimension], rules: _Rules) -> U
             symbols.append((c.name + "'", dims[c.symbol] / TIME))
     symbols.append(("t", TIME))
     multipliers, forces = [], []
-    for c in system.constraints:
-        d = rules.walk(c.expr, "", 9)
-        if not isinstance(d, _Lin):
+    for con in system.constraints:
+        d = rules.walk(con.expr, "", 9)
+        if not isinstance(d, _Lin) or d.known(dims).unknown:
             continue
-        known = d.known(dims)
-        if known.unknown:
-            continue
-        f = known.const if c.holonomic else known.const * TIME
-        lam = ENERGY / f
-        multipliers.append((c.name, lam))
-        if c.force is not None and c.force.at:
-            at = rules.walk(c.force.at[0], "", 9)
-            if isinstance(at, _Lin) and not at.known(dims).unknown:
-                forces.append((c.name, ENERGY / at.known(dims).const))
+        f = d.known(dims).const if con.holonomic else d.known(dims).const * TIME
+        multipliers.append((con.name, ENERGY / f))
+        points = [rules.walk(x, "", 9) for x in (con.force.at if con.force else ())]
+        point = next((p.known(dims) for p in points if isinstance(p, _Lin)), None)
+        if point is not None and not point.unknown:
+            forces.append((con.name, ENERGY / point.const))
     return Units(tuple(symbols), tuple(multipliers), tuple(forces))
