@@ -287,7 +287,7 @@ MISTAKES = [
         "T = \"m/2*(x'^2 + y'^2) + m*R^2/4*theta'^2\"",
         "T = \"1/2*(x'^2 + y'^2) + 1/4*R^2*theta'^2\"",
         13,
-        ["T has dimension L^2/T^2", "V has M*L^2/T^2 (energy)", "is a mass missing from T?"],
+        ["of T has dimension L^2/T^2", "V has M*L^2/T^2 (energy)", "is a mass missing from `"],
     ),
     (
         "a length added to an angle",
@@ -392,6 +392,26 @@ def test_a_dimension_mistake_is_refused_at_its_line(what, old, new, line, words)
     assert f"units.toml:{line}:" in message, message
     for w in words:
         assert w in message, message
+
+
+def test_a_kinetic_energy_without_its_mass_is_refused_as_the_issue_says():
+    text = """
+    [parameters]
+    m = "2 kg"
+    g = "9.81 m/s^2"
+    [coordinates]
+    x = { initial = 0, velocity = 0 }
+    y = { initial = "1 m", velocity = 0 }
+    [lagrangian]
+    T = "1/2*y'^2"
+    V = "m*g*y"
+    """
+    with pytest.raises(ProblemFileError) as info:
+        lamech.loads(text.replace("\n    ", "\n"), "fall.toml")
+    assert str(info.value).startswith(
+        "fall.toml:9: lagrangian.T: T has dimension L^2/T^2 (energy/mass), V has M*L^2/T^2 "
+        "(energy): is a mass missing from T?"
+    )
 
 
 def test_the_mistakes_are_ten_or_more():

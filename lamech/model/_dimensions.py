@@ -302,9 +302,13 @@ def _friction(da: str, db: str, ratio: Dimension | None) -> str:
     )
 
 
-def _energies(ratio_what: str = "T"):
+def _energies(term: str | None):
+    """T, or its term ``term``, against V's energy."""
+    what = "T" if term is None else f"the term `{term}` of T"
+    where = "T" if term is None else f"`{term}`"
+
     def say(da: str, db: str, ratio: Dimension | None) -> str:
-        return f"T has dimension {da}, V has {db}: {_cause(ratio, ratio_what)}"
+        return f"{what} has dimension {da}, V has {db}: {_cause(ratio, where)}"
 
     return say
 
@@ -357,14 +361,19 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
     if system.gravity is not None:
         d = rules.walk(system.gravity, "gravity.acceleration", 1)
         rules.add(d, _Lin(ACCELERATION), "gravity.acceleration", _needs("g", "gravity"), 1)
-    V = rules.walk(system.V, where_V, 2)
-    energy = len(rules.equations)  # V's check and T's: T is not judged by a wrong V
-    rules.add(V, _Lin(ENERGY), where_V, _needs("V", "an energy"), 2, energy)
-    T = rules.walk(system.T, where_T, 3)
-    if isinstance(V, _Lin):
-        rules.add(T, V, where_T, _energies(), 4, energy)
-    else:
-        rules.add(T, _Lin(ENERGY), where_T, _needs("T", "an energy"), 4, energy)
+    # each term of V an energy, and each term of T: a term is named where it is wrong;
+    # V's and T's equations are one group, so that T is not judged by a wrong V
+    energy = len(rules.equations)
+    terms = sp.Add.make_args(system.V)
+    for a in terms:
+        d = rules.walk(a, where_V, 2)
+        what = "V" if len(terms) == 1 else f"the term `{_short(a)}` of V"
+        rules.add(d, _Lin(ENERGY), where_V, _needs(what, "an energy"), 2, energy)
+    terms = sp.Add.make_args(system.T)
+    for a in terms:
+        d = rules.walk(a, where_T, 3)
+        say = _energies(None if len(terms) == 1 else _short(a))
+        rules.add(d, _Lin(ENERGY), where_T, say, 3, energy)
     for c, Q in zip(system.coordinates, system.forces):
         where = f"forces.{c.name}"
         d = rules.walk(Q, where, 5)
@@ -393,11 +402,14 @@ def infer_units(
     """
     rules = _rules(system, given, where_T, where_V)
     dims: dict[sp.Symbol, Dimension] = dict(rules.given)
-    issues: dict[str, str] = {}  # the first conflict in each place: the others follow from it
+    issues: dict[str, str] = {}  # one conflict in each place: the others follow from it
+    ranks: dict[str, int] = {}
     order = sorted(rules.equations, key=lambda q: q.rank)
 
     def fail(eq: _Equation) -> None:
-        issues.setdefault(eq.where, _message(eq, dims, rules.names))
+        # in one place, the most specific conflict (a sum's terms before T against V)
+        if eq.where not in issues or eq.rank < ranks[eq.where]:
+            issues[eq.where], ranks[eq.where] = _message(eq, dims, rules.names), eq.rank
         for other in order:  # a sum whose terms disagree gives no dimension
             if other.group == eq.group:
                 other.done = True
