@@ -367,6 +367,13 @@ MISTAKES = [
         ["forces.x", "sides of a comparison", "`t` has T (time)", "`x` has L (length)"],
     ),
     (
+        "a coefficient of restitution with a unit",
+        "unilateral = true",
+        'unilateral = true\nrestitution = "b"',
+        19,
+        ["constraints[1] `contact` restitution", "M/T", "a coefficient of restitution"],
+    ),
+    (
         "an unknown unit",
         'R = "50 cm"',
         'R = "50 cn"',

@@ -343,6 +343,9 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
         if con.friction is not None:
             mu = rules.walk(con.friction.mu, f"{where} friction.mu", 1)
             rules.add(mu, _Lin(), f"{where} friction.mu", _friction, 1)
+        restitution = rules.walk(con.restitution, f"{where} restitution", 1)
+        say = _needs("the restitution", "a coefficient of restitution (a ratio of speeds)")
+        rules.add(restitution, _Lin(), f"{where} restitution", say, 1)
         if con.force is not None:
             for x in con.force.at:
                 d = rules.walk(x, f"{where} force.at", 1)
@@ -354,10 +357,13 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
             rules.add(d, _Lin(LENGTH), f"{where} position", _needs("the position", "a position"), 1)
         d = rules.walk(b.mass, f"{where} mass", 1)
         rules.add(d, _Lin(MASS), f"{where} mass", _needs("the mass", "a mass"), 1)
-        if isinstance(b.inertia, sp.Expr):
-            d = rules.walk(b.inertia, f"{where} inertia", 1)
-            inertia = _Lin(MASS * LENGTH**2)
-            rules.add(d, inertia, f"{where} inertia", _needs("the inertia", "an inertia"), 1)
+        moments = b.inertia if isinstance(b.inertia, tuple) else (b.inertia,)
+        moments = tuple(x for row in moments for x in (row if isinstance(row, tuple) else (row,)))
+        for x in moments:
+            if isinstance(x, sp.Expr):
+                d = rules.walk(x, f"{where} inertia", 1)
+                inertia = _Lin(MASS * LENGTH**2)
+                rules.add(d, inertia, f"{where} inertia", _needs("the inertia", "an inertia"), 1)
     if system.gravity is not None:
         d = rules.walk(system.gravity, "gravity.acceleration", 1)
         rules.add(d, _Lin(ACCELERATION), "gravity.acceleration", _needs("g", "gravity"), 1)
