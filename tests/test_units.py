@@ -440,3 +440,51 @@ def test_a_string_expression_of_parameters_still_works_beside_units():
     r3 = next(p for p in s.parameters if p.name == "R3")
     assert r3.numeric == pytest.approx(1.5)
     assert s.units.of("R3") == Dimension.of(L=1)
+
+
+# ----- loads ------------------------------------------------------------------------
+LOADS = """title = "A pushed block on a spring"
+[parameters]
+m = "2 kg"
+k = "200 N/m"
+F = "3 N"
+[coordinates]
+x = { initial = "1 cm", velocity = 0 }
+[[bodies]]
+name = "block"
+mass = "m"
+position = ["x", 0]
+[[loads]]
+name = "push"
+body = "block"
+force = ["F", 0]
+[[loads]]
+name = "spring"
+spring = { from = [0, 0], to = ["x", 0], k = "k" }
+"""
+
+
+def test_loads_in_units_hold_the_block_where_the_hand_says():
+    s = lamech.loads(LOADS)
+    assert s.units.of("x") == Dimension.of(L=1)
+    sol = lamech.solve(s)
+    x = s.coordinate("x")
+    acc = s.numeric(sol.closed.accelerations[x.acceleration])
+    assert sp.simplify(acc.subs(x.symbol, sp.Rational(3, 200))) == 0  # F/k = 1.5 cm
+
+
+@pytest.mark.parametrize(
+    "old, new, line, words",
+    [
+        ('F = "3 N"', 'F = "3 kg"', 15, ["loads[1] `push` force", "M (mass)", "a force needs"]),
+        ('k = "200 N/m"', 'k = "200 N"', 18, ["loads[2] `spring` spring", "a stiffness (N/m)"]),
+    ],
+    ids=["a load's force of a mass", "a spring's stiffness in N"],
+)
+def test_a_load_of_the_wrong_dimension_is_refused_at_its_line(old, new, line, words):
+    with pytest.raises(ProblemFileError) as info:
+        lamech.loads(LOADS.replace(old, new, 1), "loads.toml")
+    message = str(info.value)
+    assert f"loads.toml:{line}:" in message, message
+    for w in words:
+        assert w in message, message

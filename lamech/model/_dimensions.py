@@ -40,6 +40,7 @@ from ..expr import Table
 from ..expr._units import (
     DIMENSIONLESS,
     ENERGY,
+    FORCE,
     LENGTH,
     MASS,
     TIME,
@@ -252,7 +253,7 @@ def _cause(ratio: Dimension | None, what: str) -> str:
         MASS**-1: f"is a mass missing from {what}?",
         MASS: f"is there a mass too many in {what}?",
         LENGTH**-1: f"is a length missing from {what} (a radius, a height)?",
-        LENGTH: f"is there a length too many in {what}, or a length where an angle was meant?",
+        LENGTH: f"is there a length too many in {what}?",
         LENGTH**-2: f"is a length squared missing from {what} (a moment of inertia m*R^2)?",
         TIME: f"is a position in {what} where a velocity was meant (x for x')?",
         TIME**-1: f"is a velocity in {what} where a position was meant (x' for x)?",
@@ -314,7 +315,9 @@ def _energies(term: str | None):
 
 
 # ----- the rules of a system -----------------------------------------------------------
-def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V: str) -> _Rules:
+def _rules(
+    system: System, given: Mapping[str, Dimension], where_T: str, where_V: str, loads: tuple
+) -> _Rules:
     symbols: dict[sp.Symbol, _Lin] = {}
     names: dict[sp.Symbol, str] = {}
     for p in system.parameters:
@@ -364,12 +367,15 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
                 d = rules.walk(x, f"{where} inertia", 1)
                 inertia = _Lin(MASS * LENGTH**2)
                 rules.add(d, inertia, f"{where} inertia", _needs("the inertia", "an inertia"), 1)
+    # the loads' equations, V's, T's and the generalized forces' are one group: V and the
+    # forces hold what the loads make, so a load said wrong is not said again in them
+    energy = len(rules.equations)
+    _load_rules(rules, loads, energy)
     if system.gravity is not None:
         d = rules.walk(system.gravity, "gravity.acceleration", 1)
         rules.add(d, _Lin(ACCELERATION), "gravity.acceleration", _needs("g", "gravity"), 1)
     # each term of V an energy, and each term of T: a term is named where it is wrong;
-    # V's and T's equations are one group, so that T is not judged by a wrong V
-    energy = len(rules.equations)
+    # in one group, so that T is not judged by a wrong V
     terms = sp.Add.make_args(system.V)
     for a in terms:
         d = rules.walk(a, where_V, 2)
@@ -387,9 +393,35 @@ def _rules(system: System, given: Mapping[str, Dimension], where_T: str, where_V
         rules.add(
             d, need, where,
             _needs(f"the generalized force on {c.name}", f"a force on {c.name} (energy/{c.name})"),
-            5,
+            5, energy,
         )  # fmt: skip
     return rules
+
+
+def _load_rules(rules: _Rules, loads: tuple, group: int) -> None:
+    """A load's force is a force, its point a length, a torque an energy (N*m), a spring's
+    ends lengths, its stiffness a force per length and its damping a force per speed."""
+    from ._loads import AppliedForce, Spring, Torque
+
+    def need(exprs, dimension: Dimension, where: str, what: str, needed: str) -> None:
+        for x in exprs:
+            d = rules.walk(x, where, 1)
+            rules.add(d, _Lin(dimension), where, _needs(what, needed), 1, group)
+
+    for j, load in enumerate(loads, 1):
+        where = f"loads[{j}] `{load.name}`"
+        if isinstance(load, AppliedForce):
+            need(load.force, FORCE, f"{where} force", "the force", "a force")
+            need(load.at or (), LENGTH, f"{where} at", "the point", "a point")
+        elif isinstance(load, Torque):
+            tau = load.torque if isinstance(load.torque, tuple) else (load.torque,)
+            need(tau, ENERGY, f"{where} torque", "the torque", "a torque (N*m)")
+        elif isinstance(load, Spring):
+            spring = f"{where} spring"
+            need(load.start + load.end, LENGTH, spring, "the spring's end", "a point")
+            need((load.length,), LENGTH, spring, "the spring's length", "a length")
+            need((load.k,), FORCE / LENGTH, spring, "k", "a stiffness (N/m)")
+            need((load.damping,), FORCE * TIME / LENGTH, spring, "the damping", "N*s/m")
 
 
 def infer_units(
@@ -397,16 +429,19 @@ def infer_units(
     given: Mapping[str, Dimension],
     where_T: str = "lagrangian.T",
     where_V: str = "lagrangian.V",
+    loads: tuple = (),
 ) -> Units:
     """The dimensions of ``system``'s symbols from those ``given`` (by parameter or
-    coordinate name), checked by the rules of the module docstring.
+    coordinate name), checked by the rules of the module docstring; ``loads`` (the
+    :class:`~lamech.model.AppliedForce`, ``Torque`` and ``Spring`` that made part of its
+    V and forces, as ``[[loads]]``) are checked where they are written.
 
     Raises
     ------
     ModelError
         Every conflict: (where, the two dimensions and the probable mistake).
     """
-    rules = _rules(system, given, where_T, where_V)
+    rules = _rules(system, given, where_T, where_V, tuple(loads))
     dims: dict[sp.Symbol, Dimension] = dict(rules.given)
     issues: dict[str, str] = {}  # one conflict in each place: the others follow from it
     ranks: dict[str, int] = {}

@@ -271,10 +271,10 @@ class _Loader(PartsReader):
         )
         self.fail_if_any()
         if self.dimensions:
-            system = self._units(system)
+            system = self._units(system, tuple(loads))
         return system
 
-    def _units(self, system: System) -> System:
+    def _units(self, system: System, loads: tuple) -> System:
         """The system with its dimensions inferred and checked (issue 46): where the file
         gives any quantity a unit; each conflict reported at its line."""
         table = self.data.get("lagrangian")
@@ -282,7 +282,7 @@ class _Loader(PartsReader):
         where_T = "lagrangian.T" if "T" in table else "lagrangian.L" if "L" in table else "bodies"
         where_V = "lagrangian.V" if "V" in table else "lagrangian.L" if "L" in table else "bodies"
         try:
-            units = infer_units(system, self.dimensions, where_T, where_V)
+            units = infer_units(system, self.dimensions, where_T, where_V, loads)
         except ModelError as exc:
             self.model_problems(exc)
             self.fail_if_any()
