@@ -135,6 +135,14 @@ def test_solve_prints_each_multiplier_in_newtons_and_json_carries_the_units(tmp_
     assert data["units"]["coordinates"]["r'"] == "m/s"
 
 
+def test_latex_writes_each_multiplier_with_its_unit(cylinders):
+    plain, units = cylinders
+    tex = lamech.to_latex(units)
+    assert r"\frac{g m \sin{\left(\theta_{1} \right)}}{3}\,\mathrm{N}" in tex
+    assert r"\right)\right)\,\mathrm{N} && \text{multiplier}" in tex  # a sum in parentheses
+    assert r"\mathrm{N}" not in lamech.to_latex(plain)
+
+
 def test_param_takes_a_quantity_of_the_dimension_the_file_gives(tmp_path):
     path = tmp_path / "cylinder_units.toml"
     path.write_text(_with_units(), encoding="utf-8")

@@ -7,6 +7,7 @@ Nothing is computed here; expressions print in the problem-file grammar
 from __future__ import annotations
 
 import math
+import re
 
 import sympy as sp
 
@@ -22,6 +23,18 @@ __all__ = ["to_text", "to_latex", "to_json"]
 def _unit(dimension) -> str:
     """`` [N]``: a result's unit in SI symbols, beside it in the text; "" when unknown."""
     return "" if dimension is None else f" [{dimension.si()}]"
+
+
+def _tex_unit(dimension) -> str:
+    r"""``\,\mathrm{N}``, ``\,\mathrm{N\,m}``, ``\,\mathrm{N/m}``: a result's unit after
+    it in LaTeX; "" when unknown."""
+    if dimension is None:
+        return ""
+    text = dimension.si()
+    text = re.sub(
+        r"\^\(?(-?\d+)(?:/(\d+))?\)?", lambda m: "^{" + m.group(0)[1:].strip("()") + "}", text
+    )
+    return r"\,\mathrm{" + text.replace("*", r"\,") + "}"
 
 
 def _units_json(system) -> dict:
@@ -447,14 +460,30 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for e in sol.reduced_equations:
         if _ops(e) <= READABLE_OPS:
             add("reduced", _tex(e, names), "0")
+    units = sol.system.units
+
+    def unit(k: str, force: bool = False) -> str:
+        if units is None:
+            return ""
+        return _tex_unit(units.force(k) if force else units.multiplier(k))
+
+    def tex_with_unit(e, tex: str, k: str, force: bool = False) -> str:
+        """``tex`` and the unit of ``k``'s result; a sum in parentheses before its unit."""
+        u = unit(k, force)
+        if u and isinstance(e, sp.Add):
+            return rf"\left({tex}\right){u}"
+        return tex + u
+
     for k, v in sol.multipliers.items():
-        add("multiplier", names[sol.system.constraint(k).multiplier], tex_or_size(v))
+        lhs = names[sol.system.constraint(k).multiplier]
+        add("multiplier", lhs, tex_with_unit(v, tex_or_size(v), k))
     if sol.energy is not None:
         label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
         add(label, "E", _tex(sol.energy, names))
     if sol.shell is not None:
         for k, v in sol.shell.multipliers.items():
-            add("on the energy shell", names[sol.system.constraint(k).multiplier], _tex(v, names))
+            lhs = names[sol.system.constraint(k).multiplier]
+            add("on the energy shell", lhs, tex_with_unit(v, _tex(v, names), k))
     for kind, table, verdicts in (
         ("lets go", sol.vanishes, sol.lets_go),
         ("slips", sol.slips, sol.slipping),
@@ -485,7 +514,8 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for k, comps in sol.forces.items():
         for d, e in comps.items():
             if e is not None:
-                add(f"{k} force", rf"F_{{{tex_label(d)}}}", tex_or_size(e))
+                rhs = tex_with_unit(e, tex_or_size(e), k, True)
+                add(f"{k} force", rf"F_{{{tex_label(d)}}}", rhs)
     for w, e in named.definitions:
         add("named subexpression", _tex(w, names), _tex(e, names))
     body = " \\\\\n".join(rows)
