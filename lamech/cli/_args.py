@@ -53,9 +53,10 @@ def add_assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> No
 
 
 def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:
-    """{name: value} from NAME=VALUE pairs; each VALUE a number or an expression of the
-    problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
-    evaluated at ``env`` (default: the file's parameter values)."""
+    """{name: value} from NAME=VALUE pairs; each VALUE a number, a quantity (``30 cm``,
+    in SI: issue 46) or an expression of the problem's parameters (``pi/6``,
+    ``R1 + R2``), parsed by lamech's safe parser and evaluated at ``env`` (default: the
+    file's parameter values)."""
     import sympy as sp
 
     from ..expr import ExpressionError, is_quantity, parse
@@ -68,11 +69,11 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
         try:
             if is_quantity(text):  # "30 cm": in SI, of the dimension the file gives it
                 value = float(_quantity(text, name, system, option))
-                out[name] = value
-                continue
-            # a parameter's name alone (theta=theta0) is replaced by a number: sympify
-            # makes it a SymPy number again
-            value = float(sp.sympify(parse(text, names, f"{option} {name}").xreplace(env)))
+            else:
+                # a parameter's name alone (theta=theta0) is replaced by a number: sympify
+                # makes it a SymPy number again
+                expr = parse(text, names, f"{option} {name}")
+                value = float(sp.sympify(expr.xreplace(env)))
         except ExpressionError as exc:
             raise ValueError(f"{option} {name}={text}: {exc.message}") from None
         except TypeError:
@@ -90,9 +91,7 @@ def _quantity(text: str, name: str, system, option: str):
 
     q = quantity(text)
     units = getattr(system, "units", None)
-    known = units.of(name) if units is not None else None
-    if option == "--initial" and units is not None and name.endswith("'"):
-        known = units.of(name)
+    known = units.of(name) if units is not None else None  # x, x' or a parameter
     if known is not None and known != q.dimension:
         raise ValueError(
             f"{option} {name}={text}: has dimension {q.dimension.described()}, but `{name}` "
