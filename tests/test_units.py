@@ -496,3 +496,17 @@ def test_a_load_of_the_wrong_dimension_is_refused_at_its_line(old, new, line, wo
     assert f"loads.toml:{line}:" in message, message
     for w in words:
         assert w in message, message
+
+
+def test_a_sweep_takes_quantities_in_si_and_refuses_another_dimension(tmp_path):
+    path = tmp_path / "cylinder_units.toml"
+    path.write_text(_with_units(), encoding="utf-8")
+    args = ["--initial", "theta1=1 deg", "--measure", "liftoff", "--t-end", "3"]
+    out = _cli("sweep", str(path), "--param", "R2=40 cm:60 cm:2", *args, "--engine", "scipy")
+    assert out.returncode == 0, out.stderr
+    rows = [line.split(",") for line in out.stdout.splitlines()[1:]]
+    assert [float(r[1]) for r in rows] == [0.4, 0.6]
+    assert [float(r[3]) for r in rows] == pytest.approx([1.4, 1.6])  # r = R1 + R2 at lift-off
+    bad = _cli("sweep", str(path), "--param", "R2=40 kg:60 kg:2", *args)
+    assert bad.returncode == 2
+    assert "'40 kg' has dimension M (mass), but the problem file gives it L (length)" in bad.stderr
