@@ -429,6 +429,27 @@ def test_a_kinetic_energy_without_its_mass_is_refused_as_the_issue_says():
     )
 
 
+def test_a_term_of_t_without_its_mass_is_named_though_its_coordinate_has_no_unit():
+    """x appears in T alone: taking T as an energy would make x of dimension M^(1/2)*L."""
+    text = """
+    [parameters]
+    m = "2 kg"
+    g = "9.81 m/s^2"
+    [coordinates]
+    x = { initial = 0, velocity = 0 }
+    y = { initial = 0, velocity = 0, unit = "m" }
+    [lagrangian]
+    T = "1/2*x'^2 + m/2*y'^2"
+    V = "m*g*y"
+    """
+    with pytest.raises(ProblemFileError) as info:
+        lamech.loads(text.replace("\n    ", "\n"), "free.toml")
+    assert str(info.value).startswith(
+        "free.toml:9: lagrangian.T: the term `x'^2/2` of T has dimension dim(x)^2/T^2, V has "
+        "M*L^2/T^2 (energy): is a mass missing from `x'^2/2`?"
+    )
+
+
 def test_the_mistakes_are_ten_or_more():
     assert len({m[0] for m in MISTAKES}) >= 10
 

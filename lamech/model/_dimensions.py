@@ -8,9 +8,11 @@ The rules (each an equation between the dimensions of two expressions):
   ``atan2`` and the values of a ``piecewise`` have one dimension;
 * the arguments of sin, cos, tan, their inverses, sinh, cosh, tanh, exp and log are
   dimensionless (an angle in radians is), and so is a symbolic exponent;
-* V has the dimension of energy and T the dimension of V (T alone: energy);
+* each term of V has the dimension of energy, and so has each term of T (said against
+  V's: "T has dimension L^2/T^2, V has M*L^2/T^2 (energy): is a mass missing from T?");
 * a body's position and a force's point are lengths, its mass a mass, its inertia a mass
-  times a length squared, gravity an acceleration;
+  times a length squared, gravity an acceleration; a load's force a force, its torque an
+  energy (N*m), a spring's k a force per length and its damping a force per speed;
 * a generalized force on x has the dimension of energy over x's, a coefficient of
   friction and of restitution is dimensionless;
 * a parameter given as an expression has that expression's dimension; t is a time, and a
@@ -18,13 +20,16 @@ The rules (each an equation between the dimensions of two expressions):
 
 Numbers are dimensionless in products and fit any dimension in a sum (``x^2 + y^2 - 1``
 with x in metres reads the 1 as 1 m^2, as Modelica reads a literal). The equations are
-solved by propagation, in the order of the list above from the most trusted (the
-constraints, V, the bodies) to T and the forces: an equation with one unknown dimension
-left gives it; one with none left is checked, and a conflict is reported with where it
-is, both dimensions and the probable mistake. A dimension found with a fractional power
-(a coordinate of dimension M^(1/2)*L, what T = x'^2/2 with energy would give x) is
-reported as a conflict too. The result, :class:`Units`, gives each multiplier's unit:
-energy over the unit of its f (N for f in metres, N*m for f in radians, N/m for f in m^2).
+solved by propagation, the most trusted first (parameters' values; the constraints, the
+bodies, the loads and gravity; V; T; the generalized forces): every equation with no
+unknown dimension left is checked, then the first with one unknown left gives it, and
+again until none does. A sum is compared with the term of it whose dimensions are best
+given, and a sum (or V, T and the loads together) that fails gives no dimension, so one
+mistake is said once. A conflict is reported with where it is, both dimensions and the
+probable mistake; a dimension found with a fractional power (M^(1/2)*L, what T = x'^2/2
+taken as an energy would give x) is a conflict too. The result, :class:`Units`, gives
+each multiplier's unit: energy over the unit of its f (N for f in metres, N*m for f in
+radians, N/m for f in m^2; a velocity constraint's f times a time).
 """
 
 from __future__ import annotations
@@ -118,11 +123,13 @@ class _Lin:
     def text(self, names: Mapping[sp.Symbol, str]) -> str:
         if not self.unknown:
             return self.const.described()
-        parts = [str(self.const)] if not self.const.dimensionless else []
+        parts = []
         for s, p in self.unknown:
             n = f"dim({names.get(s, s.name)})"
             parts.append(n if p == 1 else f"{n}^{p}" if p.denominator == 1 else f"{n}^({p})")
-        return "*".join(parts)
+        text = "*".join(parts)
+        const = "" if self.const.dimensionless else str(self.const)
+        return text + const[1:] if const.startswith("1/") else "*".join(filter(None, [text, const]))
 
 
 _NUMBER = None
