@@ -53,12 +53,13 @@ def add_assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> No
 
 
 def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:
-    """{name: value} from NAME=VALUE pairs; each VALUE a number or an expression of the
-    problem's parameters (``pi/6``, ``R1 + R2``), parsed by lamech's safe parser and
-    evaluated at ``env`` (default: the file's parameter values)."""
+    """{name: value} from NAME=VALUE pairs; each VALUE a number, a quantity (``30 cm``,
+    in SI: issue 46) or an expression of the problem's parameters (``pi/6``,
+    ``R1 + R2``), parsed by lamech's safe parser and evaluated at ``env`` (default: the
+    file's parameter values)."""
     import sympy as sp
 
-    from ..expr import ExpressionError, parse
+    from ..expr import ExpressionError, is_quantity, parse
 
     names = {p.name: p.symbol for p in system.parameters}
     env = system.parameter_values if env is None else env
@@ -66,9 +67,13 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
     out = {}
     for name, text in pairs:
         try:
-            # a parameter's name alone (theta=theta0) is replaced by a number: sympify
-            # makes it a SymPy number again
-            value = float(sp.sympify(parse(text, names, f"{option} {name}").xreplace(env)))
+            if is_quantity(text):  # "30 cm": in SI, of the dimension the file gives it
+                value = float(_quantity(text, name, system, option))
+            else:
+                # a parameter's name alone (theta=theta0) is replaced by a number: sympify
+                # makes it a SymPy number again
+                expr = parse(text, names, f"{option} {name}")
+                value = float(sp.sympify(expr.xreplace(env)))
         except ExpressionError as exc:
             raise ValueError(f"{option} {name}={text}: {exc.message}") from None
         except TypeError:
@@ -77,6 +82,22 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
             raise ValueError(f"{option} {name}={text}: not a finite number")
         out[name] = value
     return out
+
+
+def _quantity(text: str, name: str, system, option: str):
+    """The quantity ``text`` of ``NAME=text`` in SI; a ValueError when the file's units
+    give ``name`` another dimension."""
+    from ..expr import quantity
+
+    q = quantity(text)
+    units = getattr(system, "units", None)
+    known = units.of(name) if units is not None else None  # x, x' or a parameter
+    if known is not None and known != q.dimension:
+        raise ValueError(
+            f"{option} {name}={text}: has dimension {q.dimension.described()}, but `{name}` "
+            f"has {known.described()} in the problem file"
+        )
+    return q.value
 
 
 def positive_int(text: str) -> int:

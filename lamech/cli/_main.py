@@ -95,7 +95,8 @@ def _parser() -> argparse.ArgumentParser:
         "--param",
         "override a parameter's value (or `mu`/`mu:<constraint>`, a friction "
         "coefficient) for the numbers: lift-off and slip angles, the "
-        "verdicts at the start. Repeatable",
+        'verdicts at the start; a number, an expression or a quantity ("30 cm"). '
+        "Repeatable",
     )
     add_assignments(
         s,

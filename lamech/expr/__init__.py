@@ -22,7 +22,8 @@ The modules, each importing only those after it: :mod:`._parse` (the text's chec
 :func:`parse`), :mod:`._build` (the whitelist walk), :mod:`._bounds` (sizes of numbers
 and of expansions, the zero test), :mod:`._inputs` (the inputs' vocabulary: :class:`Table`,
 :func:`switch_form`, :func:`not_differentiable`), :mod:`._print` (:func:`to_text`,
-:func:`latex`, :func:`printable`) and :mod:`._grammar` (the limits, the functions,
+:func:`latex`, :func:`printable`), :mod:`._units` (quantities with units, ``"30 cm"``,
+converted to SI, and :class:`Dimension`) and :mod:`._grammar` (the limits, the functions,
 :class:`ExpressionError`). Import the names from here.
 """
 
@@ -53,6 +54,7 @@ from ._inputs import (
 )
 from ._parse import parse
 from ._print import latex, printable, to_text
+from ._units import Dimension, Quantity, is_quantity, quantity, unit
 
 __all__ = [
     "ExpressionError",
@@ -77,4 +79,9 @@ __all__ = [
     "is_table",
     "table_form",
     "table_knots",
+    "Dimension",
+    "Quantity",
+    "is_quantity",
+    "quantity",
+    "unit",
 ]

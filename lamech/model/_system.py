@@ -49,7 +49,9 @@ class System:
 
     ``T`` and ``V`` are in coordinates, velocities, parameters and ``t``; ``forces`` is
     Q^nc, one entry per coordinate. ``notes`` carries warnings found while loading (a T
-    that disagrees with the bodies' kinematics); ``scenery`` is drawn, never simulated.
+    that disagrees with the bodies' kinematics); ``scenery`` is drawn, never simulated;
+    ``units`` holds the dimensions inferred where the problem gives units
+    (:func:`lamech.model.infer_units`), None where it gives none.
     A System takes T, V and the forces as given: :func:`lamech.model.assemble` makes them
     from bodies, an L and applied loads, as a problem file's sections do.
     """
@@ -69,6 +71,7 @@ class System:
     scenery: tuple[Scenery, ...] = ()
     chart: Any = None  # a lamech.model.Chart: the coordinates results are given in
     sliders: tuple[tuple[str, float, float], ...] = ()  # (name, low, high): [sliders]
+    units: Any = None  # a lamech.model.Units where the file uses units (issue 46), else None
 
     def __post_init__(self) -> None:
         # Every check for values not found clean before: a copy (dataclasses.replace,

@@ -7,6 +7,7 @@ Nothing is computed here; expressions print in the problem-file grammar
 from __future__ import annotations
 
 import math
+import re
 
 import sympy as sp
 
@@ -17,6 +18,43 @@ from ..symbolic._reduce import READABLE_OPS
 from ._plain import tex_comment, tex_label, tex_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
+
+
+def _unit(dimension) -> str:
+    """`` [N]``: a result's unit in SI symbols, beside it in the text; "" when unknown."""
+    return "" if dimension is None else f" [{dimension.si()}]"
+
+
+def _tex_unit(dimension) -> str:
+    r"""``\,\mathrm{N}``, ``\,\mathrm{N\,m}``, ``\,\mathrm{N/m}``: a result's unit after
+    it in LaTeX; "" when unknown."""
+    if dimension is None:
+        return ""
+    text = dimension.si()
+    text = re.sub(
+        r"\^\(?(-?\d+)(?:/(\d+))?\)?", lambda m: "^{" + m.group(0)[1:].strip("()") + "}", text
+    )
+    return r"\,\mathrm{" + text.replace("*", r"\,") + "}"
+
+
+def _units_json(system) -> dict:
+    """``"units"`` of ``--json`` (issue 46): the unit of each multiplier and Cartesian
+    force, and of each coordinate and velocity whose dimension is known (an angle, of
+    dimension 1, in rad), in SI symbols."""
+    u = system.units
+    coordinates = {}
+    for c in system.coordinates:
+        for name in (c.name, c.name + "'"):
+            d = u.of(name)
+            if d is not None:
+                text = d.si()
+                coordinates[name] = "rad" if text == "1" else "rad/s" if text == "1/s" else text
+    return {
+        "multipliers": {k: d.si() for k, d in u.multipliers},
+        "forces": {k: d.si() for k, d in u.forces},
+        "coordinates": coordinates,
+    }
+
 
 CONVENTION = (
     "d/dt dL/dq' - dL/dq - sum_j lambda_j df_j/dq = Q  (unilateral: f >= 0 holds while lambda >= 0)"
@@ -187,6 +225,8 @@ def to_json(sol) -> dict:
         out["initial_multipliers"] = sol.initial_multipliers
     if named.definitions:
         out["subexpressions"] = {_t_whole(w): _t_whole(e) for w, e in named.definitions}
+    if system.units is not None:
+        out["units"] = _units_json(system)
     out["notes"] = list(sol.notes)
     return out
 
@@ -250,6 +290,13 @@ def to_text(sol) -> str:
     s = sol.system
     named = _Named(_long_results(sol))
     _shown = named.shown
+    units = s.units
+
+    def unit(constraint: str, force: bool = False) -> str:
+        if units is None:
+            return ""
+        return _unit(units.force(constraint) if force else units.multiplier(constraint))
+
     lines: list[str] = [s.title, "=" * len(s.title), ""]
     if getattr(sol, "partial", False):
         lines += [
@@ -302,12 +349,12 @@ def to_text(sol) -> str:
     if sol.multipliers:
         lines += ["", "Multipliers (on the constraint manifold)"]
         lines += [
-            f"  lambda_{k} = {_shown(v, sol.initial_multipliers.get(k))}"
+            f"  lambda_{k} = {_shown(v, sol.initial_multipliers.get(k))}{unit(k)}"
             for k, v in sol.multipliers.items()
         ]
     elif sol.initial_multipliers:
         lines += ["", "Multipliers at the initial state (numeric)"]
-        lines += [f"  lambda_{k} = {v:.12g}" for k, v in sol.initial_multipliers.items()]
+        lines += [f"  lambda_{k} = {v:.12g}{unit(k)}" for k, v in sol.initial_multipliers.items()]
     lines += ["", "Conserved quantities"]
     if sol.energy is not None:
         label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
@@ -324,7 +371,7 @@ def to_text(sol) -> str:
             f"On the energy shell (initial state {_initial_text(sol)})",
             f"  {x}'^2 = {_t(sh.speed_squared)}",
         ]
-        lines += [f"  lambda_{k} = {_t(v)}" for k, v in sh.multipliers.items()]
+        lines += [f"  lambda_{k} = {_t(v)}{unit(k)}" for k, v in sh.multipliers.items()]
         lines += [f"  lambda_{k}: omitted, {why}" for k, why in sh.omitted.items()]
     if sol.vanishes:
         lines += ["", "Where a unilateral constraint lets go (lambda = 0)"]
@@ -354,7 +401,7 @@ def to_text(sol) -> str:
                 value = (
                     "undetermined (the point's motion cannot do work along it)"
                     if e is None
-                    else _shown(e)
+                    else _shown(e) + unit(k, force=True)
                 )
                 lines.append(f"    {d} = {value}")
     if named.definitions:
@@ -413,14 +460,30 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for e in sol.reduced_equations:
         if _ops(e) <= READABLE_OPS:
             add("reduced", _tex(e, names), "0")
+    units = sol.system.units
+
+    def unit(k: str, force: bool = False) -> str:
+        if units is None:
+            return ""
+        return _tex_unit(units.force(k) if force else units.multiplier(k))
+
+    def tex_with_unit(e, tex: str, k: str, force: bool = False) -> str:
+        """``tex`` and the unit of ``k``'s result; a sum in parentheses before its unit."""
+        u = unit(k, force)
+        if u and isinstance(e, sp.Add):
+            return rf"\left({tex}\right){u}"
+        return tex + u
+
     for k, v in sol.multipliers.items():
-        add("multiplier", names[sol.system.constraint(k).multiplier], tex_or_size(v))
+        lhs = names[sol.system.constraint(k).multiplier]
+        add("multiplier", lhs, tex_with_unit(v, tex_or_size(v), k))
     if sol.energy is not None:
         label = "Jacobi integral" if sol.integrals.is_jacobi else "energy"
         add(label, "E", _tex(sol.energy, names))
     if sol.shell is not None:
         for k, v in sol.shell.multipliers.items():
-            add("on the energy shell", names[sol.system.constraint(k).multiplier], _tex(v, names))
+            lhs = names[sol.system.constraint(k).multiplier]
+            add("on the energy shell", lhs, tex_with_unit(v, _tex(v, names), k))
     for kind, table, verdicts in (
         ("lets go", sol.vanishes, sol.lets_go),
         ("slips", sol.slips, sol.slipping),
@@ -451,7 +514,8 @@ def to_latex(sol, standalone_math: bool = False) -> str:
     for k, comps in sol.forces.items():
         for d, e in comps.items():
             if e is not None:
-                add(f"{k} force", rf"F_{{{tex_label(d)}}}", tex_or_size(e))
+                rhs = tex_with_unit(e, tex_or_size(e), k, True)
+                add(f"{k} force", rf"F_{{{tex_label(d)}}}", rhs)
     for w, e in named.definitions:
         add("named subexpression", _tex(w, names), _tex(e, names))
     body = " \\\\\n".join(rows)

@@ -8,6 +8,7 @@ See the problem-file reference (docs/reference/problem-file.md) for the format.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import stat
@@ -18,13 +19,24 @@ from typing import Any
 import sympy as sp
 
 from ..expr import MAX_NUMBER_DIGITS, RESERVED, printable, tabulated, to_text
-from ..model import Body, Chart, Coordinate, Parameter, System, assemble, coordinate
+from ..model import (
+    Body,
+    Chart,
+    Coordinate,
+    ModelError,
+    Parameter,
+    System,
+    assemble,
+    coordinate,
+    infer_units,
+)
 from ..model._assemble import skeleton
 from ..model._base import FIELDS, name_problem
 from ..model._kinematics import angular_velocity, time_derivative
 from ..model._parts import parameter_numbers, signed_symbol
 from ._examples import example_names, example_path
 from ._files import LIMITS, MAX_BYTES, Issue, ProblemFileError, read_table, repeated_key
+from ._quantities import coordinate_values, parameter_value
 from ._sections import PartsReader
 
 if sys.version_info >= (3, 11):
@@ -258,7 +270,24 @@ class _Loader(PartsReader):
             sliders=tuple(sliders),
         )
         self.fail_if_any()
+        if self.dimensions:
+            system = self._units(system, tuple(loads))
         return system
+
+    def _units(self, system: System, loads: tuple) -> System:
+        """The system with its dimensions inferred and checked (issue 46): where the file
+        gives any quantity a unit; each conflict reported at its line."""
+        table = self.data.get("lagrangian")
+        table = table if isinstance(table, dict) else {}
+        where_T = "lagrangian.T" if "T" in table else "lagrangian.L" if "L" in table else "bodies"
+        where_V = "lagrangian.V" if "V" in table else "lagrangian.L" if "L" in table else "bodies"
+        try:
+            units = infer_units(system, self.dimensions, where_T, where_V, loads)
+        except ModelError as exc:
+            self.model_problems(exc)
+            self.fail_if_any()
+            raise
+        return dataclasses.replace(system, units=units)
 
     def _chart(self, coords: list[Coordinate]) -> Chart | None:
         """``[parametrisation]``: ``coordinates = ["theta1", ...]`` (the new ones) and
@@ -376,6 +405,10 @@ class _Loader(PartsReader):
                     ("parameters", None, n),
                 )
                 continue
+            read = parameter_value(self, n, value)
+            if read is None:
+                continue
+            value = read
             e = self.expr(
                 value,
                 symbols,
@@ -427,12 +460,12 @@ class _Loader(PartsReader):
                     loc,
                 )
                 continue
-            extra = set(spec) - {"initial", "velocity", "keep"}
+            extra = set(spec) - {"initial", "velocity", "keep", "unit"}
             if extra:
                 self.problem(
                     where,
                     f"unknown key `{sorted(extra)[0]}`; a coordinate takes "
-                    "initial, velocity and keep",
+                    "initial, velocity, keep and unit",
                     loc,
                 )
             if "initial" not in spec:
@@ -443,8 +476,9 @@ class _Loader(PartsReader):
                     loc,
                 )
                 continue
-            q0 = self.field(spec["initial"], "initial", where + ".initial", loc)
-            v0 = self.field(spec.get("velocity", 0), "initial velocity", where + ".velocity", loc)
+            raw_q0, raw_v0 = coordinate_values(self, name, spec)
+            q0 = self.field(raw_q0, "initial", where + ".initial", loc)
+            v0 = self.field(raw_v0, "initial velocity", where + ".velocity", loc)
             keep = spec.get("keep", False)
             if not isinstance(keep, bool):
                 self.problem(where + ".keep", "`keep` must be true or false", loc)

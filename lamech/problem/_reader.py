@@ -11,7 +11,7 @@ from typing import Any
 
 import sympy as sp
 
-from ..expr import ExpressionError, parse
+from ..expr import Dimension, ExpressionError, is_quantity, parse
 from ..model import ModelError
 from ..model._base import FIELDS
 from ._files import Issue, Lines, ProblemFileError
@@ -37,6 +37,8 @@ class Reader:
         self.t = sp.Symbol("t", real=True)
         self.scopes: dict[str, dict[str, sp.Expr]] = {}
         self.spin_hints: dict[str, str] = {}  # body: why `body.wx` means nothing
+        # the dimensions the file gives by a unit (issue 46), by parameter or coordinate
+        self.dimensions: dict[str, Dimension] = {}
 
     def problem(
         self, where: str, message: str, loc: tuple = (None, None, None), text: str | None = None
@@ -107,6 +109,15 @@ class Reader:
     ) -> sp.Expr | None:
         if isinstance(value, sp.Basic):
             return self._sympy_value(value, names, where, loc)
+        if is_quantity(value):
+            self.problem(
+                where,
+                f"`{value}` is a quantity with a unit, which only [parameters] and "
+                "[coordinates] take: declare a parameter (`name = "
+                f'"{value}"`) and use its name here',
+                loc,
+            )
+            return None
         try:
             return parse(value, names, what, hints=hints)
         except ExpressionError as exc:

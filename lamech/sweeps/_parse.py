@@ -1,5 +1,5 @@
-"""Parsing sweep input: value ranges, NAME=VALUE assignments and measures (numbers only:
-no expression is evaluated here)."""
+"""Parsing sweep input: value ranges, NAME=VALUE assignments and measures (numbers and
+quantities with units only, ``30 cm`` in SI: no expression is evaluated here)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import LamechError
+from ..expr import Dimension, ExpressionError, is_quantity, quantity
 from ..model import System
 
 __all__ = [
@@ -40,7 +41,20 @@ class SweepError(LamechError, ValueError):
 
 
 # ----- parsing ------------------------------------------------------------------------
-def number(text: str, what: str) -> float:
+def number(text: str, what: str, dimension: Dimension | None = None) -> float:
+    """``text`` as a float: a number, or a quantity (``30 cm``) in SI, refused when
+    ``dimension`` (the problem file's, where it gives units) is another."""
+    if is_quantity(text):
+        try:
+            q = quantity(text.strip())
+        except ExpressionError as exc:
+            raise SweepError(f"{what}: {exc.message}") from None
+        if dimension is not None and q.dimension != dimension:
+            raise SweepError(
+                f"{what}: {text.strip()!r} has dimension {q.dimension.described()}, but the "
+                f"problem file gives it {dimension.described()}"
+            )
+        return float(q.value)
     try:
         x = float(text.strip())
     except ValueError:
@@ -50,10 +64,11 @@ def number(text: str, what: str) -> float:
     return x
 
 
-def parse_values(text: str, name: str = "value") -> np.ndarray:
+def parse_values(text: str, name: str = "value", dimension: Dimension | None = None) -> np.ndarray:
     """``"A:B:N"`` (N values from A to B, both included), ``"a,b,c"`` or ``"a"``.
 
-    Numbers only (``float``); no expression is evaluated.
+    Numbers, or quantities converted to SI (``10 cm:50 cm:5``; of ``dimension`` where it
+    is given); no expression is evaluated.
     """
     what = f"parameter `{name}`"
     text = str(text).strip()
@@ -65,7 +80,7 @@ def parse_values(text: str, name: str = "value") -> np.ndarray:
             raise SweepError(
                 f"{what}: range {text!r} must be A:B:N (start, stop, count), e.g. 0.1:1.0:50"
             )
-        a, b = number(parts[0], what), number(parts[1], what)
+        a, b = number(parts[0], what, dimension), number(parts[1], what, dimension)
         try:
             count = int(parts[2].strip())
         except ValueError:
@@ -78,7 +93,7 @@ def parse_values(text: str, name: str = "value") -> np.ndarray:
             raise SweepError(f"{what}: count {count} exceeds {MAX_CASES}")
         # 15 significant digits: 0.3, not linspace's 0.30000000000000004
         return np.array([float(f"{x:.15g}") for x in np.linspace(a, b, count)])
-    values = [number(part, what) for part in text.split(",")]
+    values = [number(part, what, dimension) for part in text.split(",")]
     return np.array(values, dtype=float)
 
 

@@ -85,13 +85,13 @@ def _with_friction_parameters(system: System, names: Iterable[str]) -> System:
         raise SweepError(str(exc)) from None
 
 
-def _grid(params: Mapping[str, object]) -> tuple[dict[str, np.ndarray], _Cases]:
+def _grid(params: Mapping[str, object], units=None) -> tuple[dict[str, np.ndarray], _Cases]:
     if not params:
         raise SweepError("no parameters to sweep; give at least one (NAME=A:B:N)")
     values: dict[str, np.ndarray] = {}
     for name, spec in params.items():
         if isinstance(spec, str):
-            arr = parse_values(spec, name)
+            arr = parse_values(spec, name, units.of(name) if units is not None else None)
         else:
             arr = np.atleast_1d(np.asarray(spec, dtype=float))
             if arr.ndim != 1 or not len(arr) or not np.all(np.isfinite(arr)):
@@ -233,7 +233,7 @@ def execute(
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
     engine = engine_name(engine, SweepError)
-    values, cases = _grid(params)
+    values, cases = _grid(params, system.units)
     system = _with_friction_parameters(system, list(values))
     ms = [parse_measure(m, system) for m in measures]
     if not ms:
@@ -251,7 +251,8 @@ def execute(
                 f"initial value for unknown coordinate `{name}`; known: "
                 + ", ".join(coords + [c + "'" for c in coords])
             )
-        init.append((name, number(str(x), f"initial `{name}`")))
+        dimension = system.units.of(name) if system.units is not None else None
+        init.append((name, number(str(x), f"initial `{name}`", dimension)))
     columns = ["case", *values]
     for m in ms:
         columns += m.columns(coords)

@@ -1,0 +1,110 @@
+"""Quantities with units in a problem file (issue 46): a parameter's value
+(``R2 = "30 cm"``), a coordinate's ``unit`` and its initial value and velocity
+(``initial = "10 deg"``, ``velocity = "0.5 m/s"``), each converted exactly to SI
+(:func:`lamech.expr.quantity`) and its dimension recorded in the reader's ``dimensions``
+(by parameter or coordinate name) for :func:`lamech.model.infer_units`.
+
+A coordinate's ``unit`` says its dimension and the unit of a plain number given as its
+initial value (its velocity's: that unit per second); an expression of parameters is in
+SI already, as the parameters are. The coordinate itself is always in SI (an angle in
+radians, a length in metres), as every result is.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy as sp
+
+from ..expr import Dimension, ExpressionError, is_quantity, quantity, unit
+
+__all__ = ["parameter_value", "coordinate_values"]
+
+_TIME = Dimension.of(T=1)
+
+
+def parameter_value(reader: Any, name: str, value: Any) -> Any:
+    """``value`` as the reader parses it: a quantity becomes its exact value in SI (its
+    dimension recorded), anything else is unchanged; None when refused (reported)."""
+    if not is_quantity(value):
+        return value
+    try:
+        q = quantity(value)
+    except ExpressionError as exc:
+        reader.problem(f"parameters.{name}", exc.message, ("parameters", None, name))
+        return None
+    reader.dimensions[name] = q.dimension
+    return q.value
+
+
+def _number(value: Any) -> sp.Expr | None:
+    """A plain number given in the file (10, 0.5, "0.5") exactly, else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int):
+        return sp.Integer(value)
+    if isinstance(value, float):
+        return sp.Rational(repr(value))
+    if isinstance(value, str):
+        try:
+            return sp.Rational(value.strip())
+        except (TypeError, ValueError):
+            return None
+    return None
+
+
+def coordinate_values(reader: Any, name: str, spec: dict) -> tuple[Any, Any]:
+    """The initial value and velocity of coordinate ``name`` as the reader parses them:
+    quantities and plain numbers in the coordinate's ``unit`` converted to SI, the
+    dimensions recorded; a mismatch between them is reported."""
+    where, loc = f"coordinates.{name}", ("coordinates", None, name)
+    q0, v0 = spec["initial"], spec.get("velocity", 0)
+    factor: sp.Expr = sp.Integer(1)
+    declared: Dimension | None = None
+    if "unit" in spec:
+        text = spec["unit"]
+        if not isinstance(text, str):
+            reader.problem(where + ".unit", 'a unit is a string: unit = "m", "rad" or "deg"', loc)
+        else:
+            try:
+                factor, declared = unit(text)
+            except ExpressionError as exc:
+                reader.problem(where + ".unit", exc.message, loc)
+    found: dict[str, Dimension] = {}
+    out = []
+    for key, raw, per in (("initial", q0, Dimension()), ("velocity", v0, _TIME)):
+        if is_quantity(raw):
+            try:
+                q = quantity(raw)
+            except ExpressionError as exc:
+                reader.problem(f"{where}.{key}", exc.message, loc)
+                out.append(0)
+                continue
+            found[key] = q.dimension * per
+            out.append(q.value)
+            continue
+        number = _number(raw)
+        if declared is not None and factor != 1 and number is not None:
+            out.append(number * factor)
+        else:
+            out.append(raw)
+    if declared is not None:
+        reader.dimensions[name] = declared
+    for key, d in found.items():
+        said = "its unit" if declared is not None else None
+        if declared is None and key == "velocity" and "initial" in found:
+            declared, said = found["initial"], "its initial value"
+        if declared is None:
+            declared = d
+            reader.dimensions[name] = d
+            continue
+        if d != declared:
+            needed = declared / (_TIME if key == "velocity" else Dimension())
+            given = d / (_TIME if key == "velocity" else Dimension())
+            reader.problem(
+                f"{where}.{key}",
+                f"the {key} `{spec[key]}` has dimension {given.described()}, but {said} makes "
+                f"`{name}` {declared.described()}, so its {key} needs {needed.described()}",
+                loc,
+            )
+    return out[0], out[1]
