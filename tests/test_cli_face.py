@@ -49,4 +49,17 @@ def test_every_public_refusal_is_a_lamech_error_and_a_value_error(name):
 
 def test_a_typo_in_a_file_is_caught_as_a_lamech_error():
     with pytest.raises(lamech.LamechError, match=r"<string>:3: coordinates\.x\.initial"):
-        lamech.loads('title = "t"\n[coordinates]\nx = { initial = "2m" }\n')
+        lamech.loads('title = "t"\n[coordinates]\nx = { initial = "2*" }\n')
+
+
+def test_a_long_solve_says_its_stages_into_a_log_too(capsys, monkeypatch):
+    """Not on a terminal (a batch job's log): a line per stage once the solve has run
+    PROGRESS_AFTER seconds (0 here, so no clock decides the test)."""
+    from lamech.cli import _main
+
+    monkeypatch.setitem(_main.PROGRESS_AFTER, False, -1.0)
+    assert main(["solve", "pendulum"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    stages = [line for line in err if line.startswith("lamech: solving: ")]
+    assert stages and len(stages) == len(set(stages))
+    assert "lamech: solving: the equations of motion ..." in stages

@@ -22,22 +22,32 @@ from ._terms import in_flags
 DEFAULT_PROBLEM = "cylinder"
 
 
+PROGRESS_AFTER = {True: 1.0, False: 10.0}
+"""Seconds a solve runs before it says its stage: on a terminal (one line, redrawn), and
+into a log or pipe (a line per stage, so a batch job's log shows where a long solve is)."""
+
+
 @contextlib.contextmanager
 def _progress():
-    """On a terminal, a solve that runs over a second says on stderr which stage it is
-    in (the symbolic layer's stage hook); the line is cleared when it ends."""
-    if not sys.stderr.isatty():
-        yield
-        return
+    """A solve that runs long says on stderr which stage it is in (the symbolic layer's
+    stage hook): on a terminal after a second, on one line cleared when it ends; into a
+    file or pipe after :data:`PROGRESS_AFTER` seconds, a line for each new stage."""
     from ..symbolic._work import stage_hook
 
+    tty = sys.stderr.isatty()
     start = time.monotonic()
     shown = [False]
+    said: set = set()
 
     def hook(stage: str) -> None:
-        if time.monotonic() - start > 1.0:
+        if time.monotonic() - start <= PROGRESS_AFTER[tty]:
+            return
+        if tty:
             print(f"\rlamech: solving: {stage} ...\033[K", end="", file=sys.stderr, flush=True)
             shown[0] = True
+        elif stage not in said:
+            said.add(stage)
+            print(f"lamech: solving: {stage} ...", file=sys.stderr, flush=True)
 
     try:
         with stage_hook(hook):
