@@ -248,3 +248,14 @@ def test_the_trammels_modes_find_both_equilibria_on_the_whole_circle():
     assert low.stability == "stable" and high.stability == "unstable"
     assert low.modes[0].frequency ** 2 == pytest.approx(g / l, rel=1e-12)
     assert high.modes[0].growth ** 2 == pytest.approx(g / l, rel=1e-12)
+
+
+def test_a_charts_start_is_kept_exact():
+    """The rod in a bowl in the angle psi of its centre (phi = psi): the start found by
+    Newton's method is psi0 = 1/2 exactly (from phi = psi), so the shell reads
+    cos(psi) - cos(1/2), not 12500000000000000*cos(psi) - 10969782023629659."""
+    sol = _solved("rod_in_bowl_chart.toml")
+    (psi,) = sol.system.chart_coordinates
+    assert psi.initial == sp.Rational(1, 2)
+    shell = " ".join(str(e) for e in sol.on_energy_shell.values())
+    assert "cos(1/2)" in shell and "00000" not in shell

@@ -287,30 +287,11 @@ def exact_start(system, found: dict) -> dict:
     S, C = sp.Dummy("S"), sp.Dummy("C")
     for coord in chart.coordinates:
         u = coord.symbol
-        rows: list[sp.Eq] = []
-        for x, e in chart.map:
-            if not e.has(u):
-                continue
-            g = e.xreplace({sp.sin(u): S, sp.cos(u): C})
-            if g.has(u) or (g.free_symbols & set(chart.symbols)):
-                rows = []
-                break
-            rows.append(sp.Eq(init.get(x, x), g))
-        if not rows:
-            continue
-        try:
-            sol = sp.solve(rows, [S, C], dict=True)
-        except (NotImplementedError, ValueError, TypeError):
-            continue
-        if len(sol) != 1 or S not in sol[0] or C not in sol[0]:
-            continue
-        s0, c0 = (sp.simplify(sol[0][k]) for k in (S, C))
-        u0 = sp.atan2(s0, c0)
-        try:
-            ok = abs(float(u0.subs(pv)) - found[u]) <= 1e-9 * (1 + abs(found[u]))
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
+        u0 = next(
+            (c for c in _exact_candidates(chart, init, u, S, C) if _equals(c, found[u], pv)),
+            None,
+        )
+        if u0 is None:
             continue
         out[u] = u0
         # the velocity: d/dt of one map entry that moves with u, x' = dg/du u' (+ the rest)
@@ -333,6 +314,43 @@ def exact_start(system, found: dict) -> dict:
                 pass
             break
     return out
+
+
+def _exact_candidates(chart, init: dict, u: sp.Symbol, S: sp.Symbol, C: sp.Symbol):
+    """Exact values of u at the start, first to last: from a map entry linear in u
+    (the rod's phi = psi: psi0 = phi0), then atan2 of its sine and cosine where the map
+    states them linearly (a circle)."""
+    others = set(chart.symbols) - {u}
+    for x, e in chart.map:
+        if not e.has(u) or e.free_symbols & others:
+            continue
+        a = sp.diff(e, u)
+        if a != 0 and not a.has(u) and not (a.free_symbols & others):
+            yield sp.simplify((init.get(x, x) - e.xreplace({u: 0})) / a)
+    rows: list[sp.Eq] = []
+    for x, e in chart.map:
+        if not e.has(u):
+            continue
+        g = e.xreplace({sp.sin(u): S, sp.cos(u): C})
+        if g.has(u) or (g.free_symbols & set(chart.symbols)):
+            return
+        rows.append(sp.Eq(init.get(x, x), g))
+    if not rows:
+        return
+    try:
+        sol = sp.solve(rows, [S, C], dict=True)
+    except (NotImplementedError, ValueError, TypeError):
+        return
+    if len(sol) == 1 and S in sol[0] and C in sol[0]:
+        s0, c0 = (sp.simplify(sol[0][k]) for k in (S, C))
+        yield sp.atan2(s0, c0)
+
+
+def _equals(exact: sp.Expr, value: float, pv: dict) -> bool:
+    try:
+        return abs(float(exact.subs(pv)) - value) <= 1e-9 * (1 + abs(value))
+    except (TypeError, ValueError):
+        return False
 
 
 def time_derivative_free(e: sp.Expr, system, u: sp.Symbol) -> sp.Expr:
