@@ -587,11 +587,14 @@ def test_a_kept_constraint_is_used_on_its_manifold():
     """f = l1 - sqrt(x1^2 + y1^2) kept: sqrt(x1^2 + y1^2) is l1 and x1 x1' + y1 y1' = 0
     in every result. The tension is the textbook m v^2/l1 - m g y1/l1 (was a quartic
     over (x1^2 + y1^2)^(3/2)); at states on the manifold it equals the polar form
-    m l theta'^2 + m g cos(theta) (x1 = l sin(theta), y1 = -l cos(theta))."""
+    m l theta'^2 + m g cos(theta) (x1 = l sin(theta), y1 = -l cos(theta)). The
+    coordinates are kept (keep = true): lamech would otherwise solve the circle in its
+    angle."""
     import numpy as np
     import sympy as sp
 
-    sol = lamech.solve(lamech.loads(CARTESIAN_PENDULUM, "cart.toml"))
+    kept = CARTESIAN_PENDULUM.replace("velocity = 0 }", "velocity = 0, keep = true }")
+    sol = lamech.solve(lamech.loads(kept, "cart.toml"))
     S = sol.symbols
     m, g, l1 = S["m"], S["g"], S["l1"]
     x, y, xd, yd = S["x1"], S["y1"], S["x1'"], S["y1'"]

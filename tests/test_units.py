@@ -415,7 +415,6 @@ def test_a_kinetic_energy_without_its_mass_is_refused_as_the_issue_says():
     m = "2 kg"
     g = "9.81 m/s^2"
     [coordinates]
-    x = { initial = 0, velocity = 0 }
     y = { initial = "1 m", velocity = 0 }
     [lagrangian]
     T = "1/2*y'^2"
@@ -424,7 +423,7 @@ def test_a_kinetic_energy_without_its_mass_is_refused_as_the_issue_says():
     with pytest.raises(ProblemFileError) as info:
         lamech.loads(text.replace("\n    ", "\n"), "fall.toml")
     assert str(info.value).startswith(
-        "fall.toml:9: lagrangian.T: T has dimension L^2/T^2 (energy/mass), V has M*L^2/T^2 "
+        "fall.toml:8: lagrangian.T: T has dimension L^2/T^2 (energy/mass), V has M*L^2/T^2 "
         "(energy): is a mass missing from T?"
     )
 
