@@ -136,9 +136,12 @@ class _Manifold:
             candidates = [first]
             if self.orders and count_ops(first) <= BUDGET:
                 num, den = sp.fraction(sp.together(first))
-                symbols = (num.free_symbols | den.free_symbols | _symbols(self.relations)) - set(
-                    self.gens
-                )
+                # every parameter in the field, so one basis serves every expression
+                # (a basis per set of symbols met cost 8 Groebner bases for a rod in a bowl)
+                params = {p.symbol for p in self.system.parameters}
+                symbols = (
+                    num.free_symbols | den.free_symbols | _symbols(self.relations) | params
+                ) - set(self.gens)
                 if self.angles:
                     symbols -= {self.system.t}
                 candidates += [self._normal(num, den, G) for G in self.bases(frozenset(symbols))]
