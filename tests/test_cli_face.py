@@ -54,10 +54,8 @@ def test_a_typo_in_a_file_is_caught_as_a_lamech_error():
 
 def test_a_long_solve_says_its_stages_into_a_log_too(capsys, monkeypatch):
     """Not on a terminal (a batch job's log): a line per stage once the solve has run
-    PROGRESS_AFTER seconds (0 here, so no clock decides the test)."""
-    from lamech.cli import _main
-
-    monkeypatch.setitem(_main.PROGRESS_AFTER, False, -1.0)
+    $LAMECH_PROGRESS_AFTER seconds (-1 here, so no clock decides the test)."""
+    monkeypatch.setenv("LAMECH_PROGRESS_AFTER", "-1")
     assert main(["solve", "pendulum"]) == 0
     err = capsys.readouterr().err.splitlines()
     stages = [line for line in err if line.startswith("lamech: solving: ")]

@@ -24,7 +24,16 @@ DEFAULT_PROBLEM = "cylinder"
 
 PROGRESS_AFTER = {True: 1.0, False: 10.0}
 """Seconds a solve runs before it says its stage: on a terminal (one line, redrawn), and
-into a log or pipe (a line per stage, so a batch job's log shows where a long solve is)."""
+into a log or pipe (a line per stage, so a batch job's log shows where a long solve is);
+``$LAMECH_PROGRESS_AFTER`` (seconds) sets both."""
+
+
+def _progress_after(tty: bool) -> float:
+    text = os.environ.get("LAMECH_PROGRESS_AFTER", "")
+    try:
+        return float(text) if text else PROGRESS_AFTER[tty]
+    except ValueError:
+        return PROGRESS_AFTER[tty]
 
 
 @contextlib.contextmanager
@@ -35,12 +44,13 @@ def _progress():
     from ..symbolic._work import stage_hook
 
     tty = sys.stderr.isatty()
+    after = _progress_after(tty)
     start = time.monotonic()
     shown = [False]
     said: set = set()
 
     def hook(stage: str) -> None:
-        if time.monotonic() - start <= PROGRESS_AFTER[tty]:
+        if time.monotonic() - start <= after:
             return
         if tty:
             print(f"\rlamech: solving: {stage} ...\033[K", end="", file=sys.stderr, flush=True)
