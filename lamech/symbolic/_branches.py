@@ -1,7 +1,7 @@
 """Equilibria in the file's own coordinates: those the search on every branch of the
 constraints finds (:meth:`~._rest.RestTest.search`) and the reduced equations of
 :mod:`._modes` do not give, and those where the reduced equations are singular or too
-long to differentiate, as :class:`~._modes.Equilibrium` objects linearised on the
+long to differentiate, as :class:`~._equilibria.Equilibrium` objects linearised on the
 constraints' tangent space (:meth:`~._rest.RestTest.linearised`), with the multipliers
 of the KKT solve at rest and the linear system in the coordinates regular there.
 """
