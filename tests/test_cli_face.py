@@ -61,3 +61,16 @@ def test_a_long_solve_says_its_stages_into_a_log_too(capsys, monkeypatch):
     stages = [line for line in err if line.startswith("lamech: solving: ")]
     assert stages and len(stages) == len(set(stages))
     assert "lamech: solving: the equations of motion ..." in stages
+
+
+def test_an_error_shows_at_most_200_characters_of_its_line():
+    """A 10 kB expression refused for its length: the message names the line, and its
+    echo is cut (it printed the whole line, 28 kB for a 40-link chain's T)."""
+    long_t = "m/2*(" + " + ".join(f"x'^2*{i}" for i in range(1500)) + ")"
+    text = 'title = "t"\n[parameters]\nm = 1.0\n[coordinates]\nx = { initial = 0 }\n'
+    text += f'[lagrangian]\nT = "{long_t}"\nV = "0"\n'
+    with pytest.raises(lamech.LamechError) as info:
+        lamech.loads(text, "long.toml")
+    message = str(info.value)
+    assert "long.toml:7: lagrangian.T: expression too long" in message
+    assert max(len(line) for line in message.splitlines()) < 260

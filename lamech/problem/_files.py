@@ -32,8 +32,15 @@ class Issue:
         head = f"{source}:{self.line}:" if self.line else f"{source}:"
         out = f"{head} {where}: {message}" if where else f"{head} {message}"
         if self.text:
-            out += f"\n    {printable(self.text)}"
+            text = self.text
+            if len(text) > SHOWN_TEXT:  # a 28 kB line is not read again in full
+                text = text[: SHOWN_TEXT - 3] + "..."
+            out += f"\n    {printable(text)}"
         return out
+
+
+SHOWN_TEXT = 200
+"""The most characters of the offending line an error shows (the line is in the file)."""
 
 
 _KEY_LINE = re.compile(r"""^\s*("[^"]*"|'[^']*'|[A-Za-z0-9_.\-]+)\s*=""")
