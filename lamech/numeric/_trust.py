@@ -71,28 +71,24 @@ def _owner_ok(st: os.stat_result) -> bool:
 
 def folder_problem(path: Path) -> str | None:
     """Why the existing folder ``path`` may not be loaded from (None: it may)."""
-    try:
-        st = os.stat(path)
-    except OSError as exc:
-        return f"cannot be read ({exc.strerror})"
-    if not stat.S_ISDIR(st.st_mode):
-        return "is not a folder"
-    if not _owner_ok(st):
-        return f"belongs to another user (uid {st.st_uid})"
-    if st.st_mode & 0o022:
-        return f"can be written by {_whom(st.st_mode)} (mode {stat.S_IMODE(st.st_mode):04o})"
-    return None
+    return _problem(path, stat.S_ISDIR, "is not a folder")
 
 
 def file_problem(path: Path) -> str | None:
     """Why the file ``path`` may not be loaded (None: it may): missing, not a regular
     file, another user's, or writable by group or others."""
+    return _problem(path, stat.S_ISREG, "is not a regular file")
+
+
+def _problem(path: Path, kind_ok, wrong_kind: str) -> str | None:
+    """The rule of both: of the right kind, the user's or root's, and not writable by
+    group or others (as OpenSSH checks ~/.ssh)."""
     try:
         st = os.stat(path)
     except OSError as exc:
         return f"cannot be read ({exc.strerror})"
-    if not stat.S_ISREG(st.st_mode):
-        return "is not a regular file"
+    if not kind_ok(st.st_mode):
+        return wrong_kind
     if not _owner_ok(st):
         return f"belongs to another user (uid {st.st_uid})"
     if st.st_mode & 0o022:

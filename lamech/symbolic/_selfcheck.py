@@ -205,15 +205,21 @@ def check_forms(
             if not np.isfinite(value) or abs(value.imag) > 1e-9 * (1 + abs(value.real)):
                 continue
             rows.append((label, value.real, truth, st))
+    out = []
+    for label, a, b, st in _beyond(rows, RTOL):  # NaN too: a state the chart misses
+        named = {str(k): float(v) for k, v in st.items()}
+        out.append(Disagreement(label, named, a, b, label == "[parametrisation]"))
+    return out, len(rows)
+
+
+def _beyond(rows: list, rtol: float) -> list:
+    """The rows (label, printed, truth, where) whose two values differ by more than
+    ``rtol`` times (1 + the largest finite value of that label over all rows), or are
+    not both numbers."""
     scale: dict[str, float] = {}
     for label, a, b, _ in rows:
-        scale[label] = max(scale.get(label, 0.0), *(abs(v) for v in (a, b) if math.isfinite(v)))
-    out = []
-    for label, a, b, st in rows:
-        if not abs(a - b) <= RTOL * (1 + scale[label]):  # NaN: a state the chart misses
-            named = {str(k): float(v) for k, v in st.items()}
-            out.append(Disagreement(label, named, a, b, label == "[parametrisation]"))
-    return out, len(rows)
+        scale[label] = max([scale.get(label, 0.0), *(abs(v) for v in (a, b) if math.isfinite(v))])
+    return [r for r in rows if not abs(r[1] - r[2]) <= rtol * (1 + scale[r[0]])]
 
 
 def printed_forms(system, red, forms) -> dict:
@@ -285,13 +291,9 @@ def check_along(
             if not np.isfinite(value):
                 continue
             rows.append((f"lambda_{name}", value.real, float(lam[i, j]), i))
-    scale: dict[str, float] = {}
-    for label, a, b, _ in rows:
-        scale[label] = max(scale.get(label, 0.0), abs(a), abs(b))
     out = []
-    for label, a, b, i in rows:
-        if not abs(a - b) <= ALONG_RTOL * (1 + scale[label]):
-            state = {"t": float(t[i])}
-            state.update({c.name: float(x) for c, x in zip(system.coordinates, q[i])})
-            out.append(Disagreement(label, state, a, b))
+    for label, a, b, i in _beyond(rows, ALONG_RTOL):
+        state = {"t": float(t[i])}
+        state.update({c.name: float(x) for c, x in zip(system.coordinates, q[i])})
+        out.append(Disagreement(label, state, a, b))
     return out
