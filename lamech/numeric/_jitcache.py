@@ -45,7 +45,6 @@ compiled functions.
 
 from __future__ import annotations
 
-import atexit
 import contextlib
 import errno
 import functools
@@ -53,7 +52,6 @@ import hashlib
 import importlib.util
 import inspect
 import os
-import shutil
 import struct
 import sys
 import threading
@@ -64,15 +62,20 @@ from pathlib import Path
 import numpy as np
 
 from ..linalg import cholesky_inplace, gauss_inplace
-from ._integrity import digest, mismatch, read_record, say_rebuilt, write_durably, write_record
+from ._integrity import mismatch, read_record, say_rebuilt, write_durably
 from ._kernels import INLINE, PROJECTION_ITERATIONS, STAGES, SYSTEM_FIELDS, kernel_text
+from ._numba_files import (
+    checked_machine_code,
+    copy_checked,
+    record_at_exit,
+    record_machine_code,
+    record_path,
+)
 from ._trust import (
     Place,
     cache_place,
     file_problem,
-    folder_problem,
     process_dir,
-    say_once,
     user_cache_dir,
 )
 
@@ -296,7 +299,7 @@ def _import(path: Path, name: str) -> dict:
 def _on_disk(text: str, name: str) -> dict | None:
     """The module's namespace imported from its file in the cache folder (:func:`_place`;
     written first if missing), numba's files for it checked first
-    (:func:`_checked_machine_code`); from a shared read-only folder, the module and its
+    (:func:`._numba_files.checked_machine_code`); from a shared read-only folder, the module and its
     files copied into this process's temporary folder (numba keeps its cache only in a
     folder it can write); None where there is no cache folder to use."""
     try:
@@ -306,115 +309,16 @@ def _on_disk(text: str, name: str) -> dict | None:
         folder = place.path if place.writable else process_dir()
         path = folder / f"{name}.py"
         if not place.writable:
-            _copy_checked(place.path, folder, name)
+            copy_checked(place.path, folder, name)
         if not (file_problem(path) is None and path.read_text(encoding="utf-8") == text):
             _write(path, text)
         (folder / "__pycache__").mkdir(mode=0o700, exist_ok=True)
-        _checked_machine_code(folder, name)
+        checked_machine_code(folder, name)
         if place.writable:
-            _record_at_exit(folder, name)
+            record_at_exit(folder, name)
         return _import(path, name)
     except Exception:  # unwritable, unreadable, full disk, ...: compile in memory
         return None
-
-
-def _record_path(folder: Path, name: str) -> Path:
-    """The record (:mod:`._integrity`) of the files numba keeps for the module ``name``."""
-    return folder / f"{name}.files.json"
-
-
-def _machine_code(folder: Path, name: str) -> list[Path]:
-    """The files numba (and Python) keep for the module ``name`` in ``folder``: its
-    functions' indexes and machine code, its bytecode; not one still being written."""
-    cache = folder / "__pycache__"
-    return sorted(p for p in cache.glob(f"{name}.*") if ".tmp" not in p.name)
-
-
-def _checked_machine_code(folder: Path, name: str) -> None:
-    """Remove (saying so, one line each) the files of the module ``name`` in ``folder``
-    that are damaged (not the size recorded when they were written; an index, small, not
-    the bytes either) or not to be trusted (:func:`._trust.file_problem`): numba then
-    misses and compiles those functions again, as it does where there is no file. A file
-    written but not yet recorded (its process still compiling, or ended first) is left
-    to numba."""
-    cache = folder / "__pycache__"
-    if folder_problem(cache) is not None:  # numba made it with the umask's mode: ours
-        with contextlib.suppress(OSError):
-            os.chmod(cache, 0o700)
-    files = read_record(_record_path(folder, name)) or {}
-    for path in _machine_code(folder, name):
-        problem = file_problem(path)
-        if problem is None and path.name in files:
-            problem = mismatch(path, files[path.name], hash_it=path.suffix == ".nbi")
-        if problem is not None:
-            say_rebuilt(path, problem, "compiling it again")
-            path.unlink()
-
-
-def _record_machine_code(folder: Path, name: str) -> None:
-    """Record the size and SHA-256 of every file numba (and Python) now keeps for the
-    module ``name`` in ``folder``, each made ``0o600`` (numba writes them with the
-    umask's mode); the files recorded before and unchanged are not read again."""
-    try:
-        record = _record_path(folder, name)
-        old = read_record(record) or {}
-        since = record.stat().st_mtime_ns if old else 0
-        files = {}
-        for path in _machine_code(folder, name):
-            st = path.stat()
-            if st.st_mode & 0o077:
-                os.chmod(path, 0o600)
-            known = old.get(path.name)
-            same = st.st_mtime_ns <= since and not mismatch(path, known, False)
-            files[path.name] = known if known and same else digest(path)
-        if files != old:
-            write_record(record, files)
-    except OSError:  # a folder that cannot be written: nothing recorded, nothing lost
-        pass
-
-
-_AT_EXIT: set[tuple[Path, str]] = set()  # (folder, module) recorded again at exit
-
-
-def _record_at_exit(folder: Path, name: str) -> None:
-    """Record the module ``name``'s files in ``folder`` again when the process ends: numba
-    rewrites a function's index when it compiles a signature it lacked, and the record
-    must follow (else the next process takes the index for a damaged one)."""
-    if not _AT_EXIT:
-        owner = os.getpid()
-
-        def record_all() -> None:
-            if os.getpid() == owner:  # not a forked worker's exit
-                for where, module in _AT_EXIT:
-                    _record_machine_code(where, module)
-
-        atexit.register(record_all)
-    _AT_EXIT.add((folder, name))
-
-
-def _copy_checked(source: Path, target: Path, name: str) -> None:
-    """Copy the module ``name`` and numba's files for it from the shared read-only
-    folder ``source`` into ``target`` (times kept: numba checks the module's), each
-    checked against the record (size and SHA-256, read once as it is copied) and to be
-    trusted; a damaged one is left behind, said (numba compiles it in ``target``)."""
-    module = source / f"{name}.py"
-    if file_problem(module) is not None or (target / module.name).exists():
-        return
-    shutil.copy2(module, target / module.name)
-    files = read_record(_record_path(source, name)) or {}
-    (target / "__pycache__").mkdir(mode=0o700, exist_ok=True)
-    problem = folder_problem(source / "__pycache__")
-    if not (source / "__pycache__").is_dir():
-        return
-    if problem is not None:  # none of it copied: numba compiles it in ``target``
-        say_once(f"lamech: not loading compiled code from {source / '__pycache__'}: it {problem}")
-        return
-    for path in _machine_code(source, name):
-        problem = file_problem(path) or mismatch(path, files.get(path.name))
-        if problem is not None:
-            say_rebuilt(path, problem, "compiling it for this process")
-            continue
-        shutil.copy2(path, target / "__pycache__" / path.name)
 
 
 class Kernels:
@@ -687,16 +591,17 @@ _CHECKED_ENTRIES: set[tuple[str, str]] = set()  # (engine's file, entry point)
 
 def _checked_entry(engine: dict, entry: str) -> None:
     """Check the machine code of the engine's entry point ``entry`` against the SHA-256
-    recorded (:func:`_record_machine_code`) just before numba loads it, once per process:
-    :func:`_checked_machine_code` checks every file's size before numba sees the module,
-    but hashes only the (small) indexes; the entry point a run loads is 1-3 MB, hashed
-    here in 1-3 ms. Damaged: its files removed, said, and numba compiles it again."""
+    recorded (:func:`._numba_files.record_machine_code`) just before numba loads it, once
+    per process: :func:`._numba_files.checked_machine_code` checks every file's size
+    before numba sees the module, but hashes only the (small) indexes; the entry point a
+    run loads is 1-3 MB, hashed here in 1-3 ms. Damaged: its files removed, said, and
+    numba compiles it again."""
     where = engine.get("__file__")
     if where is None or (where, entry) in _CHECKED_ENTRIES:
         return
     _CHECKED_ENTRIES.add((where, entry))
     folder, name = Path(where).parent, engine["__name__"]
-    files = read_record(_record_path(folder, name)) or {}
+    files = read_record(record_path(folder, name)) or {}
     cache = folder / "__pycache__"
     for path in sorted(cache.glob(f"{name}.{entry}-*.nbc")):
         problem = mismatch(path, files[path.name]) if path.name in files else None
@@ -880,7 +785,7 @@ def _precompile(engine: dict, sy: tuple) -> None:
     """Compile (or load) every entry point of the engine not yet in the cache on disk:
     the loop is compiled once per machine, whichever of simulate, a sweep or the batch
     loop runs first, and by one process at a time (:func:`compile_lock`); what numba
-    wrote is then recorded (:func:`_record_machine_code`). Types only: nothing runs."""
+    wrote is then recorded (:func:`._numba_files.record_machine_code`). Types only: nothing runs."""
     import numba
 
     if "__file__" not in engine:  # compiled in memory: no cache to fill
@@ -895,7 +800,7 @@ def _precompile(engine: dict, sy: tuple) -> None:
         for entry, args in entries.items():
             if not _nbi(name, entry, folder):  # another process may have compiled it
                 engine[entry].compile(tuple(numba.typeof(a) for a in (sy, *args)))
-        _record_machine_code(folder, name)
+        record_machine_code(folder, name)
 
 
 def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "", slots=()) -> Kernels:
@@ -930,7 +835,7 @@ def compiled_kernels(source: str, pattern, diagonal: bool, c_source: str = "", s
                 _jit_system(namespace, cache=True)
                 state = _cache_state([namespace[c] for c, _, _ in _CFUNCS])
                 if path is not None:
-                    _record_machine_code(path.parent, name)
+                    record_machine_code(path.parent, name)
             except Exception:  # numba could not use the cache: compile in memory
                 sys.modules.pop(name, None)
                 namespace = None
