@@ -46,6 +46,7 @@ ST_SETTLE = 9  # the mode does not settle
 ST_START = 10  # the start violates the constraints (simulate says how)
 ST_SINGULAR = 11  # the KKT solve fails at an accepted state
 ST_BUDGET = 12  # ev_segment: its steps done, or its event record nearly full (go on)
+ST_MEMORY = 13  # the C engine's scratch memory could not grow (lamech/numeric/_engine)
 # an event's detail (Event's optional fields)
 DT_NONE = 0  # none
 DT_MULTIPLIER = 1  # the pulling multiplier of a lift-off in settling
