@@ -148,22 +148,21 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument(
         "--jit",
         action="store_true",
-        help="compile with numba (as --engine compiled where the loop can run the problem). "
-        "The first compiled run on a machine compiles the integration loop, once for "
-        "every problem (2-3 minutes of CPU), and caches it in $LAMECH_CACHE_DIR, else "
-        "$XDG_CACHE_HOME/lamech, else ~/.cache/lamech; afterwards every problem runs "
-        "compiled by default, compiling only its own functions on its first run (a few "
-        "seconds) and loading them later. Without numba this does nothing",
+        help="as --engine compiled (kept for older scripts: the compiled engine is the "
+        "default now). lamech's engine is C, built when lamech is installed; each "
+        "problem's own functions are compiled by the C compiler on its first run (a "
+        "fraction of a second) and kept in $LAMECH_CACHE_DIR, else $XDG_CACHE_HOME/lamech, "
+        "else ~/.cache/lamech",
     )
     s.add_argument(
         "--engine",
         choices=("auto", "compiled", "python", "scipy", "loop"),
         default="auto",
         help="what integrates (the names of lamech sweep --engine): 'compiled', lamech's "
-        "DOP853 loop with events compiled by numba (the loop once per machine, each "
-        "problem's own functions in seconds); 'python', the same loop as Python; "
+        "DOP853 loop with events in C (each problem's own functions compiled on its "
+        "first run, in a fraction of a second); 'python', the same loop as Python; "
         "'scipy', SciPy's integrator driven from Python; 'auto' (default) the compiled "
-        "loop where numba's loop is in the cache on this machine, else SciPy ('loop', "
+        "loop wherever it can run the problem (DOP853, a C compiler), else SciPy ('loop', "
         "an older name: compiled where the problem is, else Python)",
     )
     return s

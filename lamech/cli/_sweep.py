@@ -105,10 +105,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         choices=("auto", "compiled", "python", "scipy", "simulate"),
         default="auto",
         help="how the cases run (the names of lamech simulate --engine): the loop with "
-        "events where every measure is an event or final:<coordinate> (auto: numba when "
-        "its compiled loop is cached on this machine and there are 16 cases or more, or "
-        "from 500 cases, else the same loop as Python; compiled: numba whenever "
-        "installed; python), with simulate for the cases it leaves (failures); scipy: "
+        "events where every measure is an event or final:<coordinate> (auto and "
+        "compiled: lamech's engine in C, over the cores; python: the same loop as "
+        "Python), with simulate for the cases it leaves (failures); scipy: "
         "every case by simulate on --workers processes ('simulate', its older name, is "
         "accepted) (default %(default)s)",
     )

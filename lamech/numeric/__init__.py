@@ -1,5 +1,5 @@
-"""The numeric layer: code generated from the derivation and compiled (NumPy, or numba
-when installed), every KKT solve of the hot path, the simulator with its contact and
+"""The numeric layer: code generated from the derivation and compiled (NumPy, and C on
+lamech's engine in C built at install), every KKT solve of the hot path, the simulator with its contact and
 friction events, the compiled batch integrator (and its twin with events for sweeps),
 and the :class:`Trajectory` they give,
 with its typed :class:`Event` log and :class:`Status`.
@@ -16,10 +16,10 @@ from ._batch import (
     integrate_events,
     parameter_rows,
 )
-from ._codegen import NumericSystem, compile_system, numba_available
+from ._cc import cache_dir as jit_cache_dir
+from ._codegen import NumericSystem, compile_system, compiled_available
 from ._events import Event, EventKind, FrictionState, Status
 from ._initial import consistent_initial
-from ._jitcache import cache_dir as jit_cache_dir
 from ._options import DEFAULT_ATOL, DEFAULT_RTOL, METHODS, SimulationError
 from ._simulate import simulate
 from ._trajectory import Trajectory
@@ -34,7 +34,7 @@ __all__ = [
     "Status",
     "compile_system",
     "NumericSystem",
-    "numba_available",
+    "compiled_available",
     "jit_cache_dir",
     "integrate_batch",
     "BatchResult",
@@ -56,6 +56,10 @@ __getattr__ = moved(
     {
         "EVENT_FALLBACKS": ("_batch:FALLBACKS", _INTERNAL),
         "jit_is_cached": ("_batch", _INTERNAL),
+        "numba_available": (
+            "_codegen:compiled_available",
+            "lamech's engine is C now, not numba: use compiled_available",
+        ),
         "kkt_solve_numpy": ("_kkt", _INTERNAL),
         "IMPLICIT": ("_options", _INTERNAL),
         "MAX_STEPS": ("_options", _INTERNAL),

@@ -43,7 +43,7 @@ import os
 
 import numpy as np
 
-from ._codegen import NumericSystem, numba_available
+from ._codegen import NumericSystem, compiled_available
 from ._events import EventKind
 from ._kernels import codes
 from ._kkt import python_side_solve
@@ -140,12 +140,9 @@ def _cpus() -> int:
 
 
 def _threads() -> int:
-    """numba's thread count (1 without numba: the loop is serial then anyway)."""
-    if not numba_available():
-        return 1
-    import numba
-
-    return int(numba.get_num_threads())
+    """The threads the compiled batch loop spreads a batch over (the CPUs this process
+    may use)."""
+    return _cpus()
 
 
 def integrate_batch(
@@ -251,26 +248,32 @@ _EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
 
 
 def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
-    """{"ev_run", "ev_starts", "numba"}: numba's when ``jit`` (default:
-    ``ns.jit``) and numba is installed (the system's compiled module, :mod:`._jitcache`,
-    loaded without warming up the kernels: the loop's machine code holds them), else the
-    same functions as Python (also where one of ``ns``' functions was replaced: the
-    compiled module would not run the replacement, :attr:`NumericSystem.replaced`)."""
-    use = bool(ns.jit if jit is None else jit) and numba_available() and not ns.replaced
+    """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's when ``jit``
+    (default: ``ns.jit``) and the system runs compiled (:mod:`._cengine`), else the same
+    functions as Python (also where one of ``ns``' functions was replaced: the compiled
+    functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
+    use = bool(ns.jit if jit is None else jit) and not ns.replaced and compiled_available()
     known = _EVENT_CACHE.get((id(ns), use))
     if known is not None and known[0] is ns:
         return known[1]
     names = ("ev_run", "ev_starts", "ev_segment")
-    if use:
-        from ._jitcache import compiled_kernels
+    f = None
+    if use and ns.c_source:
+        from ._cc import CompileFailed
+        from ._cengine import EngineMissing, c_kernels
 
-        f = compiled_kernels(
-            ns.source, ns.pattern, ns.mass_diagonal, ns.c_source, ns.switch_slots
-        ).functions
-    else:
+        try:
+            f = c_kernels(
+                ns.pattern, ns.mass_diagonal, ns.n, ns.m, len(ns.parameters), ns.c_source,
+                ns.switch_slots,
+            ).functions
+        except (EngineMissing, CompileFailed):
+            f = None
+    use = f is not None
+    if f is None:
         f = _bound(_python_namespace(ns), names)
     out = {k: f[k] for k in names}
-    out["numba"] = use
+    out["compiled"] = use
     _EVENT_CACHE[(id(ns), use)] = (ns, out)
     return out
 
@@ -311,20 +314,20 @@ def logged_events(ns: NumericSystem, EK, EJ, ET, EY, EX, count: int) -> list:
 
 
 def jit_is_cached(ns: NumericSystem | None = None, function: str = "ev_run_one") -> bool:
-    """Whether numba's compiled loop (the same for every system: :mod:`._jitcache`) holds
-    ``function`` in the cache on disk, and, given ``ns``, the system's own compiled
-    functions: using them then costs loads (about a second), not a compile (about a
-    minute for the loop with events, compiled once on a machine; seconds for a
-    system)."""
-    import importlib.util
-
-    if importlib.util.find_spec("numba") is None:  # not numba_available(): no import
+    """Whether ``ns`` (or, given None, any system) runs compiled without compiling
+    anything: the engine in C is built (at install) and, given ``ns``, its own C library
+    is in the cache folder (:func:`._cc.is_built`). ``function`` is ignored (the engine
+    is whole)."""
+    if not compiled_available():
         return False
-    from ._jitcache import engine_is_cached, is_cached
-
     if ns is None:
-        return engine_is_cached(function)
-    return is_cached(ns.source, function, ns.c_source)
+        return True
+    from ._cc import cache_dir, is_built
+
+    try:
+        return bool(ns.c_source) and is_built(ns.c_source, cache_dir())
+    except OSError:
+        return False
 
 
 def parameter_rows(ns: NumericSystem, names, values) -> np.ndarray:
@@ -587,7 +590,7 @@ def integrate_events(
         outs = tuple(x[a:b] for x in (YOUT, TOUT, STATUS, NEV, STEPS))
         run["ev_run"](Y, Pp, tab, modes, start, tl, lim, wanted, logs, outs)
 
-    k = 1 if not run["numba"] else max(1, min(int(threads or _cpus()), B))
+    k = 1 if not run["compiled"] else max(1, min(int(threads or _cpus()), B))
     # trial states a step rejects may overflow (the Python loop's NumPy warns; numba not)
     with one_blas_thread(), np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if k == 1:

@@ -32,11 +32,12 @@ anything). The generated source (``NumericSystem.source``) names the order in ea
 function's docstring. Only code printed by SymPy from the derived expressions is ever
 compiled; no user text reaches ``exec``.
 
-When numba is installed, ``compile_system(system, jit=True)`` JIT-compiles the same
-source with the compiled KKT solve and batch loop of :mod:`._kernels`; the NumPy/``math``
-version is the reference and gives the same numbers. The compiled form is cached on disk
-(:mod:`._jitcache`, ``NumericSystem.jit_cache`` says whether it was loaded): the second
-process to compile the same system loads it instead of compiling it again.
+``compile_system(system, jit=True)`` runs the system on lamech's engine in C
+(:mod:`._cengine`, built when lamech is installed): the system's functions are printed as
+C from the same common subexpressions and compiled by the machine's C compiler
+(:mod:`._cc`, a fraction of a second, kept in the cache folder: ``NumericSystem.jit_cache``
+says whether it was loaded), and the engine's KKT solves, loops and events call them. The
+NumPy/``math`` version is the reference and gives the same numbers.
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ from ..symbolic import dynamics as derive_dynamics
 from ._initial import expression_values
 from ._kkt import numpy_kernels, sparsity
 
-__all__ = ["NumericSystem", "compile_system", "numba_available"]
+__all__ = ["NumericSystem", "compile_system", "compiled_available"]
 
 
 class _Printer(PythonCodePrinter):
@@ -183,12 +184,13 @@ class _Switches:
         return out
 
 
-def numba_available() -> bool:
-    try:
-        import numba  # noqa: F401
-    except Exception:  # pragma: no cover - depends on the machine
-        return False
-    return True
+def compiled_available() -> bool:
+    """Whether systems can run compiled: lamech's engine in C was built at install
+    (:mod:`._cengine`) and a C compiler is there for each system's own functions
+    (:mod:`._cc`)."""
+    from . import _cc, _cengine
+
+    return _cc.compiler() is not None and _cengine.available()
 
 
 @dataclass
@@ -483,42 +485,27 @@ def _c_derived(n: int, m: int, nonzero: list[tuple[int, int]], diagonal: bool) -
 
 
 def _kernels(
-    fns: dict, diagonal: bool, pattern, source: str, jit: bool | None, c_source: str, slots
+    fns: dict, diagonal: bool, pattern, jit: bool | None, c_source: str, slots, sizes: tuple
 ):
-    """(rhs_kernel, accelerations, kkt_solve, batch loops, jit cache state):
-    numba-compiled when ``jit`` and numba can (``fns``' dynamics and constraints replaced
-    by their compiled versions: the system's own functions compiled, the loop around them
-    compiled once for every system and cached on disk, :mod:`._jitcache`), else NumPy (no
-    batch loops: :mod:`._batch` runs them as Python; state ""). ``jit`` None: numba where
-    the loop is in the cache on disk already (compiled once on this machine: only the
-    system's own small functions are compiled now)."""
-    if jit is None:
-        jit = _loop_is_cached()
-    if jit and numba_available():
-        try:
-            from ._jitcache import compiled_kernels
+    """(rhs_kernel, accelerations, kkt_solve, batch loops, compiled state): on the engine
+    in C (:mod:`._cengine`) when ``jit`` (None: wherever it can) and the system has C
+    (``c_source``) and a compiler compiles it, the state where its library came from
+    (:func:`._cc.load`); else NumPy (no batch loops: :mod:`._batch` runs them as Python;
+    state ""). ``sizes``: (n, m, the length of p)."""
+    if jit is None or jit:
+        if c_source and compiled_available():
+            from ._cc import CompileFailed
+            from ._cengine import EngineMissing, c_kernels
 
-            k = compiled_kernels(source, pattern, diagonal, c_source, slots)
-            f = k.functions
-            if f["dynamics"] is not None:  # numba's: the C ones are called by the loop only
-                fns["dynamics"], fns["constraints"] = f["dynamics"], f["constraints"]
-            loops = (f["batch_run"], f["batch_run_serial"])
-            return f["rhs_kernel"], f["accelerations"], f["kkt_solve"], loops, k.cache
-        except Exception:  # pragma: no cover - numba refused the source
-            pass
+            try:
+                k = c_kernels(pattern, diagonal, *sizes, c_source, slots)
+            except (EngineMissing, CompileFailed):
+                pass
+            else:
+                f = k.functions
+                loops = (f["batch_run"], f["batch_run_serial"])
+                return f["rhs_kernel"], f["accelerations"], f["kkt_solve"], loops, k.cache
     return (*numpy_kernels(fns["dynamics"], diagonal), (), "")
-
-
-def _loop_is_cached() -> bool:
-    """Whether numba is installed and its compiled loop (the same for every system) is in
-    the cache on disk (asked without importing numba: 0.3 s)."""
-    import importlib.util
-
-    if importlib.util.find_spec("numba") is None:
-        return False
-    from ._jitcache import engine_is_cached
-
-    return engine_is_cached("ev_segment")
 
 
 def _force_geometry(system: System):
@@ -710,10 +697,10 @@ C_HEADER = "/* lamech: the compiled functions of one system (generated; safe to 
 def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     """Generate and compile the numeric functions of ``system`` (see the module docstring).
 
-    ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise);
-    ``jit=None`` uses it where numba's loop is in the cache on disk (compiled once on
-    this machine, for every system: the system's own functions are then compiled in
-    seconds, or loaded: :mod:`._jitcache`), else NumPy.
+    ``jit=True`` or ``None`` runs it on lamech's engine in C where it can (the engine
+    built at install and a C compiler for the system's own functions, compiled in a
+    fraction of a second or loaded from the cache folder: :mod:`._cengine`), else with
+    NumPy, silently; ``jit=False``: NumPy.
     """
     import time as _time
 
@@ -740,8 +727,9 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     pattern = sparsity(A)
     P = len(system.parameters)
     slots = np.arange(P, P + len(switch_names))
+    sizes = (len(system.coordinates), len(system.constraints), P + len(switch_names))
     kernel, accel, solve, loops, jit_cache = _kernels(
-        fns, diagonal, pattern, source, jit, c_source, slots
+        fns, diagonal, pattern, jit, c_source, slots, sizes
     )
 
     flat = fns["force_jacobians_flat"]

@@ -1,9 +1,9 @@
 """The engines' names, one set for ``simulate`` and ``sweep``.
 
-- ``"auto"``: the loop with events compiled by numba where it is in the cache on this
-  machine (compiled once for every system), else the other engines' best choice;
-- ``"compiled"``: the loop with events, compiled by numba (the system compiled now if it
-  was not);
+- ``"auto"``: the loop with events on lamech's engine in C wherever it can run the
+  problem, else the other engines' best choice;
+- ``"compiled"``: the loop with events on the engine in C (the system's own functions
+  compiled now if they were not);
 - ``"python"``: the same loop run as Python (the same numbers, slowly);
 - ``"scipy"``: SciPy's integrators driven from Python (for a sweep: ``simulate`` for every
   case).

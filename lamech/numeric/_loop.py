@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._batch import _event_functions, logged_events
-from ._codegen import numba_available
+from ._codegen import compiled_available
 from ._engines import ENGINES, engine_name
 from ._kernels import codes
 from ._kernels.codes import ST_BUDGET, ST_CONTACT, ST_END
@@ -43,10 +43,10 @@ CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
 
 def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     """The loop for this run, or None where SciPy's integrators run it (``engine``
-    :data:`._engines.ENGINES`): "scipy"; "auto" unless the system is compiled with
-    numba (and none of its functions replaced since: :attr:`NumericSystem.replaced`);
+    :data:`._engines.ENGINES`): "scipy"; "auto" unless the system is compiled (the
+    engine in C, :mod:`._cengine`; and none of its functions replaced since: :attr:`NumericSystem.replaced`);
     a method other than DOP853: SimulationError (a ValueError) for "compiled" and
-    "python". "compiled" on a system compiled without numba is a SimulationError too."""
+    "python". "compiled" on a system not compiled is a SimulationError too."""
     engine = engine_name(engine, SimulationError)
     if engine == "scipy":
         return None
@@ -58,18 +58,19 @@ def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
                 f"{run.setup.options.method} (the loop is DOP853); use 'scipy' or 'auto'"
             )
         return None
-    compiled = ns.jit and numba_available() and not ns.replaced
+    compiled = ns.jit and not ns.replaced and compiled_available()
     if engine == "auto" and not compiled:
         return None
     if engine == "compiled" and not compiled:
         raise SimulationError(
-            "engine 'compiled': the system is not compiled with numba (compile_system("
-            "..., jit=True), or numba is not installed); use 'python' or 'auto'"
+            "engine 'compiled': the system is not compiled (compile_system(..., jit=True)), "
+            "or lamech's C engine or a C compiler is missing; use 'python' or 'auto'"
         )
     if engine == "python":
         compiled = False
-    loop = Loop(run, _event_functions(ns, compiled)["ev_segment"], times)
-    loop.name = "loop (numba)" if compiled else "loop (Python)"
+    functions = _event_functions(ns, compiled)
+    loop = Loop(run, functions["ev_segment"], times)
+    loop.name = "loop (C)" if functions["compiled"] else "loop (Python)"
     run.solve_few()
     return loop
 

@@ -139,16 +139,15 @@ def simulate(
     with no contact located, or a gap that jumps below zero) stops it with
     :attr:`Status.PENETRATED` ("penetrated").
 
-    ``jit``: compile the system's functions and the loop with events with numba, when it
-    is installed. The compiled form is cached on disk
-    (:func:`lamech.numeric.jit_cache_dir`): the loop once per machine (2-3 minutes of
-    CPU, for every problem), each problem's own functions on its first run (seconds).
-    The default, None, uses numba where the loop is in the cache already, else NumPy.
+    ``jit``: run the system on lamech's engine in C (built at install): its own functions
+    are compiled by the C compiler on its first run (a fraction of a second) and kept in
+    the cache folder (:func:`lamech.numeric.jit_cache_dir`). The default, None, does so
+    wherever it can (the engine built and a C compiler found), else NumPy; False: NumPy.
     Ignored when ``system`` is already a :class:`NumericSystem`.
 
     ``engine``: ``"auto"`` (default) runs DOP853 in the compiled loop with events (the
     loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside
-    it: :mod:`._loop`) when the system is compiled with numba, else SciPy's integrator
+    it: :mod:`._loop`) when the system is compiled (the engine in C), else SciPy's integrator
     driven from Python (``"scipy"``); ``"compiled"`` asks for the compiled loop,
     ``"python"`` for the same loop as Python (the same numbers, slowly); the names of
     :mod:`._engines`, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop

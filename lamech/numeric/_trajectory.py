@@ -33,7 +33,7 @@ class Trajectory:
     :class:`Event` (``t``, ``kind``, ``constraint``, ``coordinates`` and the details of
     its kind); ``status`` is a :class:`Status` (equal to "ok", "failed" or "interrupted")
     with ``message`` saying when, why and what to try. ``engine``: what integrated it
-    (``"loop (numba)"``, ``"loop (Python)"``: the loop with events; ``"SciPy DOP853"``
+    (``"loop (C)"``, ``"loop (Python)"``: the loop with events; ``"SciPy DOP853"``
     and the other methods); ``handed_back``: the contacts and segments the loop left to the
     simulator's own code (a step it could not take, an impact it could not apply).
     """

@@ -1,6 +1,6 @@
 """A sweep's cases in this process by the compiled loop with events
-(:func:`lamech.numeric.integrate_events`, numba over the cores, or the same loop as
-Python), in chunks; the cases it cannot finish as :func:`lamech.numeric.simulate` would
+(:func:`lamech.numeric.integrate_events`, lamech's engine in C over the cores, or the same
+loop as Python), in chunks; the cases it cannot finish as :func:`lamech.numeric.simulate` would
 are handed back to run by simulate (see :mod:`lamech.sweeps._run`)."""
 
 from __future__ import annotations
@@ -13,18 +13,8 @@ from ._case import Plan, measure_values
 from ._local import cpus
 from ._parse import EVENT_MEASURES
 
-__all__ = ["run_compiled", "COMPILED_CASES", "SYSTEM_CASES", "SYSTEM_CASES_C", "CHUNK"]
+__all__ = ["run_compiled", "CHUNK"]
 
-COMPILED_CASES = 500
-"""From this many cases a sweep compiles its loop with numba even when the compiled code is
-not yet in the cache on disk (a minute, once per machine); smaller sweeps run
-the loop as Python unless it is cached."""
-SYSTEM_CASES = 16
-"""With the loop compiled on this machine (once, for every system), the cases from which
-``auto`` compiles a new system's own functions to run them compiled: by numba (a few
-seconds); :data:`SYSTEM_CASES_C` where the C compiler compiles them (a fraction of a
-second, :mod:`lamech.numeric._cc`)."""
-SYSTEM_CASES_C = 8
 CHUNK = 256
 """Cases per call of the compiled loop: rows are recorded (and Ctrl-C is seen) between
 calls."""
@@ -47,31 +37,18 @@ def _compiled_measures(plan: Plan, ns) -> tuple[list, bool] | None:
     return want, to_end
 
 
-def _threshold(ns, loop_cached: bool) -> int:
-    """The cases from which ``auto`` compiles what is not yet compiled."""
-    if not loop_cached:
-        return COMPILED_CASES
-    from ..numeric._cc import compiler
-
-    return SYSTEM_CASES_C if ns.c_source and compiler() is not None else SYSTEM_CASES
-
-
 def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[list, str]:
     """The cases ``todo`` by the compiled loop with events, in chunks of :data:`CHUNK`, each
     row recorded as its chunk ends; returns (the cases left to simulate, the backend)."""
-    from ..numeric import initial_states, integrate_events, numba_available, parameter_rows
-    from ..numeric._batch import jit_is_cached
+    from ..numeric import compiled_available, initial_states, integrate_events, parameter_rows
 
     how = _compiled_measures(plan, ns)
     if how is None:
         return todo, ""
     want, to_end = how
-    jit = engine == "compiled" and numba_available()
-    if engine == "auto":  # numba imported only where it will be used (0.3 s)
-        # the loop is compiled once per machine; a system's own functions cost seconds
-        jit = jit_is_cached(ns, "ev_run_one") or (
-            len(todo) >= _threshold(ns, jit_is_cached(None, "ev_run_one")) and numba_available()
-        )
+    # the engine in C is built at install; a system's own C compiles in a fraction of a
+    # second (lamech.numeric._cc): "auto" runs compiled wherever it can
+    jit = engine in ("compiled", "auto") and compiled_available()
     names = list(cases[todo[0]])
     coords, n = ns.coordinate_names, ns.n
     threads = workers or cpus()  # threads of the compiled loop (it releases the GIL)

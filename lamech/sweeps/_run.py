@@ -29,9 +29,8 @@ How a case runs: by the compiled loop with events (:func:`lamech.numeric.integra
 in this process, over the cores) when every measure is an event measure or
 ``final:`` of a coordinate or velocity, the method is DOP853 and nothing in the system
 depends on t explicitly (``engine="auto"``);
-numba-compiled when it is installed and the system's loop is in the cache on disk or the
-sweep has at least :data:`COMPILED_CASES` cases (the first compile of a problem costs
-about a minute), else the same loop as Python; impacts are applied in it. A case whose
+on lamech's engine in C (built at install; each problem's own functions compiled in a
+fraction of a second), else the same loop as Python; impacts are applied in it. A case whose
 run meets what that loop leaves to the simulator (a failure, more than 64 events, an
 impact it cannot apply: see :data:`lamech.numeric._batch.FALLBACKS`) and every case of
 any other sweep runs
@@ -456,9 +455,9 @@ def sweep(
         A bar on stderr (default: when stderr is a terminal), or a function called as
         ``progress(done, total)`` after each case.
     engine : {"auto", "compiled", "python", "scipy"}, default "auto"
-        ``auto``: the compiled loop with events where the measures allow it, numba when
-        its compiled loop is cached on this machine (or the sweep is large), else the
-        same loop as Python; ``compiled``: numba whenever installed; ``python``; ``scipy``:
+        ``auto`` and ``compiled``: the loop with events on lamech's engine in C where the
+        measures allow it (else, or without a C compiler, the same loop as Python);
+        ``python``: that loop as Python; ``scipy``:
         every case by :func:`lamech.simulate` (``"simulate"``, its older name, is
         accepted).
     output : str, optional
