@@ -10,7 +10,7 @@ its normal multiplier. :func:`kkt_matrix` and :func:`kkt_rhs` are the one place 
 assembles it with NumPy: :func:`solve_kkt` solves it (the simulator, the impact
 impulses, :func:`lamech.symbolic._derive.kkt_numeric`), :func:`min_norm_correction` solves the
 same matrix for the projection onto the constraints. :func:`gauss_inplace` and
-:func:`cholesky_inplace` are plain loops that numba compiles for the hot path
+:func:`cholesky_inplace` are plain loops, whose twins in C run the hot path
 (:mod:`lamech.numeric`, whose compiled KKT solve assembles the same matrix in loops) and
 that run as Python without it.
 """

@@ -2,8 +2,8 @@
 with the contact and friction events of sweeps (:func:`integrate_events`).
 
 :func:`integrate_batch` integrates a batch of initial states of a compiled system
-(:func:`lamech.numeric.compile_system`) to ``t_end`` inside one numba-compiled loop (the
-batch spread over the cores; a batch smaller than numba's thread count runs serially),
+(:func:`lamech.numeric.compile_system`) to ``t_end`` inside one compiled loop (lamech's
+engine in C, :mod:`._cengine`: the batch spread over the cores in threads),
 and returns the final states and multipliers. It is the fast path for sweeps and
 ensembles of problems whose constraints are all bilateral and frictionless-or-sticking:
 it has no events (no lift-off, impact or slip) and no dense output.
@@ -12,17 +12,17 @@ same numbers.
 
 Why a hand-written loop: SciPy's DOP853 drives the right-hand side from Python (about
 20 µs a call around a 2–3 µs compiled KKT kernel), and no maintained library offers an
-adaptive high-order Runge–Kutta that numba can call with a compiled right-hand side and
-a projection step. The loop is SciPy's DOP853 (same tableau, the same error norm and
+adaptive high-order Runge–Kutta with a compiled right-hand side, a projection step and
+these events that a C library could call. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
 simulator's projection (:func:`._kernels.project.ev_project`), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
 and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is
 :mod:`._kernels.batch` on the stepper of :mod:`._kernels.dop853` (the loop with events'
-too), compiled once per machine with the other kernels (and cached on disk,
-:mod:`._jitcache`) and run on a system from ``compile_system(system, jit=True)``;
-without numba the same Python functions run uncompiled: the same numbers, slowly.
+too), whose twin in C (``lamech/numeric/_engine/``) is built when lamech is installed and
+runs a system from ``compile_system(system, jit=True)``; otherwise the same functions run
+as Python: the same numbers, slowly.
 
 :func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
 DOP853 loop carrying the simulator's contact and friction mode (:mod:`._kernels.loop`,
@@ -82,7 +82,7 @@ class BatchResult:
 def _python_namespace(ns: NumericSystem) -> dict:
     """The kernels (:mod:`._kernels`) as Python around the system's NumPy functions: one
     namespace of their functions where the KKT solve and the right-hand sides are the
-    NumPy ones of ``ns`` (no numba: the same loop the compiled system runs, slowly), and
+    NumPy ones of ``ns`` (the same loop the compiled system runs, slowly), and
     ``"sy"`` the system record they take."""
     from ._kernels import python_namespace
 
@@ -108,7 +108,7 @@ def _python_namespace(ns: NumericSystem) -> dict:
 def _gauss_lapack(K: np.ndarray, x: np.ndarray) -> None:
     """:func:`lamech.linalg.gauss_inplace` for the kernels run as Python: x becomes the
     solution of K y = x (NaN where K is singular) by LAPACK, the same partial pivoting.
-    The compiled loop's elimination is entry by entry, which numba compiles and Python
+    The compiled loop's elimination is entry by entry, which C runs fast and Python
     runs a thousand times slower (the projection's 120-square systems of a 60-link
     chain)."""
     try:
@@ -164,7 +164,7 @@ def integrate_batch(
     overridden ones follow them, as in :meth:`NumericSystem.parameter_vector`.
 
     ``rtol``, ``atol``: by default those of :class:`~._options.Options` (the simulator's).
-    ``ns`` from ``compile_system(system, jit=True)`` runs compiled (numba); otherwise the
+    ``ns`` from ``compile_system(system, jit=True)`` runs compiled (C); otherwise the
     same loop runs as Python. Only for systems whose constraints are all bilateral and
     without friction limits (raises ValueError otherwise): there are no events here.
     """
@@ -200,7 +200,7 @@ def integrate_batch(
         _CACHE[key] = (ns, loops)
     _, (run_parallel, run_serial) = _CACHE[key]
     # A batch smaller than the thread count runs serially (issue 16): one trajectory
-    # through the parallel loop pays for waking numba's other threads, which on a busy
+    # through the parallel loop pays for waking the other threads, which on a busy
     # machine can cost more than the run (5-link chain, 10 s, on a loaded 2-core machine:
     # 13.9 ms at rtol 1e-5 against 2.5 ms at the tighter 1e-7).
     run_batch = run_parallel if Y0.shape[0] >= _threads() else run_serial
@@ -210,7 +210,7 @@ def integrate_batch(
     n = ns.n
     # One BLAS thread (issue 16, see ._threads): the loop's small products (A A^T) gain
     # nothing from OpenBLAS's helper threads and wait on them when a core is busy; under
-    # numba's parallel loop they would only compete with its threads for the cores.
+    # the parallel loop they would only compete with its threads for the cores.
     with one_blas_thread():
         tl = codes.tolerances(rtol=float(opts.rtol), atol=float(opts.atol), t_end=float(t_end))
         run_batch(Y0, P, _tables(), tl, codes.limits(max_steps=int(max_steps)), out, steps)
@@ -264,7 +264,12 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
 
         try:
             f = c_kernels(
-                ns.pattern, ns.mass_diagonal, ns.n, ns.m, len(ns.parameters), ns.c_source,
+                ns.pattern,
+                ns.mass_diagonal,
+                ns.n,
+                ns.m,
+                len(ns.parameters),
+                ns.c_source,
                 ns.switch_slots,
             ).functions
         except (EngineMissing, CompileFailed):
@@ -372,7 +377,7 @@ def initial_states(
     held and the others moved onto the constraints the problem's own start meets, as
     :func:`lamech.numeric.consistent_initial` does case by case (here the expressions
     are evaluated as NumPy functions over the batch, and the projection runs in the
-    compiled loop's module: numba's when ``jit``, by default ``ns.jit``)."""
+    compiled engine when ``jit``, by default ``ns.jit``)."""
     from ._options import INITIAL_TOLERANCE
 
     system = ns.system
@@ -512,9 +517,9 @@ def integrate_events(
     ``want``: (kind, constraint or None) pairs (kinds ``"lift-off"``, ``"slip"``,
     ``"stick"``, ``"contact"``, ``"impact"``); with ``to_end=False`` a run stops once each
     has happened (status ``"found"``). ``params`` as for :func:`integrate_batch`, or an
-    array of parameter vectors (B, len(ns.parameters)). Compiled by numba when ``jit``
-    (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and numba is
-    installed, else the same loop runs as Python (same numbers). Compiled, the batch is
+    array of parameter vectors (B, len(ns.parameters)). Compiled (the engine in C) when ``jit``
+    (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and it can run,
+    else the same loop runs as Python (same numbers). Compiled, the batch is
     cut into slices run in ``threads`` threads (default: the CPUs this process may use;
     the loop releases the GIL).
     Inputs that switch (step, min, max, clip, piecewise) switch where their s crosses 0,
@@ -591,7 +596,7 @@ def integrate_events(
         run["ev_run"](Y, Pp, tab, modes, start, tl, lim, wanted, logs, outs)
 
     k = 1 if not run["compiled"] else max(1, min(int(threads or _cpus()), B))
-    # trial states a step rejects may overflow (the Python loop's NumPy warns; numba not)
+    # trial states a step rejects may overflow (the Python loop's NumPy warns; C not)
     with one_blas_thread(), np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         if k == 1:
             part(0, B)

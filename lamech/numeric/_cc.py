@@ -1,13 +1,10 @@
-"""A system's functions compiled by the machine's C compiler, for the compiled loop.
+"""A system's functions compiled by the machine's C compiler, for lamech's engine in C.
 
-The loop (:mod:`._kernels`, compiled by numba once per machine) calls each system's
-functions through their addresses (:mod:`._fnptr`). numba compiling a system's five
-functions costs 3-4.5 s of CPU, mostly its type inference, even for the lecture's
-cylinder; the C compiler compiles the same functions, printed by SymPy's C printer from
-the same common subexpressions (:func:`._codegen._c_function`), in a fraction of a
-second. So where a C compiler is found, a system's functions are C, in a shared library
-kept in the cache folder beside numba's files (loaded by :mod:`ctypes`), and numba
-compiles only the loop, once; elsewhere numba compiles them as before.
+The engine (:mod:`._cengine`, built when lamech is installed) calls each system's
+functions through their addresses. They are printed by SymPy's C printer from the same
+common subexpressions as the NumPy functions (:func:`._codegen._c_function`) and compiled
+in a fraction of a second on a problem's first compiled run, into a shared library kept
+in the cache folder (loaded by :mod:`ctypes`) and loaded on later runs.
 
 No library does this part: SymPy's ``autowrap`` builds a Python extension per expression
 through Cython or f2py (seconds, and Python's headers needed), and cffi's API mode also
@@ -19,7 +16,8 @@ The C functions fill arrays the caller zeroed (``void c_dynamics(double t, const
 row-major); the loop calls them with its arrays' addresses.
 
 ``$LAMECH_CC``: the compiler command (default ``$CC``, else ``cc``, ``gcc`` or ``clang``,
-the first found); ``0`` or ``none``: no C (numba compiles the system's functions).
+the first found); ``0`` or ``none``: no C (the system runs on NumPy and SciPy, or the
+engine's loop as Python).
 """
 
 from __future__ import annotations
@@ -48,7 +46,7 @@ FUNCTIONS = (
 """The functions of a system's library, in the order of the system record's fields."""
 
 # -ffp-contract=off: no fused multiply-add where the source has a product and a sum, as
-# numba (and NumPy) compute it; -O2 without -march=native: a cache folder shared by
+# the kernels as Python (NumPy) compute it; -O2 without -march=native: a cache folder shared by
 # machines (a cluster's home) must not hold code another processor cannot run.
 FLAGS = ("-O2", "-std=c99", "-ffp-contract=off", "-fPIC", "-shared")
 

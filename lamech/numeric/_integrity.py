@@ -11,7 +11,7 @@ own, written the same way (:func:`write_record`); a caller checks a file against
 record before loading it (:func:`mismatch`) and builds it again where it does not match
 (:func:`say_rebuilt`: one line on stderr naming the file).
 
-Nothing here knows numba or the C compiler: :mod:`._cc` and :mod:`._jitcache` ask.
+Nothing here knows the C compiler: :mod:`._cc` asks.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ process with one line on stderr that names it and the fix, and lamech uses the u
 own folder instead (:func:`user_cache_dir`, made ``0o700``), or none at all (the code
 compiled for this process only) where that one is refused too.
 
-Nothing here knows numba or the C compiler: :mod:`._cc` and :mod:`._jitcache` ask.
+Nothing here knows the C compiler: :mod:`._cc` asks.
 """
 
 from __future__ import annotations

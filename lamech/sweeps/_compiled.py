@@ -97,5 +97,5 @@ def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[
                 row["status"], row["message"] = "ok", ""
                 record(row)
             b += 1
-    how_run = f"numba, {threads} threads" if jit and threads > 1 else "numba" if jit else "Python"
+    how_run = f"C, {threads} threads" if jit and threads > 1 else "C" if jit else "Python"
     return left, f"the compiled loop with events ({how_run})"

@@ -83,9 +83,6 @@ PYTHON = {
 }
 """The functions below that the kernels run as Python replace by these."""
 
-INLINE = ("max_abs", "max_abs_diff", "all_finite", "any_nonzero")
-"""Inlined where they are called, compiled (:data:`.INLINE`)."""
-
 
 # KERNELS
 def max_abs(x):

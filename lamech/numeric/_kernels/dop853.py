@@ -75,9 +75,6 @@ PYTHON = {
 }
 """The functions below that the kernels run as Python replace by these."""
 
-INLINE = ("advance", "combine")
-"""Inlined where they are called, compiled (:data:`.INLINE`)."""
-
 
 # KERNELS
 def borrowed_tables(tab):

@@ -24,12 +24,6 @@ import numpy as np
 from ...linalg import cholesky_inplace, gauss_inplace
 from .codes import borrowed
 
-INLINE = (
-    "dynamics", "dynamics_sparse", "dynamics_sparse_in", "dynamics_space", "kkt_state",
-    "rhs_into", "rhs_kernel", "schur_space",
-)  # fmt: skip
-"""Inlined where they are called, compiled (:data:`.INLINE`): the right-hand side's calls."""
-
 
 # KERNELS
 def borrowed_record(sy):
