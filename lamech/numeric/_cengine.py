@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -31,6 +32,7 @@ from ._kernels import codes
 
 __all__ = [
     "ABI_VERSION",
+    "LIBRARY_ENV",
     "EngineMissing",
     "available",
     "why_missing",
@@ -41,6 +43,10 @@ __all__ = [
 
 ABI_VERSION = 1
 """The version of ``engine.h``'s records this module writes (``lm_abi_version``)."""
+LIBRARY_ENV = "LAMECH_ENGINE_LIBRARY"
+"""An environment variable naming another build of the engine to load instead of the
+installed one (the tests' build with AddressSanitizer; a developer's own). Like
+``LD_PRELOAD``, it is the user's own choice of code to run."""
 
 _I64 = ctypes.c_int64
 _D = ctypes.c_double
@@ -124,9 +130,12 @@ def _library() -> ctypes.CDLL:
         if "error" in _LIB:
             raise EngineMissing(str(_LIB["error"]))
         try:
-            import lamech.numeric._cengine_lib as module  # noqa: F401  (built at install)
-
             path = library_path()
+            other = os.environ.get(LIBRARY_ENV)
+            if other:  # the tests' sanitizer build, or a developer's own
+                path = Path(other)
+            else:
+                import lamech.numeric._cengine_lib as module  # noqa: F401  (built at install)
             if path is None:  # pragma: no cover - imported, yet no file
                 raise ImportError("the engine's file is not found")
             lib = ctypes.CDLL(str(path))
@@ -446,8 +455,6 @@ class CKernels:
 
 def _threads() -> int:
     """The CPUs this process may use."""
-    import os
-
     try:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
