@@ -2,10 +2,10 @@
 the user's ~/.cache, so a clean machine (CI) and a developer's one behave the same.
 
 A test never sees a compiled form another test left in a cache: ``simulate``'s default
-(``jit=None``, ``engine="auto"``) runs numba's loop where the problem's compiled form is
-cached, so a shared cache made a test's engine depend on which tests ran before it on
-the same worker (issue 28 item 1). Each test has a folder of its own; only the tests
-marked ``shared_cache`` (the ones that compile with numba, and ask for their engine) share
+(``jit=None``) loads a problem's compiled C from the cache where it is there, so a shared
+cache made what a test sees of the cache depend on which tests ran before it on the same
+worker (issue 28 item 1). Each test has a folder of its own; only the tests marked
+``shared_cache`` (the ones that compile, and ask for their engine) share
 one per run, so a system one of them compiled is loaded by the others. ``slow`` says only
 that a test is left out of the default set (``-m "not slow"``); CI runs it all the same."""
 
@@ -223,38 +223,6 @@ def lamech_cache_dir(request, tmp_path_factory, shared_cache_dir):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("LAMECH_CACHE_DIR", str(path))
         yield path
-
-
-@pytest.fixture
-def compiled_loop_in(shared_cache_dir):
-    """``compiled_loop_in(folder)``: the run's compiled loop (compiled in the shared folder
-    first where no test has yet) copied into a cache folder of the test's own, as a
-    machine that ran lamech before has it. A test of what a folder holds for a system
-    then does not compile the loop again (2.5 minutes of CPU each)."""
-    from pathlib import Path
-
-    import lamech
-    from lamech.numeric import compile_system
-    from lamech.numeric._jitcache import engine_text, module_key
-    from lamech.problem import chain_toml
-
-    def put(folder: Path) -> None:
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setenv("LAMECH_CACHE_DIR", str(shared_cache_dir))
-            mp.delenv("LAMECH_CC", raising=False)
-            compile_system(lamech.loads(chain_toml(2)), jit=True)  # the loop, every entry
-        name = module_key(engine_text(), "engine_")
-        source, target = shared_cache_dir / "kernels", Path(folder) / "kernels"
-        (target / "__pycache__").mkdir(parents=True, exist_ok=True)
-        # copy2 keeps the times: numba checks its index against the source's stamp
-        shutil.copy2(source / f"{name}.py", target / f"{name}.py")
-        record = source / f"{name}.files.json"  # the sizes and hashes lamech checks
-        if record.is_file():
-            shutil.copy2(record, target / record.name)
-        for path in (source / "__pycache__").glob(f"{name}.*"):
-            shutil.copy2(path, target / "__pycache__" / path.name)
-
-    return put
 
 
 @pytest.fixture(scope="session")

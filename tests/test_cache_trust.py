@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system, numba_available
+from lamech.numeric import compile_system, compiled_available
 from lamech.numeric._cc import FUNCTIONS, CompileFailed, compiler, library_path, load
 from lamech.problem import example_path
 
@@ -39,7 +39,7 @@ def _cc_works() -> bool:
 
 
 needs_cc = pytest.mark.skipif(not _cc_works(), reason="no working C compiler")
-needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
+needs_engine = pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 
 
 def _cylinder_c() -> str:
@@ -186,42 +186,6 @@ print(json.dumps({{"state": state}}))
     )
 
 
-HOLD = """
-import sys, time
-from pathlib import Path
-from lamech.numeric._jitcache import compile_lock
-with compile_lock("engine_probe"):
-    print("held", flush=True)
-    time.sleep(float(sys.argv[1]))
-"""
-
-
-@pytest.mark.skipif(sys.platform == "win32", reason="no fcntl: no lock, no wait")
-def test_a_wait_for_another_process_compiling_the_loop_says_so(tmp_path, monkeypatch, capfd):
-    from lamech.numeric import jit_cache_dir
-    from lamech.numeric._jitcache import compile_lock
-
-    monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
-    jit_cache_dir().mkdir(parents=True)
-    holder = subprocess.Popen(
-        [sys.executable, "-c", HOLD, "1.5"], stdout=subprocess.PIPE, text=True
-    )
-    try:
-        assert holder.stdout.readline().strip() == "held"
-        with compile_lock("engine_probe"):
-            pass
-    finally:
-        holder.kill()
-        holder.wait(timeout=60)
-    err = capfd.readouterr().err.strip().splitlines()
-    assert len(err) == 1, err
-    assert f"waiting for process {holder.pid} " in err[0]
-    assert str(jit_cache_dir()) in err[0] and "--engine scipy" in err[0]
-    assert "LAMECH_CACHE_DIR" in err[0]
-    lock = jit_cache_dir() / "engine_probe.lock"
-    assert (lock.stat().st_mode & 0o777) == 0o600
-
-
 def _simulate(cache: Path, tmp: Path | None = None) -> tuple[dict, str]:
     """``lamech simulate cylinder`` on the compiled loop in a new process: (its JSON
     summary, its stderr)."""
@@ -242,31 +206,12 @@ def _files(folder: Path) -> dict[str, tuple[int, int]]:
     return {str(p): (p.stat().st_size, p.stat().st_mtime_ns) for p in folder.rglob("*")}
 
 
-@needs_numba
+@needs_engine
 @pytest.mark.slow
-@pytest.mark.shared_cache
-def test_a_truncated_index_of_the_loop_is_compiled_again_with_one_line(tmp_path, compiled_loop_in):
-    compiled_loop_in(tmp_path)
-    want, _ = _simulate(tmp_path)
-    index = next((tmp_path / "kernels" / "__pycache__").glob("engine_*.ev_segment-*.nbi"))
-    data = index.read_bytes()
-    index.write_bytes(data[: len(data) // 2])  # UnpicklingError on every run before
-    got, said = _simulate(tmp_path)
-    lines = said.strip().splitlines()
-    assert len(lines) == 1 and str(index) in lines[0] and "compiling it again" in lines[0]
-    assert got == want
-    again, quiet = _simulate(tmp_path)  # compiled again and recorded: loaded, quiet
-    assert again == want and quiet == ""
-
-
-@needs_numba
-@pytest.mark.slow
-@pytest.mark.shared_cache
-def test_a_read_only_cache_is_loaded_from_and_nothing_is_left_in_tmp(tmp_path, compiled_loop_in):
+def test_a_read_only_cache_is_loaded_from_and_nothing_is_left_in_tmp(tmp_path):
     cache = tmp_path / "cache"
-    compiled_loop_in(cache)
-    want, _ = _simulate(cache)  # the cylinder's library built beside the loop
-    for folder in (cache / "kernels", cache / "kernels" / "__pycache__", cache):
+    want, _ = _simulate(cache)  # the cylinder's library built in the cache folder
+    for folder in (cache / "kernels", cache):
         os.chmod(folder, 0o555)  # an administrator's cache, a container image
     before = _files(cache)
     tmp = tmp_path / "tmp"
@@ -274,9 +219,9 @@ def test_a_read_only_cache_is_loaded_from_and_nothing_is_left_in_tmp(tmp_path, c
     try:
         got, said = _simulate(cache, tmp)
     finally:
-        for folder in (cache, cache / "kernels", cache / "kernels" / "__pycache__"):
+        for folder in (cache, cache / "kernels"):
             os.chmod(folder, 0o700)
     assert got == want and said == ""
-    assert got["engine"] == "loop (numba)", got
+    assert got["engine"] == "loop (C)", got
     assert list(tmp.iterdir()) == []  # no lamech-c-* folder left behind
     assert _files(cache) == before  # nothing written in the read-only folder

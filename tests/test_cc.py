@@ -1,6 +1,7 @@
 """A system's functions compiled by the C compiler (`numeric/_cc.py`): the C printed
 from the same subexpressions gives the generated Python's numbers, is built once into
-the cache folder, and a missing or failing compiler leaves numba to compile them."""
+the cache folder, a missing or failing compiler is no error (NumPy and SciPy run the
+system), and the engine in C runs the C functions with SciPy's path's numbers."""
 
 from __future__ import annotations
 
@@ -12,16 +13,14 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system, numba_available, simulate
+from lamech.numeric import compile_system, simulate
 from lamech.numeric._cc import FUNCTIONS, CompileFailed, compiler, load
-from lamech.numeric._jitcache import compiled_kernels
-from lamech.numeric._kernels import SYSTEM_FIELDS
 from lamech.problem import chain_toml, example_path
 
 
 def _cc_works() -> bool:
     """Whether the machine's C compiler builds a library with ``math.h`` (a compiler
-    without the C library's headers is no compiler here: numba's route runs)."""
+    without the C library's headers is no compiler here: NumPy's route runs)."""
     if compiler() is None:
         return False
     body = "#include <math.h>\n" + "\n".join(f"void {f}(void) {{}}" for f in FUNCTIONS)
@@ -40,7 +39,7 @@ SYSTEMS = ["cylinder", "double_pendulum", "incline_disk", "moving_support", "hea
 
 
 def _compiled(text: str):
-    """The system's NumPy functions and its C source (nothing compiled by numba)."""
+    """The system's NumPy functions and its C source (nothing compiled)."""
     ns = compile_system(lamech.loads(text), jit=False)
     return ns, ns.c_source
 
@@ -105,26 +104,26 @@ def test_the_library_is_built_once_and_a_failing_compiler_is_no_error(tmp_path, 
         load(c_source + "\n", tmp_path)
 
 
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
 @needs_cc
-@pytest.mark.slow
-@pytest.mark.shared_cache
-@pytest.mark.parametrize("route", ["c", "numba"])
-def test_the_loop_runs_the_c_functions_or_numbas_with_the_same_numbers(route, monkeypatch):
-    """The lecture's cylinder on the compiled loop, its functions C or numba cfuncs:
-    the same events and states as SciPy's path."""
-    if route == "numba":
-        monkeypatch.setenv("LAMECH_CC", "none")
+def test_the_engine_runs_the_c_functions_with_scipys_numbers():
+    """The lecture's cylinder on the engine in C, its functions the compiled C: the same
+    events and states as SciPy's path."""
     text = example_path("cylinder").read_text(encoding="utf-8")
     ns = compile_system(lamech.loads(text), jit=True)
-    kernels = compiled_kernels(
-        ns.source, ns.pattern, ns.mass_diagonal, ns.c_source, ns.switch_slots
-    )
-    assert kernels.sy[SYSTEM_FIELDS.index("c")] is (route == "c")
+    assert ns.jit and ns.jit_cache in ("compiled", "loaded")
     a = simulate(lamech.loads(text), 6.0, jit=False, initial={"theta1": 0.01})
     b = simulate(ns, 6.0, initial={"theta1": 0.01})
-    assert b.engine == "loop (numba)"
+    assert a.engine == "SciPy DOP853" and b.engine == "loop (C)"
     assert [e.kind for e in a.events] == [e.kind for e in b.events] == ["slip", "lift-off"]
     assert max(abs(x.t - y.t) for x, y in zip(a.events, b.events)) <= 1e-10
     assert np.max(np.abs(a.q - b.q)) <= 1e-10
     assert np.nanmax(np.abs(a.lambdas - b.lambdas)) <= 1e-9
+
+
+@needs_cc
+def test_a_failing_compiler_runs_the_system_on_scipy(monkeypatch):
+    """No usable compiler: the system runs, on SciPy's path, with no error."""
+    monkeypatch.setenv("LAMECH_CC", "none")
+    ns = compile_system(lamech.load("pendulum"), jit=True)
+    assert not ns.jit and ns.jit_cache == ""
+    assert simulate(ns, 0.5, samples=3).engine == "SciPy DOP853"

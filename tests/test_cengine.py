@@ -22,14 +22,14 @@ import lamech
 from lamech.numeric import (
     compile_system,
     compiled_available,
-    integrate_batch,
     initial_states,
+    integrate_batch,
     integrate_events,
     simulate,
 )
 from lamech.numeric._cc import compiler
 from lamech.numeric._cengine import LIBRARY_ENV, c_kernels
-from lamech.numeric._kernels import codes
+from lamech.numeric._kernels.codes import constants
 from lamech.problem import chain_toml
 
 ENGINE = Path(lamech.__file__).parent / "numeric" / "_engine"
@@ -49,7 +49,7 @@ def test_the_engine_was_built_at_install_and_runs_the_problems():
 def test_the_c_codes_are_the_kernels_codes():
     text = (ENGINE / "codes.h").read_text()
     found = {k: int(v) for k, v in re.findall(r"#define LM_(\w+) (-?\d+)", text)}
-    assert found == codes.constants()
+    assert found == constants()
 
 
 @needs_cc

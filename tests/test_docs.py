@@ -36,13 +36,13 @@ from lamech.cli import main as lamech_main
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 QUICK_GALLERY = "pendulum,cylinder,atwood"
-# Examples that run the compiled loop: they share the run's compiled loop (the conftest's
-# ``shared_cache``) instead of compiling it again in a folder of their own.
+# Examples that ask for the compiled engine: they share the run's cache of compiled
+# systems (the conftest's ``shared_cache``) instead of compiling again in their own.
 COMPILED = re.compile(r"--engine compiled|--jit\b|jit=True")
-# Examples that compile with numba, start a Dask cluster, write an animation or solve a
-# mechanism (5-6 s each): slow.
+# Examples that start a Dask cluster, write an animation or solve a mechanism (5-6 s
+# each): slow.
 SLOW = re.compile(
-    COMPILED.pattern + r"|LocalCluster|scheduler=|--animate"
+    r"LocalCluster|scheduler=|--animate"
     r"|lamech (solve|simulate) (four_bar|andrews_squeezer)"
 )
 
@@ -176,7 +176,7 @@ def _python_pages() -> list:
 @pytest.mark.parametrize(("page", "everything"), _python_pages())
 def test_python_examples_run(page, everything, tmp_path, monkeypatch):
     """The page's doctest blocks in order, in one namespace; the default set leaves out
-    the blocks that compile with numba or start Dask (run by the slow case)."""
+    the blocks that start Dask or animate (run by the slow case)."""
     _files(page, tmp_path)
     monkeypatch.chdir(tmp_path)
     parser = doctest.DocTestParser()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import numba_available
+from lamech.numeric import compiled_available
 
 PUSHED = """
 title = "oscillator pushed from t = 1"
@@ -175,7 +175,7 @@ def test_the_bumpers_energy_is_conserved_symbolically():
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba is not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 def test_the_compiled_path_gives_the_same_switches():
     system = lamech.loads(BUMPER)
     a = lamech.simulate(system, 3.0, **TIGHT)

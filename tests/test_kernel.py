@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import types
-
 import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import compile_system, integrate_batch, numba_available, simulate
+from lamech.numeric import compile_system, compiled_available, integrate_batch, simulate
 from lamech.problem import chain_toml
 
 
@@ -60,7 +58,7 @@ def test_batch_refuses_events_and_bad_input(chain3):
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 def test_compiled_batch_gives_the_same_numbers(chain3):
     jitted = compile_system(lamech.loads(chain_toml(3)), jit=True)
     Y0 = _starts(chain3, 4)
@@ -69,7 +67,7 @@ def test_compiled_batch_gives_the_same_numbers(chain3):
     assert (a.steps == b.steps).all()
     assert np.allclose(a.q, b.q, rtol=0, atol=1e-12)
     assert np.allclose(a.lambdas, b.lambdas, rtol=1e-10)
-    # a batch smaller than numba's thread count runs the serial loop: the same numbers
+    # a batch of one runs in this thread: the same numbers
     one = integrate_batch(jitted, Y0[:1], 1.0)
     assert one.steps[0] == b.steps[0]
     assert np.allclose(one.q[0], b.q[0], rtol=0, atol=1e-14)
@@ -102,7 +100,7 @@ def test_batch_over_parameters_matches_simulate():
 @pytest.mark.parametrize("n", [1, 6, 41])
 def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
     # run as Python, the kernels use whole-array twins (each module's PYTHON) of the
-    # loops written for numba; the loop as Python and compiled then agree only if each
+    # loops the engine in C mirrors; the loop as Python and in C then agree only if each
     # twin adds the same terms in the same order
     from lamech.numeric._kernels import MODULES
 
@@ -168,44 +166,9 @@ def test_the_whole_array_twins_give_the_loops_numbers_to_the_last_bit(n):
         assert np.allclose(loop(*args), twin(*args), rtol=1e-13, atol=1e-300), name
 
 
-def _through(sy, a):
-    """Reads and writes through borrowed views (``borrowed`` from its globals)."""
-    b = borrowed(a)  # noqa: F821 - given by the namespace it runs in
-    rec = (borrowed(sy[0]), sy[1])  # noqa: F821
-    b[0] = 5.0
-    s = 0.0
-    for i in range(b.shape[0]):
-        s += b[i] * rec[0][i % rec[0].shape[0]] + rec[1]
-    return s, b[1:].copy()
-
-
-@pytest.mark.skipif(not numba_available(), reason="numba is not installed")
-def test_a_borrowed_array_is_the_same_array_without_numbas_count():
-    """The loop's entry points borrow the arrays their callers hold (no reference count
-    taken at every call that passes them): compiled, the view reads and writes the
-    caller's array; as Python (the loop's twin), ``borrowed`` is the array itself."""
-    import numba
-
-    from lamech.numeric._fnptr import borrowed
-    from lamech.numeric._kernels import python_namespace
-
-    identity = python_namespace()["borrowed"]
-    a = np.arange(4.0)
-    assert identity(a) is a
-    sy = (np.array([1.0, 2.0]), 0.5)
-    as_python = types.FunctionType(_through.__code__, {"borrowed": identity})
-    compiled = numba.njit(types.FunctionType(_through.__code__, {"borrowed": borrowed}))
-    want_a, got_a = a.copy(), a.copy()
-    want, got = as_python(sy, want_a), compiled(sy, got_a)
-    assert got[0] == want[0] and np.array_equal(got[1], want[1])
-    assert got_a[0] == 5.0 and np.array_equal(got_a, want_a)  # written into the caller's
-    with pytest.raises(numba.TypingError):
-        numba.njit(lambda x: borrowed(x))(1.0)
-
-
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 def test_an_array_the_compiled_solve_returns_stays_its_own():
     """The compiled Schur solve works in a space it makes, borrowed where a DOP853 trial
     lends it; the solution it returns to Python must keep its memory: later solves, which
@@ -219,36 +182,3 @@ def test_an_array_the_compiled_solve_returns_stays_its_own():
     others = [ns.accelerations(0.0, y * (1.0 + 1e-2 * k), p) for k in range(1, 200)]
     assert np.array_equal(first, kept)
     assert not np.array_equal(others[-1], kept)  # the later solves differ: a real test
-
-
-@pytest.mark.skipif(not numba_available(), reason="numba is not installed")
-def test_the_small_array_operations_compiled_give_their_twins_numbers():
-    """arrays.py's loops as numba compiles them into the loop (not numba's own np.max,
-    np.all, np.mean or @, whose modules import scipy.linalg as the loop loads): the
-    twins' numbers, exactly (the products to rounding), NaN, inf and empty arrays too."""
-    import numba
-
-    from lamech.numeric._kernels import MODULES
-
-    (arrays,) = [m for m in MODULES if m.__name__.endswith(".arrays")]
-
-    rng = np.random.default_rng(7)
-    y, ynew = rng.normal(size=9), rng.normal(size=9)
-    nan_at_4 = np.where(np.arange(9) == 4, np.nan, y)
-    cases = [
-        ("max_abs", (y,)), ("max_abs", (nan_at_4,)), ("max_abs", (rng.normal(size=(3, 4)),)),
-        ("max_abs", (np.zeros(0),)), ("max_abs_diff", (y, ynew)), ("max_abs_diff", (nan_at_4, y)),
-        ("all_finite", (y,)), ("all_finite", (y * np.inf,)), ("all_finite", (nan_at_4,)),
-        ("any_nonzero", (np.zeros(9),)), ("any_nonzero", (np.where(np.arange(9) == 8, 1.0, 0.0),)),
-        ("rms_scaled", (y, 1e-9 + np.abs(ynew))), ("rms_diff_scaled", (y, ynew, 0.5 + ynew**2)),
-        ("diagonal_weights", (np.diag(1.0 + y**2),)), ("diagonal_weights", (np.diag(y),)),
-        ("diagonal_weights", (np.diag(1.0 + y**2) + np.diag(np.ones(8), -1),)),
-    ]  # fmt: skip
-    for name, args in cases:
-        got = numba.njit(getattr(arrays, name))(*args)
-        want = arrays.PYTHON[name](*args)
-        assert np.array_equal(got, want, equal_nan=True), (name, got, want)
-    A = np.where(rng.random((4, 9)) < 0.3, rng.normal(size=(4, 9)), 0.0)
-    for name, args in (("a_bt", (A, A)), ("at_v", (A, y[:4])), ("a_v", (A, y))):
-        got = numba.njit(getattr(arrays, name))(*args)
-        assert np.allclose(got, arrays.PYTHON[name](*args), rtol=1e-14, atol=1e-300), name

@@ -1,5 +1,5 @@
 """``simulate`` on the loop with events (engine "loop": the compiled DOP853 loop, run here
-as Python without numba, the same code and numbers) against ``simulate`` on SciPy's
+as Python, the same rules and numbers) against ``simulate`` on SciPy's
 DOP853 (engine "scipy"), in every contact mode: the same events at the same times, the
 same samples, multipliers, forces and energy; and each against its closed form where
 one exists."""
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import lamech
-from lamech.numeric import SimulationError, compile_system, numba_available, simulate
+from lamech.numeric import SimulationError, compile_system, compiled_available, simulate
 
 G = 9.81
 HERE = Path(__file__).parent
@@ -156,25 +156,25 @@ def test_progress_is_called_between_the_loops_chunks():
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
-def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_path, monkeypatch):
-    """jit=True compiles the problem and its loop and caches them; from then on the
-    default (jit=None) runs the compiled loop, in this process and in a new one. The
-    same problem compiled earlier in this process under another cache folder (in a full
-    run an earlier test may have; stop 36's CI did) changes nothing: the folder in force
-    is written all the same."""
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
+def test_the_engine_is_the_default_from_the_first_run_with_scipys_numbers(tmp_path, monkeypatch):
+    """A problem never run before runs on the engine in C by default (jit=None: its own
+    functions compiled now, in a fraction of a second, and cached), in this process and
+    in a new one, with SciPy's path's numbers. The same problem compiled earlier in this
+    process under another cache folder changes nothing: the folder in force is written
+    all the same."""
     text, t_end, kw = CASES["cylinder"]
-    # earlier: the run's shared folder (its loop compiled once for every test that shares it)
-    assert simulate(lamech.loads(text), 0.1, jit=True, **kw).engine == "loop (numba)"
+    assert simulate(lamech.loads(text), 0.1, jit=True, **kw).engine == "loop (C)"
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path / "now"))
-    a = simulate(lamech.loads(text), t_end, **kw)
-    b = simulate(lamech.loads(text), t_end, jit=True, **kw)
-    assert a.engine == "SciPy DOP853" and b.engine == "loop (numba)"
+    a = simulate(lamech.loads(text), t_end, jit=False, **kw)
+    b = simulate(lamech.loads(text), t_end, **kw)
+    assert list((tmp_path / "now" / "kernels").glob("lamech_c_*.so"))
+    assert a.engine == "SciPy DOP853" and b.engine == "loop (C)"
     assert [e.kind for e in a.events] == [e.kind for e in b.events] == ["slip", "lift-off"]
     assert max(abs(ea.t - eb.t) for ea, eb in zip(a.events, b.events)) <= 1e-10
     assert np.max(np.abs(a.q - b.q)) <= 1e-10
     assert np.nanmax(np.abs(a.lambdas - b.lambdas)) <= 1e-9
-    assert simulate(lamech.loads(text), t_end, **kw).engine == "loop (numba)"
+    assert simulate(lamech.loads(text), t_end, **kw).engine == "loop (C)"
     code = (
         "import sys, lamech\n"
         "tr = lamech.simulate(lamech.loads(sys.stdin.read()), 6.0, initial={'theta1': 0.01})\n"
@@ -189,7 +189,7 @@ def test_compiled_once_the_loop_is_the_default_and_gives_the_same_numbers(tmp_pa
         check=True,
     )
     engine, t_lift = out.stdout.rsplit(" ", 1)
-    assert engine == "loop (numba)" and abs(float(t_lift) - b.events[-1].t) <= 1e-12
+    assert engine == "loop (C)" and abs(float(t_lift) - b.events[-1].t) <= 1e-12
 
 
 # ----- impacts in the loop (issue 14 item 1) ---------------------------------------------
@@ -338,13 +338,13 @@ def test_integrate_events_applies_impacts_in_the_loop_when_asked():
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 def test_the_compiled_loop_applies_the_impacts_with_the_same_numbers():
-    """jit=True: numba's loop applies the impacts (the Zeno ball, the disk whose friction
+    """jit=True: the engine in C applies the impacts (the Zeno ball, the disk whose friction
     slips through the landing) and gives the Python loop's numbers."""
     for name in ("zeno ball", "slip through"):
         make, t_end, kw = IMPACT_CASES[name]
         a = simulate(compile_system(lamech.loads(make())), t_end, engine="python", **kw)
         b = simulate(lamech.loads(make()), t_end, jit=True, **kw)
-        assert a.engine == "loop (Python)" and b.engine == "loop (numba)"
+        assert a.engine == "loop (Python)" and b.engine == "loop (C)"
         _same_runs(a, b, tol=1e-12)

@@ -1,4 +1,4 @@
-"""Generated dynamics: the NumPy and numba KKT kernels give the same numbers, and the
+"""Generated dynamics: the NumPy and C KKT kernels give the same numbers, and the
 multiplier from the numeric KKT solve equals the closed form (pendulum tension)."""
 
 import math
@@ -8,7 +8,7 @@ import pytest
 
 import lamech
 from lamech.model._checks import holding_at_start
-from lamech.numeric import compile_system, numba_available
+from lamech.numeric import compile_system, compiled_available
 from lamech.problem import chain_toml, loads
 
 
@@ -40,9 +40,9 @@ def test_pendulum_tension_is_the_closed_form():
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 @pytest.mark.parametrize("n", [2, 8])
-def test_numba_kernel_matches_numpy(n):
+def test_c_kernel_matches_numpy(n):
     system = loads(chain_toml(n, keep=True))
     a = compile_system(system)
     b = compile_system(system, jit=True)
@@ -120,7 +120,7 @@ def _modes(ns):
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 @pytest.mark.parametrize(
     "name",
     [
@@ -137,7 +137,7 @@ def _modes(ns):
     ],
 )
 def test_structured_kkt_solve_matches_dense(name):
-    """Both solves (numba: Schur complement over A's nonzeros with Cholesky or elimination
+    """Both solves (C: Schur complement over A's nonzeros with Cholesky or elimination
     when M is diagonal; NumPy: the Schur complement with LAPACK; each falling back to the
     full KKT matrix where an M_ii is zero) equal the full KKT solve in every mode: all
     rows, rows dropped, none, and slipping friction."""
@@ -171,7 +171,7 @@ def test_structured_kkt_solve_matches_dense(name):
         assert np.allclose(acc, [-9.81, -9.81, 0.0], atol=1e-14)
 
 
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
 def test_gauss_elimination_banded_and_pivoting():
     """The hand-written elimination: a random dense system, a tridiagonal one (the band
     shortcut), one that needs row swaps, and a singular one (NaN)."""

@@ -2,7 +2,7 @@
 cylinder's slip and lift-off at the same times (to 1e-9, against the energy integral's
 slip angle to 1e-9), the sweeps' engines giving the same rows, the cases it leaves to
 simulate (an impact) run by simulate, the batch's parameters and starts as the
-case-by-case ones, and numba's loop the same numbers as the Python one."""
+case-by-case ones, and the engine in C the same numbers as the loop as Python."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from lamech.numeric import (
     consistent_initial,
     initial_states,
     integrate_events,
-    numba_available,
+    compiled_available,
     parameter_rows,
     simulate,
 )
@@ -229,8 +229,8 @@ def test_inputs_that_switch_switch_in_the_loop_where_their_s_crosses_zero():
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
-def test_numba_loop_gives_the_python_loop_numbers():
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
+def test_the_c_loop_gives_the_python_loop_numbers():
     py = _cylinder()
     jit = _cylinder(jit=True)
     _, Y0, a = _batch(py)
@@ -242,12 +242,12 @@ def test_numba_loop_gives_the_python_loop_numbers():
         assert max(abs(x.t - y.t) for x, y in zip(ea, eb)) < 1e-12
     assert np.max(np.abs(a.y - b.y)) < 1e-10
     assert jit_is_cached(jit, "ev_run_one")
-    # the sweep: numba when its loop is cached (it is now), over two threads
+    # the sweep: the engine in C, over two threads
     kw = dict(t_end=2.9, samples=11, initial={"theta1": THETA_S})
     run = sweep(
         "cylinder", {"mu": [0.1, 0.45], "R2": [0.3, 0.8]}, ["slip", "liftoff"], workers=2, **kw
     )
-    assert run.backend == "the compiled loop with events (numba, 2 threads)"
+    assert run.backend == "the compiled loop with events (C, 2 threads)"
     ref = sweep(
         "cylinder",
         {"mu": [0.1, 0.45], "R2": [0.3, 0.8]},
@@ -263,13 +263,10 @@ def test_numba_loop_gives_the_python_loop_numbers():
 
 @pytest.mark.slow
 @pytest.mark.shared_cache
-@pytest.mark.skipif(not numba_available(), reason="numba not installed")
-@pytest.mark.parametrize("cc", ["default", "none"])
-def test_compiled_loop_switches_inputs_and_sees_force_dips_as_the_python_loop(cc, monkeypatch):
-    """An input that switches and a force with t in it, compiled (the system's functions
-    in C, or numba's where ``LAMECH_CC=none``): the same events as the loop as Python."""
-    if cc == "none":
-        monkeypatch.setenv("LAMECH_CC", "none")
+@pytest.mark.skipif(not compiled_available(), reason="no C compiler or engine")
+def test_compiled_loop_switches_inputs_and_sees_force_dips_as_the_python_loop():
+    """An input that switches and a force with t in it, on the engine in C: the same
+    events as the loop as Python."""
     ball = lamech.from_dict(
         {**BALL, "parameters": {**BALL["parameters"], "B": 10.0},
          "forces": {"y": "A*step(t - 1) + B*step(t - 3/2) + A*sin(w*t)/4"}}
@@ -285,7 +282,7 @@ def test_compiled_loop_switches_inputs_and_sees_force_dips_as_the_python_loop(cc
         assert max(abs(x.t - y.t) for x, y in zip(ea, eb)) < 1e-12
         s1 = simulate(jit, 2.0, params=params, engine="compiled", samples=21)
         s2 = simulate(py, 2.0, params=params, engine="python", samples=21)
-        assert s1.engine == "loop (numba)" and s1.status == s2.status == "ok"
+        assert s1.engine == "loop (C)" and s1.status == s2.status == "ok"
         assert {"switch", "lift-off"} <= {e.kind for e in s1.events}
         assert [e.kind for e in s1.events] == [e.kind for e in s2.events]
         assert max(abs(x.t - y.t) for x, y in zip(s1.events, s2.events)) < 1e-12
