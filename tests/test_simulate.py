@@ -24,8 +24,8 @@ from lamech.numeric import (
     SimulationError,
     Status,
     compile_system,
-    consistent_initial,
     compiled_available,
+    consistent_initial,
     simulate,
 )
 

@@ -15,10 +15,10 @@ from scipy.optimize import brentq
 import lamech
 from lamech.numeric import (
     compile_system,
+    compiled_available,
     consistent_initial,
     initial_states,
     integrate_events,
-    compiled_available,
     parameter_rows,
     simulate,
 )

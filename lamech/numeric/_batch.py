@@ -13,7 +13,7 @@ same numbers.
 Why a hand-written loop: SciPy's DOP853 drives the right-hand side from Python (about
 20 µs a call around a 2–3 µs compiled KKT kernel), and no maintained library offers an
 adaptive high-order Runge–Kutta with a compiled right-hand side, a projection step and
-these events that a C library could call. The loop is SciPy's DOP853 (same tableau, the same error norm and
+these events. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
 simulator's projection (:func:`._kernels.project.ev_project`), in the
