@@ -1,8 +1,8 @@
 """The numeric layer: code generated from the derivation and compiled (NumPy, and C
 for lamech's engine in C built at install), every KKT solve of the hot path, the
-simulator with its contact and friction events, the compiled batch integrator (and its twin with events for sweeps),
-and the :class:`Trajectory` they give,
-with its typed :class:`Event` log and :class:`Status`.
+simulator with its contact and friction events, the compiled batch integrator (and its
+twin with events for sweeps), and the :class:`Trajectory` they give, with its typed
+:class:`Event` log and :class:`Status`.
 
 SciPy is imported by the simulator only when a simulation runs.
 """
