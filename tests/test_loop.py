@@ -133,9 +133,10 @@ def test_the_loop_is_refused_where_it_cannot_run_and_auto_falls_back(tmp_path, m
     assert np.max(np.abs(a.q[-1] - b.q[-1])) < 1e-8
     tr = simulate(system, 1.0, method="Radau")
     assert tr.engine == "SciPy Radau" and tr.status == "ok"
-    # the default where the problem was never compiled: SciPy's integrator
+    # the default where the problem was never compiled: compiled now, on the engine in C
     monkeypatch.setenv("LAMECH_CACHE_DIR", str(tmp_path))
-    assert simulate(system, 1.0, samples=3).engine == "SciPy DOP853"
+    assert simulate(system, 1.0, samples=3).engine == "loop (C)"
+    assert simulate(system, 1.0, samples=3, jit=False).engine == "SciPy DOP853"
 
 
 @pytest.mark.slow

@@ -277,7 +277,7 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     use = f is not None
     if f is None:
         f = _bound(_python_namespace(ns), names)
-    out = {k: f[k] for k in names}
+    out: dict = {k: f[k] for k in names}
     out["compiled"] = use
     _EVENT_CACHE[(id(ns), use)] = (ns, out)
     return out

@@ -498,7 +498,8 @@ def _kernels(
             from ._cengine import EngineMissing, c_kernels
 
             try:
-                k = c_kernels(pattern, diagonal, *sizes, c_source, slots)
+                n, m, nparams = sizes
+                k = c_kernels(pattern, diagonal, n, m, nparams, c_source, slots)
             except (EngineMissing, CompileFailed):
                 pass
             else:
