@@ -32,6 +32,7 @@ from .dop853 import STAGES
 from .project import PROJECTION_ITERATIONS
 
 __all__ = [
+    "codes",
     "python_namespace",
     "SYSTEM_FIELDS",
     "STAGES",

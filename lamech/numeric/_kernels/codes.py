@@ -97,10 +97,9 @@ PREFIXES = ("EV_", "FR_", "ST_", "DT_", "TL_", "LM_", "IO_", "FO_")
 
 
 def borrowed(a):
-    """``a`` itself. Compiled (:func:`lamech.numeric._fnptr.borrowed`), the same array
-    without numba's reference count: an entry point's arrays, which its caller holds for
-    the whole call, pass through the loop's calls without an atomic count taken and
-    dropped at each (they were half of a compiled step's CPU, 2026-11-27)."""
+    """``a`` itself: the mark of an array the caller holds for the whole call (kept from
+    the numba engine, where it saved a reference count per call; the engine in C has
+    none)."""
     return a
 
 
