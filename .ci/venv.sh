@@ -7,7 +7,9 @@ if [ ! -x "$venv/bin/python" ]; then
     "$py" -m venv "$venv" >&2
 fi
 stamp="$venv/.lamech-installed"
-want="$(cat "$here/pyproject.toml" | cksum) $extras"
+# the engine's C sources too: an editable install builds them once (setup.py), so a change
+# to them must reinstall
+want="$(cat "$here/pyproject.toml" "$here/setup.py" "$here"/lamech/numeric/_engine/*.[ch] | cksum) $extras"
 if [ ! -f "$stamp" ] || ! grep -qxF -- "$want" "$stamp"; then
     echo "lamech: installing into $venv (first run only) ..." >&2
     # pip's and setuptools' notices go to a log, shown only when the install fails

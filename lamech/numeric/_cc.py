@@ -34,9 +34,12 @@ import tempfile
 from pathlib import Path
 
 from ._integrity import digest, mismatch, read_record, replace_durably, say_rebuilt, write_record
-from ._trust import cache_place, file_problem, process_dir
+from ._trust import cache_place, file_problem, process_dir, user_cache_dir
 
-__all__ = ["FLAGS", "FUNCTIONS", "compiler", "library_path", "load", "CompileFailed"]
+__all__ = [
+    "FLAGS", "FUNCTIONS", "CACHE_ENV", "cache_dir", "compiler", "library_path", "load",
+    "CompileFailed",
+]  # fmt: skip
 
 FUNCTIONS = (
     "c_dynamics", "c_dynamics_sparse", "c_constraints", "c_energy", "c_restitution",
@@ -50,6 +53,19 @@ FUNCTIONS = (
 FLAGS = ("-O2", "-std=c99", "-ffp-contract=off", "-fPIC", "-shared")
 
 _LIBRARIES: dict[str, ctypes.CDLL] = {}  # path -> the library (kept loaded)
+
+CACHE_ENV = "LAMECH_CACHE_DIR"
+"""The environment variable that sets the cache directory (see :func:`cache_dir`)."""
+
+
+def cache_dir() -> Path:
+    """Where compiled systems are kept: ``$LAMECH_CACHE_DIR`` (the ``kernels`` folder in
+    it), else ``$XDG_CACHE_HOME/lamech``, else ``~/.cache/lamech``, where the trust rule
+    allows it (:func:`._trust.cache_place`)."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env).expanduser() / "kernels"
+    return user_cache_dir()
 
 
 class CompileFailed(RuntimeError):

@@ -1,5 +1,5 @@
 /* lamech's engine: the problem-independent hot path in C99, built once when lamech is
- * installed (setup.py: the extension module lamech.numeric._cengine), loaded by ctypes
+ * installed (setup.py: the extension module lamech.numeric._cengine_lib), loaded by ctypes
  * (lamech/numeric/_cengine.py).
  *
  * It is the C twin of the kernels in lamech/numeric/_kernels/ (which stay as the same
