@@ -13,6 +13,9 @@ from ._args import (
     add_tolerance_options,
     assignment,
     evaluate_assignments,
+    option_choices,
+    option_help,
+    options_from,
     positive_float,
     positive_int,
     refuse_overwriting_input,
@@ -101,9 +104,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--samples",
         type=samples,
         metavar="N",
-        help="output times: N evenly spaced, both ends counted (default 1001)",
+        help=option_help("samples", "default 1001"),
     )
-    grid.add_argument("--dt", type=positive_float, help="output spacing")
+    grid.add_argument("--dt", type=positive_float, help=option_help("dt"))
     add_tolerance_options(s)
     s.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     s.add_argument(
@@ -157,7 +160,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument(
         "--engine",
-        choices=("auto", "compiled", "python", "scipy", "loop"),
+        choices=option_choices("engine", "loop"),
         default="auto",
         help="what integrates (the names of lamech sweep --engine): 'compiled', lamech's "
         "DOP853 loop with events compiled by numba (the loop once per machine, each "
@@ -291,7 +294,7 @@ def run(args) -> int:
 
 
 def _run(args, phase: list[str]) -> int:
-    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, simulate
+    from ..numeric import SimulationError, simulate
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError
 
@@ -338,20 +341,14 @@ def _run(args, phase: list[str]) -> int:
             traj = simulate(
                 system,
                 args.t_end,
-                samples=args.samples,
-                dt=args.dt,
                 params=params or None,
                 initial=initial or None,
-                rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
-                atol=args.atol if args.atol is not None else DEFAULT_ATOL,
-                max_step=args.max_step,
-                method=args.method,
-                project_initial=args.project_initial,
+                options=options_from(
+                    args, jit=True if args.jit or args.engine == "compiled" else None
+                ),
                 progress=progress,
                 pace=progress.pace,
                 projection=progress.projection,
-                jit=True if args.jit or args.engine == "compiled" else None,
-                engine=args.engine,
             )
     except SimulationError as exc:
         progress.close()

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -65,15 +65,13 @@ from ._kernels.codes import EV_CONTACT
 from ._loop import CONTACT, HANDBACK, Loop, loop_for
 from ._options import (
     BLOW_UP,
-    DEFAULT_ATOL,
-    DEFAULT_RTOL,
     IMPLICIT,
+    Options,
     SimulationError,
     Stop,
     check_options,
-    sample_times,
 )
-from ._pace import Pace, Projection, Watch, stiffness
+from ._pace import Watch, stiffness
 from ._params import numeric_system
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
@@ -87,38 +85,58 @@ def simulate(
     system: System | NumericSystem,
     t_end: float,
     *,
-    t0: float = 0.0,
-    samples: int | None = None,
-    dt: float | None = None,
-    rtol: float = DEFAULT_RTOL,
-    atol: float = DEFAULT_ATOL,
-    max_step: float | None = None,
     params: dict | None = None,
+    initial: dict | None = None,
     q0=None,
     qd0=None,
-    initial: dict | None = None,
-    project_initial: bool = False,
-    method: str = "DOP853",
-    progress: Callable[[float], None] | None = None,
-    pace: Callable[[Pace], None] | None = None,
-    jit: bool | None = None,
-    engine: str = "auto",
-    projection: Callable[[Projection], None] | None = None,
+    options: Options | None = None,
+    **more: Any,
 ) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
 
+    Parameters
+    ----------
+    system : System or NumericSystem
+        The model (compiled here), or a system compiled already.
+    t_end : float
+        The end time.
+    params : dict, optional
+        Parameter values by name, overriding the problem's; a friction coefficient as
+        ``"mu:<constraint>"`` (or ``"mu"`` when there is one).
+    initial : dict, optional
+        {coordinate or ``x'``: value}: sets those values and holds them while the other
+        coordinates and velocities move (the projection onto the constraints) to meet the
+        constraints the problem's own initial state meets: ``initial={"theta1": 0.01}``
+        starts the cylinder just off the top, with r and theta2 following.
+    q0, qd0 : dict or array, optional
+        The initial state, as given (dicts by coordinate name, or arrays in coordinate
+        order).
+    options : Options, optional
+        Tolerances, method, output times, engine (:class:`~lamech.Options`; default its
+        defaults).
+
+    Other Parameters
+    ----------------
+    rtol, atol, max_step, method, samples, dt, engine, jit, project_initial
+        Each replaces that field of ``options`` (the keyword arguments of earlier
+        versions, still accepted).
+    t0 : float
+        The start time (default 0).
+    progress, pace, projection : callable
+        Called while the run goes on (below).
+
+    Returns
+    -------
+    Trajectory
+        The samples, the multipliers and forces along them, the event log, the status.
+
+    Notes
+    -----
     ``samples`` (default 1001, both ends counted) or ``dt`` set the output times (dense
-    output). ``params`` overrides parameter values by name; ``q0``/``qd0`` override the
-    initial state (dicts by coordinate name, or arrays in coordinate order), as given.
-    ``initial`` {coordinate or ``x'``: value} sets those values and holds them while the
-    other coordinates and velocities move (the projection onto the constraints) to meet
-    the constraints the problem's own initial state meets: ``initial={"theta1": 0.01}``
-    starts the cylinder just off the top, with r and theta2 following. ``params`` may
-    also name a friction coefficient (``"mu:<constraint>"``, or ``"mu"`` when there is
-    one). An initial state off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max ``|q|``)) raises
-    :class:`SimulationError` unless ``project_initial``, which moves it to the nearest
-    consistent state (mass-matrix metric) and says what changed in ``notes``. A
-    unilateral constraint with f > 0 at the start begins released.
+    output). An initial state off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max
+    ``|q|``)) raises :class:`SimulationError` unless ``project_initial``, which moves it
+    to the nearest consistent state (mass-matrix metric) and says what changed in
+    ``notes``. A unilateral constraint with f > 0 at the start begins released.
 
     ``method``: SciPy's ``"DOP853"`` (default), ``"RK45"``, or the implicit ``"Radau"``
     and ``"BDF"`` for stiff systems (a stiff damper or spring). ``max_step`` may not force
@@ -161,13 +179,21 @@ def simulate(
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force
     before are restored after the run.
+
+    Examples
+    --------
+    >>> import lamech
+    >>> traj = lamech.simulate(lamech.load("pendulum"), 2.0, options=lamech.Options(samples=5))
+    >>> str(traj.status), traj.t.tolist()
+    ('ok', [0.0, 0.5, 1.0, 1.5, 2.0])
     """
-    options = check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
-    ns, p = numeric_system(system, params, jit)
+    t0, hooks, options = _arguments(options, more)
+    options = check_options(t_end, t0, options)
+    ns, p = numeric_system(system, params, options.jit)
     y0 = initial_state(ns, p, initial, q0, qd0)
-    times = sample_times(t0, t_end, samples, dt)
+    times = options.times(t0, t_end)
     run = Run(Setup.of(ns, p, options))
-    loop = loop_for(run, engine, times)
+    loop = loop_for(run, options.engine, times)
     if loop is None:  # SciPy's integrators: their BLAS is limited too, so loaded first
         import scipy.linalg  # noqa: F401  (the integrators import it anyway)
     notes: list[str] = _degree_notes(ns, p, y0)
@@ -175,9 +201,24 @@ def simulate(
     # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the
     # measurements are in ._threads).
     with one_blas_thread():
-        y = initial_mode(run, t0, y0, project_initial, notes)
-        watch = Watch(t0, t_end, method, progress, pace, projection)
+        y = initial_mode(run, t0, y0, options.project_initial, notes)
+        watch = Watch(t0, t_end, options.method, *hooks)
         return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
+
+
+_HOOKS = ("progress", "pace", "projection")
+
+
+def _arguments(options: Options | None, more: dict) -> tuple[float, tuple, Options]:
+    """``simulate``'s other keyword arguments: (t0, the callbacks (progress, pace,
+    projection), the options with the fields given as keywords replaced)."""
+    more = dict(more)
+    t0 = more.pop("t0", 0.0)
+    hooks = tuple(more.pop(name, None) for name in _HOOKS)
+    try:
+        return t0, hooks, Options.merged(options, **more)
+    except TypeError as exc:
+        raise TypeError(f"simulate: {exc}; or t0, {', '.join(_HOOKS)}") from None
 
 
 def initial_mode(

@@ -306,7 +306,6 @@ def animate(
     duration: float | None = None,
     max_frames: int = 600,
     dpi: int = 100,
-    title: str | None = None,
 ) -> Path:
     """Write an animation of ``traj`` (a run of ``system``) to ``path``.
 
@@ -317,7 +316,8 @@ def animate(
     says the time scale (e.g. "0.5x real time"). ``.html`` is one self-contained page
     that works offline (JPEG frames; the player's icons are plain characters, not a web
     font). Raises ValueError for an extension other than .gif, .mp4, .html, or .mp4
-    without ffmpeg.
+    without ffmpeg. The heading is the trajectory's title (``traj.title``; another with
+    ``dataclasses.replace(traj, title=...)``), else the system's.
     """
     import matplotlib
     from matplotlib import animation
@@ -353,7 +353,7 @@ def animate(
     scene = Scene(traj, system, params, frames)
 
     fig = Figure(figsize=(6.4, 6.4), dpi=dpi)  # no pyplot: the caller's backend stays
-    heading = title or system.title
+    heading = getattr(traj, "title", "") or system.title
     if scene.space:
         from ._view3d import space_view
 
