@@ -178,20 +178,6 @@ MAX_SAMPLES = 10_000_000
 PLOT_FORMATS = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
 
 
-def _check_values(system, params: dict) -> None:
-    """The file's checks (masses >= 0, restitution in [0, 1], ...) at the --param
-    values too: m = -1 would otherwise run, chattering contacts."""
-    from ..model import ModelError, with_values
-
-    own = {k: v for k, v in params.items() if k in {p.name for p in system.parameters}}
-    if not own:
-        return
-    try:
-        with_values(system, parameters=own)
-    except ModelError as exc:
-        raise ValueError(f"with these --param values: {exc}") from None
-
-
 def _check_output_size(args, coordinates: int) -> None:
     """ValueError for outputs that cannot be made: more samples than memory holds
     (--dt 1e-12 over a second is 10^12 rows), a plot in a format matplotlib lacks."""
@@ -295,6 +281,7 @@ def run(args) -> int:
 
 def _run(args, phase: list[str]) -> int:
     from ..numeric import SimulationError, simulate
+    from ..numeric._params import check_values
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError
 
@@ -313,7 +300,7 @@ def _run(args, phase: list[str]) -> int:
         env = dict(system.parameter_values)
         env.update({p.symbol: params[p.name] for p in system.parameters if p.name in params})
         initial = evaluate_assignments(args.initial, system, "--initial", env)
-        _check_values(system, params)
+        check_values(system, params, "with these --param values")
         refuse_overwriting_input(
             args.problem, {"--out": args.out, "--plot": args.plot, "--animate": args.animate}
         )
