@@ -71,8 +71,8 @@ class Options:
     Parameters
     ----------
     rtol, atol : float
-        Relative and absolute tolerance of every step (defaults :data:`DEFAULT_RTOL`,
-        :data:`DEFAULT_ATOL`; rtol in [1e-14, 1)).
+        Relative and absolute tolerance of every step (defaults 1e-11 and 1e-12,
+        ``lamech.numeric.DEFAULT_RTOL`` and ``DEFAULT_ATOL``; rtol in [1e-14, 1)).
     max_step : float
         The largest step (default inf: no bound); refused when it would force more than
         1e8 steps.

@@ -713,7 +713,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
     ``jit=True`` uses numba when it is installed (falls back to NumPy silently otherwise);
     ``jit=None`` uses it where numba's loop is in the cache on disk (compiled once on
     this machine, for every system: the system's own functions are then compiled in
-    seconds, or loaded: :mod:`._jitcache`), else NumPy.
+    seconds, or loaded: ``lamech.numeric.jit_cache_dir()``), else NumPy.
     """
     import time as _time
 

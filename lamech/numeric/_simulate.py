@@ -138,38 +138,38 @@ def simulate(
     to the nearest consistent state (mass-matrix metric) and says what changed in
     ``notes``. A unilateral constraint with f > 0 at the start begins released.
 
-    ``method``: SciPy's ``"DOP853"`` (default), ``"RK45"``, or the implicit ``"Radau"``
-    and ``"BDF"`` for stiff systems (a stiff damper or spring). ``max_step`` may not force
-    more than :data:`MAX_STEPS` steps. ``progress(t)`` is called after every accepted
-    step; ``pace(Pace)`` once, after :data:`PILOT_SECONDS` of wall time, with the
-    projected wall time of the whole run and whether its step is held down by stability
-    (:class:`Pace`; a callback may raise KeyboardInterrupt to stop the run there);
-    ``projection(Projection)`` once, after :data:`PILOT_STEPS` steps, with the steps
-    the whole run needs at its mean step so far (:class:`Projection`: from counts and
-    step sizes, the same on any machine; a run of fewer steps never calls it).
+    ``method``: SciPy's ``"DOP853"`` (default), ``"RK45"``, or the implicit ``"Radau"`` and
+    ``"BDF"`` for stiff systems (a stiff damper or spring). ``max_step`` may not force more
+    than 10^8 steps. ``progress(t)`` is called after every accepted step; ``pace(pace)``
+    once, after 0.5 s of wall time, with the projected wall time of the whole run and
+    whether its step is held down by stability (``lamech.numeric._pace.Pace``; a callback
+    may raise KeyboardInterrupt to stop the run there); ``projection(projection)`` once,
+    after 1000 steps, with the steps the whole run needs at its mean step so far
+    (``lamech.numeric._pace.Projection``: from counts and step sizes, the same on any
+    machine; a run of fewer steps never calls it).
 
-    A singular KKT matrix, NaN, a step-size collapse, chattering events (many events in
-    a vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far
-    is returned with ``status`` :attr:`Status.FAILED` or :attr:`Status.INTERRUPTED`
-    (equal to "failed", "interrupted") and a ``message`` naming the time and cause; its
-    ``final_time`` and final state are the last ones reached, between samples too. A
-    state through the surface of a released unilateral constraint (f below -1000 atol
-    with no contact located, or a gap that jumps below zero) stops it with
-    :attr:`Status.PENETRATED` ("penetrated").
+    A singular KKT matrix, NaN, a step-size collapse, chattering events (many events in a
+    vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far is
+    returned with ``status`` :attr:`~lamech.numeric.Status.FAILED` or
+    :attr:`~lamech.numeric.Status.INTERRUPTED` (equal to "failed", "interrupted") and a
+    ``message`` naming the time and cause; its ``final_time`` and final state are the last
+    ones reached, between samples too. A state through the surface of a released unilateral
+    constraint (f below -1000 atol with no contact located, or a gap that jumps below zero)
+    stops it with :attr:`~lamech.numeric.Status.PENETRATED` ("penetrated").
 
     ``jit``: compile the system's functions and the loop with events with numba, when it
     is installed. The compiled form is cached on disk
-    (:func:`lamech.numeric.jit_cache_dir`): the loop once per machine (2-3 minutes of
+    (``lamech.numeric.jit_cache_dir()``): the loop once per machine (2-3 minutes of
     CPU, for every problem), each problem's own functions on its first run (seconds).
     The default, None, uses numba where the loop is in the cache already, else NumPy.
-    Ignored when ``system`` is already a :class:`NumericSystem`.
+    Ignored when ``system`` is already a :class:`~lamech.numeric.NumericSystem`.
 
     ``engine``: ``"auto"`` (default) runs DOP853 in the compiled loop with events (the
     loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside
-    it: :mod:`._loop`) when the system is compiled with numba, else SciPy's integrator
+    it: ``lamech.numeric._loop``) when the system is compiled with numba, else SciPy's integrator
     driven from Python (``"scipy"``); ``"compiled"`` asks for the compiled loop,
     ``"python"`` for the same loop as Python (the same numbers, slowly); the names of
-    :mod:`._engines`, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
+    ``lamech.numeric._engines``, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
     applies lift-off, impacts (with the accumulation of bounces), slip and stick, inputs
     that switch and the force events inside the steps of a system with t in it, and hands
     a step it cannot take to SciPy's DOP853 for one segment; it does not run other methods

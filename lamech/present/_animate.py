@@ -310,8 +310,8 @@ def animate(
     """Write an animation of ``traj`` (a run of ``system``) to ``path``.
 
     ``params`` are the parameter overrides the run used (sizes and positions depend on
-    them). The animation plays for ``duration`` seconds (default: see
-    :func:`playing_time`) at ``fps`` frames a second, frames evenly spaced in simulated
+    them). The animation plays for ``duration`` seconds (default: real time, clamped to
+    2..20 s) at ``fps`` frames a second, frames evenly spaced in simulated
     time (at most ``max_frames``, and no more than the trajectory's samples); the picture
     says the time scale (e.g. "0.5x real time"). ``.html`` is one self-contained page
     that works offline (JPEG frames; the player's icons are plain characters, not a web

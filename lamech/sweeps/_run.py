@@ -407,8 +407,8 @@ def sweep(
     same generated functions. Where every measure is an event or ``final:`` of a
     coordinate or velocity, the cases run through the compiled loop with events in this
     process, over the cores; otherwise (and for the cases that loop leaves) by
-    :func:`lamech.simulate`, on local processes or a Dask cluster. See
-    :mod:`lamech.sweeps._run` for the measures and the engines.
+    :func:`lamech.simulate`, on local processes or a Dask cluster. The measures and the
+    engines: :doc:`/guide/sweeps`.
 
     Parameters
     ----------
