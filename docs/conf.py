@@ -1,8 +1,11 @@
 """Sphinx configuration for lamech's documentation (MyST Markdown, numpydoc).
 
-Build: ``sphinx-build -W -b html docs docs/_build/html`` (``tests/test_docs.py`` does,
-with warnings as errors). The gallery and the CLI reference are written at build time
-from the library itself (``_ext/lamech_docs.py``).
+Build: ``./run-docs`` (sets up ``.venv`` on first use), or in an environment with lamech
+and its ``docs`` extra, ``python -m sphinx -W -b html docs docs/_build/html``
+(``tests/test_docs.py`` does, with warnings as errors). Nothing needs to run before: the
+gallery and the CLI reference are written at build time from the library itself
+(``_ext/lamech_docs.py``). Every cross-reference resolves (``nitpicky``): a docstring
+names a private helper as ``literal`` text, not as a reference.
 """
 
 from __future__ import annotations
@@ -45,4 +48,4 @@ numpydoc_xref_param_type = False
 # The console lexer gives up on output with an unbalanced quote (the pendulum's
 # tension's "string's"); the block is still shown, unhighlighted.
 suppress_warnings = ["misc.highlighting_failure"]
-nitpicky = False  # docstrings name private helpers; tests/test_docs.py resolves their lamech paths
+nitpicky = True  # every cross-reference resolves (tests/test_docs.py builds with -W)

@@ -58,6 +58,7 @@ _PUBLIC = {
     "DegenerateConstraintsError": "symbolic",
     # numeric
     "simulate": "numeric",
+    "Options": "numeric",
     "Trajectory": "numeric",
     "SimulationError": "numeric",
     "compile_system": "numeric",
@@ -86,6 +87,7 @@ __all__ = [
     "ForceSpec",
     "Friction",
     "ModelError",
+    "Options",
     "Parameter",
     "ProblemFileError",
     "SimulationError",
@@ -146,7 +148,14 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         Parameter,
         System,
     )
-    from .numeric import SimulationError, Trajectory, compile_system, integrate_batch, simulate
+    from .numeric import (
+        Options,
+        SimulationError,
+        Trajectory,
+        compile_system,
+        integrate_batch,
+        simulate,
+    )
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
     from .sweeps import SweepError, SweepResult, sweep

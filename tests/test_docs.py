@@ -10,7 +10,10 @@
   one namespace.
 - A file a page shows as ```` ```{code-block} toml ```` with ``:caption: NAME`` is written
   to that folder first; every whole problem file shown (a ``title =``) loads.
-- The ``lamech`` paths that docstrings cross-reference (``:func:`lamech.x.y```) exist.
+- The ``lamech`` paths that docstrings cross-reference (``:func:`lamech.x.y```) exist
+  (and the Sphinx build is nitpicky: every reference resolves to a documented name).
+- Every name of ``lamech.__all__`` is in the API reference, and every name there has a
+  docstring whose ``>>>`` examples run (with those of the module that defines it).
 """
 
 from __future__ import annotations
@@ -322,3 +325,49 @@ def test_docstring_cross_references_name_what_exists():
                 line = text[: match.start()].count("\n") + 1
                 missing.append(f"{path.relative_to(ROOT)}:{line}: {match.group(0)}")
     assert not missing, "\n".join(missing)
+
+
+# ----- the API reference: every public name, and its docstring's examples ------------
+API = DOCS / "reference" / "api.md"
+AUTO = re.compile(r"^\.\. (?:auto(?:function|class|exception|data)|py:data):: (\S+)", re.M)
+
+
+def _api_names() -> list[str]:
+    """The names docs/reference/api.md documents, in order."""
+    return AUTO.findall(API.read_text(encoding="utf-8"))
+
+
+def _object(path: str):
+    module, _, name = path.rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
+def test_every_public_name_is_in_the_api_reference_with_a_docstring():
+    documented = set(_api_names())
+    missing = [n for n in lamech.__all__ if f"lamech.{n}" not in documented]
+    assert not missing, f"not in {API.relative_to(ROOT)}: {missing}"
+    bare = [n for n in _api_names() if n != "lamech.__version__" and not _object(n).__doc__]
+    assert not bare, f"no docstring: {bare}"
+
+
+def _homes() -> list[str]:
+    """The modules that define the names the API reference documents."""
+    names = [n for n in _api_names() if n != "lamech.__version__"]
+    return sorted({getattr(_object(n), "__module__", "lamech") for n in names})
+
+
+@pytest.mark.parametrize("path", ["lamech", *_api_names(), *_homes()])
+def test_public_docstring_examples_run(path, tmp_path, monkeypatch):
+    """Each ``>>>`` example in the docstring of a name the API reference documents (and
+    of its methods), and of the module that defines it, runs and prints what it shows."""
+    monkeypatch.chdir(tmp_path)
+    try:
+        obj = importlib.import_module(path)
+    except ImportError:
+        obj = _object(path)
+    finder = doctest.DocTestFinder(recurse=not isinstance(obj, type(lamech)))
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    out = io.StringIO()
+    for test in finder.find(obj, path, globs={}):
+        runner.run(test, out=out.write)
+    assert runner.failures == 0, out.getvalue()

@@ -220,3 +220,21 @@ def test_the_one_step_control_does_not_grow_a_step_right_after_a_rejection():
     for name in ("batch.py", "loop.py"):
         source = (KERNELS / name).read_text(encoding="utf-8")
         assert "dop853_step(" in source and "err ** (-1.0 / 8.0)" not in source
+
+
+def test_no_public_function_takes_more_than_eight_parameters():
+    # diffrax and SciPy pass configuration as small objects: lamech's is lamech.Options.
+    # A class's fields (a record: System, Trajectory) are not counted; *args / **kwargs
+    # count as one each.
+    import inspect
+
+    import lamech
+
+    long = {}
+    for name in lamech.__all__:
+        value = getattr(lamech, name)
+        if inspect.isfunction(value):
+            count = len(inspect.signature(value).parameters)
+            if count > 8:
+                long[name] = count
+    assert not long, long

@@ -255,3 +255,20 @@ def test_a_polar_radius_held_negative_is_refused_and_one_that_starts_negative_is
             lamech.loads(text.replace("R = 1.0", "R = -1.0"))
     assert main(["solve", str(good), "--param", "R2=10"]) == 2
     assert "holds `r` at R1 - R2 = -9.5 < 0" in capsys.readouterr().err
+
+
+# ----- issue 48: one rule for the names a friction coefficient goes by ----------------
+def test_params_sweep_and_with_values_know_the_same_names():
+    from lamech.model import with_values
+
+    cylinder = lamech.load("cylinder")
+    said = []
+    for attempt in (
+        lambda: with_values(cylinder, parameters={"R3": 1.0}),
+        lambda: lamech.simulate(cylinder, 0.1, params={"R3": 1.0}),
+        lambda: lamech.sweep(cylinder, {"R3": [1.0]}, t_end=0.1),
+    ):
+        with pytest.raises(ValueError) as info:
+            attempt()
+        said.append(str(info.value).partition("unknown parameter")[2])
+    assert said[0] == said[1] == said[2] == " `R3`; known: m, g, R1, R2, mu:rolling, mu"

@@ -489,3 +489,17 @@ def test_the_conical_pendulum_is_linearised_about_its_steady_motion(capsys):
         == 0
     )
     assert "not a steady state: there the accelerations are theta'' = " in capsys.readouterr().out
+
+
+def test_modes_print_as_the_cli_shows_them_and_repr_in_one_line(capsys):
+    md = lamech.modes(lamech.load("pendulum"))
+    text = str(md)
+    assert text == lamech.to_text(md)
+    assert text.startswith("Small oscillations: Simple pendulum")
+    assert "Equilibrium 1: theta = 0" in text and "omega^2 = g/l" in text
+    assert main(["modes", "pendulum"]) == 0
+    assert capsys.readouterr().out.strip() == text.strip()
+    short = repr(md)
+    assert short.startswith('<Modes of "Simple pendulum') and "\n" not in short
+    assert "2 equilibria (1 stable)" in short and len(short) < 200, short
+    assert repr(md.equilibria[0]) == "<Equilibrium theta = 0: stable, 1 mode>"

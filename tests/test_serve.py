@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -327,3 +328,41 @@ def test_the_page_keeps_its_policy_in_headless_chromium(chromium):
     finally:
         server.terminate()
         server.wait(10)
+
+
+# ----- the documented bodies (docs/reference/json.md) are the answers' ----------------
+def _documented(route: str, table: str) -> set[str]:
+    """The keys docs/reference/json.md lists in ``route``'s ``table`` ("request key" or
+    "answer key")."""
+    text = (ROOT / "docs" / "reference" / "json.md").read_text(encoding="utf-8")
+    section = text.split(f"### `POST {route}`", 1)[1].split("\n### ", 1)[0]
+    rows = section.split(f"| {table} |", 1)[1].split("\n\n", 1)[0].splitlines()[2:]
+    keys: set[str] = set()
+    for row in rows:
+        keys |= set(re.findall(r"`([a-z_]+)`", row.split("|")[1]))
+    return keys
+
+
+@pytest.mark.slow
+def test_the_api_answers_carry_the_keys_its_reference_documents(client):
+    pendulum = (ROOT / "lamech" / "examples" / "pendulum.toml").read_text(encoding="utf-8")
+    assert _documented("/api/check", "request key") == {"text"}
+    check = _documented("/api/check", "answer key")
+    assert set(client.post("/api/check", json={"text": pendulum}).json()) <= check
+    assert set(client.post("/api/check", json={"text": BAD}).json()) <= check
+    asked = {"text": pendulum, "simulate": True, "t_end": 0.5, "initial": {"theta": 0.2}}
+    assert set(asked) <= _documented("/api/run", "request key")
+    run = _documented("/api/run", "answer key")
+    answer = client.post("/api/run", json=asked).json()
+    assert answer["ok"], answer
+    assert set(answer) == run - {"errors", "params"}
+    quick = client.post("/api/run", json={**asked, "events_only": True, "params": {"m": 2}})
+    assert set(quick.json()) == {
+        "ok",
+        "title",
+        "params",
+        "status",
+        "message",
+        "events",
+        "start",
+    } | {"seconds"}

@@ -7,6 +7,9 @@ import math
 
 __all__ = [
     "add_tolerance_options",
+    "option_choices",
+    "option_help",
+    "options_from",
     "positive_float",
     "positive_int",
     "shown_name",
@@ -110,34 +113,60 @@ def positive_int(text: str) -> int:
     return n
 
 
+def option_help(name: str, note: str = "") -> str:
+    """The help of :class:`lamech.Options`' field ``name``, with its default (and
+    ``note``) in parentheses: the command line's text and the library's from one place."""
+    field = _option_fields()[name]
+    default = field.default
+    shown = default not in (None, False) and default != math.inf
+    said = "; ".join(
+        (
+            [f"default {default:g}" if isinstance(default, float) else f"default {default}"]
+            if shown
+            else []
+        )
+        + ([note] if note else [])
+    )
+    return f"{field.metadata['help']} ({said})" if said else field.metadata["help"]
+
+
+def option_choices(name: str, *older: str) -> tuple[str, ...]:
+    """The choices of :class:`lamech.Options`' field ``name`` (and ``older`` names still
+    accepted)."""
+    return tuple(_option_fields()[name].metadata["choices"]) + older
+
+
+def _option_fields() -> dict:
+    import dataclasses
+
+    from .._options import Options  # light: neither NumPy nor SciPy
+
+    return {f.name: f for f in dataclasses.fields(Options)}
+
+
 def add_tolerance_options(parser: argparse.ArgumentParser) -> None:
-    """--rtol, --atol, --max-step: the integrator's options, the same for simulate and
-    sweep (defaults from lamech.numeric, applied when the option is absent)."""
+    """--rtol, --atol, --max-step, --method: the integrator's options, the same for
+    simulate and sweep, their help, choices and defaults those of :class:`lamech.Options`
+    (applied when the option is absent)."""
     parser.add_argument(
-        "--rtol",
-        type=positive_float,
-        default=None,
-        help="relative tolerance (default 1e-11; down to 1e-14)",
+        "--rtol", type=positive_float, default=None, help=option_help("rtol", "down to 1e-14")
+    )
+    parser.add_argument("--atol", type=positive_float, default=None, help=option_help("atol"))
+    parser.add_argument(
+        "--max-step", type=positive_float, default=None, help=option_help("max_step")
     )
     parser.add_argument(
-        "--atol", type=positive_float, default=None, help="absolute tolerance (default 1e-12)"
+        "--method", choices=option_choices("method"), default=None, help=option_help("method")
     )
-    parser.add_argument(
-        "--max-step",
-        type=positive_float,
-        default=None,
-        help="largest integrator step (default: unlimited); refused when it would force "
-        "more than 1e8 steps to reach --t-end (a day or more)",
-    )
-    parser.add_argument(
-        "--method",
-        choices=("DOP853", "RK45", "Radau", "BDF"),
-        default="DOP853",
-        help="the integrator: DOP853 (default; explicit, order 8), RK45, or the implicit "
-        "Radau and BDF for stiff systems, such as a stiff damper or spring whose fastest "
-        "time scale is far below the motion's (lamech says so when a long run's step is "
-        "held down by stability)",
-    )
+
+
+def options_from(args: argparse.Namespace, **more):
+    """The :class:`lamech.Options` of the command's arguments (those it has; ``more``
+    besides); an absent option keeps its default."""
+    from .._options import Options
+
+    given = {k: getattr(args, k) for k in _option_fields() if hasattr(args, k)}
+    return Options.merged(None, **{**given, **more})
 
 
 def refuse_overwriting_input(problem: str, outputs: dict[str, str | None]) -> None:

@@ -13,6 +13,9 @@ from ._args import (
     add_tolerance_options,
     assignment,
     evaluate_assignments,
+    option_choices,
+    option_help,
+    options_from,
     positive_float,
     positive_int,
     refuse_overwriting_input,
@@ -101,9 +104,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--samples",
         type=samples,
         metavar="N",
-        help="output times: N evenly spaced, both ends counted (default 1001)",
+        help=option_help("samples", "default 1001"),
     )
-    grid.add_argument("--dt", type=positive_float, help="output spacing")
+    grid.add_argument("--dt", type=positive_float, help=option_help("dt"))
     add_tolerance_options(s)
     s.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     s.add_argument(
@@ -156,7 +159,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument(
         "--engine",
-        choices=("auto", "compiled", "python", "scipy", "loop"),
+        choices=option_choices("engine", "loop"),
         default="auto",
         help="what integrates (the names of lamech sweep --engine): 'compiled', lamech's "
         "DOP853 loop with events in C (each problem's own functions compiled on its "
@@ -172,20 +175,6 @@ MAX_SAMPLES = 10_000_000
 """The most output times one run keeps (about 80 MB per column)."""
 
 PLOT_FORMATS = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
-
-
-def _check_values(system, params: dict) -> None:
-    """The file's checks (masses >= 0, restitution in [0, 1], ...) at the --param
-    values too: m = -1 would otherwise run, chattering contacts."""
-    from ..model import ModelError, with_values
-
-    own = {k: v for k, v in params.items() if k in {p.name for p in system.parameters}}
-    if not own:
-        return
-    try:
-        with_values(system, parameters=own)
-    except ModelError as exc:
-        raise ValueError(f"with these --param values: {exc}") from None
 
 
 def _check_output_size(args, coordinates: int) -> None:
@@ -290,7 +279,8 @@ def run(args) -> int:
 
 
 def _run(args, phase: list[str]) -> int:
-    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError, simulate
+    from ..numeric import SimulationError, simulate
+    from ..numeric._params import check_values
     from ..problem import ProblemFileError, load
     from ..symbolic import DegenerateConstraintsError
 
@@ -309,7 +299,7 @@ def _run(args, phase: list[str]) -> int:
         env = dict(system.parameter_values)
         env.update({p.symbol: params[p.name] for p in system.parameters if p.name in params})
         initial = evaluate_assignments(args.initial, system, "--initial", env)
-        _check_values(system, params)
+        check_values(system, params, "with these --param values")
         refuse_overwriting_input(
             args.problem, {"--out": args.out, "--plot": args.plot, "--animate": args.animate}
         )
@@ -337,20 +327,14 @@ def _run(args, phase: list[str]) -> int:
             traj = simulate(
                 system,
                 args.t_end,
-                samples=args.samples,
-                dt=args.dt,
                 params=params or None,
                 initial=initial or None,
-                rtol=args.rtol if args.rtol is not None else DEFAULT_RTOL,
-                atol=args.atol if args.atol is not None else DEFAULT_ATOL,
-                max_step=args.max_step,
-                method=args.method,
-                project_initial=args.project_initial,
+                options=options_from(
+                    args, jit=True if args.jit or args.engine == "compiled" else None
+                ),
                 progress=progress,
                 pace=progress.pace,
                 projection=progress.projection,
-                jit=True if args.jit or args.engine == "compiled" else None,
-                engine=args.engine,
             )
     except SimulationError as exc:
         progress.close()

@@ -8,7 +8,14 @@ import argparse
 import math
 import sys
 
-from ._args import add_tolerance_options, positive_float, positive_int, shown_name
+from ._args import (
+    add_tolerance_options,
+    option_choices,
+    options_from,
+    positive_float,
+    positive_int,
+    shown_name,
+)
 from ._files import add_data_dir
 from ._signals import exit_status, noting, signal_name, stop_signals
 from ._terms import in_flags
@@ -102,7 +109,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument(
         "--engine",
-        choices=("auto", "compiled", "python", "scipy", "simulate"),
+        choices=option_choices("engine", "simulate"),
         default="auto",
         help="how the cases run (the names of lamech simulate --engine): the loop with "
         "events where every measure is an event or final:<coordinate> (auto and "
@@ -178,12 +185,7 @@ def _run(args) -> int:
                 resume=args.resume,
                 workers=args.workers,
                 scheduler=args.scheduler,
-                samples=args.samples,
-                rtol=args.rtol,
-                atol=args.atol,
-                max_step=args.max_step,
-                method=args.method,
-                engine=args.engine,
+                options=options_from(args),
             )
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)

@@ -166,6 +166,7 @@ def _sweep(conn, text: str, options: dict) -> dict:
     import matplotlib
 
     matplotlib.use("Agg")
+    from ..numeric import Options
     from ..present._notebook import sweep_html
     from ..problem import ProblemFileError, loads
     from ..sweeps import SweepError
@@ -178,8 +179,8 @@ def _sweep(conn, text: str, options: dict) -> dict:
             options["params"],
             options["measures"],
             t_end=options["t_end"],
+            options=Options(samples=201),
             workers=1,  # this process is the worker: a daemon process has no children
-            samples=201,
             progress=lambda done, total: conn.send(("progress", done, total)),
         )
     except (ProblemFileError, SweepError, ValueError) as exc:

@@ -246,7 +246,7 @@ def unit(text: str, whole: str | None = None) -> tuple[sp.Expr, Dimension]:
     Raises
     ------
     ExpressionError
-        Unknown to pint, with an offset, or a power above :data:`MAX_UNIT_POWER`.
+        Unknown to pint, with an offset, or a power above 12.
     """
     shown = whole if whole is not None else text
     words = text.strip()

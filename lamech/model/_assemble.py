@@ -1,4 +1,4 @@
-"""A :class:`~lamech.model.System` from what a physicist writes: T and V given, or L
+"""A :class:`~lamech.System` from what a physicist writes: T and V given, or L
 (split into T and V), or neither (the bodies' kinetic and gravitational energy), plus
 generalized forces and applied loads (forces at points, torques, springs and dampers).
 
@@ -117,7 +117,7 @@ def assemble(
     t: sp.Symbol = T_SYMBOL,
     **fields: Any,
 ) -> System:
-    """A checked :class:`~lamech.model.System`, modelled as a problem file is.
+    """A checked :class:`~lamech.System`, modelled as a problem file is.
 
     Parameters
     ----------
@@ -130,7 +130,7 @@ def assemble(
         V left out their gravitational energy when there is ``gravity``, else 0. A T or V
         given beside bodies that differs from theirs is said in the System's ``notes``.
     bodies, gravity
-        The bodies (:class:`~lamech.model.Body`) and the acceleration of gravity (along
+        The bodies (:class:`~lamech.Body`) and the acceleration of gravity (along
         -y, or -z in space).
     forces
         Generalized forces Q^nc, by coordinate name (a mapping) or one per coordinate.

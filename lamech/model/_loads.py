@@ -59,7 +59,7 @@ class AppliedForce:
     default the body's centre; ``frame`` "body" turns the force with the body (its
     components along the body's axes), "world" (default) does not. Its generalized force
     is Q_r = F . dr_P/dq_r with dr_P/dq_r the partial velocity of the material point at
-    ``at`` (:func:`lamech.model._kinematics.partial_velocities`).
+    ``at`` (``partial_velocities`` of ``lamech.model._kinematics``).
     """
 
     body: str

@@ -267,13 +267,13 @@ def parameters(values: Mapping[str, float | sp.Expr]) -> tuple[Parameter, ...]:
     """Parameters as a problem file's ``[parameters]`` makes them: each value a number (a
     float taken as the decimal written) or an expression of the others (in any Symbols
     named as them), evaluated in dependency order, and each symbol signed as its value
-    (:func:`signed_symbol`).
+    (``lamech.model.signed_symbol``: positive, negative or zero as the value).
 
     Raises
     ------
     ModelError
         An unknown name in a value, values that refer to each other in a cycle, or what
-        a :class:`Parameter` refuses (a value that is not a finite number).
+        a :class:`~lamech.Parameter` refuses (a value that is not a finite number).
     """
     exact = {n: _exact(v) for n, v in values.items()}
     issues: Issues = []

@@ -10,12 +10,35 @@ import sympy as sp
 
 from ._system import System
 
-__all__ = ["with_values"]
+__all__ = ["with_values", "friction_names", "check_names"]
 
 
 def _exact(x: float) -> sp.Rational:
     """0.05 -> 1/20: the decimal the user wrote, exactly (as the parser reads 0.05)."""
     return sp.Rational(repr(float(x)))
+
+
+def friction_names(system: System) -> dict[str, str]:
+    """The names a friction coefficient goes by -> its constraint: ``mu:<constraint>``
+    for each friction constraint, and ``mu`` when there is exactly one and no parameter
+    is called ``mu``. The one rule for ``--param``, ``params=`` and the sweeps."""
+    fr = [c.name for c in system.constraints if c.friction is not None]
+    out = {f"mu:{c}": c for c in fr}
+    if len(fr) == 1 and "mu" not in {p.name for p in system.parameters}:
+        out["mu"] = fr[0]
+    return out
+
+
+def check_names(system: System, names) -> None:
+    """ValueError naming every name of ``names`` that is neither a parameter nor a
+    friction coefficient (:func:`friction_names`), with the known ones."""
+    known = [p.name for p in system.parameters] + list(friction_names(system))
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(
+            f"unknown parameter{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(f'`{n}`' for n in unknown)}; known: {', '.join(known)}"
+        )
 
 
 def with_values(
@@ -35,27 +58,17 @@ def with_values(
     """
     parameters = dict(parameters or {})
     by_name = {p.name: p for p in system.parameters}
-    friction = {c.name: c for c in system.constraints if c.friction is not None}
+    check_names(system, parameters)
+    friction = friction_names(system)
     constraints = list(system.constraints)
     for name in [n for n in parameters if n not in by_name]:
-        target = (
-            name.partition(":")[2]
-            if name.startswith("mu:")
-            else (next(iter(friction)) if name == "mu" and len(friction) == 1 else None)
-        )
-        if target not in friction:
-            known = (
-                list(by_name)
-                + [f"mu:{c}" for c in friction]
-                + (["mu"] if len(friction) == 1 else [])
-            )
-            raise ValueError(f"unknown parameter `{name}`; known: {', '.join(known)}")
+        target = next(c for c in constraints if c.name == friction[name])
         value = parameters.pop(name)
         if not value >= 0:
             raise ValueError(f"{name}: a coefficient of friction is >= 0 (got {value:g})")
-        j = constraints.index(friction[target])
+        j = constraints.index(target)
         c = constraints[j]
-        assert c.friction is not None  # c is friction[target], which has friction
+        assert c.friction is not None  # friction_names names friction constraints only
         constraints[j] = dataclasses.replace(
             c, friction=dataclasses.replace(c.friction, mu=_exact(value))
         )

@@ -20,12 +20,13 @@ from ._cc import cache_dir as jit_cache_dir
 from ._codegen import NumericSystem, compile_system, compiled_available
 from ._events import Event, EventKind, FrictionState, Status
 from ._initial import consistent_initial
-from ._options import DEFAULT_ATOL, DEFAULT_RTOL, METHODS, SimulationError
+from ._options import DEFAULT_ATOL, DEFAULT_RTOL, METHODS, Options, SimulationError
 from ._simulate import simulate
 from ._trajectory import Trajectory
 
 __all__ = [
     "simulate",
+    "Options",
     "Trajectory",
     "SimulationError",
     "Event",

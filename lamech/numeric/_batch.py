@@ -161,9 +161,9 @@ def integrate_batch(
     ``params``: None (the file's values), one dict {name: value} for every run, or a
     sequence of such dicts, one per row of ``y0s`` (an ensemble over parameters: a sweep
     of lengths or masses in one compiled loop); parameters defined by expressions of the
-    overridden ones follow them, as in :meth:`NumericSystem.parameter_vector`.
+    overridden ones follow them, as in :meth:`~lamech.numeric.NumericSystem.parameter_vector`.
 
-    ``rtol``, ``atol``: by default those of :class:`~._options.Options` (the simulator's).
+    ``rtol``, ``atol``: by default those of :class:`~lamech.Options` (the simulator's).
     ``ns`` from ``compile_system(system, jit=True)`` runs compiled (C); otherwise the
     same loop runs as Python. Only for systems whose constraints are all bilateral and
     without friction limits (raises ValueError otherwise): there are no events here.
@@ -491,12 +491,12 @@ def integrate_events(
     initial=(),
 ) -> EventBatchResult:
     """Every row of ``y0s`` ((B, 2n), consistent with the constraints) from t = 0 to
-    ``t_end`` in the compiled loop with events: the DOP853 loop of :func:`integrate_batch`
+    ``t_end`` in the compiled loop with events: the DOP853 loop of :func:`~lamech.integrate_batch`
     (SciPy's tableau and step control, its rule that a step does not grow right after a
     rejection, its initial step after every event), with the contact and friction mode
-    of :func:`lamech.numeric.simulate` and its events located the same way: after every
+    of :func:`lamech.simulate` and its events located the same way: after every
     accepted step the watched event functions (a unilateral lambda for lift-off, the gap
-    of a released one for contact, mu N - |F| for slip, the slip velocity for stick) are
+    of a released one for contact, ``mu N - |F|`` for slip, the slip velocity for stick) are
     checked for a sign change, and a crossing is located by Brent's method on DOP853's
     dense output (the 7th-order interpolant with its 3 extra stages). Lift-off, slip
     (kinetic friction against the slip velocity) and stick (friction held where the slip
@@ -508,18 +508,18 @@ def integrate_events(
     (mass-matrix metric, the mode's rows and held offsets).
 
     Not mirrored here, and left to ``simulate`` (the run stops with that ``status``,
-    ``fallback`` True): impacts and contacts (status ``"contact"``) unless ``impacts``,
-    a start off the constraints (simulate refuses it, naming the values),
-    a released gap that turns within one step, and failures (see :data:`FALLBACKS`).
+    ``fallback`` True): impacts and contacts (status ``"contact"``) unless ``impacts``, a
+    start off the constraints (simulate refuses it, naming the values), a released gap that
+    turns within one step, and failures (see ``lamech.numeric._batch.FALLBACKS``).
     The conditioning check and the chattering test of ``simulate`` are not made (a run
     with more than ``max_events`` events falls back).
 
     ``want``: (kind, constraint or None) pairs (kinds ``"lift-off"``, ``"slip"``,
     ``"stick"``, ``"contact"``, ``"impact"``); with ``to_end=False`` a run stops once each
-    has happened (status ``"found"``). ``params`` as for :func:`integrate_batch`, or an
-    array of parameter vectors (B, len(ns.parameters)). Compiled (the engine in C) when ``jit``
-    (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and it can run,
-    else the same loop runs as Python (same numbers). Compiled, the batch is
+    has happened (status ``"found"``). ``params`` as for :func:`~lamech.integrate_batch`, or an
+    array of parameter vectors (B, len(ns.parameters)). Compiled (the engine in C) when
+    ``jit`` (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and it can
+    run, else the same loop runs as Python (same numbers). Compiled, the batch is
     cut into slices run in ``threads`` threads (default: the CPUs this process may use;
     the loop releases the GIL).
     Inputs that switch (step, min, max, clip, piecewise) switch where their s crosses 0,
@@ -530,13 +530,13 @@ def integrate_events(
     (Newton's law with restitution, the contact's friction sticking or slipping through
     the impact, the Zeno accumulation's ``contact`` at its time), events ``"impact"``
     and ``"contact"`` with their details; ``max_events`` must then hold the bounces.
-    ``rtol``, ``atol``, ``max_step``: by default those of :class:`~._options.Options` (the
+    ``rtol``, ``atol``, ``max_step``: by default those of :class:`~lamech.Options` (the
     simulator's).
 
     ``initial`` [(coordinate or ``x'``, value)]: each row of ``y0s`` is first made
-    consistent as :func:`initial_states` makes it (those held, the others moved onto the
-    constraints the row meets), in the run's own thread; a start that is then not finite
-    falls back (status ``"start"``). ``y0s`` itself is not changed.
+    consistent as :func:`~lamech.numeric.initial_states` makes it (those held, the others
+    moved onto the constraints the row meets), in the run's own thread; a start that is then
+    not finite falls back (status ``"start"``). ``y0s`` itself is not changed.
     """
     from ._options import BLOW_UP, INITIAL_TOLERANCE
 

@@ -283,14 +283,14 @@ class CKernels:
     # --- the KKT solves and right-hand sides -----------------------------------------
     def _act(self, rows, slip_j, slip_k, slip_c):
         m = self.m
-        a = (_addr(rows, _I, (None,), "rows"),)
-        na = rows.shape[0]
         ns = slip_j.shape[0] if isinstance(slip_j, np.ndarray) else 0
-        a += (
+        a = (
+            _addr(rows, _I, (None,), "rows"),
             _addr(slip_j, _I, (ns,), "slip_j"),
             _addr(slip_k, _I, (ns,), "slip_k"),
             _addr(slip_c, _F, (ns,), "slip_c"),
         )
+        na = rows.shape[0]
         if na > m:
             raise ValueError("engine: more active rows than constraints")
         _in_range(rows, 0, max(m, 1), "rows")

@@ -19,11 +19,7 @@ import warnings
 
 __all__ = ["ENGINES", "ALIASES", "engine_name"]
 
-ENGINES = ("auto", "compiled", "python", "scipy")
-"""The engines of ``simulate`` and ``sweep``."""
-ALIASES = {"loop": "loop", "simulate": "scipy"}
-"""Older names still accepted (``"loop"`` keeps its meaning: compiled where the system
-is, else Python)."""
+from .._options import ALIASES, ENGINES
 
 
 def engine_name(engine: str, error: type[Exception] = ValueError) -> str:

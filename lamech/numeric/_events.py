@@ -27,7 +27,7 @@ class _Text(str, enum.Enum):
 
 
 class Status(_Text):
-    """How a run ended (the ``message`` of the :class:`~lamech.numeric.Trajectory` says
+    """How a run ended (the ``message`` of the :class:`~lamech.Trajectory` says
     when and why)."""
 
     OK = "ok"
@@ -56,7 +56,7 @@ _MEANINGS = {
 
 
 class EventKind(_Text):
-    """What happened at an event (see :mod:`lamech.numeric`'s simulator)."""
+    """What happened at an event (see :func:`lamech.simulate`)."""
 
     LIFT_OFF = "lift-off"
     IMPACT = "impact"
@@ -81,7 +81,7 @@ class FrictionState(_Text):
 class Event:
     """One mode change of a run: its time, kind, constraint, and the coordinates and
     velocities (``x'``) at the event. The optional details: ``multiplier`` (the pulling
-    multiplier of a lift-off found when the mode settles), ``ratio`` (|lambda| / mu N of
+    multiplier of a lift-off found when the mode settles), ``ratio`` (``|lambda| / (mu N)`` of
     a slip found when the mode settles), ``impulse``, ``velocity_before`` and
     ``restitution`` (impact and contact), ``initial`` (a slip at the start),
     ``reversal`` (a stick that could not hold: the slip went on, reversed or not) and

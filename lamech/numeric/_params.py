@@ -10,10 +10,11 @@ import numpy as np
 import sympy as sp
 
 from ..model import Parameter, System
+from ..model._values import check_names, friction_names
 from ._codegen import NumericSystem, compile_system
 from ._options import SimulationError
 
-__all__ = ["friction_names", "with_friction_parameters", "numeric_system"]
+__all__ = ["friction_names", "with_friction_parameters", "numeric_system", "check_values"]
 
 
 def numeric_system(
@@ -36,7 +37,7 @@ def numeric_system(
         system = as_system(system, "simulate")
     _check_finite(params or {})
     if params and not isinstance(system, NumericSystem):
-        _check_values(system, params)
+        check_values(system, params)
         extra = [k for k in params if k not in {par.name for par in system.parameters}]
         if extra:
             try:
@@ -65,9 +66,11 @@ def _check_finite(params: dict) -> None:
             raise SimulationError(f"params[{name!r}] must be a finite number, got {x}")
 
 
-def _check_values(system: System, params: dict) -> None:
-    """The file's checks at these values (:func:`lamech.model.with_values`), as
-    ``--param`` makes them."""
+def check_values(system: System, params: dict, given_as: str = "params") -> None:
+    """The file's checks (masses >= 0, restitution in [0, 1], a parameter's sign, ...) at
+    these parameter values (:func:`lamech.model.with_values`): :class:`SimulationError`
+    saying which, prefixed ``given_as`` (``simulate``'s ``params``, the command line's
+    ``--param``): m = -1 would otherwise run, chattering contacts. The one check of both."""
     from ..model import with_values
 
     own = {k: float(v) for k, v in params.items() if k in {p.name for p in system.parameters}}
@@ -76,7 +79,7 @@ def _check_values(system: System, params: dict) -> None:
     try:
         with_values(system, parameters=own)
     except ValueError as exc:  # ModelError too
-        raise SimulationError(f"params: {exc}") from None
+        raise SimulationError(f"{given_as}: {exc}") from None
 
 
 def _check_signs(ns: NumericSystem, params: dict, p: np.ndarray) -> None:
@@ -105,26 +108,12 @@ def _check_signs(ns: NumericSystem, params: dict, p: np.ndarray) -> None:
         )
 
 
-def friction_names(system: System) -> dict[str, str]:
-    """Sweepable friction names -> constraint name."""
-    fr = [c.name for c in system.constraints if c.friction is not None]
-    out = {f"mu:{c}": c for c in fr}
-    if len(fr) == 1 and "mu" not in {p.name for p in system.parameters}:
-        out["mu"] = fr[0]
-    return out
-
-
 def with_friction_parameters(system: System, names: Iterable[str]) -> System:
     """``system`` with the friction coefficients named in ``names`` made parameters."""
+    names = list(names)
+    check_names(system, names)
     params = {p.name for p in system.parameters}
     friction = friction_names(system)
-    known = [p.name for p in system.parameters] + list(friction)
-    unknown = [n for n in names if n not in params and n not in friction]
-    if unknown:
-        raise ValueError(
-            f"unknown parameter{'s' if len(unknown) > 1 else ''} "
-            f"{', '.join(f'`{n}`' for n in unknown)}; known: {', '.join(known)}"
-        )
     new_params = list(system.parameters)
     constraints = list(system.constraints)
     taken = {str(s) for s in system.symbols.values()}

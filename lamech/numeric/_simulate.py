@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -65,15 +65,13 @@ from ._kernels.codes import EV_CONTACT
 from ._loop import CONTACT, HANDBACK, Loop, loop_for
 from ._options import (
     BLOW_UP,
-    DEFAULT_ATOL,
-    DEFAULT_RTOL,
     IMPLICIT,
+    Options,
     SimulationError,
     Stop,
     check_options,
-    sample_times,
 )
-from ._pace import Pace, Projection, Watch, stiffness
+from ._pace import Watch, stiffness
 from ._params import numeric_system
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
@@ -87,70 +85,91 @@ def simulate(
     system: System | NumericSystem,
     t_end: float,
     *,
-    t0: float = 0.0,
-    samples: int | None = None,
-    dt: float | None = None,
-    rtol: float = DEFAULT_RTOL,
-    atol: float = DEFAULT_ATOL,
-    max_step: float | None = None,
     params: dict | None = None,
+    initial: dict | None = None,
     q0=None,
     qd0=None,
-    initial: dict | None = None,
-    project_initial: bool = False,
-    method: str = "DOP853",
-    progress: Callable[[float], None] | None = None,
-    pace: Callable[[Pace], None] | None = None,
-    jit: bool | None = None,
-    engine: str = "auto",
-    projection: Callable[[Projection], None] | None = None,
+    options: Options | None = None,
+    **more: Any,
 ) -> Trajectory:
     """Simulate ``system`` from ``t0`` to ``t_end``; see the module docstring.
 
+    Parameters
+    ----------
+    system : System or NumericSystem
+        The model (compiled here), or a system compiled already.
+    t_end : float
+        The end time.
+    params : dict, optional
+        Parameter values by name, overriding the problem's; a friction coefficient as
+        ``"mu:<constraint>"`` (or ``"mu"`` when there is one).
+    initial : dict, optional
+        {coordinate or ``x'``: value}: sets those values and holds them while the other
+        coordinates and velocities move (the projection onto the constraints) to meet the
+        constraints the problem's own initial state meets: ``initial={"theta1": 0.01}``
+        starts the cylinder just off the top, with r and theta2 following.
+    q0, qd0 : dict or array, optional
+        The initial state, as given (dicts by coordinate name, or arrays in coordinate
+        order).
+    options : Options, optional
+        Tolerances, method, output times, engine (:class:`~lamech.Options`; default its
+        defaults).
+
+    Other Parameters
+    ----------------
+    rtol, atol, max_step, method, samples, dt, engine, jit, project_initial
+        Each replaces that field of ``options`` (the keyword arguments of earlier
+        versions, still accepted).
+    t0 : float
+        The start time (default 0).
+    progress, pace, projection : callable
+        Called while the run goes on (below).
+
+    Returns
+    -------
+    Trajectory
+        The samples, the multipliers and forces along them, the event log, the status.
+
+    Notes
+    -----
     ``samples`` (default 1001, both ends counted) or ``dt`` set the output times (dense
-    output). ``params`` overrides parameter values by name; ``q0``/``qd0`` override the
-    initial state (dicts by coordinate name, or arrays in coordinate order), as given.
-    ``initial`` {coordinate or ``x'``: value} sets those values and holds them while the
-    other coordinates and velocities move (the projection onto the constraints) to meet
-    the constraints the problem's own initial state meets: ``initial={"theta1": 0.01}``
-    starts the cylinder just off the top, with r and theta2 following. ``params`` may
-    also name a friction coefficient (``"mu:<constraint>"``, or ``"mu"`` when there is
-    one). An initial state off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max ``|q|``)) raises
-    :class:`SimulationError` unless ``project_initial``, which moves it to the nearest
-    consistent state (mass-matrix metric) and says what changed in ``notes``. A
-    unilateral constraint with f > 0 at the start begins released.
+    output). An initial state off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max
+    ``|q|``)) raises :class:`SimulationError` unless ``project_initial``, which moves it
+    to the nearest consistent state (mass-matrix metric) and says what changed in
+    ``notes``. A unilateral constraint with f > 0 at the start begins released.
 
-    ``method``: SciPy's ``"DOP853"`` (default), ``"RK45"``, or the implicit ``"Radau"``
-    and ``"BDF"`` for stiff systems (a stiff damper or spring). ``max_step`` may not force
-    more than :data:`MAX_STEPS` steps. ``progress(t)`` is called after every accepted
-    step; ``pace(Pace)`` once, after :data:`PILOT_SECONDS` of wall time, with the
-    projected wall time of the whole run and whether its step is held down by stability
-    (:class:`Pace`; a callback may raise KeyboardInterrupt to stop the run there);
-    ``projection(Projection)`` once, after :data:`PILOT_STEPS` steps, with the steps
-    the whole run needs at its mean step so far (:class:`Projection`: from counts and
-    step sizes, the same on any machine; a run of fewer steps never calls it).
+    ``method``: SciPy's ``"DOP853"`` (default), ``"RK45"``, or the implicit ``"Radau"`` and
+    ``"BDF"`` for stiff systems (a stiff damper or spring). ``max_step`` may not force more
+    than 10^8 steps. ``progress(t)`` is called after every accepted step; ``pace(pace)``
+    once, after 0.5 s of wall time, with the projected wall time of the whole run and
+    whether its step is held down by stability (``lamech.numeric._pace.Pace``; a callback
+    may raise KeyboardInterrupt to stop the run there); ``projection(projection)`` once,
+    after 1000 steps, with the steps the whole run needs at its mean step so far
+    (``lamech.numeric._pace.Projection``: from counts and step sizes, the same on any
+    machine; a run of fewer steps never calls it).
 
-    A singular KKT matrix, NaN, a step-size collapse, chattering events (many events in
-    a vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far
-    is returned with ``status`` :attr:`Status.FAILED` or :attr:`Status.INTERRUPTED`
-    (equal to "failed", "interrupted") and a ``message`` naming the time and cause; its
-    ``final_time`` and final state are the last ones reached, between samples too. A
-    state through the surface of a released unilateral constraint (f below -1000 atol
-    with no contact located, or a gap that jumps below zero) stops it with
-    :attr:`Status.PENETRATED` ("penetrated").
+    A singular KKT matrix, NaN, a step-size collapse, chattering events (many events in a
+    vanishing window of time) or Ctrl-C stop the run: the trajectory computed so far is
+    returned with ``status`` :attr:`~lamech.numeric.Status.FAILED` or
+    :attr:`~lamech.numeric.Status.INTERRUPTED` (equal to "failed", "interrupted") and a
+    ``message`` naming the time and cause; its ``final_time`` and final state are the last
+    ones reached, between samples too. A state through the surface of a released unilateral
+    constraint (f below -1000 atol with no contact located, or a gap that jumps below zero)
+    stops it with :attr:`~lamech.numeric.Status.PENETRATED` ("penetrated").
 
     ``jit``: run the system on lamech's engine in C (built at install): its own functions
     are compiled by the C compiler on its first run (a fraction of a second) and kept in
-    the cache folder (:func:`lamech.numeric.jit_cache_dir`). The default, None, does so
+    the cache folder (``lamech.numeric.jit_cache_dir()``). The default, None, does so
     wherever it can (the engine built and a C compiler found), else NumPy; False: NumPy.
-    Ignored when ``system`` is already a :class:`NumericSystem`.
+    Ignored when ``system`` is already a :class:`~lamech.numeric.NumericSystem`.
 
     ``engine``: ``"auto"`` (default) runs DOP853 in the compiled loop with events (the
     loop of :func:`lamech.numeric.integrate_events`, with the output times sampled inside
-    it: :mod:`._loop`) when the system is compiled (the engine in C), else SciPy's integrator
+    it: ``lamech.numeric._loop``) when the system is compiled (the engine in C), else
+    SciPy's integrator
     driven from Python (``"scipy"``); ``"compiled"`` asks for the compiled loop,
     ``"python"`` for the same loop as Python (the same numbers, slowly); the names of
-    :mod:`._engines`, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
+    ``lamech.numeric._engines``, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
     applies lift-off, impacts (with the accumulation of bounces), slip and stick, inputs
     that switch and the force events inside the steps of a system with t in it, and hands
     a step it cannot take to SciPy's DOP853 for one segment; it does not run other methods
@@ -160,13 +179,21 @@ def simulate(
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force
     before are restored after the run.
+
+    Examples
+    --------
+    >>> import lamech
+    >>> traj = lamech.simulate(lamech.load("pendulum"), 2.0, options=lamech.Options(samples=5))
+    >>> str(traj.status), traj.t.tolist()
+    ('ok', [0.0, 0.5, 1.0, 1.5, 2.0])
     """
-    options = check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
-    ns, p = numeric_system(system, params, jit)
+    t0, hooks, options = _arguments(options, more)
+    options = check_options(t_end, t0, options)
+    ns, p = numeric_system(system, params, options.jit)
     y0 = initial_state(ns, p, initial, q0, qd0)
-    times = sample_times(t0, t_end, samples, dt)
+    times = options.times(t0, t_end)
     run = Run(Setup.of(ns, p, options))
-    loop = loop_for(run, engine, times)
+    loop = loop_for(run, options.engine, times)
     if loop is None:  # SciPy's integrators: their BLAS is limited too, so loaded first
         import scipy.linalg  # noqa: F401  (the integrators import it anyway)
     notes: list[str] = _degree_notes(ns, p, y0)
@@ -174,9 +201,24 @@ def simulate(
     # OpenBLAS's helper threads made the 40- to 100-link chains 5-70 times slower; the
     # measurements are in ._threads).
     with one_blas_thread():
-        y = initial_mode(run, t0, y0, project_initial, notes)
-        watch = Watch(t0, t_end, method, progress, pace, projection)
+        y = initial_mode(run, t0, y0, options.project_initial, notes)
+        watch = Watch(t0, t_end, options.method, *hooks)
         return _integrate(run, Recorder(run, times), Progress(t0, y), t_end, watch, notes, loop)
+
+
+_HOOKS = ("progress", "pace", "projection")
+
+
+def _arguments(options: Options | None, more: dict) -> tuple[float, tuple, Options]:
+    """``simulate``'s other keyword arguments: (t0, the callbacks (progress, pace,
+    projection), the options with the fields given as keywords replaced)."""
+    more = dict(more)
+    t0 = more.pop("t0", 0.0)
+    hooks = tuple(more.pop(name, None) for name in _HOOKS)
+    try:
+        return t0, hooks, Options.merged(options, **more)
+    except TypeError as exc:
+        raise TypeError(f"simulate: {exc}; or t0, {', '.join(_HOOKS)}") from None
 
 
 def initial_mode(

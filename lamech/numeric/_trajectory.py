@@ -24,18 +24,19 @@ class Trajectory:
     """Arrays sampled at ``t`` (dense output, not the integrator's steps).
 
     ``q``, ``qd``: (N, n); ``lambdas``: (N, m) in the sign convention and scaling of
-    ``lamech solve`` (NaN while a unilateral constraint is released or a friction
-    constraint is off; while a friction constraint slips, its column holds the kinetic
-    friction -mu N sign(slip velocity) that replaces its multiplier); ``forces``:
-    {"<constraint>:<direction>": (N,)} Cartesian components by virtual work;
-    ``energy`` T + V; ``residual_position`` max ``|f|`` and ``residual_velocity`` max ``|F|``
-    of the active constraints; ``residual`` their max. ``events`` is the log, a list of
-    :class:`Event` (``t``, ``kind``, ``constraint``, ``coordinates`` and the details of
-    its kind); ``status`` is a :class:`Status` (equal to "ok", "failed" or "interrupted")
-    with ``message`` saying when, why and what to try. ``engine``: what integrated it
-    (``"loop (C)"``, ``"loop (Python)"``: the loop with events; ``"SciPy DOP853"``
-    and the other methods); ``handed_back``: the contacts and segments the loop left to the
-    simulator's own code (a step it could not take, an impact it could not apply).
+    ``lamech solve`` (NaN while a unilateral constraint is released or a friction constraint
+    is off; while a friction constraint slips, its column holds the kinetic friction -mu N
+    sign(slip velocity) that replaces its multiplier); ``forces``:
+    {"<constraint>:<direction>": (N,)} Cartesian components by virtual work; ``energy`` T +
+    V; ``residual_position`` max ``|f|`` and ``residual_velocity`` max ``|F|`` of the active
+    constraints; ``residual`` their max. ``events`` is the log, a list of
+    :class:`~lamech.numeric.Event` (``t``, ``kind``, ``constraint``, ``coordinates`` and the
+    details of its kind); ``status`` is a :class:`~lamech.numeric.Status` (equal to "ok",
+    "failed" or "interrupted") with ``message`` saying when, why and what to try.
+    ``engine``: what integrated it (``"loop (C)"``, ``"loop (Python)"``: the loop with
+    events; ``"SciPy DOP853"`` and the other methods); ``handed_back``: the contacts and
+    segments the loop left to the simulator's own code (a step it could not take, an impact
+    it could not apply).
     """
 
     coordinates: list[str]
@@ -79,7 +80,20 @@ class Trajectory:
         return self.qd[:, _index(self.coordinates, name.rstrip("'"), "coordinate")]
 
     def multiplier(self, name: str) -> np.ndarray:
-        """The samples of the multiplier of constraint ``name`` (0 while it is released)."""
+        """The samples of the multiplier of constraint ``name``: NaN while it is released
+        (a unilateral constraint after lift-off, a friction constraint whose normal is
+        released), the kinetic friction -mu N sign(slip velocity) while it slips.
+
+        Examples
+        --------
+        >>> import lamech
+        >>> traj = lamech.simulate(lamech.load("cylinder"), 3.0, initial={"theta1": 0.01},
+        ...                        samples=4)
+        >>> [(str(e.kind), e.constraint) for e in traj.events]
+        [('slip', 'rolling'), ('lift-off', 'contact')]
+        >>> traj.multiplier("contact").round(3)
+        array([9.81 , 9.791, 8.613,   nan])
+        """
         return self.lambdas[:, _index(self.constraints, name, "constraint")]
 
     @property

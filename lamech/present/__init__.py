@@ -98,11 +98,22 @@ def _is_derivation(obj: Any) -> bool:
     return isinstance(obj, Derivation)
 
 
+def _is_modes(obj: Any) -> bool:
+    from ..symbolic import Modes
+
+    return isinstance(obj, Modes)
+
+
 def to_text(result: Any) -> str:
     """The readable report of a Solution, the steps of a Derivation
-    (:func:`lamech.steps`), or the summary of a Trajectory."""
+    (:func:`lamech.steps`), the summary of a Trajectory, or the equilibria and modes of
+    :func:`lamech.modes` (as ``lamech modes`` prints them)."""
     if _is_derivation(result):
         return _steps_text(result)
+    if _is_modes(result):
+        from ._modes import modes_text
+
+        return modes_text(result)
     return _trajectory_text(result) if _is_trajectory(result) else _solution_text(result)
 
 

@@ -306,18 +306,18 @@ def animate(
     duration: float | None = None,
     max_frames: int = 600,
     dpi: int = 100,
-    title: str | None = None,
 ) -> Path:
     """Write an animation of ``traj`` (a run of ``system``) to ``path``.
 
     ``params`` are the parameter overrides the run used (sizes and positions depend on
-    them). The animation plays for ``duration`` seconds (default: see
-    :func:`playing_time`) at ``fps`` frames a second, frames evenly spaced in simulated
+    them). The animation plays for ``duration`` seconds (default: real time, clamped to
+    2..20 s) at ``fps`` frames a second, frames evenly spaced in simulated
     time (at most ``max_frames``, and no more than the trajectory's samples); the picture
     says the time scale (e.g. "0.5x real time"). ``.html`` is one self-contained page
     that works offline (JPEG frames; the player's icons are plain characters, not a web
     font). Raises ValueError for an extension other than .gif, .mp4, .html, or .mp4
-    without ffmpeg.
+    without ffmpeg. The heading is the trajectory's title (``traj.title``; another with
+    ``dataclasses.replace(traj, title=...)``), else the system's.
     """
     import matplotlib
     from matplotlib import animation
@@ -353,7 +353,7 @@ def animate(
     scene = Scene(traj, system, params, frames)
 
     fig = Figure(figsize=(6.4, 6.4), dpi=dpi)  # no pyplot: the caller's backend stays
-    heading = title or system.title
+    heading = getattr(traj, "title", "") or system.title
     if scene.space:
         from ._view3d import space_view
 

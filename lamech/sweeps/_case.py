@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..model import System
-from ..numeric import consistent_initial
+from ..numeric import Options, consistent_initial
 from ._parse import EVENT_MEASURES, Measure
 
 __all__ = ["Plan", "COMPILED", "numeric_system", "measure_values", "run_case"]
@@ -25,12 +25,16 @@ class Plan:
     measures: tuple[Measure, ...]
     t_end: float
     initial: tuple[tuple[str, float], ...]
-    samples: int
-    rtol: float
-    atol: float
-    max_step: float | None
     columns: tuple[str, ...]
-    method: str = "DOP853"
+    options: Options
+    """The sweep's options, checked (its engine chose the backend: :mod:`._run`)."""
+
+    @property
+    def simulate_options(self) -> Options:
+        """The options of a case run by :func:`lamech.simulate`: the sweep's, with
+        simulate's own engine choice (its default: the sweep's engine has chosen
+        simulate for this case already)."""
+        return replace(self.options, engine="auto", jit=None)
 
 
 COMPILED: dict[str, object] = {}  # token -> NumericSystem, one per worker process
@@ -79,11 +83,7 @@ def run_case(ns, plan: Plan, case: int, values: Mapping[str, float]) -> dict:
             params=dict(values),
             q0=q0,
             qd0=v0,
-            samples=plan.samples,
-            rtol=plan.rtol,
-            atol=plan.atol,
-            max_step=plan.max_step,
-            method=plan.method,
+            options=plan.simulate_options,
         )
     except Exception as exc:  # a bad case is a row with its reason, not a dead sweep
         for m in plan.measures:

@@ -23,7 +23,7 @@ calls."""
 def _compiled_measures(plan: Plan, ns) -> tuple[list, bool] | None:
     """(the events the measures want [(kind, constraint or None)], whether the runs must
     go on to t_end) when the compiled loop can give every measure, else None."""
-    if plan.method != "DOP853":
+    if plan.options.method != "DOP853":
         return None
     coords = ns.coordinate_names
     want, to_end = [], False
@@ -65,9 +65,9 @@ def run_compiled(ns, plan: Plan, cases, todo, record, workers, engine) -> tuple[
                 Y0[ok],
                 plan.t_end,
                 params=P[ok],
-                rtol=plan.rtol,
-                atol=plan.atol,
-                max_step=plan.max_step,
+                rtol=plan.options.rtol,
+                atol=plan.options.atol,
+                max_step=plan.options.max_step,
                 want=want,
                 to_end=to_end,
                 threads=threads,

@@ -57,7 +57,8 @@ def run_dask(scheduler, token: str, plan: Plan, cases, todo, record) -> str:
             client.cancel(list(running.futures))
             raise
         n = len(client.scheduler_info().get("workers", {}))
-        return f"Dask at {client.scheduler.address} ({n} workers)"
+        where = getattr(client.scheduler, "address", "a cluster")  # None once closed
+        return f"Dask at {where} ({n} workers)"
     finally:
         if own:
             client.close()

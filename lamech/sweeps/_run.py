@@ -60,6 +60,7 @@ import numpy as np
 
 from ..model import System
 from ..numeric._engines import engine_name
+from ..numeric._options import Options
 from ..numeric._params import friction_names, with_friction_parameters
 from ._case import COMPILED, Plan, run_case
 from ._compiled import run_compiled
@@ -135,11 +136,11 @@ def _spec(problem, plan: Plan, values: dict[str, np.ndarray]) -> dict:
         "measures": [m.text for m in plan.measures],
         "t_end": plan.t_end,
         "initial": dict(plan.initial),
-        "samples": plan.samples,
-        "rtol": plan.rtol,
-        "atol": plan.atol,
-        "max_step": plan.max_step,
-        "method": plan.method,
+        "samples": _samples(plan.options),
+        "rtol": plan.options.rtol,
+        "atol": plan.options.atol,
+        "max_step": plan.options.max_step if plan.options.max_step < math.inf else None,
+        "method": plan.options.method,
     }
 
 
@@ -189,24 +190,19 @@ def execute(
     measures: Sequence[str] = ("liftoff",),
     *,
     t_end: float,
+    options: Options,
     initial: Mapping[str, float | str] | None = None,
     out: str | os.PathLike | None = None,
     resume: bool = False,
     workers: int | None = None,
     scheduler=None,
-    samples: int = 1001,
-    rtol: float | None = None,
-    atol: float | None = None,
-    max_step: float | None = None,
-    method: str = "DOP853",
     progress: bool | Callable[[int, int], None] | None = None,
-    engine: str = "auto",
 ) -> SweepResult:
-    """What :func:`sweep` does (same arguments), returning the result also when the sweep
-    did not finish: interrupted (``result.interrupted``) or stopped (``result.stopped``),
-    the rows done so far in it. For the command line and the server, which report a
-    partial sweep themselves; :func:`sweep` raises instead."""
-    from ..numeric import DEFAULT_ATOL, DEFAULT_RTOL, SimulationError
+    """What :func:`sweep` does, with its ``options`` made already, returning the result
+    also when the sweep did not finish: interrupted (``result.interrupted``) or stopped
+    (``result.stopped``), the rows done so far in it. For the command line and the
+    server, which report a partial sweep themselves; :func:`sweep` raises instead."""
+    from ..numeric import SimulationError
     from ..numeric._options import check_options
     from ..problem._coerce import as_system
 
@@ -218,20 +214,14 @@ def execute(
             "sweep: params must be a dict {name: values} (e.g. {'mu': '0.1:0.5:5'}); "
             f"got {type(params).__name__}"
         )
+    if not isinstance(options, Options):
+        raise TypeError(f"sweep: options must be a lamech.Options (got {type(options).__name__})")
+    _refuse_simulate_only(options)
     try:
-        check_options(
-            t_end,
-            0.0,
-            DEFAULT_RTOL if rtol is None else rtol,
-            DEFAULT_ATOL if atol is None else atol,
-            max_step,
-            samples,
-            None,
-            method,
-        )
+        check_options(t_end, 0.0, options)
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
-    engine = engine_name(engine, SweepError)
+    engine = engine_name(options.engine, SweepError)
     values, cases = _grid(params, system.units)
     system = _with_friction_parameters(system, list(values))
     ms = [parse_measure(m, system) for m in measures]
@@ -256,18 +246,7 @@ def execute(
     for m in ms:
         columns += m.columns(coords)
     columns += ["status", "message"]
-    plan = Plan(
-        system,
-        tuple(ms),
-        float(t_end),
-        tuple(init),
-        int(samples),
-        DEFAULT_RTOL if rtol is None else float(rtol),
-        DEFAULT_ATOL if atol is None else float(atol),
-        max_step,
-        tuple(columns),
-        method,
-    )
+    plan = Plan(system, tuple(ms), float(t_end), tuple(init), tuple(columns), options)
 
     if scheduler is not None and isinstance(scheduler, str):
         try:
@@ -285,6 +264,27 @@ def execute(
         )
     finally:
         table.unlock()
+
+
+def _samples(options: Options) -> int:
+    """The samples of each case's run (a sweep's default 1001, as ``simulate``'s)."""
+    return 1001 if options.samples is None else int(options.samples)
+
+
+def _refuse_simulate_only(options: Options) -> None:
+    """The options a sweep does not take (SweepError naming each)."""
+    if options.dt is not None:
+        raise SweepError(f"a sweep samples its runs by samples, not dt (got dt={options.dt})")
+    if options.project_initial:
+        raise SweepError(
+            "a sweep makes each case's initial state consistent itself: project_initial "
+            "is simulate's"
+        )
+    if options.jit is not None:
+        raise SweepError(
+            "a sweep chooses the compiled engine by its engine ('compiled'), not jit "
+            f"(got jit={options.jit})"
+        )
 
 
 def _run_cases(
@@ -385,6 +385,10 @@ def _run_cases(
     return run
 
 
+_HOW = ("resume", "workers", "scheduler", "progress")
+"""``sweep``'s keyword arguments about where and how its cases run (:func:`execute`'s)."""
+
+
 def sweep(
     problem,
     params: Mapping[str, object],
@@ -393,17 +397,8 @@ def sweep(
     t_end: float,
     initial: Mapping[str, float | str] | None = None,
     out: str | os.PathLike | None = None,
-    resume: bool = False,
-    workers: int | None = None,
-    scheduler=None,
-    samples: int = 1001,
-    rtol: float | None = None,
-    atol: float | None = None,
-    max_step: float | None = None,
-    method: str = "DOP853",
-    progress: bool | Callable[[int, int], None] | None = None,
-    engine: str = "auto",
-    output: str | None = None,
+    options: Options | None = None,
+    **more: Any,
 ) -> SweepResult:
     r"""Simulate every combination of parameter values and measure each case: one row
     per case.
@@ -412,8 +407,8 @@ def sweep(
     same generated functions. Where every measure is an event or ``final:`` of a
     coordinate or velocity, the cases run through the compiled loop with events in this
     process, over the cores; otherwise (and for the cases that loop leaves) by
-    :func:`lamech.simulate`, on local processes or a Dask cluster. See
-    :mod:`lamech.sweeps._run` for the measures and the engines.
+    :func:`lamech.simulate`, on local processes or a Dask cluster. The measures and the
+    engines: :doc:`/guide/sweeps`.
 
     Parameters
     ----------
@@ -438,6 +433,14 @@ def sweep(
     out : str or path-like, optional
         The table on disk: CSV, or Parquet when the name ends ``.parquet``. Rows are
         appended as cases finish; beside it ``<out>.sweep.json`` records what made it.
+    options : Options, optional
+        As for :func:`lamech.simulate`: samples per run (for ``max:``, ``min:``,
+        ``final:``; default 1001), tolerances, the largest step, the integrator
+        (``"DOP853"``; ``"Radau"`` or ``"BDF"`` for stiff systems), the engine (below).
+        ``dt``, ``jit`` and ``project_initial`` are simulate's only (refused here).
+
+    Other Parameters
+    ----------------
     resume : bool, default False
         Read ``out`` back and run only its missing cases and those whose status was not
         ``ok``; refused when the table was made with other arguments or another problem.
@@ -447,14 +450,13 @@ def sweep(
     scheduler : str or dask.distributed.Client, optional
         A Dask scheduler's address or a client: the cases run on that cluster
         (overrides ``workers``).
-    samples, rtol, atol, max_step, method
-        As for :func:`lamech.simulate`: samples per run (for ``max:``, ``min:``,
-        ``final:``), tolerances, the largest step, the integrator (``"DOP853"``;
-        ``"Radau"`` or ``"BDF"`` for stiff systems).
     progress : bool or callable, optional
         A bar on stderr (default: when stderr is a terminal), or a function called as
         ``progress(done, total)`` after each case.
-    engine : {"auto", "compiled", "python", "scipy"}, default "auto"
+    samples, rtol, atol, max_step, method, engine
+        Each replaces that field of ``options`` (the keyword arguments of earlier
+        versions, still accepted). ``engine`` is one of {"auto", "compiled", "python",
+        "scipy"}, default "auto".
         ``auto`` and ``compiled``: the loop with events on lamech's engine in C where the
         measures allow it (else, or without a C compiler, the same loop as Python);
         ``python``: that loop as Python; ``scipy``:
@@ -485,10 +487,18 @@ def sweep(
     --------
     >>> import lamech
     >>> res = lamech.sweep("cylinder", {"mu": [0.2, 0.4]}, "slip", t_end=2.7,
-    ...                    initial={"theta1": 0.01}, samples=11)
+    ...                    initial={"theta1": 0.01}, options=lamech.Options(samples=11))
     >>> res.column("slip:theta1").round(4)
     array([0.4669, 0.6596])
     """
+    how = {k: more.pop(k) for k in _HOW if k in more}
+    output = more.pop("output", None)
+    try:
+        options = Options.merged(options, **more)
+    except TypeError as exc:
+        raise TypeError(f"sweep: {exc}; or {', '.join(_HOW)}") from None
+    except ValueError as exc:  # SimulationError: a bad option
+        raise SweepError(str(exc)) from None
     if output is not None:
         if output not in ("auto", "dataframe", "records", "xarray"):
             raise SweepError(f"unknown output {output!r}; one of dataframe, records, xarray")
@@ -499,22 +509,7 @@ def sweep(
             stacklevel=2,
         )
     result = execute(
-        problem,
-        params,
-        measures,
-        t_end=t_end,
-        initial=initial,
-        out=out,
-        resume=resume,
-        workers=workers,
-        scheduler=scheduler,
-        samples=samples,
-        rtol=rtol,
-        atol=atol,
-        max_step=max_step,
-        method=method,
-        progress=progress,
-        engine=engine,
+        problem, params, measures, t_end=t_end, initial=initial, out=out, options=options, **how
     )
     if result.interrupted:
         raise KeyboardInterrupt
@@ -553,4 +548,9 @@ def run_sweep(problem, params, measures=("liftoff",), **options) -> SweepResult:
         DeprecationWarning,
         stacklevel=2,
     )
-    return execute(problem, params, measures, **options)
+    how = {k: options.pop(k) for k in (*_HOW, "t_end", "initial", "out") if k in options}
+    try:
+        merged = Options.merged(options.pop("options", None), **options)
+    except ValueError as exc:
+        raise SweepError(str(exc)) from None
+    return execute(problem, params, measures, options=merged, **how)

@@ -62,7 +62,7 @@ class Dynamics:
 
 def dynamics(system: System) -> Dynamics:
     """Derive M, h, Q, A, gamma and the Euler-Lagrange equations (pure, no simplification).
-    ``system`` as :func:`~lamech.symbolic.solve` takes it."""
+    ``system`` as :func:`~lamech.solve` takes it."""
     if not isinstance(system, System):
         from ..problem._coerce import as_system
 

@@ -105,6 +105,14 @@ class Equilibrium:
                 out[name] = self.values[name] + amplitude * shape[name]
         return out
 
+    def __repr__(self) -> str:
+        where = ", ".join(f"{k} = {to_text(v)}" for k, v in self.at.items())
+        if not self.exists:
+            return f"<Equilibrium {where}: does not exist at these values>"
+        n = len(self.modes)
+        held = "" if self.holds else "; a contact cannot hold it"
+        return f"<Equilibrium {where}: {self.stability}, {n} mode{'' if n == 1 else 's'}{held}>"
+
     def to_json(self) -> dict:
         return {
             "at": {k: to_text(v) for k, v in self.at.items()},
@@ -134,6 +142,26 @@ class Modes:
     reason: str | None = None
     free: str | None = None
     frame: str | None = None
+
+    def __str__(self) -> str:
+        # what `lamech modes` prints: the one import against the layer order (symbolic ->
+        # present) of this module, declared in the import-linter contract as
+        # Solution's _repr_latex_ is
+        from ..present._modes import modes_text
+
+        return modes_text(self)
+
+    def __repr__(self) -> str:
+        n = len(self.equilibria)
+        stable = sum(1 for e in self.equilibria if e.exists and e.stability == "stable")
+        found = f"{n} equilibri{'um' if n == 1 else 'a'} ({stable} stable)" if n else "none"
+        why = f": {self.reason[:80]}" if self.reason and not n else ""
+        return f"<Modes of {self.system.title!r}: {found} in {', '.join(self.independent)}{why}>"
+
+    def _repr_latex_(self) -> str:
+        from ..present._modes import modes_latex  # as __str__
+
+        return modes_latex(self)
 
     def to_json(self) -> dict:
         return {

@@ -1,6 +1,6 @@
 """Small oscillations: equilibria, their stability, and the normal modes.
 
-Built on the closed forms of :func:`~lamech.symbolic.solve`: with the independent
+Built on the closed forms of :func:`~lamech.solve`: with the independent
 coordinates u (the others eliminated through the constraints), the motion is
 u'' = F(u, u') (t absent: a steadily driven system, such as a hoop spun at a fixed
 rate, has its drive eliminated, so its relative equilibria are equilibria here).
@@ -65,7 +65,7 @@ SOLVE_UNKNOWNS = 3
 def modes(problem: Solution | System | str, at: dict[str, float] | None = None) -> Modes:
     """Equilibria, stability and normal modes of a system or its solution (see the
     module docstring; ``problem`` also a file's path or an example's name, as
-    :func:`~lamech.symbolic.solve` takes it). ``at`` ({independent coordinate: value},
+    :func:`~lamech.solve` takes it). ``at`` ({independent coordinate: value},
     finite numbers) linearises about that configuration at rest instead of searching for
     equilibria (a note says when it is not one)."""
     from ..problem._coerce import as_system

@@ -6,7 +6,7 @@ Euler-Lagrange equations with multipliers (:func:`~lamech.symbolic.dynamics`), t
 each multiplier as one expression of the coordinates, velocities, t and parameters,
 with every constraint taken as holding. No elimination, no simplification: the
 expressions are correct at any state, of any size, and as long as the algebra makes
-them (:func:`~lamech.symbolic.solve` gives the tidy ones, on the constraint manifold).
+them (:func:`~lamech.solve` gives the tidy ones, on the constraint manifold).
 
 The KKT system is solved by its structure, not as one (n + m) x (n + m) matrix. From
 M q'' + h - A^T lambda - Q = 0 and A q'' + gamma = 0,
@@ -56,9 +56,9 @@ def multipliers(system: System | Dynamics) -> dict[str, sp.Expr]:
     Functions of the coordinates, velocities, t and parameters of the system as written
     (nothing eliminated), correct at every state where the KKT matrix is regular,
     unsimplified (see the module docstring for how). The constraints are those that
-    hold at the start, as in :func:`~lamech.symbolic.solve`: a unilateral contact open
+    hold at the start, as in :func:`~lamech.solve`: a unilateral contact open
     there (f > 0) has lambda = 0 until it closes and is left out. Given a
-    :class:`~lamech.symbolic.Dynamics` already derived, every constraint of its system
+    :class:`~lamech.Dynamics` already derived, every constraint of its system
     is taken as holding. The sign convention is :mod:`lamech.model`'s (lambda_lamech =
     -lambda in SymPy's ``eom``).
 

@@ -163,7 +163,7 @@ def solve(system: System | str, *, budget: int | None = None) -> Solution:
     """Derive equations, multipliers, integrals, vanishing/slip points and forces.
 
     ``budget`` bounds the work of simplification, in units counted by the normal forms
-    (:mod:`lamech.symbolic._normal`; :data:`~lamech.symbolic._work.DEFAULT_BUDGET` by default),
+    (``lamech.symbolic._normal``; ``DEFAULT_BUDGET`` of ``lamech.symbolic._work`` by default),
     never in time: the same system and budget give the same results, written the same
     way, on any machine and in any thread. The multipliers straight from the KKT solve
     are always delivered; tidying goes to the multipliers first, then the conditions,

@@ -151,7 +151,7 @@ class Derivation:
 
 
 def steps(sol) -> Derivation:
-    """The derivation of ``sol`` (a :class:`~lamech.symbolic.Solution`; a System, file
+    """The derivation of ``sol`` (a :class:`~lamech.Solution`; a System, file
     or example name is solved first) in steps."""
     from ._solution import Solution, solve
 
