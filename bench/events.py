@@ -357,7 +357,6 @@ def bench_b7(count: int, quick: bool, lines: list[str], repeats: int = 3) -> Non
     import mujoco
 
     from lamech.numeric import compile_system
-    from lamech.numeric._batch import jit_is_cached
 
     from .run import interleave
 
@@ -370,8 +369,8 @@ def bench_b7(count: int, quick: bool, lines: list[str], repeats: int = 3) -> Non
     ball_ns = compile_system(lamech_ball(), jit=True)
     cyl_ns = compile_system(lamech_cylinder(), jit=True)
     for ns in (ball_ns, cyl_ns):
-        if not jit_is_cached(ns):
-            print(f"  numba compiles the loop with events for {ns.system.title!r} (~1 min)")
+        if not ns.jit:
+            print(f"  {ns.system.title!r} runs as Python: no C compiler for its functions")
     # (a) balls
     truth_a = np.sqrt(2 * h / G)
     Y0 = np.column_stack((h, np.zeros(count)))

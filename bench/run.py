@@ -3,8 +3,9 @@
     .venv/bin/python -m bench            # the full suite (about 20 minutes on 2 cores)
     .venv/bin/python -m bench --quick    # smaller sizes and caps (about 4 minutes)
 
-Needs the optional extra ``bench`` (``pip install -e '.[bench]'``: mujoco, numba, pydy,
-Cython, casadi; a C compiler for PyDy and for CasADi's JIT). The model everywhere is the
+Needs the optional extra ``bench`` (``pip install -e '.[bench]'``: mujoco, pydy, Cython,
+casadi; a C compiler for PyDy, for CasADi's JIT and for lamech's own functions, which its
+engine in C, built at install, calls). The model everywhere is the
 planar N-link pendulum chain (point masses m = 1, links l = 1, g = 9.81, all links 30°
 from the vertical at rest): in maximal coordinates (x_i, y_i, one length constraint per
 link) for lamech, SymPy, PyDy and CasADi, as a hinge chain for MuJoCo.
@@ -367,6 +368,13 @@ def _fmt_s(x):
     return "—" if x is None else (f"{x:.3g} s" if x >= 0.01 else f"{x * 1e3:.3g} ms")
 
 
+def _compiled() -> bool:
+    """Whether lamech's engine in C (built at install) and a C compiler for each
+    problem's functions are there."""
+    from lamech.numeric import compiled_available
+    return bool(compiled_available())
+
+
 def kernel_inputs(ns):
     m = ns.m
     q, v = ns.initial_state()
@@ -416,7 +424,7 @@ def _lamech_b1_first(n: int, jit: bool, root: str):
 
 
 B1_METHODS = [("lamech", "lamech `compile_system` + first `accelerations`"),
-              ("lamech (numba)", "lamech, numba (`jit=True`, compiled-system cache empty)"),
+              ("lamech (C)", "lamech, engine in C (`jit=True`: its C compiled, cache empty)"),
               ("SymPy", "SymPy `LagrangesMethod` + `rhs()` + `lambdify`"),
               ("SymPy cse", "same, `lambdify(cse=True)`")]
 
@@ -431,20 +439,16 @@ def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
               "λ). SymPy: `LagrangesMethod(L, q, hol_coneqs)`, `form_lagranges_equations()`, "
               "`rhs()`, `lambdify` (default printer, and `cse=True`). Every run in its own "
               "forked process on an empty SymPy cache (`clear_cache()`, lamech and SymPy "
-              "alike; modules imported beforehand); lamech's numba runs each with an empty "
+              "alike; modules imported beforehand); lamech's C runs each with an empty "
               f"compiled-system cache. {repeats} interleaved repeats (per N: lamech, "
-              "numba, SymPy, SymPy cse, then the other way round); a run over "
+              "C, SymPy, SymPy cse, then the other way round); a run over "
               f"{alone_after:.0f} s is not repeated; each capped at {cap:.0f} s, and a "
               "SymPy variant past the cap is not run at larger N. Wall time min / median "
               "/ max; CPU time of the child process (all threads); ratio of medians. "
               "Both sides' q'' agree at the initial state before a time counts.", "",
               "| N | method | wall min / median / max | CPU min / median / max | runs "
               "| median / lamech's |", "|---|---|---|---|---|---|"]
-    try:
-        import numba  # noqa: F401
-        jit = True
-    except ImportError:
-        jit = False
+    jit = _compiled()
     lamech_b1(2, jit=False)          # imports (lamech, SymPy) outside the time
     sympy_b1(2, cse=True)
     root = tempfile.mkdtemp(prefix="lamech-bench-b1-")
@@ -460,7 +464,7 @@ def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
         for n in sizes:
             cases = [("lamech", case(_lamech_b1_first, n, False, root))]
             if jit:
-                cases.append(("lamech (numba)", case(_lamech_b1_first, n, True, root)))
+                cases.append(("lamech (C)", case(_lamech_b1_first, n, True, root)))
             for key, cse in (("SymPy", False), ("SymPy cse", True)):
                 if key not in past_cap:
                     cases.append((key, case(sympy_b1, n, cse)))
@@ -474,7 +478,7 @@ def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
                     raise AssertionError(f"B1 N={n}: {key} and lamech disagree on q''")
             base = got["lamech"].wall.median
             for key, label in B1_METHODS:
-                if key == "lamech (numba)" and not jit:
+                if key == "lamech (C)" and not jit:
                     continue
                 t = got.get(key)
                 if t is not None:
@@ -561,30 +565,27 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
               "other round); cells give the median wall time per call, in brackets the "
               "median CPU time, then the min–max wall time over the rounds. lamech: "
               "`NumericSystem.accelerations(t, y, p)` (NumPy: generated M, Q − h, A, γ "
-              "plus `numpy.linalg.solve` of the KKT matrix; numba: the same source "
-              "compiled, M diagonal so λ from the Schur "
-              "complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
+              "plus `numpy.linalg.solve` of the KKT matrix; C: the generated functions "
+              "compiled to C, the KKT solve in lamech's engine in C, M diagonal so λ from "
+              "the Schur complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
               "generated code gives as vectors: nothing of size N² is filled per call). "
               "Peers: `lambdify(cse=True)` of SymPy's `LagrangesMethod.rhs()` (N ≤ 8; "
               "larger `rhs()` does not finish); PyDy's Cython back end "
               "(`CythonMatrixGenerator` for `mass_matrix_full`, `forcing_full`, then "
               "`numpy.linalg.solve`, as PyDy's ODE function does). Every peer's q'' and λ "
               "agree with lamech's before a time counts.", "",
-              "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | PyDy Cython "
-              "| lambdify/lamech numba | PyDy/lamech numba |",
+              "| N | lamech NumPy | lamech C | SymPy lambdify(cse=True) | PyDy Cython "
+              "| lambdify/lamech C | PyDy/lamech C |",
               "|---|---|---|---|---|---|---|"]
     for n in sizes:
         ns = compile_system(lamech_chain(n))
         y, p, *_ = kernel_inputs(ns)
         ref = ns.accelerations(0.0, y, p)
         cases = [("numpy", lambda ns=ns: ns.accelerations(0.0, y, p))]
-        try:
-            import numba  # noqa: F401
+        if _compiled():
             nj = compile_system(lamech_chain(n), jit=True)
             nj.accelerations(0.0, y, p)
-            cases.append(("numba", lambda: nj.accelerations(0.0, y, p)))
-        except ImportError:
-            pass
+            cases.append(("C", lambda: nj.accelerations(0.0, y, p)))
         x0, v0, c0 = chain_state(n), np.zeros(2 * n), (1.0, G, L)
 
         def agree(out, who):
@@ -618,11 +619,11 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
                     f"{w.min * 1e6:.3g}–{w.max * 1e6:.3g}")
 
         def ratio(key):
-            if got.get(key) is None or got.get("numba") is None:
+            if got.get(key) is None or got.get("C") is None:
                 return "—"
-            return f"{got[key].wall.median / got['numba'].wall.median:.1f}×"
+            return f"{got[key].wall.median / got['C'].wall.median:.1f}×"
 
-        row = (f"| {n} | {us('numpy')} | {us('numba')} | {us('sympy')} | {us('pydy')} "
+        row = (f"| {n} | {us('numpy')} | {us('C')} | {us('sympy')} | {us('pydy')} "
                f"| {ratio('sympy')} | {ratio('pydy')} |")
         print("  " + row)
         lines.append(row)
@@ -734,10 +735,10 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
             f"{t_end:g} simulated seconds from rest at 30°; errors at t = {t_end:g} s "
             "against a lamech reference run at rtol = 1e-13: the rod tensions (max "
             "relative error) and the positions (max absolute error, in link lengths). "
-            "lamech: DOP853 with projection (`simulate`, compiled with numba when installed: "
-            "the loop with events, `ev_segment`); "
+            "lamech: DOP853 with projection (`simulate` on lamech's engine in C: the loop "
+            "with events, `lm_ev_segment`); "
             "lamech kernel: `lamech.numeric.integrate_batch` on one trajectory, the same "
-            "method as one compiled loop (a batch smaller than numba's thread count runs "
+            "method as one compiled loop (a batch smaller than the engine's thread count runs "
             "serially); MuJoCo: hinge chain, Euler and RK4 at fixed steps, positions and "
             "tensions after `mj_forward` at the final state, tensions from the joint "
             "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
@@ -755,11 +756,7 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
             "| tension error | position error |", "|---|---|---|---|---|---|---|"]
     lines += head
     curves: dict = {}
-    try:
-        import numba  # noqa: F401
-        jit = True
-    except ImportError:
-        jit = False
+    jit = _compiled()
     rtols = ((1e-6, 1e-9, 1e-12) if quick
              else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12))
     dts = (1e-3, 1e-4) if quick else (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4)
@@ -911,28 +908,31 @@ def _draw(curves: dict, sizes, t_end: float) -> None:
 
 
 def bench_long_chains(sizes, t_end, quick, lines: list[str], repeats: int = 3):
-    """B3's long chains (issue 16): lamech's ``simulate`` on NumPy's kernels (no numba:
-    the path where NumPy's dense solves run, and seconds of code generation instead of
-    minutes of numba compilation) against MuJoCo at dt = 1e-3, with wall and CPU time.
-    With OpenBLAS's helper threads the 60-link run took 4-70 times as long on 2 cores:
-    a wall time far above the CPU time, or a CPU time far above this table's, is that."""
+    """B3's long chains (issue 16): lamech's ``simulate`` on its engine in C (each chain's
+    functions compiled to C in a few seconds; until the engine was C these rows ran SciPy's
+    DOP853 on the NumPy kernels, numba taking minutes to compile a chain this long)
+    against MuJoCo at dt = 1e-3, with wall and CPU time. With OpenBLAS's helper threads
+    the 60-link run took 4-70 times as long on 2 cores: a wall time far above the CPU
+    time, or a CPU time far above this table's, is that."""
     from lamech.numeric import compile_system
-    print(f"\nB3  long chains: {t_end:g} simulated seconds, lamech without numba")
+    jit = _compiled()
+    road = "the engine in C" if jit else "the NumPy kernels (no C compiler)"
+    print(f"\nB3  long chains: {t_end:g} simulated seconds, lamech on {road}")
     lines += ["## B3 long chains", "",
               f"As B3, {t_end:g} simulated seconds, with N = {', '.join(map(str, sizes))}; "
               "errors against a lamech reference run at rtol = 1e-12. lamech: `simulate` "
-              "on the NumPy kernels (no numba); MuJoCo at dt = 1e-3. "
+              f"on {road}; MuJoCo at dt = 1e-3. "
               f"{1 if quick else repeats} interleaved repeats, wall and CPU time (the "
               "process's) min / median / max, without code generation.", "",
               "| N | method | setting | wall min / median / max | CPU min / median / max | "
               "tension error | position error |", "|---|---|---|---|---|---|---|"]
     for n in sizes:
         system = lamech_chain(n)
-        ns = compile_system(system)
-        _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-12, False, ns)
+        ns = compile_system(system, jit=jit)
+        _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-12, jit, ns)
         angles = np.full(n, ANGLE)
         cases = [(("lamech", f"rtol {rtol:g}"),
-                  lambda r=rtol: lamech_run(system, t_end, r, False, ns))
+                  lambda r=rtol: lamech_run(system, t_end, r, jit, ns))
                  for rtol in ((1e-9,) if quick else (1e-6, 1e-9))]
         try:
             import mujoco  # noqa: F401
@@ -970,11 +970,7 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
               "| method | runs | wall min / median / max | CPU min / median / max "
               "| trajectories/s | batch / this | tension error (first run) |",
               "|---|---|---|---|---|---|---|"]
-    try:
-        import numba
-        jit = True
-    except ImportError:
-        jit = False
+    jit = _compiled()
     ns = compile_system(lamech_chain(n), jit=jit)
     # accuracy of each method on the first initial condition, against a tight reference
     q_first = dict(zip(ns.coordinate_names, chain_state(n, angles[0])))
@@ -1012,8 +1008,8 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
             return clock.wall, clock.cpu
 
         cases.append(("batch", batch))
-        rows.append(("batch", f"lamech integrate_batch (rtol 1e-10, {numba.get_num_threads()}"
-                              " numba threads)", count, error(-2 * L * res.lambdas[0])))
+        rows.append(("batch", f"lamech integrate_batch (rtol 1e-10, engine in C, {threads}"
+                              " threads)", count, error(-2 * L * res.lambdas[0])))
     peer = casadi_peer(n, ns)
     if peer is not None:
         rtol, atol = 1e-11, 1e-13
@@ -1342,7 +1338,10 @@ def _machine() -> list[str]:
     import sympy
     versions = [f"Python {platform.python_version()}", f"SymPy {sympy.__version__}",
                 f"NumPy {np.__version__}", f"SciPy {scipy.__version__}"]
-    for mod in ("numba", "mujoco", "pydy", "Cython", "casadi"):
+    from lamech.numeric import compiled_available
+    versions.append("lamech's engine: C" if compiled_available() else
+                    "lamech's engine in C: not available")
+    for mod in ("mujoco", "pydy", "Cython", "casadi"):
         try:
             versions.append(f"{mod} {__import__(mod).__version__}")
         except ImportError:

@@ -13,11 +13,12 @@ root of sin(theta) = mu (7 cos(theta) - 4 cos(theta0)) below the lift-off angle
 Timed, each as a whole process (``resource.getrusage`` of the children: CPU time beside
 the wall time, the machine being shared), min / median / max of the repeats:
 
-- lamech, the 50 x 50 grid (2,500 cases), slip and lift-off, ``--engine auto`` (numba
-  when the loop is compiled on the machine) and ``--engine python`` (the same loop as
-  plain Python, one thread), on a 20 x 20 grid (400 cases);
-- issue 31's target: a 400-case sweep costs at most 1.5x a one-case sweep, both with
-  the problem's own compiled functions new (the loop compiled once per machine, kept);
+- lamech, the 50 x 50 grid (2,500 cases), slip and lift-off, ``--engine auto`` (the
+  engine in C, built at install, on the problem's functions compiled to C) and
+  ``--engine python`` (the same loop as plain Python, one thread), on a 20 x 20 grid
+  (400 cases);
+- issue 31's and 45's target: a 400-case sweep costs at most 1.5x a one-case sweep, both
+  with the problem's own compiled functions new (the engine built at install);
 - the peer, SymPy + SciPy, its strongest route for this job: ``LagrangesMethod`` on the
   same L and constraints, the (n + m)-square system of q'' and the multipliers
   lambdified once with common subexpressions, ``solve_ivp`` (DOP853, rtol 1e-10) per
@@ -130,8 +131,8 @@ def _errors(rows: list[dict]) -> dict:
 
 
 def _drop_problem_functions(cache: Path) -> None:
-    """Forget the problem's own compiled functions (``lamech_<key>.py`` and numba's files
-    for them), keeping the problem-independent loop (``engine_<key>``)."""
+    """Forget the problem's own compiled functions (``lamech_<key>.py``, its C library
+    ``lamech_c_<key>.so`` and their records): the next run compiles them again."""
     for path in cache.rglob("lamech_*"):
         if path.is_file():
             path.unlink()
