@@ -54,7 +54,7 @@ from ._inputs import (
 )
 from ._parse import parse
 from ._print import latex, printable, to_text
-from ._units import Dimension, Quantity, is_quantity, quantity, unit
+from ._units import Dimension, Quantity, is_angle_unit, is_quantity, quantity, unit
 
 __all__ = [
     "ExpressionError",
@@ -82,6 +82,7 @@ __all__ = [
     "Dimension",
     "Quantity",
     "is_quantity",
+    "is_angle_unit",
     "quantity",
     "unit",
 ]

@@ -48,6 +48,7 @@ __all__ = [
     "ENERGY",
     "FORCE",
     "is_quantity",
+    "is_angle_unit",
     "quantity",
     "unit",
 ]
@@ -193,6 +194,8 @@ class Quantity(NamedTuple):
     value: sp.Expr
     dimension: Dimension
     text: str
+    unit: str = ""
+    """The unit as written (``"cm"``)."""
 
 
 def is_quantity(value: Any) -> bool:
@@ -221,7 +224,7 @@ def quantity(text: str) -> Quantity:
             text,
         )
     factor, dimension = unit(m.group("unit"), text)
-    return Quantity(sp.Rational(number) * factor, dimension, text)
+    return Quantity(sp.Rational(number) * factor, dimension, text, m.group("unit"))
 
 
 _REGISTRY: Any = None
@@ -286,6 +289,18 @@ def unit(text: str, whole: str | None = None) -> tuple[sp.Expr, Dimension]:
             key = _PINT_BASES.get(base, base.strip("[]"))
             powers[key] = powers.get(key, Fraction(0)) + Fraction(q).limit_denominator(12) * p
     return factor, Dimension._make(powers)
+
+
+def is_angle_unit(text: str) -> bool:
+    """Whether the unit ``text`` is an angle or an angle per time (``deg``, ``rad``,
+    ``turn``, ``rpm``, ``deg/s``): a unit pint's registry roots in radians. False for
+    text that is not a unit."""
+    try:
+        ureg = _registry()
+        root = dict(ureg.get_root_units(ureg.parse_units(text.strip()))[1]._units)
+    except Exception:  # not a unit: said where the unit is read
+        return False
+    return root.get("radian") == 1 and set(root) <= {"radian", "second"}
 
 
 def _exact_factor(f: float) -> sp.Expr:

@@ -287,6 +287,7 @@ class _Loader(PartsReader):
             self.model_problems(exc)
             self.fail_if_any()
             raise
+        units = dataclasses.replace(units, angles=tuple(sorted(self.angles)))
         return dataclasses.replace(system, units=units)
 
     def _chart(self, coords: list[Coordinate]) -> Chart | None:

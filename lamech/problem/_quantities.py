@@ -16,7 +16,7 @@ from typing import Any
 
 import sympy as sp
 
-from ..expr import Dimension, ExpressionError, is_quantity, quantity, unit
+from ..expr import Dimension, ExpressionError, is_angle_unit, is_quantity, quantity, unit
 
 __all__ = ["parameter_value", "coordinate_values"]
 
@@ -34,6 +34,8 @@ def parameter_value(reader: Any, name: str, value: Any) -> Any:
         reader.problem(f"parameters.{name}", exc.message, ("parameters", None, name))
         return None
     reader.dimensions[name] = q.dimension
+    if is_angle_unit(q.unit):
+        reader.angles.add(name)
     return q.value
 
 

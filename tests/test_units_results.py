@@ -1,0 +1,124 @@
+"""Results in units (issue 46): simulate's times, angles, multipliers and forces, the
+frequencies of ``lamech modes``, the Python API's overrides in units and the ``units``
+mappings of its results, and a unit that spells a parameter's name."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import lamech
+from lamech.problem import example_path
+
+CYLINDER = example_path("cylinder").read_text(encoding="utf-8")
+UNITS = {
+    "m = 1.0": 'm = "2 kg"',
+    "g = 9.81": 'g = "9.81 m/s^2"',
+    "R1 = 1.0": 'R1 = "1 m"',
+    "R2 = 0.5": 'R2 = "50 cm"',
+}
+PENDULUM = """
+title = "Pendulum in units"
+[parameters]
+m = "200 g"
+g = "9.81 m/s^2"
+l = "50 cm"
+[coordinates]
+x = { initial = "l*sin(0.1)", velocity = 0 }
+y = { initial = "-l*cos(0.1)", velocity = 0 }
+[lagrangian]
+T = "m/2*(x'^2 + y'^2)"
+V = "m*g*y"
+[[constraints]]
+name = "rod"
+f = "l - sqrt(x^2 + y^2)"
+"""
+
+
+def _with_units(text: str = CYLINDER) -> str:
+    for old, new in UNITS.items():
+        assert f"\n{old}\n" in text
+        text = text.replace(f"\n{old}\n", f"\n{new}\n")
+    return text
+
+
+def _cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "lamech", *args], capture_output=True, text=True, cwd=cwd
+    )
+
+
+@pytest.fixture(scope="module")
+def cylinder_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("units") / "cylinder_units.toml"
+    path.write_text(_with_units(), encoding="utf-8")
+    return path
+
+
+# ----- simulate ---------------------------------------------------------------------
+RUN = ("--initial", "theta1=0.01", "--t-end", "3", "--engine", "scipy")
+
+
+def test_simulate_prints_times_in_s_and_event_angles_in_rad_and_degrees(cylinder_file):
+    out = _cli("simulate", str(cylinder_file), *RUN)
+    assert out.returncode == 0, out.stderr
+    plain = _cli("simulate", "cylinder", *RUN).stdout
+    slip = next(line for line in out.stdout.splitlines() if " slip " in line)
+    slip_plain = next(line for line in plain.splitlines() if " slip " in line)
+    t = float(slip_plain.split()[2])  # the same time as the unit-free run
+    theta1 = float(slip_plain.split("theta1 = ")[1].split(",")[0])
+    assert slip.startswith(f"    t = {t:.12g} s  slip")
+    assert f"r = 1.5 m, theta1 = {theta1:.10g} rad ({math.degrees(theta1):.2f}°)" in slip
+    assert math.degrees(theta1) == pytest.approx(33.48, abs=0.01)  # sin = mu (7 cos - 4)
+    assert "theta1' = " in out.stdout and " rad/s" in out.stdout
+    assert "lambda:contact N, lambda:rolling N, force:contact:normal N" in out.stdout
+    assert " rad" not in plain and " s " not in plain.split("events")[1]
+
+
+def test_simulate_json_carries_the_units_and_each_event_angle_in_degrees(cylinder_file):
+    data = json.loads(_cli("simulate", str(cylinder_file), *RUN, "--json").stdout)
+    units = data["units"]
+    assert units["t"] == "s" and units["r"] == "m" and units["r'"] == "m/s"
+    assert units["theta1"] == "rad" and units["theta1'"] == "rad/s"
+    assert units["lambda:contact"] == "N" and units["force:rolling:tangent"] == "N"
+    assert units["energy"] == "J" and units["m"] == "kg" and units["g"] == "m/s^2"
+    for event in data["events"]:
+        for name, deg in event["degrees"].items():
+            assert deg == pytest.approx(math.degrees(event["coordinates"][name]), rel=1e-15)
+    plain = json.loads(_cli("simulate", "cylinder", *RUN, "--json").stdout)
+    assert "units" not in plain and all("degrees" not in e for e in plain["events"])
+
+
+def test_a_trajectory_in_units_has_a_unit_for_each_of_its_columns(cylinder_file):
+    traj = lamech.simulate(lamech.load(cylinder_file), 0.5, initial={"theta1": 0.01})
+    names = [name for name, _ in traj.columns()]
+    assert [n for n in names if n not in traj.units] == ["residual"]  # |f| of m and rad
+    assert traj.units["force:contact:normal"] == "N"
+    # lambda_contact in N equals m g cos(theta1) - m (R1 + R2) theta1'^2 with m = 2 kg
+    th, w = traj.coordinate("theta1"), traj.velocity("theta1")
+    lam = traj.multiplier("contact")
+    assert lam == pytest.approx(2 * 9.81 * np.cos(th) - 2 * 1.5 * w**2, abs=1e-9)
+    assert lamech.simulate(lamech.load("cylinder"), 0.1).units == {}
+
+
+# ----- modes ------------------------------------------------------------------------
+def test_a_pendulum_of_50_cm_oscillates_at_sqrt_g_over_half_a_metre_rad_per_s(tmp_path):
+    md = lamech.modes(lamech.loads(PENDULUM))
+    omega = md.equilibria[0].modes[0].frequency
+    assert omega == pytest.approx(math.sqrt(9.81 / 0.5), rel=1e-12)
+    assert md.units["frequency"] == "rad/s" and md.units["lambda:rod"] == "N"
+    path = tmp_path / "pendulum.toml"
+    path.write_text(PENDULUM, encoding="utf-8")
+    out = _cli("modes", str(path))
+    assert out.returncode == 0, out.stderr
+    assert f"omega = {math.sqrt(9.81 / 0.5):.6g} rad/s" in out.stdout
+    assert f"lambda_rod = {0.2 * 9.81:.6g} N" in out.stdout  # m g at rest, m = 200 g
+    assert "y = -0.5 m" in out.stdout
+    data = json.loads(_cli("modes", str(path), "--json").stdout)
+    assert data["units"]["frequency"] == "rad/s" and data["units"]["period"] == "s"
+    assert "units" not in json.loads(_cli("modes", "pendulum", "--json").stdout)
