@@ -11,6 +11,7 @@ import sys
 
 import numpy as np
 import pytest
+import sympy as sp
 
 import lamech
 from lamech.problem import example_path
@@ -122,3 +123,92 @@ def test_a_pendulum_of_50_cm_oscillates_at_sqrt_g_over_half_a_metre_rad_per_s(tm
     data = json.loads(_cli("modes", str(path), "--json").stdout)
     assert data["units"]["frequency"] == "rad/s" and data["units"]["period"] == "s"
     assert "units" not in json.loads(_cli("modes", "pendulum", "--json").stdout)
+
+
+# ----- overrides in units: --param, sweeps, the Python API ----------------------------
+def test_param_in_cm_on_a_file_without_units_gives_the_numbers_of_metres():
+    a = json.loads(_cli("solve", "cylinder", "--json", "--param", "R2=30 cm").stdout)
+    b = json.loads(_cli("solve", "cylinder", "--json", "--param", "R2=0.3").stdout)
+    assert a["initial_multipliers"] == b["initial_multipliers"]
+    assert a["vanishes"] == b["vanishes"]
+
+
+@pytest.mark.parametrize("command", ["solve", "simulate"])
+def test_a_param_of_another_dimension_is_refused_naming_it_and_both_dimensions(
+    command, cylinder_file
+):
+    extra = ["--t-end", "1"] if command == "simulate" else []
+    bad = _cli(command, str(cylinder_file), "--param", "R2=30 kg", *extra)
+    assert bad.returncode == 2
+    assert "--param R2=30 kg: has dimension M (mass), but `R2` has L (length)" in bad.stderr
+    # a file without units: the dimensions its equations give R2 once R2 is a mass
+    bad = _cli(command, "cylinder", "--param", "R2=30 kg", *extra)
+    assert bad.returncode == 2
+    assert "--param R2=30 kg: the problem gives this no unit, and with `R2` in M (mass)" in (
+        bad.stderr
+    )
+    assert "a position needs L (length)" in bad.stderr
+
+
+def test_simulate_with_r2_in_cm_runs_as_with_r2_in_metres(cylinder_file):
+    a = json.loads(
+        _cli("simulate", str(cylinder_file), *RUN, "--json", "--param", "R2=40cm").stdout
+    )
+    b = json.loads(_cli("simulate", str(cylinder_file), *RUN, "--json", "--param", "R2=0.4").stdout)
+    assert [e["t"] for e in a["events"]] == [e["t"] for e in b["events"]]
+    assert a["events"][0]["coordinates"]["r"] == pytest.approx(1.4, abs=1e-12)
+
+
+def test_a_sweep_of_a_file_without_units_takes_a_range_in_cm_and_refuses_kg():
+    args = ["--initial", "theta1=1 deg", "--measure", "liftoff", "--t-end", "3"]
+    out = _cli("sweep", "cylinder", "--param", "R2=40cm:60cm:2", *args, "--engine", "scipy")
+    assert out.returncode == 0, out.stderr
+    rows = [line.split(",") for line in out.stdout.splitlines()[1:]]
+    assert [float(r[1]) for r in rows] == [0.4, 0.6]
+    bad = _cli("sweep", "cylinder", "--param", "R2=40kg:60kg:2", *args)
+    assert bad.returncode == 2
+    assert "the problem gives this no unit, and with `R2` in M (mass)" in bad.stderr
+
+
+def test_load_with_r2_in_cm_leaves_where_the_unit_free_cylinder_does():
+    pint = pytest.importorskip("pint")
+    ureg = pint.UnitRegistry()
+    for r2 in ("50 cm", 50 * ureg.cm, 0.5 * ureg.m, 500 * ureg.mm):
+        sol = lamech.solve(lamech.load("cylinder", params={"R2": r2}))
+        assert {p.name: p.value for p in sol.system.parameters}["R2"] == sp.Rational(1, 2)
+        assert sol.vanishes["contact"][0].value == pytest.approx(math.acos(4 / 7), abs=1e-12)
+    with pytest.raises(lamech.ProblemFileError, match=r"params\['R2'\] = '50 s': has dim"):
+        lamech.loads(_with_units(), params={"R2": "50 s"})
+
+
+def test_a_pendulum_loaded_with_l_in_cm_oscillates_at_sqrt_g_over_l():
+    pint = pytest.importorskip("pint")
+    ureg = pint.UnitRegistry()
+    md = lamech.modes(lamech.load("pendulum", params={"l": 50 * ureg.cm}))
+    assert md.equilibria[0].modes[0].frequency == pytest.approx(math.sqrt(9.81 / 0.5), rel=1e-12)
+
+
+def test_simulate_and_sweep_take_quantities_and_their_results_carry_units(cylinder_file):
+    pint = pytest.importorskip("pint")
+    ureg = pint.UnitRegistry()
+    traj = lamech.simulate(
+        "pendulum", 0.2, params={"l": 50 * ureg.cm, "theta0": "10 deg"}, samples=3
+    )
+    assert traj.q[0] == pytest.approx([0.5, math.pi / 18], rel=1e-15)
+    with pytest.raises(lamech.SimulationError, match=r"params\['l'\] = <Quantity\(50, 'kilo"):
+        lamech.simulate("pendulum", 0.2, params={"l": 50 * ureg.kg})
+    res = lamech.sweep(
+        lamech.load(cylinder_file),
+        {"R2": [40, 60] * ureg.cm},
+        ["liftoff", "max:lambda:contact"],
+        t_end=3,
+        initial={"theta1": 1 * ureg.deg},
+        engine="scipy",
+    )
+    assert list(res.column("R2")) == pytest.approx([0.4, 0.6])
+    assert list(res.column("liftoff:r")) == pytest.approx([1.4, 1.6])
+    assert res.units["R2"] == "m" and res.units["liftoff:t"] == "s"
+    assert res.units["liftoff:theta1"] == "rad" and res.units["max:lambda:contact"] == "N"
+    sol = lamech.solve(lamech.load(cylinder_file))
+    assert sol.units["lambda:contact"] == "N" and sol.units["force:contact:normal"] == "N"
+    assert sol.units["R2"] == "m" and lamech.solve(lamech.load("cylinder")).units == {}

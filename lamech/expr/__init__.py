@@ -54,7 +54,15 @@ from ._inputs import (
 )
 from ._parse import parse
 from ._print import latex, printable, to_text
-from ._units import Dimension, Quantity, is_angle_unit, is_quantity, quantity, unit
+from ._units import (
+    Dimension,
+    Quantity,
+    as_quantity,
+    is_angle_unit,
+    is_quantity,
+    quantity,
+    unit,
+)
 
 __all__ = [
     "ExpressionError",
@@ -83,6 +91,7 @@ __all__ = [
     "Quantity",
     "is_quantity",
     "is_angle_unit",
+    "as_quantity",
     "quantity",
     "unit",
 ]

@@ -49,6 +49,7 @@ __all__ = [
     "FORCE",
     "is_quantity",
     "is_angle_unit",
+    "as_quantity",
     "quantity",
     "unit",
 ]
@@ -225,6 +226,41 @@ def quantity(text: str) -> Quantity:
         )
     factor, dimension = unit(m.group("unit"), text)
     return Quantity(sp.Rational(number) * factor, dimension, text, m.group("unit"))
+
+
+def as_quantity(value: Any) -> Quantity | None:
+    """``value`` as a :class:`Quantity` in SI: the text of a quantity (``"30 cm"``) or a
+    pint Quantity (anything with ``magnitude`` and ``units``, from any registry: its
+    unit is read again by name); None for anything else (a number, an expression).
+    A pint Quantity's value is exact for a scalar (its float's decimal times the unit's
+    exact factor), an array of floats for an array.
+
+    Raises
+    ------
+    ExpressionError
+        As :func:`quantity` and :func:`unit`.
+    """
+    if isinstance(value, str):
+        return quantity(value) if is_quantity(value) else None
+    if not (hasattr(value, "magnitude") and hasattr(value, "units")):
+        return None
+    text = str(value.units)  # pint's names: "centimeter", "meter / second ** 2"
+    factor, dimension = (
+        (sp.Integer(1), DIMENSIONLESS) if text in ("", "dimensionless") else unit(text)
+    )
+    magnitude = value.magnitude
+    if getattr(magnitude, "shape", ()) == ():
+        try:
+            exact = sp.Rational(repr(float(magnitude))) * factor
+        except (TypeError, ValueError):
+            raise ExpressionError(
+                "a quantity's magnitude must be a real number", str(value)
+            ) from None
+        return Quantity(exact, dimension, str(value), text)
+    import numpy as np
+
+    array = np.asarray(magnitude, dtype=float) * float(factor)
+    return Quantity(array, dimension, str(value), text)
 
 
 _REGISTRY: Any = None

@@ -22,6 +22,7 @@ from ._chart import Chart, ChartProposal, circle_chart, with_chart
 from ._dimensions import Units, infer_units, result_units
 from ._kinematics import body_energy
 from ._loads import AppliedForce, Load, Spring, Torque, load_terms
+from ._overrides import check_dimensions, in_si
 from ._parts import (
     Body,
     Constraint,
@@ -69,6 +70,8 @@ __all__ = [
     "Units",
     "infer_units",
     "result_units",
+    "in_si",
+    "check_dimensions",
 ]
 
 # The kinematics, the checks and the rules' vocabulary are lamech's own plumbing: they

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -74,7 +74,7 @@ from ._options import (
     sample_times,
 )
 from ._pace import Pace, Projection, Watch, stiffness
-from ._params import numeric_system
+from ._params import numeric_system, values_in_si
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
 from ._threads import one_blas_thread
@@ -115,7 +115,10 @@ def simulate(
     the constraints the problem's own initial state meets: ``initial={"theta1": 0.01}``
     starts the cylinder just off the top, with r and theta2 following. ``params`` may
     also name a friction coefficient (``"mu:<constraint>"``, or ``"mu"`` when there is
-    one). An initial state off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max ``|q|``)) raises
+    one). A value in ``params``, ``initial``, ``q0`` or ``qd0`` may be a quantity: text
+    (``"30 cm"``, ``"10 deg"``) or a pint Quantity, converted to SI and checked against
+    the dimension the problem gives or infers for its name (issue 46). An initial state
+    off the constraints (``|f|`` or ``|F|`` > 1e-10 (1 + max ``|q|``)) raises
     :class:`SimulationError` unless ``project_initial``, which moves it to the nearest
     consistent state (mass-matrix metric) and says what changed in ``notes``. A
     unilateral constraint with f > 0 at the start begins released.
@@ -164,6 +167,13 @@ def simulate(
     """
     options = check_options(t_end, t0, rtol, atol, max_step, samples, dt, method)
     ns, p = numeric_system(system, params, jit)
+    if isinstance(initial, Mapping):
+        initial = values_in_si(ns.system, initial, "initial")
+    if isinstance(q0, Mapping):
+        q0 = values_in_si(ns.system, q0, "q0")
+    if isinstance(qd0, Mapping):  # checked as velocities (x')
+        rates = values_in_si(ns.system, {f"{k}'": v for k, v in qd0.items()}, "qd0")
+        qd0 = {k[:-1]: v for k, v in rates.items()}
     y0 = initial_state(ns, p, initial, q0, qd0)
     times = sample_times(t0, t_end, samples, dt)
     run = Run(Setup.of(ns, p, options))

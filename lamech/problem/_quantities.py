@@ -18,7 +18,7 @@ import sympy as sp
 
 from ..expr import Dimension, ExpressionError, is_angle_unit, is_quantity, quantity, unit
 
-__all__ = ["parameter_value", "coordinate_values"]
+__all__ = ["parameter_value", "coordinate_values", "overridden"]
 
 _TIME = Dimension.of(T=1)
 
@@ -110,3 +110,29 @@ def coordinate_values(reader: Any, name: str, spec: dict) -> tuple[Any, Any]:
                 loc,
             )
     return out[0], out[1]
+
+
+def overridden(system: Any, params: Any, name: str) -> Any:
+    """``system`` with the parameter values ``params`` (numbers in SI, quantities as text
+    or pint Quantities) put in its file's place (:func:`lamech.model.with_values`), each
+    quantity converted to SI and its dimension checked (:func:`lamech.model.in_si`); a
+    ProblemFileError naming the value otherwise."""
+    from ..model import ModelError, in_si, with_values
+    from ._files import Issue, ProblemFileError
+
+    try:
+        values = in_si(system, params)
+        for key, value in values.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, sp.Number)):
+                raise ModelError(
+                    [
+                        (
+                            "",
+                            f"params[{key!r}] = {value!r}: give a number (in SI) or a "
+                            'quantity ("30 cm", or a pint Quantity)',
+                        )
+                    ]
+                )
+        return with_values(system, parameters={k: float(v) for k, v in values.items()})
+    except ValueError as exc:  # ModelError too
+        raise ProblemFileError(name, [Issue("", str(exc))]) from None
