@@ -212,3 +212,55 @@ def test_simulate_and_sweep_take_quantities_and_their_results_carry_units(cylind
     sol = lamech.solve(lamech.load(cylinder_file))
     assert sol.units["lambda:contact"] == "N" and sol.units["force:contact:normal"] == "N"
     assert sol.units["R2"] == "m" and lamech.solve(lamech.load("cylinder")).units == {}
+
+
+# ----- a unit that spells a parameter's name ---------------------------------------------
+PUSHED = """
+title = "a block pushed"
+[parameters]
+m = "2 kg"
+g = "9.81 m/s^2"
+a = "2 g"
+[coordinates]
+x = { initial = 0, velocity = 0, unit = "m" }
+[lagrangian]
+T = "m/2*x'^2"
+V = "m*g*x - m*a*x"
+"""
+
+
+def test_two_g_beside_a_parameter_g_is_two_grams_and_a_conflict_says_so_at_its_line():
+    assert lamech.expr.quantity("2 g").value == sp.Rational(1, 500)  # kg
+    with pytest.raises(lamech.ProblemFileError) as info:
+        lamech.loads(PUSHED, "pushed.toml")
+    message = str(info.value)
+    assert "pushed.toml:11: lagrangian.V: the term `-a*m*x` of V has dimension M^2*L" in message
+    assert (
+        'pushed.toml:6: parameters.a: in the quantity "2 g", `g` is the unit gram, not the '
+        'parameter g: write "2*g" for 2 times the parameter'
+    ) in message
+    assert "parameters.g" not in message  # "9.81 m/s^2" beside a mass m: no word alone
+    fixed = lamech.loads(PUSHED.replace('a = "2 g"', 'a = "2*g"'))
+    assert {p.name: p.numeric for p in fixed.parameters}["a"] == pytest.approx(2 * 9.81)
+
+
+def test_two_g_that_no_check_can_tell_from_twice_g_is_warned_of():
+    text = PUSHED.replace('a = "2 g"', 'a = "2 g"\nb = "a"').replace(" - m*a*x", "")
+    system = lamech.loads(text)
+    (note,) = [n for n in system.notes if "parameters.a" in n]
+    assert '"2 g", `g` is the unit gram, not the parameter g' in note
+    assert "nothing else in the file fixes the dimension of `a`" in note
+    # a unit spelling a parameter where the checks fix the dimension: no warning
+    assert not [n for n in lamech.loads(PENDULUM).notes if "unit" in n]  # m = "200 g"
+    assert not [n for n in lamech.loads(_with_units()).notes if "unit" in n]  # R1 = "1 m"
+
+
+def test_a_param_of_two_g_beside_a_parameter_g_is_refused_with_the_reason(tmp_path):
+    path = tmp_path / "pushed.toml"
+    path.write_text(PUSHED.replace('a = "2 g"', 'a = "2 m/s^2"'), encoding="utf-8")
+    bad = _cli("solve", str(path), "--param", "a=3 g")
+    assert bad.returncode == 2
+    assert "--param a=3 g: has dimension M (mass), but `a` has L/T^2 (acceleration)" in bad.stderr
+    assert '`g` is the unit gram, not the parameter g: write "3*g"' in bad.stderr
+    good = _cli("solve", str(path), "--param", "a=3*g", "--json")
+    assert good.returncode == 0, good.stderr

@@ -61,6 +61,8 @@ from ._units import (
     is_angle_unit,
     is_quantity,
     quantity,
+    spelled_hint,
+    spelled_names,
     unit,
 )
 
@@ -92,6 +94,8 @@ __all__ = [
     "is_quantity",
     "is_angle_unit",
     "as_quantity",
+    "spelled_names",
+    "spelled_hint",
     "quantity",
     "unit",
 ]

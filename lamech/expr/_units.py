@@ -50,6 +50,8 @@ __all__ = [
     "is_quantity",
     "is_angle_unit",
     "as_quantity",
+    "spelled_names",
+    "spelled_hint",
     "quantity",
     "unit",
 ]
@@ -337,6 +339,37 @@ def is_angle_unit(text: str) -> bool:
     except Exception:  # not a unit: said where the unit is read
         return False
     return root.get("radian") == 1 and set(root) <= {"radian", "second"}
+
+
+def spelled_names(unit_text: str, names: Any) -> list[tuple[str, str]]:
+    """The words of ``unit_text`` that spell one of ``names`` (a problem's parameters),
+    each with the unit pint reads it as: ``("2 g" beside a parameter g)`` gives
+    ``[("g", "gram")]``. In a quantity a word is always a unit, so ``"2 g"`` is two grams,
+    never twice the parameter g (that is ``"2*g"``)."""
+    out = []
+    for word in dict.fromkeys(re.findall(r"[A-Za-z_µΩ°][A-Za-z_µΩ°0-9]*", unit_text)):
+        if word in names:
+            try:
+                long = str(_registry().parse_units(word))
+            except Exception:  # not a unit alone (said where the unit is read)
+                continue
+            out.append((word, long))
+    return out
+
+
+def spelled_hint(value: str, unit_text: str, names: Any) -> str:
+    """What a quantity's unit that spells a parameter's name means (:func:`spelled_names`),
+    as a sentence; "" when it spells none."""
+    found = spelled_names(unit_text, names)
+    if not found:
+        return ""
+    said = ", ".join(f"`{w}` is the unit {long}, not the parameter {w}" for w, long in found)
+    m = _QUANTITY.match(value)
+    number = m.group("number") if m else value
+    w = found[0][0]
+    return (
+        f'in the quantity "{value}", {said}: write "{number}*{w}" for {number} times the parameter'
+    )
 
 
 def _exact_factor(f: float) -> sp.Expr:

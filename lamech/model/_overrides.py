@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from ..expr import Dimension, ExpressionError, Quantity, as_quantity
+from ..expr import Dimension, ExpressionError, Quantity, as_quantity, spelled_hint
 from ._base import ModelError
 from ._dimensions import TIME, infer_units
 from ._system import System
@@ -89,6 +89,8 @@ def in_si(
     """
     out: dict[str, Any] = {}
     given: dict[str, tuple[Dimension, str]] = {}
+    hints: list[str] = []
+    names = {p.name for p in system.parameters}
     for name, value in values.items():
         said = what.format(name=name, value=value)
         try:
@@ -100,5 +102,13 @@ def in_si(
             continue
         given[name] = (q.dimension, said)
         out[name] = q.value if not hasattr(q.value, "free_symbols") else float(q.value)
-    check_dimensions(system, given)
+        if q.unit.strip().isidentifier():  # "2 g" beside a parameter g: two grams
+            hints.append(spelled_hint(q.text, q.unit.strip(), names))
+    try:
+        check_dimensions(system, given)
+    except ModelError as exc:
+        hint = "; ".join(h for h in hints if h)
+        if not hint:
+            raise
+        raise ModelError([("", f"{exc}; {hint}")]) from None
     return out

@@ -37,7 +37,7 @@ from ..model._kinematics import angular_velocity, time_derivative
 from ..model._parts import parameter_numbers, signed_symbol
 from ._examples import example_names, example_path
 from ._files import LIMITS, MAX_BYTES, Issue, ProblemFileError, read_table, repeated_key
-from ._quantities import coordinate_values, overridden, parameter_value
+from ._quantities import coordinate_values, overridden, parameter_value, spelled_units
 from ._sections import PartsReader
 
 if sys.version_info >= (3, 11):
@@ -297,10 +297,13 @@ class _Loader(PartsReader):
             units = infer_units(system, self.dimensions, where_T, where_V, loads)
         except ModelError as exc:
             self.model_problems(exc)
+            # "2 g" beside a parameter g, where a conflict names it: said there too
+            spelled_units(self, system, None, [m for _, m in exc.issues])
             self.fail_if_any()
             raise
         units = dataclasses.replace(units, angles=tuple(sorted(self.angles)))
-        return dataclasses.replace(system, units=units)
+        notes = tuple(spelled_units(self, system, units))
+        return dataclasses.replace(system, units=units, notes=system.notes + notes)
 
     def _chart(self, coords: list[Coordinate]) -> Chart | None:
         """``[parametrisation]``: ``coordinates = ["theta1", ...]`` (the new ones) and
