@@ -264,3 +264,56 @@ def test_a_param_of_two_g_beside_a_parameter_g_is_refused_with_the_reason(tmp_pa
     assert '`g` is the unit gram, not the parameter g: write "3*g"' in bad.stderr
     good = _cli("solve", str(path), "--param", "a=3*g", "--json")
     assert good.returncode == 0, good.stderr
+
+
+# ----- the report's sliders in units ---------------------------------------------------
+@pytest.mark.slow
+def test_the_sliders_show_their_units_and_take_a_typed_unit(cylinder_file, tmp_path, chromium):
+    path = tmp_path / "cylinder.html"
+    run = _cli("report", str(cylinder_file), "-o", str(path), "--no-simulate")
+    assert run.returncode == 0, run.stderr
+    errors: list[str] = []
+    page = chromium.new_page()
+    page.route(
+        "**/*",
+        lambda r: r.continue_() if r.request.url.startswith(("file:", "data:")) else r.abort(),
+    )
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(path.as_uri())
+    page.wait_for_selector("#live[data-updates]", timeout=30_000)
+    assert page.locator("#live .live-unit").all_inner_texts() == ["kg", "m/s^2", "m", "m"]
+    # lambda_contact at the top is m g = 2 kg * 9.81 m/s^2, in N
+    lift = page.inner_text("#live-lets-go-contact")
+    assert f"lambda_contact = {2 * 9.81:.6g} N > 0" in lift and "55.15°" in lift
+    assert "lambda_contact [N]" in page.text_content("#live-plot")
+    # R2 typed in cm: omega^2 = 2 g / (3 (R1 + R2)) about the bottom, R1 + R2 = 2 m
+    page.fill("#live input[name='R2-value']", "100 cm")
+    page.dispatch_event("#live input[name='R2-value']", "change")
+    assert float(page.input_value("#live input[type=range][name='R2']")) == 1.0
+    assert f"omega = {math.sqrt(2 * 9.81 / (3 * 2.0)):.6g} rad/s" in page.inner_text("#live-modes")
+    page.fill("#live input[name='R2-value']", "3 furlongs")
+    page.dispatch_event("#live input[name='R2-value']", "change")
+    assert page.inner_text("#live-bad3").startswith("give a number in m, or with a unit: m, cm")
+    page.close()
+    assert errors == []
+
+
+@pytest.mark.slow
+def test_the_served_page_gets_the_units_of_what_it_shows():
+    pytest.importorskip("starlette", reason="lamech[serve] not installed")
+    pytest.importorskip("httpx", reason="Starlette's test client needs httpx")
+    from starlette.testclient import TestClient
+
+    from lamech.cli import make_app
+
+    app = make_app(timeout=500, token="t", port=8765)
+    with TestClient(
+        app, base_url="http://127.0.0.1:8765", headers={"Authorization": "token t"}
+    ) as client:
+        answer = client.post("/api/run", json={"text": _with_units()}).json()
+        assert answer["ok"] is True, answer
+        assert answer["units"]["r"] == "m" and answer["units"]["lambda:contact"] == "N"
+        assert '<td class="live-unit">m/s^2</td>' in answer["page"]
+        assert "[N]" in answer["page"]  # the text report's multipliers
+        plain = client.post("/api/run", json={"text": CYLINDER}).json()
+        assert "units" not in plain and '<td class="live-unit">' not in plain["page"]
