@@ -102,8 +102,12 @@ def in_si(
             continue
         given[name] = (q.dimension, said)
         out[name] = q.value if not hasattr(q.value, "free_symbols") else float(q.value)
-        if q.unit.strip().isidentifier():  # "2 g" beside a parameter g: two grams
-            hints.append(spelled_hint(q.text, q.unit.strip(), names))
+        word = q.unit.strip()
+        units = system.units
+        if word in names and units is not None and units.of(name) is not None:
+            # "3 g" for an acceleration beside a parameter g: 3*g was meant
+            if units.of(word) == units.of(name):
+                hints.append(spelled_hint(q.text, word, names))
     try:
         check_dimensions(system, given)
     except ModelError as exc:
