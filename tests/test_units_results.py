@@ -317,3 +317,12 @@ def test_the_served_page_gets_the_units_of_what_it_shows():
         assert "[N]" in answer["page"]  # the text report's multipliers
         plain = client.post("/api/run", json={"text": CYLINDER}).json()
         assert "units" not in plain and '<td class="live-unit">' not in plain["page"]
+
+
+def test_a_sweep_in_units_says_the_unit_of_each_column(cylinder_file):
+    args = ["--initial", "theta1=1 deg", "--measure", "liftoff", "--t-end", "3"]
+    out = _cli("sweep", str(cylinder_file), "--param", "R2=40cm:60cm:2", *args, "--engine", "scipy")
+    assert out.returncode == 0, out.stderr
+    assert "  units (SI): R2 m, liftoff:t s, liftoff:r m, liftoff:theta1 rad" in out.stderr
+    plain = _cli("sweep", "cylinder", "--param", "R2=0.4:0.6:2", *args, "--engine", "scipy")
+    assert "units" not in plain.stderr
