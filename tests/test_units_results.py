@@ -120,6 +120,7 @@ def test_a_pendulum_of_50_cm_oscillates_at_sqrt_g_over_half_a_metre_rad_per_s(tm
     assert f"omega = {math.sqrt(9.81 / 0.5):.6g} rad/s" in out.stdout
     assert f"lambda_rod = {0.2 * 9.81:.6g} N" in out.stdout  # m g at rest, m = 200 g
     assert "y = -0.5 m" in out.stdout
+    assert "at the values: thetarod = 0 rad (0°)" in out.stdout  # lamech's chart: an angle
     data = json.loads(_cli("modes", str(path), "--json").stdout)
     assert data["units"]["frequency"] == "rad/s" and data["units"]["period"] == "s"
     assert "units" not in json.loads(_cli("modes", "pendulum", "--json").stdout)

@@ -556,6 +556,13 @@ def result_units(system: System, forces: Iterable[str] | None = None) -> dict[st
             d = units.of(name)
             if d is not None:
                 out[name] = _with_rad(d.si())
+    chart = system.chart
+    mapped = chart.map if chart is not None else ()
+    args = [a for _, e in mapped for f in e.atoms(sp.sin, sp.cos) for a in f.args]
+    for c in chart.coordinates if chart is not None else ():
+        # a chart's angle (a circle solved in its angle: x = l*sin(theta)) is in rad
+        if c.name not in out and any(c.symbol in a.free_symbols for a in args):
+            out[c.name], out[c.name + "'"] = "rad", "rad/s"
     for name, d in units.multipliers:
         out[f"lambda:{name}"] = d.si()
     if forces is None:
