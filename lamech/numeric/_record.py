@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..model import result_units
 from ._events import Status
 from ._run import Run
 from ._trajectory import Trajectory
@@ -97,6 +98,7 @@ def assemble(
     q = np.array([s.q for s in out]).reshape(N, n)
     v = np.array([s.v for s in out]).reshape(N, n)
     conserved = ns.conservative and not ns.time_dependent and not run.dissipative
+    forces = _forces(run, out)
     return Trajectory(
         coordinates=list(ns.coordinate_names),
         constraints=list(ns.constraint_names),
@@ -104,7 +106,7 @@ def assemble(
         q=q,
         qd=v,
         lambdas=np.array([s.lam for s in out]).reshape(N, m),
-        forces=_forces(run, out),
+        forces=forces,
         energy=np.array([s.T + s.V for s in out]),
         residual_position=np.array([s.rp for s in out]),
         residual_velocity=np.array([s.rv for s in out]),
@@ -124,6 +126,7 @@ def assemble(
         kinetic=np.array([s.T for s in out]),
         engine=engine,
         handed_back=run.handed_back,
+        units=result_units(ns.system, forces),
     )
 
 

@@ -3,6 +3,7 @@ the event log (see :func:`lamech.numeric.simulate`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,6 +38,12 @@ class Trajectory:
     events; ``"SciPy DOP853"`` and the other methods); ``handed_back``: the contacts and
     segments the loop left to the simulator's own code (a step it could not take, an impact
     it could not apply).
+
+    ``units``: where the problem file gives units (issue 46), the SI unit of each column of
+    :meth:`columns` whose dimension is known, by its name (``"t": "s"``, ``"r": "m"``,
+    ``"theta1": "rad"``, ``"theta1'": "rad/s"``, ``"lambda:contact": "N"``,
+    ``"force:contact:normal": "N"``, ``"energy": "J"``) and of each parameter; every
+    array is in these units (SI). Empty for a file without units.
     """
 
     coordinates: list[str]
@@ -65,6 +72,7 @@ class Trajectory:
     kinetic: np.ndarray | None = None
     engine: str = ""
     handed_back: int = 0
+    units: dict[str, str] = field(default_factory=dict)
 
     # ----- views ------------------------------------------------------------------
     @property
@@ -152,11 +160,11 @@ class Trajectory:
                 final[c] = float(self.final_q[i])
             for i, c in enumerate(self.coordinates):
                 final[c + "'"] = float(self.final_qd[i])
-        return {
+        out = {
             "title": self.title,
             "t_end": self.t_end,
             "final_time": self.final_time,
-            "events": [e.to_json() for e in self.events],
+            "events": [self._event_json(e) for e in self.events],
             "final": final,
             "max_residual": None if rp is None or rv is None else max(rp, rv),
             "max_residual_position": rp,
@@ -172,3 +180,18 @@ class Trajectory:
             "message": self.message,
             "notes": list(self.notes),
         }
+        if self.units:
+            out["units"] = dict(self.units)
+        return out
+
+    def _angles(self) -> list[str]:
+        """The coordinates that are angles (in rad), where the file gives units."""
+        return [c for c in self.coordinates if self.units.get(c) == "rad"]
+
+    def _event_json(self, e: Event) -> dict:
+        out = e.to_json()
+        angles = self._angles()
+        if angles:  # with units: each angle in degrees beside its radians
+            there = e.coordinates
+            out["degrees"] = {c: math.degrees(there[c]) for c in angles if c in there}
+        return out

@@ -11,7 +11,7 @@ import numpy as np
 import sympy as sp
 
 from ..expr import to_text
-from ..model import ModelError, System, circle_chart, with_chart
+from ..model import ModelError, System, circle_chart, result_units, with_chart
 from ..model._checks import holding_at_start, initial_values, numeric_matrix, open_at_start
 from ._budget import count_ops
 from ._conditions import (
@@ -78,6 +78,16 @@ class Solution:
     @property
     def coordinates(self) -> list[str]:
         return [c.name for c in self.system.coordinates]
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Where the file gives units (issue 46), the SI unit of each parameter, ``t``,
+        coordinate, velocity, multiplier (``"lambda:<constraint>"``: N, N*m, N/m, ...)
+        and Cartesian force component (``"force:<constraint>:<direction>"``), by the
+        names a :class:`~lamech.numeric.Trajectory`'s columns use
+        (:func:`lamech.model.result_units`); empty for a file without units. The
+        expressions themselves are in SI, as every value in them is."""
+        return result_units(self.system)
 
     @property
     def independent(self) -> list[str]:
