@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._events import Status
+from ._losses import with_energy_lost
 from ._run import Run
 from ._trajectory import Trajectory
 
@@ -108,7 +109,7 @@ def assemble(
         energy=np.array([s.T + s.V for s in out]),
         residual_position=np.array([s.rp for s in out]),
         residual_velocity=np.array([s.rv for s in out]),
-        events=run.events,
+        events=with_energy_lost(ns, run.setup.p, run.events),
         status=status,
         message=message,
         t_end=float(t_end),

@@ -57,7 +57,12 @@ def trajectory_text(traj) -> str:
         coords = ", ".join(
             f"{k} = {v:.10g}" for k, v in e.coordinates.items() if not k.endswith("'")
         )
-        lines.append(f"    t = {e.t:.12g}  {e.kind:<8} {e.constraint}: {coords}")
+        line = f"    t = {e.t:.12g}  {e.kind:<8} {e.constraint}: {coords}"
+        if e.kind == "impact" and e.impulse is not None:
+            line += f"; impulse {e.impulse:.6g}"
+            if e.energy_lost is not None:
+                line += f", kinetic energy lost {e.energy_lost:.6g}"
+        lines.append(line)
     lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in s["final"].items()))
     lines.append(
         f"  max residual: |f| {_g(s['max_residual_position'])}, "
