@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 from ..outputs import write_output
+from ._drives import simulated_drive_lines
 
 __all__ = ["trajectory_text", "trajectory_csv"]
 
@@ -63,6 +64,7 @@ def trajectory_text(traj) -> str:
             if e.energy_lost is not None:
                 line += f", kinetic energy lost {e.energy_lost:.6g}"
         lines.append(line)
+    lines += simulated_drive_lines(s)
     lines.append("  final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in s["final"].items()))
     lines.append(
         f"  max residual: |f| {_g(s['max_residual_position'])}, "
