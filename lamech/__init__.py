@@ -64,6 +64,8 @@ _PUBLIC = {
     "integrate_batch": "numeric",
     # sweep
     "sweep": "sweeps",
+    "map": "sweeps",
+    "MapResult": "sweeps",
     "SweepResult": "sweeps",
     "SweepError": "sweeps",
     "run_sweep": "sweeps",  # deprecated: warns when called; use sweep
@@ -78,6 +80,7 @@ _PUBLIC = {
 __all__ = [
     "LamechError",
     "Body",
+    "MapResult",
     "Constraint",
     "Coordinate",
     "DegenerateConstraintsError",
@@ -102,6 +105,7 @@ __all__ = [
     "integrate_batch",
     "load",
     "loads",
+    "map",
     "modes",
     "multipliers",
     "plot_trajectory",
@@ -149,7 +153,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from .numeric import SimulationError, Trajectory, compile_system, integrate_batch, simulate
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
-    from .sweeps import SweepError, SweepResult, sweep
+    from .sweeps import MapResult, SweepError, SweepResult, sweep
+    from .sweeps import map as map
     from .sweeps import run_sweep as run_sweep  # deprecated
     from .symbolic import (
         DegenerateConstraintsError,
