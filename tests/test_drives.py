@@ -172,3 +172,45 @@ def test_a_bad_drive_is_refused_at_its_line(entry, message):
         lamech.loads(text, "crank.toml")
     said = str(info.value)
     assert message in said and "drives[1]" in said and "crank.toml:" in said
+
+
+CART = """
+title = "Pendulum under a cart shaken sideways"
+[parameters]
+M = 2.0
+m = 0.5
+l = 0.8
+g = 9.81
+A = 0.1
+w = 3.0
+[coordinates]
+x = { initial = 0, velocity = "A*w" }
+theta = { initial = 0.3, velocity = 0 }
+[lagrangian]
+T = "M/2*x'^2 + m/2*((x' + l*cos(theta)*theta')^2 + (l*sin(theta)*theta')^2)"
+V = "-m*g*l*cos(theta)"
+[[drives]]
+name = "shaker"
+DRIVE
+"""
+
+
+def test_a_drive_that_leaves_freedom_does_the_work_the_energy_gains():
+    system = lamech.loads(CART.replace("DRIVE", 'coordinate = "x"\nmotion = "A*sin(w*t)"'))
+    sol = lamech.solve(system)
+    drive = sol.drives["shaker"]
+    assert drive.cycle is None and "freedom" in drive.note
+    traj = lamech.simulate(system, 3.0, samples=3001)
+    power = traj.drive_power["shaker"]
+    # the force on the cart times its velocity: the same power
+    assert np.allclose(power, traj.drive_forces["shaker"] * traj.velocity("x"), atol=1e-12)
+    work = np.concatenate([[0.0], np.cumsum((power[1:] + power[:-1]) / 2 * np.diff(traj.t))])
+    gained = traj.energy - traj.energy[0]
+    assert np.max(np.abs(work - gained)) <= 1e-5 * np.max(np.abs(traj.energy))
+    summary = traj.summary()["drives"]["shaker"]
+    assert summary["work_per_cycle"] is None  # x is not an angle: no turn to a cycle
+    # a general f (no coordinate) is the same constraint: its multiplier, the same force
+    general = lamech.loads(CART.replace("DRIVE", 'f = "x - A*sin(w*t)"'))
+    other = lamech.simulate(general, 3.0, samples=3001)
+    assert np.allclose(other.drive_forces["shaker"], traj.drive_forces["shaker"], atol=1e-9)
+    assert lamech.solve(general).drives["shaker"].coordinate is None

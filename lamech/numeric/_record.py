@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
+from ..symbolic._drives import turns
 from ._events import Status
 from ._losses import with_energy_lost
 from ._run import Run
@@ -101,6 +102,7 @@ def assemble(
     conserved = ns.conservative and not ns.time_dependent and not run.dissipative
     lambdas = np.array([s.lam for s in out]).reshape(N, m)
     drive_forces, drive_power, drive_coordinates, drive_units = _drives(run, tt, q, v, lambdas)
+    drive_turns = {name: turns(ns.system, name) for name in drive_forces}
     return Trajectory(
         coordinates=list(ns.coordinate_names),
         constraints=list(ns.constraint_names),
@@ -132,6 +134,7 @@ def assemble(
         drive_power=drive_power,
         drive_coordinates=drive_coordinates,
         drive_units=drive_units,
+        drive_turns=drive_turns,
     )
 
 

@@ -71,6 +71,7 @@ class Trajectory:
     drive_power: dict = field(default_factory=dict)
     drive_coordinates: dict = field(default_factory=dict)
     drive_units: dict = field(default_factory=dict)  # SI, where the file has units
+    drive_turns: dict = field(default_factory=dict)  # its coordinate an angle: a turn a cycle
 
     # ----- views ------------------------------------------------------------------
     @property
@@ -172,7 +173,8 @@ class Trajectory:
         """Per drive: ``peak`` |force or torque| and where (``at``: t and the
         coordinates), ``rms``, ``mean_power`` (the work over the run / its duration) and
         ``work_per_cycle`` (over the first turn of the coordinate driven, 2 pi; None
-        before a turn is complete or without a coordinate), from the samples."""
+        before a turn is complete, or where the system does not repeat after a turn of
+        it), from the samples."""
         out = {}
         t = self.t
         span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
@@ -194,7 +196,7 @@ class Trajectory:
                 "work_per_cycle": None,
             }
             coord = self.drive_coordinates.get(name)
-            if coord is not None and span > 0:
+            if coord is not None and span > 0 and self.drive_turns.get(name):
                 item["work_per_cycle"] = _work_per_turn(t, self.coordinate(coord), power)
             out[name] = item
         return out

@@ -202,6 +202,10 @@ def parameter_map(
                 conditions.append(
                     _Condition(m, c.name, g, compile_(g), compile_(dg), ln, compile_(ln))
                 )
+    for m in measures:
+        if not any(c.measure == m for c in conditions):
+            what = "unilateral constraint" if m.startswith("liftoff") else "friction constraint"
+            notes.append(f"{m}: no {what} with a closed form on the energy shell (never)")
     x0e, v0e = shell.coordinate.initial, shell.coordinate.initial_velocity
     Ke = shell.speed_squared
     x0f, v0f, K, dK = (compile_(e) for e in (x0e, v0e, Ke, sp.diff(Ke, x)))

@@ -29,7 +29,7 @@ import sympy as sp
 if TYPE_CHECKING:
     from ._solution import Solution
 
-__all__ = ["DriveForce", "DriveCycle", "Extreme", "drive_forces"]
+__all__ = ["DriveForce", "DriveCycle", "Extreme", "drive_forces", "turns"]
 
 _GRID = 720  # points per turn where the derivative's sign changes are looked for
 _NEWTON = 30
@@ -85,6 +85,29 @@ class DriveForce:
     note: str = ""
 
 
+def turns(system, name: str) -> bool:
+    """Whether drive ``name``'s coordinate turns: the system repeats after 2 pi of it
+    (it appears in the Lagrangian, the forces and the other constraints only inside
+    sin, cos and tan, and somewhere), so that a turn is a cycle."""
+    con = system.constraint(name)
+    if con.drive is None or con.drive.coordinate is None:
+        return False
+    q = system.symbols[con.drive.coordinate]
+    exprs = [system.T, system.V, *system.forces]
+    exprs += [c.expr for c in system.constraints if c.name != name]
+    trig = (sp.sin, sp.cos, sp.tan)
+    seen = False
+    for e in exprs:
+        e = sp.sympify(e)
+        if not e.has(q):
+            continue
+        seen = True
+        stripped = e.replace(lambda x: isinstance(x, trig) and x.has(q), lambda x: sp.Dummy())
+        if stripped.has(q):
+            return False
+    return seen
+
+
 def drive_forces(sol: Solution) -> dict[str, DriveForce]:
     """The :class:`DriveForce` of each drive of ``sol.system``, by name."""
     system = sol.system
@@ -122,6 +145,8 @@ def _cycle(sol: Solution, j: int, expr: sp.Expr) -> tuple[DriveCycle | None, str
         return None, "the cycle is found for holonomic, bilateral constraints only"
     if len(system.constraints) != n:
         return None, "the drives leave freedom: the force depends on the motion, see simulate"
+    if not turns(system, con.name):
+        return None, "the system does not repeat after a turn of its coordinate (not an angle)"
     others = [c for i, c in enumerate(system.constraints) if i != j]
     if any(t in c.expr.free_symbols for c in others) or (
         t in system.T.free_symbols or t in system.V.free_symbols
