@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 from ..outputs import write_output
+from ._drives import simulated_drive_lines
 
 __all__ = ["trajectory_text", "trajectory_csv"]
 
@@ -75,7 +76,13 @@ def trajectory_text(traj) -> str:
             for k, v in e.coordinates.items()
             if not k.endswith("'")
         )
-        lines.append(f"    t = {e.t:.12g}{sec}  {e.kind:<8} {e.constraint}: {coords}")
+        line = f"    t = {e.t:.12g}{sec}  {e.kind:<8} {e.constraint}: {coords}"
+        if e.kind == "impact" and e.impulse is not None:
+            line += f"; impulse {e.impulse:.6g}"
+            if e.energy_lost is not None:
+                line += f", kinetic energy lost {e.energy_lost:.6g}"
+        lines.append(line)
+    lines += simulated_drive_lines(s)
     final = ", ".join(_value(k, v, units) for k, v in s["final"].items())
     lines.append("  final state: " + final)
     lines.append(

@@ -53,6 +53,7 @@ _KNOWN_SECTIONS = {
     "coordinates",
     "lagrangian",
     "constraints",
+    "drives",
     "bodies",
     "gravity",
     "forces",
@@ -255,7 +256,7 @@ class _Loader(PartsReader):
         bodies = self._bodies()
         self._angular_velocities(frame, bodies)
         energies = self._lagrangian(bodies)
-        constraints = self._constraints()
+        constraints = self._constraints() + self._drives(coords)
         forces = self._forces(coords)
         loads = self._loads()
         scenery = self._scenery()

@@ -25,6 +25,7 @@ from ._conditions import (
     vanishing_points,
 )
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
+from ._drives import drive_forces
 from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._normal import normal
@@ -69,6 +70,7 @@ class Solution:
     work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_work.Work)
     untidied: tuple[str, ...] = ()  # results shown as derived: the budget ran out
     partial: bool = False  # interrupted (Ctrl-C) while simplifying: see the notes
+    drives: dict = field(default_factory=dict)  # drive -> DriveForce (_drives)
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -366,7 +368,7 @@ def _solve(system: System) -> Solution:
         notes += residual_notes(dyn_h, red, cart)  # a residual: which bodies to name
     with labelled("equations"):
         equations = tuple(readable(e, system) for e in dyn.equations)
-    return Solution(
+    sol = Solution(
         system,
         dyn,
         red,
@@ -385,6 +387,10 @@ def _solve(system: System) -> Solution:
         equations,
         closes,
     )
+    if any(c.drive is not None for c in system.constraints):
+        with labelled("drives"):
+            sol = replace(sol, drives=drive_forces(sol))
+    return sol
 
 
 def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> list[str]:
