@@ -36,8 +36,9 @@ compiled; no user text reaches ``exec``.
 (``lamech.numeric._cengine``, built when lamech is installed): the system's functions
 are printed as C from the same common subexpressions and compiled by the machine's C
 compiler (``lamech.numeric._cc``, a fraction of a second, kept in the cache folder:
-``NumericSystem.jit_cache`` says whether it was loaded), and the engine's KKT solves, loops and events call them. The
-NumPy/``math`` version is the reference and gives the same numbers.
+``NumericSystem.jit_cache`` says whether it was loaded), and the engine's KKT solves,
+loops and events call them. The NumPy/``math`` version is the reference and gives the
+same numbers.
 """
 
 from __future__ import annotations
