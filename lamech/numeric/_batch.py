@@ -3,7 +3,7 @@ with the contact and friction events of sweeps (:func:`integrate_events`).
 
 :func:`integrate_batch` integrates a batch of initial states of a compiled system
 (:func:`lamech.numeric.compile_system`) to ``t_end`` inside one compiled loop (lamech's
-engine in C, :mod:`._cengine`: the batch spread over the cores in threads),
+engine in C, ``lamech.numeric._cengine``: the batch spread over the cores in threads),
 and returns the final states and multipliers. It is the fast path for sweeps and
 ensembles of problems whose constraints are all bilateral and frictionless-or-sticking:
 it has no events (no lift-off, impact or slip) and no dense output.
@@ -249,7 +249,7 @@ _EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
 
 def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's when ``jit``
-    (default: ``ns.jit``) and the system runs compiled (:mod:`._cengine`), else the same
+    (default: ``ns.jit``) and the system runs compiled (``lamech.numeric._cengine``), else the same
     functions as Python (also where one of ``ns``' functions was replaced: the compiled
     functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
     use = bool(ns.jit if jit is None else jit) and not ns.replaced and compiled_available()

@@ -1,5 +1,6 @@
 """The KKT solve of the hot path with NumPy/LAPACK (:func:`kkt_solve_numpy`, the
-reference; its compiled twin is in C, :mod:`._cengine`, and as Python in :mod:`._kernels`), the
+reference; its compiled twin is in C, ``lamech.numeric._cengine``, and as Python in
+:mod:`._kernels`), the
 right-hand sides built on it (:func:`numpy_kernels`), and the sparsity pattern of the
 constraint rows that the compiled solve runs over (:func:`sparsity`).
 

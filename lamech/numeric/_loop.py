@@ -44,7 +44,7 @@ CONTINUE, CONTACT, HANDBACK, DONE = "continue", "contact", "handback", "done"
 def loop_for(run: Run, engine: str, times: np.ndarray) -> Loop | None:
     """The loop for this run, or None where SciPy's integrators run it (``engine``
     :data:`._engines.ENGINES`): "scipy"; "auto" unless the system is compiled (the
-    engine in C, :mod:`._cengine`; and none of its functions replaced since:
+    engine in C, ``lamech.numeric._cengine``; and none of its functions replaced since:
     :attr:`NumericSystem.replaced`);
     a method other than DOP853: SimulationError (a ValueError) for "compiled" and
     "python". "compiled" on a system not compiled is a SimulationError too."""

@@ -1,5 +1,5 @@
 """The kernels of the hot path as Python: one module a concept, and the twin of each in
-lamech's engine in C (``lamech/numeric/_engine/*.c``, :mod:`.._cengine`), which computes
+lamech's engine in C (``lamech/numeric/_engine/*.c``, ``lamech.numeric._cengine``), which computes
 the same terms in the same order.
 
 - :mod:`.codes`: the loop's integer codes (events, friction states, statuses, details),
