@@ -26,7 +26,10 @@ def _motion(p: dict, t):
     t = np.asarray(t, dtype=float)
     q = [p["q10"] + p["A1"] * np.sin(p["w1"] * t), p["q20"] + p["A2"] * np.sin(p["w2"] * t)]
     qd = [p["A1"] * p["w1"] * np.cos(p["w1"] * t), p["A2"] * p["w2"] * np.cos(p["w2"] * t)]
-    qdd = [-p["A1"] * p["w1"] ** 2 * np.sin(p["w1"] * t), -p["A2"] * p["w2"] ** 2 * np.sin(p["w2"] * t)]
+    qdd = [
+        -p["A1"] * p["w1"] ** 2 * np.sin(p["w1"] * t),
+        -p["A2"] * p["w2"] ** 2 * np.sin(p["w2"] * t),
+    ]
     return q, qd, qdd
 
 
