@@ -258,3 +258,19 @@ def test_a_drive_that_leaves_freedom_does_the_work_the_energy_gains():
     other = lamech.simulate(general, 3.0, samples=3001)
     assert np.allclose(other.drive_forces["shaker"], traj.drive_forces["shaker"], atol=1e-9)
     assert lamech.solve(general).drives["shaker"].coordinate is None
+
+
+def test_the_plot_draws_the_torque_against_time_and_the_crank_angle(tmp_path):
+    """--plot with a drive: a third panel (the torque against time) and, for a crank that
+    turns, a fourth (the torque against the crank angle); a joint that only swings has
+    no fourth."""
+    from matplotlib.image import imread
+
+    from lamech.present import plot_trajectory
+
+    heights = {}
+    for name, t_end in (("pendulum", 1.0), ("robot_arm", 1.0), ("slider_crank", 0.7)):
+        path = tmp_path / f"{name}.png"
+        plot_trajectory(lamech.simulate(lamech.load(name), t_end, samples=201), path)
+        heights[name] = imread(str(path)).shape[0]
+    assert heights["pendulum"] < heights["robot_arm"] < heights["slider_crank"]
