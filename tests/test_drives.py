@@ -274,3 +274,15 @@ def test_the_plot_draws_the_torque_against_time_and_the_crank_angle(tmp_path):
         plot_trajectory(lamech.simulate(lamech.load(name), t_end, samples=201), path)
         heights[name] = imread(str(path)).shape[0]
     assert heights["pendulum"] < heights["robot_arm"] < heights["slider_crank"]
+
+
+def test_a_peak_at_an_event_is_not_refined_across_it():
+    """The cylinder's friction grows until it slips at t = 2.2835, then drops to mu N: the
+    largest sample is beside the event, and no smooth curve runs through the samples
+    around it, so the peak is the sample's (a time of the samples)."""
+    traj = lamech.simulate(lamech.load("cylinder"), 3.0, initial={"theta1": 0.01})
+    slip = next(e.t for e in traj.events if e.kind == "slip")
+    rolling = traj.summary()["reactions"]["rolling"]
+    assert abs(rolling["at"]["t"] - slip) < 2 * (traj.t[1] - traj.t[0])
+    assert rolling["at"]["t"] in traj.t
+    assert rolling["peak"] == float(np.nanmax(traj.reactions()["rolling"]))

@@ -210,7 +210,8 @@ class Trajectory:
     def _where(self, y: np.ndarray) -> tuple[float, dict]:
         """The largest of ``y`` (finite samples, >= 0) refined between the samples, and
         where: t and the coordinates there (:func:`_refined_peak`)."""
-        value, at_t, q = _refined_peak(self.t, y, self.q, self.qd)
+        kinks = np.array([e.t for e in self.events], dtype=float)
+        value, at_t, q = _refined_peak(self.t, y, self.q, self.qd, kinks)
         at = {"t": at_t}
         at.update({c: float(q[i]) for i, c in enumerate(self.coordinates)})
         return value, at
@@ -276,20 +277,29 @@ class Trajectory:
 
 
 def _refined_peak(
-    t: np.ndarray, y: np.ndarray, q: np.ndarray, qd: np.ndarray
+    t: np.ndarray, y: np.ndarray, q: np.ndarray, qd: np.ndarray, kinks: np.ndarray
 ) -> tuple[float, float, np.ndarray]:
     """The largest value of the samples ``y`` (NaN skipped) refined between them: the
     largest of the polynomial through the largest sample and its neighbours (a quartic
     through five samples, a parabola through three near an end or a NaN) between the
-    neighbours, where it bends down there (else the sample itself); its time, and the
-    coordinates there by cubic Hermite interpolation of ``q`` and ``qd`` on the step
-    that holds it."""
+    neighbours, where it bends down there (else the sample itself); never across an
+    event's time in ``kinks`` (a slip, a lift-off: the samples there are not of one
+    smooth curve), where the sample itself is the answer; its time, and the coordinates
+    there by cubic Hermite interpolation of ``q`` and ``qd`` on the step that holds
+    it."""
     k = int(np.nanargmax(y))
     value, at, qk = float(y[k]), float(t[k]), np.array(q[k], dtype=float)
-    if not 0 < k < len(t) - 1 or not np.all(np.isfinite(y[k - 1 : k + 2])):
+    if not 0 < k < len(t) - 1:
+        return value, at, qk
+
+    def smooth(a: int, b: int) -> bool:  # no NaN and no event on t[a] .. t[b - 1]
+        inside = (kinks > t[a]) & (kinks < t[b - 1])
+        return bool(np.all(np.isfinite(y[a:b])) and not inside.any())
+
+    if not smooth(k - 1, k + 2):
         return value, at, qk
     lo, hi = k - 1, k + 2
-    if k >= 2 and k + 3 <= len(t) and np.all(np.isfinite(y[k - 2 : k + 3])):
+    if k >= 2 and k + 3 <= len(t) and smooth(k - 2, k + 3):
         lo, hi = k - 2, k + 3
     h = float(t[k + 1] - t[k - 1]) / 2
     x = (np.asarray(t[lo:hi], dtype=float) - float(t[k])) / h  # scaled: well conditioned
