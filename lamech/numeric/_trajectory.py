@@ -40,7 +40,7 @@ class Trajectory:
     it could not apply).
 
     ``units``: where the problem file gives units (issue 46), the SI unit of each column of
-    :meth:`columns` whose dimension is known, by its name (``"t": "s"``, ``"r": "m"``,
+    ``columns()`` whose dimension is known, by its name (``"t": "s"``, ``"r": "m"``,
     ``"theta1": "rad"``, ``"theta1'": "rad/s"``, ``"lambda:contact": "N"``,
     ``"force:contact:normal": "N"``, ``"energy": "J"``) and of each parameter; every
     array is in these units (SI). Empty for a file without units.
