@@ -110,8 +110,8 @@ def multipliers(system: System | Dynamics) -> dict[str, sp.Expr]:
     X = [_solve_factored(L, D, col) for col in a_rows + [rest]]  # M^-1 A^T, M^-1 (h - Q)
     S = [[_dot(a_rows[a], X[b]) for b in range(m)] for a in range(m)]
     rhs = [_dot(a_rows[a], X[m]) - gamma[a] for a in range(m)]
-    if augmented:
-        rhs = [rhs[a] + _dot(S[a], gamma) - gamma[a] for a in range(m)]
+    if augmented:  # the module docstring's S~ lambda = S~ gamma - gamma + A M~^-1 (h - Q)
+        rhs = [rhs[a] + _dot(S[a], gamma) for a in range(m)]
     s_num = None
     if Mn is not None and An is not None:
         try:
