@@ -682,7 +682,8 @@ def _source(system: System, dyn: Dynamics, c: bool = True):
                 [
                     C_HEADER
                     + order.replace("*/", "* /")
-                    + " */\n#include <math.h>\n#include <stdlib.h>",
+                    + " */\n#include <math.h>\n#include <stdlib.h>\n"
+                    + C_CONSTANTS,
                     c_parts[0],
                     derived,
                     *c_parts[1:],
@@ -694,6 +695,12 @@ def _source(system: System, dyn: Dynamics, c: bool = True):
 
 
 C_HEADER = "/* lamech: the compiled functions of one system (generated; safe to delete). "
+# SymPy's C printer writes pi and E as M_PI and M_E, which <math.h> defines only beyond
+# strict C99 (-std=c99 hides them): the problem's own C defines them where it must
+C_CONSTANTS = (
+    "#ifndef M_PI\n#define M_PI 3.14159265358979323846264338327950288\n#endif\n"
+    "#ifndef M_E\n#define M_E 2.71828182845904523536028747135266250\n#endif"
+)
 
 
 def compile_system(system: System, jit: bool | None = False) -> NumericSystem:

@@ -55,6 +55,14 @@ class Recorder:
     def pending(self) -> bool:
         return self.next < len(self.times)
 
+    def drop_after(self, t: float) -> None:
+        """Forget the samples past t (a run stopped by a signal after a chunk of the loop
+        recorded its samples, before the time it reached was taken: what is kept ends
+        where the run says it stopped)."""
+        while self.samples and self.samples[-1].t > t:
+            self.samples.pop()
+            self.next -= 1
+
     def start(self, t0: float, y: np.ndarray) -> None:
         """The sample at the start, the first output time."""
         self.record(t0, y)

@@ -325,6 +325,7 @@ def _integrate(
     except Stop as stop:
         status, message = Status.FAILED, stop.cause
     except KeyboardInterrupt:
+        rec.drop_after(at.t)
         status, message = (
             Status.INTERRUPTED,
             f"interrupted at t = {at.t:.12g}; the trajectory up to there is kept",
