@@ -38,7 +38,6 @@ simulator's (mass-matrix metric), so that its event times are the simulator's to
 
 from __future__ import annotations
 
-import functools
 import os
 
 import numpy as np
@@ -46,7 +45,6 @@ import numpy as np
 from ._codegen import NumericSystem, compiled_available
 from ._events import EventKind
 from ._kernels import codes
-from ._kkt import python_side_solve
 from ._options import Options
 from ._run import ConstraintKinds
 from ._tableau import _tables
@@ -79,53 +77,14 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
-def _python_namespace(ns: NumericSystem) -> dict:
-    """The kernels (:mod:`._kernels`) as Python around the system's NumPy functions: one
-    namespace of their functions where the KKT solve and the right-hand sides are the
-    NumPy ones of ``ns`` (the same loop the compiled system runs, slowly), and
-    ``"sy"`` the system record they take."""
-    from ._kernels import python_namespace
-
-    namespace = python_namespace()
-    solve = python_side_solve(ns)
-    namespace["kkt_solve"] = lambda sy, *args: solve(*args)
-    namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
-
-    def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork):
-        out[:] = ns.rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
-
-    namespace["rhs_into"] = rhs_into
-    namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
-    namespace["gauss_inplace"] = _gauss_lapack
-    arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
-    namespace["sy"] = (
-        bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
-        ns.restitution, ns.switches, False, np.asarray(ns.switch_slots, dtype=np.int64),
-    )  # fmt: skip
-    return namespace
-
-
-def _gauss_lapack(K: np.ndarray, x: np.ndarray) -> None:
-    """:func:`lamech.linalg.gauss_inplace` for the kernels run as Python: x becomes the
-    solution of K y = x (NaN where K is singular) by LAPACK, the same partial pivoting.
-    The compiled loop's elimination is entry by entry, which C runs fast and Python
-    runs a thousand times slower (the projection's 120-square systems of a 60-link
-    chain)."""
-    try:
-        x[:] = np.linalg.solve(K, x)
-    except np.linalg.LinAlgError:
-        x[:] = np.nan
-
-
-def _bound(namespace: dict, names) -> dict:
-    """The functions ``names`` of a namespace with its system record bound."""
-    return {name: functools.partial(namespace[name], namespace["sy"]) for name in names}
-
-
 def _python_loops(ns: NumericSystem):
-    """(parallel loop, serial loop) of the batch part as Python (:func:`_python_namespace`)."""
-    f = _bound(_python_namespace(ns), ("batch_run", "batch_run_serial"))
-    return f["batch_run"], f["batch_run_serial"]
+    """(parallel loop, serial loop) of the batch part on the engine in C with the
+    system's NumPy functions called back (:func:`._crules.callback_kernels`: one thread,
+    the callbacks hold the GIL)."""
+    from ._crules import callback_kernels
+
+    f = callback_kernels(ns).functions
+    return f["batch_run_serial"], f["batch_run_serial"]
 
 
 _CACHE: dict[int, tuple] = {}
@@ -248,38 +207,25 @@ _EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
 
 
 def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
-    """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's when ``jit``
-    (default: ``ns.jit``) and the system runs compiled (:mod:`._cengine`), else the same
-    functions as Python (also where one of ``ns``' functions was replaced: the compiled
-    functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
+    """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's, with the
+    system's compiled functions when ``jit`` (default: ``ns.jit``) and they compile
+    (``"compiled"`` True), else with its NumPy functions called back
+    (:func:`._crules.callback_kernels`; also where one of ``ns``' functions was replaced:
+    the compiled functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
     use = bool(ns.jit if jit is None else jit) and not ns.replaced and compiled_available()
-    known = _EVENT_CACHE.get((id(ns), use))
+    key = (id(ns), use)
+    known = _EVENT_CACHE.get(key)
     if known is not None and known[0] is ns:
         return known[1]
     names = ("ev_run", "ev_starts", "ev_segment")
-    f = None
-    if use and ns.c_source:
-        from ._cc import CompileFailed
-        from ._cengine import EngineMissing, c_kernels
+    from ._crules import callback_kernels, engine_kernels
 
-        try:
-            f = c_kernels(
-                ns.pattern,
-                ns.mass_diagonal,
-                ns.n,
-                ns.m,
-                len(ns.parameters),
-                ns.c_source,
-                ns.switch_slots,
-            ).functions
-        except (EngineMissing, CompileFailed):
-            f = None
-    use = f is not None
-    if f is None:
-        f = _bound(_python_namespace(ns), names)
+    kernels = engine_kernels(ns, use) if use else callback_kernels(ns)
+    use = kernels.parallel  # compiled: its own functions, no callback
+    f = kernels.functions
     out: dict = {k: f[k] for k in names}
     out["compiled"] = use
-    _EVENT_CACHE[(id(ns), use)] = (ns, out)
+    _EVENT_CACHE[key] = (ns, out)
     return out
 
 

@@ -14,9 +14,7 @@ rules the compiled loop applies."""
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
-from types import SimpleNamespace
 from typing import NamedTuple
 
 import numpy as np
@@ -62,33 +60,14 @@ class ConstraintKinds:
         return np.stack([self.unilateral, self.holonomic, self.normal]).astype(np.int64)
 
 
-_RULES: dict[int, tuple] = {}
+def rules(ns: NumericSystem):
+    """The loop's rules on lamech's engine in C (:class:`._crules.CRules`: ``rules.c``),
+    around the system's compiled functions where it runs compiled, else its NumPy
+    functions called back (:func:`._crules.engine_kernels`): the very code the loop with
+    events runs."""
+    from ._crules import rules_of
 
-
-def rules(ns: NumericSystem) -> SimpleNamespace:
-    """The loop's rules (:mod:`._kernels`) as Python around the system's NumPy functions,
-    those that take the system record with it bound (:func:`._batch._python_namespace`):
-    the same code the compiled loop runs."""
-    known = _RULES.get(id(ns))
-    if known is not None and known[0] is ns:
-        return known[1]
-    from ._batch import _python_namespace
-
-    space = _python_namespace(ns)
-    sy = space["sy"]
-    bound = {}
-    for name in ("ev_start", "ev_settle", "ev_apply", "ev_values", "ev_arm", "ev_project",
-                 "ev_accumulated", "ev_consistent", "ev_dips", "ev_lock",
-                 "ev_crossed", "ev_switch"):  # fmt: skip
-        bound[name] = functools.partial(space[name], sy)
-    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth", "dip_time",
-                 "ev_again"):  # fmt: skip
-        bound[name] = space[name]
-    out = SimpleNamespace(**bound)
-    if len(_RULES) >= 32:
-        _RULES.clear()
-    _RULES[id(ns)] = (ns, out)
-    return out
+    return rules_of(ns)
 
 
 @dataclass(frozen=True)
