@@ -62,14 +62,20 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 L, G = 1.0, 9.81
 ANGLE = math.radians(30.0)
-_COLOURS = {"lamech": "tab:red", "lamech kernel": "tab:purple", "MuJoCo Euler": "tab:blue",
-            "MuJoCo RK4": "tab:orange", "SymPy+solve_ivp": "tab:green"}
+_COLOURS = {
+    "lamech": "tab:red",
+    "lamech kernel": "tab:purple",
+    "MuJoCo Euler": "tab:blue",
+    "MuJoCo RK4": "tab:orange",
+    "SymPy+solve_ivp": "tab:green",
+}
 
 
 # ----- models -------------------------------------------------------------------------
 def lamech_chain(n: int):
     import lamech
     from lamech.problem import chain_toml
+
     return lamech.loads(chain_toml(n))
 
 
@@ -77,14 +83,17 @@ def sympy_chain(n: int):
     """The same chain for sympy.physics.mechanics: (LagrangesMethod, q, params)."""
     import sympy as sp
     from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols
+
     x = dynamicsymbols(f"x1:{n + 1}")
     y = dynamicsymbols(f"y1:{n + 1}")
     m, g, l = sp.symbols("m g l", positive=True)
     t = dynamicsymbols._t
     T = m / 2 * sum(sp.diff(a, t) ** 2 + sp.diff(b, t) ** 2 for a, b in zip(x, y))
     V = m * g * sum(y)
-    hol = [(x[i] - (x[i - 1] if i else 0)) ** 2 + (y[i] - (y[i - 1] if i else 0)) ** 2 - l ** 2
-           for i in range(n)]
+    hol = [
+        (x[i] - (x[i - 1] if i else 0)) ** 2 + (y[i] - (y[i - 1] if i else 0)) ** 2 - l**2
+        for i in range(n)
+    ]
     q = [c for pair in zip(x, y) for c in pair]
     return LagrangesMethod(T - V, q, hol_coneqs=hol), q, (m, g, l)
 
@@ -102,13 +111,18 @@ def mujoco_chain(n: int, integrator: str = "RK4", dt: float = 1e-3):
     """A hinge chain in the x-z plane: each body's joint at the previous mass, its mass
     (1, inertia 1e-12: a point) one unit further down."""
     import mujoco
+
     body = ""
     for i in range(n, 0, -1):
         pos = "0 0 0" if i == 1 else "0 0 -1"
-        body = (f'<body name="b{i}" pos="{pos}"><joint type="hinge" axis="0 1 0"/>'
-                f'<inertial pos="0 0 -1" mass="1" diaginertia="1e-12 1e-12 1e-12"/>{body}</body>')
-    xml = (f'<mujoco><option gravity="0 0 -{G}" timestep="{dt}" integrator="{integrator}">'
-           f'<flag contact="disable"/></option><worldbody>{body}</worldbody></mujoco>')
+        body = (
+            f'<body name="b{i}" pos="{pos}"><joint type="hinge" axis="0 1 0"/>'
+            f'<inertial pos="0 0 -1" mass="1" diaginertia="1e-12 1e-12 1e-12"/>{body}</body>'
+        )
+    xml = (
+        f'<mujoco><option gravity="0 0 -{G}" timestep="{dt}" integrator="{integrator}">'
+        f'<flag contact="disable"/></option><worldbody>{body}</worldbody></mujoco>'
+    )
     model = mujoco.MjModel.from_xml_string(xml)
     return model, mujoco.MjData(model)
 
@@ -121,8 +135,9 @@ def mujoco_angles(angles: np.ndarray) -> np.ndarray:
 
 
 def mujoco_masses(model, data, n: int) -> np.ndarray:
-    return np.array([data.xpos[i] + data.xmat[i].reshape(3, 3) @ (0.0, 0.0, -1.0)
-                     for i in range(1, n + 1)])
+    return np.array(
+        [data.xpos[i] + data.xmat[i].reshape(3, 3) @ (0.0, 0.0, -1.0) for i in range(1, n + 1)]
+    )
 
 
 def mujoco_tensions(model, data, n: int) -> np.ndarray:
@@ -130,7 +145,8 @@ def mujoco_tensions(model, data, n: int) -> np.ndarray:
     force its parent exerts on it, projected on the link towards the pivot. With a
     massless link and a hinge that force lies along the link."""
     import mujoco
-    mujoco.mj_forward(model, data)          # accelerations at this state (after RK4, the
+
+    mujoco.mj_forward(model, data)  # accelerations at this state (after RK4, the
     mujoco.mj_rnePostConstraint(model, data)  # stored ones are from the last stage)
     P = mujoco_masses(model, data, n)
     pivots = np.vstack(([0.0, 0.0, 0.0], P[:-1]))
@@ -150,11 +166,17 @@ def casadi_chain(n: int):
     symbolic ``solve``; the full 3N-square KKT solve gives the same numbers, with 10x the
     nodes at N = 5 and 47x at N = 20), q'' = (Q + A^T lam) / m."""
     import casadi as ca
+
     q, v = ca.SX.sym("q", 2 * n), ca.SX.sym("v", 2 * n)
     m, g, l = ca.SX.sym("m"), ca.SX.sym("g"), ca.SX.sym("l")
-    f = ca.vertcat(*[(q[2 * i] - (q[2 * i - 2] if i else 0)) ** 2
-                     + (q[2 * i + 1] - (q[2 * i - 1] if i else 0)) ** 2 - l ** 2
-                     for i in range(n)])
+    f = ca.vertcat(
+        *[
+            (q[2 * i] - (q[2 * i - 2] if i else 0)) ** 2
+            + (q[2 * i + 1] - (q[2 * i - 1] if i else 0)) ** 2
+            - l**2
+            for i in range(n)
+        ]
+    )
     A = ca.jacobian(f, q)
     gamma = ca.jtimes(A @ v, q, v)
     Q = ca.vertcat(*[0 if k % 2 == 0 else -m * g for k in range(2 * n)])
@@ -166,6 +188,7 @@ def casadi_chain(n: int):
 def casadi_jit_works() -> bool:
     """Whether CasADi's JIT (the shell compiler: the system's cc) compiles here."""
     import shutil
+
     return shutil.which(os.environ.get("CC", "gcc")) is not None or shutil.which("cc") is not None
 
 
@@ -187,6 +210,7 @@ class CasadiChain:
         import weakref
 
         import casadi as ca
+
         self.n, self.jit = n, jit
         x, p, ode, lam = casadi_chain(n)
         self.params = np.array([1.0, G, L])
@@ -196,10 +220,18 @@ class CasadiChain:
             weakref.finalize(self, shutil.rmtree, self._dir, True)
             # the folder removed with this object (CasADi's own clean-up off: it would
             # warn about the files removed under it; the loaded library stays mapped)
-            opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
-                    "jit_name": "chain_rhs",
-                    "jit_options": {"flags": [self.FLAGS], "verbose": False,
-                                    "directory": self._dir + os.sep, "cleanup": False}}
+            opts = {
+                "jit": True,
+                "compiler": "shell",
+                "jit_cleanup": False,
+                "jit_name": "chain_rhs",
+                "jit_options": {
+                    "flags": [self.FLAGS],
+                    "verbose": False,
+                    "directory": self._dir + os.sep,
+                    "cleanup": False,
+                },
+            }
             rhs = ca.Function("chain_rhs", [x, p], [ode], opts)
             X, P = ca.MX.sym("x", x.shape[0]), ca.MX.sym("p", p.shape[0])
             self._dae = {"x": X, "p": P, "ode": rhs(X, P)}
@@ -209,8 +241,11 @@ class CasadiChain:
 
     @property
     def label(self) -> str:
-        return (f"CasADi CVODES Adams (JIT gcc {self.FLAGS})" if self.jit
-                else "CasADi CVODES Adams (SX VM)")
+        return (
+            f"CasADi CVODES Adams (JIT gcc {self.FLAGS})"
+            if self.jit
+            else "CasADi CVODES Adams (SX VM)"
+        )
 
     def tensions(self, y) -> np.ndarray:
         """Rod tensions -2 l lam at the state y (lamech's sign and scaling)."""
@@ -220,13 +255,24 @@ class CasadiChain:
         """CVODES over [0, t_end] at (rtol, atol) (atol = rtol / 100 unless given),
         built once."""
         import casadi as ca
+
         atol = rtol * 1e-2 if atol is None else atol
         key = (t_end, rtol, atol)
         if key not in self._integrators:
             self._integrators[key] = ca.integrator(
-                "chain", "cvodes", self._dae, 0.0, t_end,
-                {"reltol": rtol, "abstol": atol, "linear_multistep_method": "adams",
-                 "nonlinear_solver_iteration": "functional", "max_num_steps": 10 ** 8})
+                "chain",
+                "cvodes",
+                self._dae,
+                0.0,
+                t_end,
+                {
+                    "reltol": rtol,
+                    "abstol": atol,
+                    "linear_multistep_method": "adams",
+                    "nonlinear_solver_iteration": "functional",
+                    "max_num_steps": 10**8,
+                },
+            )
         return self._integrators[key]
 
     def run(self, y0, t_end: float, rtol: float, atol: float | None = None):
@@ -237,7 +283,7 @@ class CasadiChain:
         yT = np.asarray(F(x0=y0, p=self.params)["xf"], dtype=float).ravel()
         T = self.tensions(yT)
         wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-        return wall, cpu, yT[:2 * self.n], T
+        return wall, cpu, yT[: 2 * self.n], T
 
     def ensemble(self, Y0, t_end: float, rtol: float, atol: float | None, threads: int):
         """Final states of every row of Y0: the integrator mapped over the batch
@@ -246,8 +292,9 @@ class CasadiChain:
         key = ("map", len(Y0), t_end, rtol, atol, threads)
         if key not in self._integrators:
             self._integrators[key] = F.map(len(Y0), "thread", threads)
-        out = self._integrators[key](x0=np.asarray(Y0).T,
-                                     p=np.tile(self.params[:, None], (1, len(Y0))))
+        out = self._integrators[key](
+            x0=np.asarray(Y0).T, p=np.tile(self.params[:, None], (1, len(Y0)))
+        )
         return np.asarray(out["xf"], dtype=float).T
 
 
@@ -262,6 +309,7 @@ def _capped(fn, args, cap: float, cold: bool = False):
     def target():
         if cold:
             from sympy.core.cache import clear_cache
+
             clear_cache()
         t0, c0 = time.perf_counter(), time.process_time()
         try:
@@ -286,6 +334,7 @@ def _capped(fn, args, cap: float, cold: bool = False):
 
 class Spread(NamedTuple):
     """min / median / max of repeated measurements."""
+
     min: float
     median: float
     max: float
@@ -299,6 +348,7 @@ def spread(values) -> Spread:
 class Timed(NamedTuple):
     """One case's repeated runs: wall and CPU time (min / median / max) and the results
     of its last run (the same every run: the methods are deterministic)."""
+
     wall: Spread
     cpu: Spread
     result: tuple
@@ -316,9 +366,10 @@ def interleave(cases, repeats: int = 3, alone_after: float | None = None) -> dic
     runs: dict = {key: [] for key, _ in cases}
     stopped: set = set()
     for r in range(repeats):
-        for key, fn in (cases if r % 2 == 0 else cases[::-1]):
-            if key in stopped or (r and alone_after is not None and runs[key]
-                                  and runs[key][0][0] > alone_after):
+        for key, fn in cases if r % 2 == 0 else cases[::-1]:
+            if key in stopped or (
+                r and alone_after is not None and runs[key] and runs[key][0][0] > alone_after
+            ):
                 continue
             out = fn()
             if out is None:
@@ -330,8 +381,9 @@ def interleave(cases, repeats: int = 3, alone_after: float | None = None) -> dic
         if key in stopped or not got:
             result[key] = None
             continue
-        result[key] = Timed(spread(g[0] for g in got), spread(g[1] for g in got),
-                            got[-1][2:], len(got))
+        result[key] = Timed(
+            spread(g[0] for g in got), spread(g[1] for g in got), got[-1][2:], len(got)
+        )
     return result
 
 
@@ -342,7 +394,7 @@ def at_error(points, target: float) -> float | None:
     (time, error) pairs."""
     pts = sorted((e, t) for t, e in points if e > 0 and t > 0)
     front: list = []
-    for e, t in pts:                       # by error, ascending: keep the ever faster
+    for e, t in pts:  # by error, ascending: keep the ever faster
         if not front or t < front[-1][1]:
             front.append((e, t))
     if not front or not front[0][0] <= target <= front[-1][0]:
@@ -351,7 +403,7 @@ def at_error(points, target: float) -> float | None:
         if e0 <= target <= e1:
             w = math.log(target / e0) / math.log(e1 / e0)
             return math.exp(math.log(t0) + w * math.log(t1 / t0))
-    return front[0][1]                     # a single point, exactly at the target
+    return front[0][1]  # a single point, exactly at the target
 
 
 def _fmt_spread(sp: Spread | None) -> str:
@@ -380,29 +432,31 @@ def lamech_qdd_lambda(ns):
     """(q'', lambda) at the initial state, from the compiled KKT solve."""
     y, p, *_ = kernel_inputs(ns)
     sol = ns.accelerations(0.0, y, p)
-    return sol[:ns.n], sol[ns.n:]
+    return sol[: ns.n], sol[ns.n :]
 
 
 # ----- B1 -----------------------------------------------------------------------------
 def lamech_b1(n: int, jit: bool):
     from lamech.numeric import compile_system
+
     t0 = time.perf_counter()
     ns = compile_system(lamech_chain(n), jit=jit)
     y, p, *_ = kernel_inputs(ns)
     out = ns.accelerations(0.0, y, p)
-    return time.perf_counter() - t0, np.asarray(out)[:ns.n]
+    return time.perf_counter() - t0, np.asarray(out)[: ns.n]
 
 
 def sympy_b1(n: int, cse: bool):
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
+
     lm, q, (m, g, l) = sympy_chain(n)
     lm.form_lagranges_equations()
     rhs = lm.rhs()
     qd = [c.diff(dynamicsymbols._t) for c in q]
     f = sp.lambdify((q, qd, (m, g, l)), list(rhs), cse=cse)
     out = np.array(f(chain_state(n), np.zeros(2 * n), (1.0, G, L)), dtype=float).ravel()
-    return out[2 * n: 4 * n]
+    return out[2 * n : 4 * n]
 
 
 def _lamech_b1_first(n: int, jit: bool, root: str):
@@ -411,49 +465,59 @@ def _lamech_b1_first(n: int, jit: bool, root: str):
     and none loads an earlier repeat's machine code."""
     if jit:
         import tempfile
+
         os.environ["LAMECH_CACHE_DIR"] = tempfile.mkdtemp(dir=root)
     return lamech_b1(n, jit)[1]
 
 
-B1_METHODS = [("lamech", "lamech `compile_system` + first `accelerations`"),
-              ("lamech (numba)", "lamech, numba (`jit=True`, compiled-system cache empty)"),
-              ("SymPy", "SymPy `LagrangesMethod` + `rhs()` + `lambdify`"),
-              ("SymPy cse", "same, `lambdify(cse=True)`")]
+B1_METHODS = [
+    ("lamech", "lamech `compile_system` + first `accelerations`"),
+    ("lamech (numba)", "lamech, numba (`jit=True`, compiled-system cache empty)"),
+    ("SymPy", "SymPy `LagrangesMethod` + `rhs()` + `lambdify`"),
+    ("SymPy cse", "same, `lambdify(cse=True)`"),
+]
 
 
-def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
-             alone_after: float = 30.0):
+def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3, alone_after: float = 30.0):
     import shutil
     import tempfile
+
     print("\nB1  derivation + code generation: model -> first (q'', lambda)")
-    lines += ["## B1 derivation and code generation", "",
-              "Time from the model (problem text) to the first numeric evaluation of (q'', "
-              "λ). SymPy: `LagrangesMethod(L, q, hol_coneqs)`, `form_lagranges_equations()`, "
-              "`rhs()`, `lambdify` (default printer, and `cse=True`). Every run in its own "
-              "forked process on an empty SymPy cache (`clear_cache()`, lamech and SymPy "
-              "alike; modules imported beforehand); lamech's numba runs each with an empty "
-              f"compiled-system cache. {repeats} interleaved repeats (per N: lamech, "
-              "numba, SymPy, SymPy cse, then the other way round); a run over "
-              f"{alone_after:.0f} s is not repeated; each capped at {cap:.0f} s, and a "
-              "SymPy variant past the cap is not run at larger N. Wall time min / median "
-              "/ max; CPU time of the child process (all threads); ratio of medians. "
-              "Both sides' q'' agree at the initial state before a time counts.", "",
-              "| N | method | wall min / median / max | CPU min / median / max | runs "
-              "| median / lamech's |", "|---|---|---|---|---|---|"]
+    lines += [
+        "## B1 derivation and code generation",
+        "",
+        "Time from the model (problem text) to the first numeric evaluation of (q'', "
+        "λ). SymPy: `LagrangesMethod(L, q, hol_coneqs)`, `form_lagranges_equations()`, "
+        "`rhs()`, `lambdify` (default printer, and `cse=True`). Every run in its own "
+        "forked process on an empty SymPy cache (`clear_cache()`, lamech and SymPy "
+        "alike; modules imported beforehand); lamech's numba runs each with an empty "
+        f"compiled-system cache. {repeats} interleaved repeats (per N: lamech, "
+        "numba, SymPy, SymPy cse, then the other way round); a run over "
+        f"{alone_after:.0f} s is not repeated; each capped at {cap:.0f} s, and a "
+        "SymPy variant past the cap is not run at larger N. Wall time min / median "
+        "/ max; CPU time of the child process (all threads); ratio of medians. "
+        "Both sides' q'' agree at the initial state before a time counts.",
+        "",
+        "| N | method | wall min / median / max | CPU min / median / max | runs "
+        "| median / lamech's |",
+        "|---|---|---|---|---|---|",
+    ]
     try:
         import numba  # noqa: F401
+
         jit = True
     except ImportError:
         jit = False
-    lamech_b1(2, jit=False)          # imports (lamech, SymPy) outside the time
+    lamech_b1(2, jit=False)  # imports (lamech, SymPy) outside the time
     sympy_b1(2, cse=True)
     root = tempfile.mkdtemp(prefix="lamech-bench-b1-")
-    past_cap: dict = {}              # SymPy variant -> the N where it passed the cap
+    past_cap: dict = {}  # SymPy variant -> the N where it passed the cap
 
     def case(fn, *args):
         def run():
             res, sec, cpu = _capped(fn, args, cap, cold=True)
             return None if res is None else (sec, cpu, res)
+
         return run
 
     try:
@@ -469,8 +533,7 @@ def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
             for key in ("SymPy", "SymPy cse"):
                 if got.get(key) is None and key in got:
                     past_cap[key] = n
-                elif key in got and not np.allclose(got[key].result[0], qdd, rtol=1e-8,
-                                                    atol=1e-9):
+                elif key in got and not np.allclose(got[key].result[0], qdd, rtol=1e-8, atol=1e-9):
                     raise AssertionError(f"B1 N={n}: {key} and lamech disagree on q''")
             base = got["lamech"].wall.median
             for key, label in B1_METHODS:
@@ -479,13 +542,13 @@ def bench_b1(sizes, cap: float, lines: list[str], repeats: int = 3,
                 t = got.get(key)
                 if t is not None:
                     ratio = "—" if key == "lamech" else f"{t.wall.median / base:.3g}×"
-                    row = (f"| {n} | {label} | {_fmt_spread(t.wall)} | {_fmt_spread(t.cpu)} "
-                           f"| {t.runs} | {ratio} |")
+                    row = (
+                        f"| {n} | {label} | {_fmt_spread(t.wall)} | {_fmt_spread(t.cpu)} "
+                        f"| {t.runs} | {ratio} |"
+                    )
                 else:
-                    why = ("" if key in got else
-                           f" (not run: past the cap at N = {past_cap[key]})")
-                    row = (f"| {n} | {label} | > {cap:.0f} s{why} | — | — | "
-                           f"> {cap / base:.3g}× |")
+                    why = "" if key in got else f" (not run: past the cap at N = {past_cap[key]})"
+                    row = f"| {n} | {label} | > {cap:.0f} s{why} | — | — | > {cap / base:.3g}× |"
                 print("  " + row)
                 lines.append(row)
     finally:
@@ -522,6 +585,7 @@ def pydy_chain(n: int):
 
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
+
     try:
         from pydy.codegen.cython_code import CythonMatrixGenerator
     except ImportError:
@@ -534,7 +598,8 @@ def pydy_chain(n: int):
     MM, FF = lm.mass_matrix_full.subs(plain), lm.forcing_full.subs(plain)
     try:
         fm = CythonMatrixGenerator([qs, us, (m, g, l)], [MM, FF]).compile(
-            tmp_dir=tempfile.mkdtemp(prefix="lamech-bench-pydy-"))
+            tmp_dir=tempfile.mkdtemp(prefix="lamech-bench-pydy-")
+        )
     except Exception as exc:  # noqa: BLE001 - a missing compiler shows up here
         print(f"  (PyDy's Cython back end unavailable: {exc})")
         return None
@@ -553,26 +618,31 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
     from sympy.physics.mechanics import dynamicsymbols
 
     from lamech.numeric import compile_system
+
     print("\nB2  one dynamics evaluation (q'' and lambda), µs per call")
-    lines += ["## B2 one dynamics evaluation", "",
-              "One evaluation of (q'', λ) at the initial state, called from Python. Each "
-              f"method is timed in a loop of about 0.2 s (the best of 3 loops), in {repeats} "
-              "interleaved rounds (every method once per round, the order reversed every "
-              "other round); cells give the median wall time per call, in brackets the "
-              "median CPU time, then the min–max wall time over the rounds. lamech: "
-              "`NumericSystem.accelerations(t, y, p)` (NumPy: generated M, Q − h, A, γ "
-              "plus `numpy.linalg.solve` of the KKT matrix; numba: the same source "
-              "compiled, M diagonal so λ from the Schur "
-              "complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
-              "generated code gives as vectors: nothing of size N² is filled per call). "
-              "Peers: `lambdify(cse=True)` of SymPy's `LagrangesMethod.rhs()` (N ≤ 8; "
-              "larger `rhs()` does not finish); PyDy's Cython back end "
-              "(`CythonMatrixGenerator` for `mass_matrix_full`, `forcing_full`, then "
-              "`numpy.linalg.solve`, as PyDy's ODE function does). Every peer's q'' and λ "
-              "agree with lamech's before a time counts.", "",
-              "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | PyDy Cython "
-              "| lambdify/lamech numba | PyDy/lamech numba |",
-              "|---|---|---|---|---|---|---|"]
+    lines += [
+        "## B2 one dynamics evaluation",
+        "",
+        "One evaluation of (q'', λ) at the initial state, called from Python. Each "
+        f"method is timed in a loop of about 0.2 s (the best of 3 loops), in {repeats} "
+        "interleaved rounds (every method once per round, the order reversed every "
+        "other round); cells give the median wall time per call, in brackets the "
+        "median CPU time, then the min–max wall time over the rounds. lamech: "
+        "`NumericSystem.accelerations(t, y, p)` (NumPy: generated M, Q − h, A, γ "
+        "plus `numpy.linalg.solve` of the KKT matrix; numba: the same source "
+        "compiled, M diagonal so λ from the Schur "
+        "complement A M⁻¹ Aᵀ over the structural nonzeros of M and A, which the "
+        "generated code gives as vectors: nothing of size N² is filled per call). "
+        "Peers: `lambdify(cse=True)` of SymPy's `LagrangesMethod.rhs()` (N ≤ 8; "
+        "larger `rhs()` does not finish); PyDy's Cython back end "
+        "(`CythonMatrixGenerator` for `mass_matrix_full`, `forcing_full`, then "
+        "`numpy.linalg.solve`, as PyDy's ODE function does). Every peer's q'' and λ "
+        "agree with lamech's before a time counts.",
+        "",
+        "| N | lamech NumPy | lamech numba | SymPy lambdify(cse=True) | PyDy Cython "
+        "| lambdify/lamech numba | PyDy/lamech numba |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for n in sizes:
         ns = compile_system(lamech_chain(n))
         y, p, *_ = kernel_inputs(ns)
@@ -580,6 +650,7 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
         cases = [("numpy", lambda ns=ns: ns.accelerations(0.0, y, p))]
         try:
             import numba  # noqa: F401
+
             nj = compile_system(lamech_chain(n), jit=True)
             nj.accelerations(0.0, y, p)
             cases.append(("numba", lambda: nj.accelerations(0.0, y, p)))
@@ -589,9 +660,11 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
 
         def agree(out, who):
             out = np.asarray(out, dtype=float).ravel()
-            qdd, lam = out[2 * n:4 * n], out[4 * n:5 * n]
-            if not (np.allclose(qdd, ref[:2 * n], rtol=1e-8, atol=1e-9)
-                    and np.allclose(lam, ref[2 * n:], rtol=1e-8, atol=1e-9)):
+            qdd, lam = out[2 * n : 4 * n], out[4 * n : 5 * n]
+            if not (
+                np.allclose(qdd, ref[: 2 * n], rtol=1e-8, atol=1e-9)
+                and np.allclose(lam, ref[2 * n :], rtol=1e-8, atol=1e-9)
+            ):
                 raise AssertionError(f"B2 N={n}: {who} and lamech disagree on (q'', λ)")
 
         if n <= 8:
@@ -614,16 +687,20 @@ def bench_b2(sizes, lines: list[str], repeats: int = 3):
             if timed is None:
                 return "—"
             w, c = timed.wall, timed.cpu
-            return (f"{w.median * 1e6:.3g} µs ({c.median * 1e6:.3g}); "
-                    f"{w.min * 1e6:.3g}–{w.max * 1e6:.3g}")
+            return (
+                f"{w.median * 1e6:.3g} µs ({c.median * 1e6:.3g}); "
+                f"{w.min * 1e6:.3g}–{w.max * 1e6:.3g}"
+            )
 
         def ratio(key):
             if got.get(key) is None or got.get("numba") is None:
                 return "—"
             return f"{got[key].wall.median / got['numba'].wall.median:.1f}×"
 
-        row = (f"| {n} | {us('numpy')} | {us('numba')} | {us('sympy')} | {us('pydy')} "
-               f"| {ratio('sympy')} | {ratio('pydy')} |")
+        row = (
+            f"| {n} | {us('numpy')} | {us('numba')} | {us('sympy')} | {us('pydy')} "
+            f"| {ratio('sympy')} | {ratio('pydy')} |"
+        )
         print("  " + row)
         lines.append(row)
     lines.append("")
@@ -645,9 +722,16 @@ class _Clock:
 def lamech_run(system, t_end, rtol, jit, ns=None):
     """lamech's ``simulate``: (wall, CPU, positions, tensions) at t_end."""
     from lamech.numeric import simulate
+
     with _Clock() as clock:
-        tr = simulate(ns if ns is not None else system, t_end, rtol=rtol,
-                      atol=min(1e-12, rtol * 1e-2), samples=2, jit=jit)
+        tr = simulate(
+            ns if ns is not None else system,
+            t_end,
+            rtol=rtol,
+            atol=min(1e-12, rtol * 1e-2),
+            samples=2,
+            jit=jit,
+        )
     if tr.status != "ok":
         raise RuntimeError(tr.message)
     return clock.wall, clock.cpu, tr.q[-1], -2 * L * tr.lambdas[-1]
@@ -657,6 +741,7 @@ def _kernel_run(ns, y0, t_end, rtol):
     """lamech's compiled loop on one trajectory (``integrate_batch`` of a batch of one:
     the serial loop, no thread to wake): (wall, CPU, positions, tensions)."""
     from lamech.numeric import integrate_batch
+
     with _Clock() as clock:
         res = integrate_batch(ns, y0, t_end, rtol=rtol, atol=min(1e-12, rtol * 1e-2))
     return clock.wall, clock.cpu, res.q[0], -2 * L * res.lambdas[0]
@@ -668,6 +753,7 @@ def mujoco_run(n, angles, integrator, dt, t_end):
     the stored body positions are those its last (RK4: last stage's) forward pass
     computed, not the new state's."""
     import mujoco
+
     model, data = mujoco_chain(n, integrator, dt)
     data.qpos[:] = mujoco_angles(angles)
     mujoco.mj_forward(model, data)
@@ -686,17 +772,18 @@ def _sympy_ivp_run(f, n, t_end, rtol):
     """SymPy's lambdified rhs() under solve_ivp(DOP853): (wall, CPU, positions,
     tensions); LagrangesMethod's multipliers have lamech's sign and scaling."""
     from scipy.integrate import solve_ivp
+
     y0 = np.concatenate((chain_state(n), np.zeros(2 * n)))
 
     def rhs(t, y):
-        out = np.asarray(f(y[:2 * n], y[2 * n:], (1.0, G, L)), dtype=float).ravel()
-        return out[:4 * n]
+        out = np.asarray(f(y[: 2 * n], y[2 * n :], (1.0, G, L)), dtype=float).ravel()
+        return out[: 4 * n]
 
     with _Clock() as clock:
         sol = solve_ivp(rhs, (0, t_end), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
     yT = sol.y[:, -1]
-    lam = np.asarray(f(yT[:2 * n], yT[2 * n:], (1.0, G, L)), dtype=float).ravel()[4 * n:]
-    return clock.wall, clock.cpu, yT[:2 * n], -2 * L * lam
+    lam = np.asarray(f(yT[: 2 * n], yT[2 * n :], (1.0, G, L)), dtype=float).ravel()[4 * n :]
+    return clock.wall, clock.cpu, yT[: 2 * n], -2 * L * lam
 
 
 def casadi_peer(n: int, ns):
@@ -716,9 +803,9 @@ def casadi_peer(n: int, ns):
 
 # CasADi's settings: reltol with abstol = reltol / 100 (lamech's rule), and every other
 # decade with abstol = reltol (cheaper at a given reltol; the curve takes the best of both)
-CASADI_SETTINGS = ([(r, r * 1e-2) for r in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11,
-                                            1e-12, 1e-13, 1e-14)]
-                   + [(r, r) for r in (1e-6, 1e-8, 1e-10, 1e-12, 1e-14)])
+CASADI_SETTINGS = [
+    (r, r * 1e-2) for r in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14)
+] + [(r, r) for r in (1e-6, 1e-8, 1e-10, 1e-12, 1e-14)]
 CASADI_QUICK = [(1e-6, 1e-8), (1e-9, 1e-11), (1e-12, 1e-14), (1e-14, 1e-16)]
 B3_TARGETS = (1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
 B3_PEERS = ("lamech", "CasADi", "MuJoCo RK4", "SymPy+solve_ivp")
@@ -729,39 +816,45 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
     from sympy.physics.mechanics import dynamicsymbols
 
     from lamech.numeric import compile_system
+
     print(f"\nB3  work-precision: {t_end:g} simulated seconds")
-    head = ["## B3 work–precision", "",
-            f"{t_end:g} simulated seconds from rest at 30°; errors at t = {t_end:g} s "
-            "against a lamech reference run at rtol = 1e-13: the rod tensions (max "
-            "relative error) and the positions (max absolute error, in link lengths). "
-            "lamech: DOP853 with projection (`simulate`, compiled with numba when installed: "
-            "the loop with events, `ev_segment`); "
-            "lamech kernel: `lamech.numeric.integrate_batch` on one trajectory, the same "
-            "method as one compiled loop (a batch smaller than numba's thread count runs "
-            "serially); MuJoCo: hinge chain, Euler and RK4 at fixed steps, positions and "
-            "tensions after `mj_forward` at the final state, tensions from the joint "
-            "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
-            "`LagrangesMethod.rhs()` lambdified with cse, `solve_ivp(DOP853)`, no "
-            "projection; CasADi: the same maximal-coordinate chain in SX, the KKT system "
-            "solved symbolically for (q'', λ) (Schur complement), the index-1 DAE "
-            "integrated as an ODE by CVODES (Adams, functional iteration) at the "
-            "tolerances shown (rtol, atol), no projection; the options used are in the "
-            "method's name. Every peer's tensions agree with lamech's at the initial state "
-            f"before a time counts. {repeats} interleaved repeats (each round runs every "
-            "row once, the order reversed every other round), without code generation, "
-            "compilation and integrator set-up; wall and CPU time (the process's) "
-            "min / median / max.", "",
-            "| N | method | setting | wall min / median / max | CPU min / median / max "
-            "| tension error | position error |", "|---|---|---|---|---|---|---|"]
+    head = [
+        "## B3 work–precision",
+        "",
+        f"{t_end:g} simulated seconds from rest at 30°; errors at t = {t_end:g} s "
+        "against a lamech reference run at rtol = 1e-13: the rod tensions (max "
+        "relative error) and the positions (max absolute error, in link lengths). "
+        "lamech: DOP853 with projection (`simulate`, compiled with numba when installed: "
+        "the loop with events, `ev_segment`); "
+        "lamech kernel: `lamech.numeric.integrate_batch` on one trajectory, the same "
+        "method as one compiled loop (a batch smaller than numba's thread count runs "
+        "serially); MuJoCo: hinge chain, Euler and RK4 at fixed steps, positions and "
+        "tensions after `mj_forward` at the final state, tensions from the joint "
+        "reactions (`mj_rnePostConstraint`, `cfrc_int`); SymPy: "
+        "`LagrangesMethod.rhs()` lambdified with cse, `solve_ivp(DOP853)`, no "
+        "projection; CasADi: the same maximal-coordinate chain in SX, the KKT system "
+        "solved symbolically for (q'', λ) (Schur complement), the index-1 DAE "
+        "integrated as an ODE by CVODES (Adams, functional iteration) at the "
+        "tolerances shown (rtol, atol), no projection; the options used are in the "
+        "method's name. Every peer's tensions agree with lamech's at the initial state "
+        f"before a time counts. {repeats} interleaved repeats (each round runs every "
+        "row once, the order reversed every other round), without code generation, "
+        "compilation and integrator set-up; wall and CPU time (the process's) "
+        "min / median / max.",
+        "",
+        "| N | method | setting | wall min / median / max | CPU min / median / max "
+        "| tension error | position error |",
+        "|---|---|---|---|---|---|---|",
+    ]
     lines += head
     curves: dict = {}
     try:
         import numba  # noqa: F401
+
         jit = True
     except ImportError:
         jit = False
-    rtols = ((1e-6, 1e-9, 1e-12) if quick
-             else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12))
+    rtols = (1e-6, 1e-9, 1e-12) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
     dts = (1e-3, 1e-4) if quick else (1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4)
     for n in sizes:
         system = lamech_chain(n)
@@ -769,23 +862,33 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
         _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-13, jit, ns)
         angles = np.full(n, ANGLE)
         y0 = np.concatenate(ns.initial_state())[None]
-        cases = []              # ((method, setting), fn)
+        cases = []  # ((method, setting), fn)
         for rtol in rtols:
-            cases.append((("lamech", f"rtol {rtol:g}"),
-                          lambda r=rtol: lamech_run(system, t_end, r, jit, ns)))
+            cases.append(
+                (("lamech", f"rtol {rtol:g}"), lambda r=rtol: lamech_run(system, t_end, r, jit, ns))
+            )
         if jit:
             from lamech.numeric import integrate_batch
-            integrate_batch(ns, y0, 0.01)           # compile outside the timing
+
+            integrate_batch(ns, y0, 0.01)  # compile outside the timing
             for rtol in rtols:
-                cases.append((("lamech kernel", f"rtol {rtol:g}"),
-                              lambda r=rtol: _kernel_run(ns, y0, t_end, r)))
+                cases.append(
+                    (
+                        ("lamech kernel", f"rtol {rtol:g}"),
+                        lambda r=rtol: _kernel_run(ns, y0, t_end, r),
+                    )
+                )
         try:
             import mujoco  # noqa: F401
+
             for integrator in ("Euler", "RK4"):
                 for dt in dts:
-                    cases.append(((f"MuJoCo {integrator}", f"dt {dt:g}"),
-                                  lambda i=integrator, d=dt: mujoco_run(n, angles, i, d,
-                                                                         t_end)))
+                    cases.append(
+                        (
+                            (f"MuJoCo {integrator}", f"dt {dt:g}"),
+                            lambda i=integrator, d=dt: mujoco_run(n, angles, i, d, t_end),
+                        )
+                    )
         except ImportError:
             pass
         if n <= 5:
@@ -793,20 +896,27 @@ def bench_b3(sizes, t_end, quick, lines: list[str], repeats: int = 3):
             lm.form_lagranges_equations()
             t = dynamicsymbols._t
             f = sp.lambdify((q, [c.diff(t) for c in q], (m, g, l)), list(lm.rhs()), cse=True)
-            for rtol in ((1e-6, 1e-9) if quick else (1e-6, 1e-8, 1e-10, 1e-12)):
-                cases.append((("SymPy+solve_ivp", f"rtol {rtol:g}"),
-                              lambda r=rtol: _sympy_ivp_run(f, n, t_end, r)))
+            for rtol in (1e-6, 1e-9) if quick else (1e-6, 1e-8, 1e-10, 1e-12):
+                cases.append(
+                    (
+                        ("SymPy+solve_ivp", f"rtol {rtol:g}"),
+                        lambda r=rtol: _sympy_ivp_run(f, n, t_end, r),
+                    )
+                )
         peer = casadi_peer(n, ns)
         if peer is not None:
             ystart = np.concatenate((chain_state(n), np.zeros(2 * n)))
-            for rtol, atol in (CASADI_QUICK if quick else CASADI_SETTINGS):
-                peer.integrator(t_end, rtol, atol)          # set up outside the timing
-                cases.append(((peer.label, f"rtol {rtol:g}, atol {atol:g}"),
-                              lambda r=rtol, a=atol: peer.run(ystart, t_end, r, a)))
+            for rtol, atol in CASADI_QUICK if quick else CASADI_SETTINGS:
+                peer.integrator(t_end, rtol, atol)  # set up outside the timing
+                cases.append(
+                    (
+                        (peer.label, f"rtol {rtol:g}, atol {atol:g}"),
+                        lambda r=rtol, a=atol: peer.run(ystart, t_end, r, a),
+                    )
+                )
         got = interleave(cases, repeats)
         for method, timed, eT in _accuracy_rows(n, cases, got, ref_pos, ref_T, lines):
-            curves.setdefault((n, method), []).append((timed.wall.median, eT,
-                                                       timed.cpu.median))
+            curves.setdefault((n, method), []).append((timed.wall.median, eT, timed.cpu.median))
     lines.append("")
     lines += b3_equal_error(curves, sizes)
     bench_long_chains([60] if quick else [60, 100], t_end, quick, lines)
@@ -825,8 +935,10 @@ def _accuracy_rows(n, cases, got, ref_pos, ref_T, lines: list[str]) -> list:
         pos, T = timed.result
         eT = float(np.max(np.abs(T - ref_T)) / scale)
         eP = float(np.max(np.abs(pos - ref_pos)))
-        row = (f"| {n} | {method} | {setting} | {_fmt_spread(timed.wall)} | "
-               f"{_fmt_spread(timed.cpu)} | {eT:.2e} | {eP:.2e} |")
+        row = (
+            f"| {n} | {method} | {setting} | {_fmt_spread(timed.wall)} | "
+            f"{_fmt_spread(timed.cpu)} | {eT:.2e} | {eP:.2e} |"
+        )
         print("  " + row)
         lines.append(row)
         out.append((method, timed, eT))
@@ -838,21 +950,34 @@ def b3_equal_error(curves: dict, sizes) -> list[str]:
     interpolated log-log on its Pareto front (:func:`at_error`), and each peer's time
     over lamech's compiled loop's (a ratio above 1: lamech's loop is faster)."""
     methods = {m for (_, m) in curves}
-    peers = [m for p in B3_PEERS for m in sorted(methods)
-             if m.startswith(p) and m != "lamech kernel" and (p != "lamech" or m == p)]
-    short = {m: "lamech simulate" if m == "lamech" else m.split(" (")[0].split(" CVODES")[0]
-             for m in peers}
-    out = ["## B3 at equal accuracy", "",
-           "The rows above read at a given tension error: each method's median wall time "
-           "(CPU time in brackets), interpolated log-log between the two settings around "
-           "that error on the method's Pareto front; — where the method's settings do not "
-           "reach that error (no extrapolation). Ratio: the peer's median over lamech "
-           "kernel's (above 1: lamech's compiled loop is faster), wall (CPU). "
-           + "; ".join(f"{short[m]}: the rows named {m}" for m in peers if short[m] != m)
-           + ".", "",
-           "| N | tension error | lamech kernel | " + " | ".join(short[p] for p in peers)
-           + " | " + " | ".join(f"{short[p]} / kernel" for p in peers) + " |",
-           "|" + "---|" * (3 + 2 * len(peers))]
+    peers = [
+        m
+        for p in B3_PEERS
+        for m in sorted(methods)
+        if m.startswith(p) and m != "lamech kernel" and (p != "lamech" or m == p)
+    ]
+    short = {
+        m: "lamech simulate" if m == "lamech" else m.split(" (")[0].split(" CVODES")[0]
+        for m in peers
+    }
+    out = [
+        "## B3 at equal accuracy",
+        "",
+        "The rows above read at a given tension error: each method's median wall time "
+        "(CPU time in brackets), interpolated log-log between the two settings around "
+        "that error on the method's Pareto front; — where the method's settings do not "
+        "reach that error (no extrapolation). Ratio: the peer's median over lamech "
+        "kernel's (above 1: lamech's compiled loop is faster), wall (CPU). "
+        + "; ".join(f"{short[m]}: the rows named {m}" for m in peers if short[m] != m)
+        + ".",
+        "",
+        "| N | tension error | lamech kernel | "
+        + " | ".join(short[p] for p in peers)
+        + " | "
+        + " | ".join(f"{short[p]} / kernel" for p in peers)
+        + " |",
+        "|" + "---|" * (3 + 2 * len(peers)),
+    ]
 
     def ms(x):
         return "—" if x is None else f"{x * 1e3:.3g} ms"
@@ -870,13 +995,20 @@ def b3_equal_error(curves: dict, sizes) -> list[str]:
                 pw = at_error([(w, e) for w, e, _ in pts], target)
                 pc = at_error([(c, e) for _, e, c in pts], target)
                 cells.append("—" if pw is None else f"{ms(pw)} ({ms(pc)})")
-                ratios.append("—" if pw is None or kw is None
-                              else f"{pw / kw:.2g}× ({pc / kc:.2g}×)")
+                ratios.append(
+                    "—" if pw is None or kw is None else f"{pw / kw:.2g}× ({pc / kc:.2g}×)"
+                )
             if kw is None and all(c == "—" for c in cells):
                 continue
-            row = (f"| {n} | {target:.0e} | "
-                   + ("—" if kw is None else f"{ms(kw)} ({ms(kc)})") + " | "
-                   + " | ".join(cells) + " | " + " | ".join(ratios) + " |")
+            row = (
+                f"| {n} | {target:.0e} | "
+                + ("—" if kw is None else f"{ms(kw)} ({ms(kc)})")
+                + " | "
+                + " | ".join(cells)
+                + " | "
+                + " | ".join(ratios)
+                + " |"
+            )
             print("  " + row)
             out.append(row)
     out.append("")
@@ -886,6 +1018,7 @@ def b3_equal_error(curves: dict, sizes) -> list[str]:
 def _draw(curves: dict, sizes, t_end: float) -> None:
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -897,8 +1030,7 @@ def _draw(curves: dict, sizes, t_end: float) -> None:
                 continue
             pts = sorted(pts, key=lambda p: p[1])
             colour = _COLOURS.get(method, "tab:brown" if method.startswith("CasADi") else None)
-            ax.loglog([p[1] for p in pts], [p[2] for p in pts], "o-", label=method,
-                      color=colour)
+            ax.loglog([p[1] for p in pts], [p[2] for p in pts], "o-", label=method, color=colour)
         ax.set_xlabel(f"tension error at t = {t_end:g} s (relative)")
         # CPU time: on a shared machine the wall time's medians still zigzag
         ax.set_ylabel("CPU time, median of 3 (s)")
@@ -917,28 +1049,37 @@ def bench_long_chains(sizes, t_end, quick, lines: list[str], repeats: int = 3):
     With OpenBLAS's helper threads the 60-link run took 4-70 times as long on 2 cores:
     a wall time far above the CPU time, or a CPU time far above this table's, is that."""
     from lamech.numeric import compile_system
+
     print(f"\nB3  long chains: {t_end:g} simulated seconds, lamech without numba")
-    lines += ["## B3 long chains", "",
-              f"As B3, {t_end:g} simulated seconds, with N = {', '.join(map(str, sizes))}; "
-              "errors against a lamech reference run at rtol = 1e-12. lamech: `simulate` "
-              "on the NumPy kernels (no numba); MuJoCo at dt = 1e-3. "
-              f"{1 if quick else repeats} interleaved repeats, wall and CPU time (the "
-              "process's) min / median / max, without code generation.", "",
-              "| N | method | setting | wall min / median / max | CPU min / median / max | "
-              "tension error | position error |", "|---|---|---|---|---|---|---|"]
+    lines += [
+        "## B3 long chains",
+        "",
+        f"As B3, {t_end:g} simulated seconds, with N = {', '.join(map(str, sizes))}; "
+        "errors against a lamech reference run at rtol = 1e-12. lamech: `simulate` "
+        "on the NumPy kernels (no numba); MuJoCo at dt = 1e-3. "
+        f"{1 if quick else repeats} interleaved repeats, wall and CPU time (the "
+        "process's) min / median / max, without code generation.",
+        "",
+        "| N | method | setting | wall min / median / max | CPU min / median / max | "
+        "tension error | position error |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for n in sizes:
         system = lamech_chain(n)
         ns = compile_system(system)
         _, _, ref_pos, ref_T = lamech_run(system, t_end, 1e-12, False, ns)
         angles = np.full(n, ANGLE)
-        cases = [(("lamech", f"rtol {rtol:g}"),
-                  lambda r=rtol: lamech_run(system, t_end, r, False, ns))
-                 for rtol in ((1e-9,) if quick else (1e-6, 1e-9))]
+        cases = [
+            (("lamech", f"rtol {rtol:g}"), lambda r=rtol: lamech_run(system, t_end, r, False, ns))
+            for rtol in ((1e-9,) if quick else (1e-6, 1e-9))
+        ]
         try:
             import mujoco  # noqa: F401
-            cases += [((f"MuJoCo {i}", "dt 0.001"),
-                       lambda i=i: mujoco_run(n, angles, i, 1e-3, t_end))
-                      for i in ("Euler", "RK4")]
+
+            cases += [
+                ((f"MuJoCo {i}", "dt 0.001"), lambda i=i: mujoco_run(n, angles, i, 1e-3, t_end))
+                for i in ("Euler", "RK4")
+            ]
         except ImportError:
             pass
         got = interleave(cases, 1 if quick else repeats)
@@ -953,25 +1094,32 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
     ``mujoco.rollout`` (a tenth of it at dt = 1e-4); trajectories per second from the
     median of ``repeats`` interleaved rounds."""
     from lamech.numeric import compile_system, simulate
+
     n = 5
-    threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
-        os.cpu_count() or 1)
+    threads = (
+        len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    )
     rng = np.random.default_rng(1)
     angles = ANGLE + rng.uniform(-0.1, 0.1, size=(max(count_lamech, count, count_mujoco), n))
     print(f"\nB4  ensembles: 5-link chain, {t_end:g} s each")
-    lines += ["## B4 ensembles", "",
-              f"Random initial angles (30° ± 0.1 rad), at rest, {t_end:g} s each, one core "
-              f"unless said. {repeats} interleaved rounds (every row once per round, the "
-              "order reversed every other round); wall and CPU time (the process's, all "
-              "threads) min / median / max; trajectories per second from the median wall "
-              "time; the last column: lamech `integrate_batch`'s trajectories per second "
-              "over the row's. The tension error of each method's first run against a "
-              "lamech run at rtol 1e-13.", "",
-              "| method | runs | wall min / median / max | CPU min / median / max "
-              "| trajectories/s | batch / this | tension error (first run) |",
-              "|---|---|---|---|---|---|---|"]
+    lines += [
+        "## B4 ensembles",
+        "",
+        f"Random initial angles (30° ± 0.1 rad), at rest, {t_end:g} s each, one core "
+        f"unless said. {repeats} interleaved rounds (every row once per round, the "
+        "order reversed every other round); wall and CPU time (the process's, all "
+        "threads) min / median / max; trajectories per second from the median wall "
+        "time; the last column: lamech `integrate_batch`'s trajectories per second "
+        "over the row's. The tension error of each method's first run against a "
+        "lamech run at rtol 1e-13.",
+        "",
+        "| method | runs | wall min / median / max | CPU min / median / max "
+        "| trajectories/s | batch / this | tension error (first run) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     try:
         import numba
+
         jit = True
     except ImportError:
         jit = False
@@ -984,7 +1132,7 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
     def error(T):
         return f"{np.max(np.abs(T - ref_T)) / np.max(np.abs(ref_T)):.1e}"
 
-    cases, rows = [], []          # rows: (key, label, runs, error)
+    cases, rows = [], []  # rows: (key, label, runs, error)
 
     def simulate_loop():
         with _Clock() as clock:
@@ -996,13 +1144,21 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
 
     mine = simulate(ns, t_end, q0=q_first, samples=2, rtol=1e-10, atol=1e-12)
     cases.append(("simulate", simulate_loop))
-    rows.append(("simulate", "lamech simulate (rtol 1e-10, one process)", count_lamech,
-                 error(-2 * L * mine.lambdas[-1])))
-    Y0 = np.array([np.concatenate((chain_state(n, angles[k]), np.zeros(2 * n)))
-                   for k in range(count)])
+    rows.append(
+        (
+            "simulate",
+            "lamech simulate (rtol 1e-10, one process)",
+            count_lamech,
+            error(-2 * L * mine.lambdas[-1]),
+        )
+    )
+    Y0 = np.array(
+        [np.concatenate((chain_state(n, angles[k]), np.zeros(2 * n))) for k in range(count)]
+    )
     if jit:
         from lamech.numeric import integrate_batch
-        integrate_batch(ns, Y0[:threads], 0.01)       # compile outside the timing
+
+        integrate_batch(ns, Y0[:threads], 0.01)  # compile outside the timing
         res = integrate_batch(ns, Y0[:1], t_end, rtol=1e-10, atol=1e-12)
 
         def batch():
@@ -1012,13 +1168,19 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
             return clock.wall, clock.cpu
 
         cases.append(("batch", batch))
-        rows.append(("batch", f"lamech integrate_batch (rtol 1e-10, {numba.get_num_threads()}"
-                              " numba threads)", count, error(-2 * L * res.lambdas[0])))
+        rows.append(
+            (
+                "batch",
+                f"lamech integrate_batch (rtol 1e-10, {numba.get_num_threads()} numba threads)",
+                count,
+                error(-2 * L * res.lambdas[0]),
+            )
+        )
     peer = casadi_peer(n, ns)
     if peer is not None:
         rtol, atol = 1e-11, 1e-13
         first = peer.ensemble(Y0[:1], t_end, rtol, atol, 1)
-        peer.ensemble(Y0, t_end, rtol, atol, threads)   # set up the map outside the time
+        peer.ensemble(Y0, t_end, rtol, atol, threads)  # set up the map outside the time
 
         def casadi_map():
             with _Clock() as clock:
@@ -1026,9 +1188,14 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
             return clock.wall, clock.cpu
 
         cases.append(("casadi", casadi_map))
-        rows.append(("casadi", f"{peer.label} rtol {rtol:g}, atol {atol:g}, "
-                               f"`map` over {threads} threads", count,
-                     error(peer.tensions(first[0]))))
+        rows.append(
+            (
+                "casadi",
+                f"{peer.label} rtol {rtol:g}, atol {atol:g}, `map` over {threads} threads",
+                count,
+                error(peer.tensions(first[0])),
+            )
+        )
     try:
         import mujoco
         from mujoco import rollout
@@ -1055,16 +1222,24 @@ def bench_b4(count_lamech, count, count_mujoco, t_end, lines: list[str], repeats
 
             key = f"mujoco {integrator} {dt:g}"
             cases.append((key, roll))
-            rows.append((key, f"mujoco.rollout {integrator} dt {dt:g} ({threads} threads)",
-                         runs, error(mujoco_run(n, angles[0], integrator, dt, t_end)[3])))
+            rows.append(
+                (
+                    key,
+                    f"mujoco.rollout {integrator} dt {dt:g} ({threads} threads)",
+                    runs,
+                    error(mujoco_run(n, angles[0], integrator, dt, t_end)[3]),
+                )
+            )
     got = interleave(cases, repeats)
     batch_rate = (count / got["batch"].wall.median) if "batch" in got else None
     for key, label, runs, err in rows:
         timed = got[key]
         rate = runs / timed.wall.median
         vs = f"{batch_rate / rate:.2g}×" if batch_rate else "—"
-        row = (f"| {label} | {runs} | {_fmt_spread(timed.wall)} | {_fmt_spread(timed.cpu)} "
-               f"| {rate:.3g} | {vs} | {err} |")
+        row = (
+            f"| {label} | {runs} | {_fmt_spread(timed.wall)} | {_fmt_spread(timed.cpu)} "
+            f"| {rate:.3g} | {vs} | {err} |"
+        )
         print("  " + row)
         lines.append(row)
     lines.append("")
@@ -1134,14 +1309,17 @@ acceleration = "g"
 """
 
 # (label, bundled example name or problem text)
-B5_PROBLEMS = [("four-bar linkage", "four_bar"),
-               ("rolling disc (3-1-2 angles)", "rolling_disc"),
-               ("double pendulum, polar (r, theta)", DOUBLE_PENDULUM_POLAR),
-               ("double pendulum, Cartesian", DOUBLE_PENDULUM_CARTESIAN)]
+B5_PROBLEMS = [
+    ("four-bar linkage", "four_bar"),
+    ("rolling disc (3-1-2 angles)", "rolling_disc"),
+    ("double pendulum, polar (r, theta)", DOUBLE_PENDULUM_POLAR),
+    ("double pendulum, Cartesian", DOUBLE_PENDULUM_CARTESIAN),
+]
 
 
 def _lamech_problem(source: str):
     import lamech
+
     return lamech.loads(source) if "\n" in source else lamech.load(source)
 
 
@@ -1151,6 +1329,7 @@ def sympy_lagranges(system):
     (never normalised), in ``dynamicsymbols``; parameters stay lamech's symbols."""
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
+
     if any(sp.sympify(f) != 0 for f in system.forces):
         raise ValueError("B5 compares conservative systems only (no [forces])")
     t = dynamicsymbols._t
@@ -1161,8 +1340,13 @@ def sympy_lagranges(system):
         rep[c.symbol] = f
     hol = [c for c in system.constraints if c.holonomic]
     vel = [c for c in system.constraints if not c.holonomic]
-    return (sp.sympify(system.L).xreplace(rep), q, [c.expr.xreplace(rep) for c in hol],
-            [c.expr.xreplace(rep) for c in vel], [c.name for c in hol + vel])
+    return (
+        sp.sympify(system.L).xreplace(rep),
+        q,
+        [c.expr.xreplace(rep) for c in hol],
+        [c.expr.xreplace(rep) for c in vel],
+        [c.name for c in hol + vel],
+    )
 
 
 def sympy_b5(system, lagranges=None) -> tuple[dict, float, float]:
@@ -1179,6 +1363,7 @@ def sympy_b5_timed(system, lagranges=None) -> tuple[dict, float, float, float, f
     CPU seconds of form + solve, seconds to form, seconds to solve). Evaluating the
     multipliers at the initial state is outside the time."""
     from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols, msubs
+
     L, q, hol, vel, names = lagranges or sympy_lagranges(system)
     c0 = time.process_time()
     t0 = time.perf_counter()
@@ -1201,6 +1386,7 @@ def _at_start(system, exprs: dict) -> dict:
     """Each expression at the system's initial state and parameter values (30 digits:
     the raw closed forms are long), as floats."""
     import sympy as sp
+
     vals = {**system.parameter_values, system.t: 0.0}
     for c in system.coordinates:
         vals[c.symbol] = float(system.numeric(c.initial))
@@ -1222,6 +1408,7 @@ def lamech_b5_full(source: str) -> tuple[dict, float, float, float]:
     Returns (multipliers at the initial state, wall and CPU seconds of load + solve,
     seconds of the load alone)."""
     import lamech
+
     c0 = time.process_time()
     t0 = time.perf_counter()
     system = _lamech_problem(source)
@@ -1238,6 +1425,7 @@ def lamech_b5_fast(system) -> tuple[dict, float, float]:
     Euler-Lagrange equations with lambda, then every lambda in closed form, raw).
     Returns (multipliers at the initial state, wall and CPU seconds)."""
     from lamech.symbolic import multipliers
+
     c0 = time.process_time()
     t0 = time.perf_counter()
     lam = multipliers(system)
@@ -1265,27 +1453,31 @@ def _fmt_wall(t) -> str:
 
 def bench_b5(cap: float, lines: list[str], repeats: int = 3):
     print("\nB5  symbolic: derivation to the multipliers")
-    lines += ["## B5 derivation to the multipliers", "",
-              "From the equations of motion to every multiplier in closed form. lamech: "
-              "`lamech.symbolic.multipliers(system)` on the loaded System (M, h, A, γ and "
-              "the Euler-Lagrange equations with λ, then every λ as one expression, raw: "
-              "the KKT system solved by its structure, λ = (A M⁻¹ Aᵀ)⁻¹ (A M⁻¹ (h − Q) − "
-              "γ) with M⁻¹ by a symbolic LDLᵀ). SymPy: `LagrangesMethod(L, q, "
-              "hol_coneqs, nonhol_coneqs)` on the same L and constraints (built from the "
-              "same System, outside the time), `form_lagranges_equations()`, "
-              "`solve_multipliers()` (symbolic, raw). Beside them, lamech's whole report: "
-              "`lamech.load` (or `loads`, the problem text → System, its own column) + "
-              "`lamech.solve` (readable equations, elimination, tidy closed forms, "
-              "integrals, energy shell, lift-off and slip, forces). Every run in its own "
-              f"forked process on an empty SymPy cache (modules imported beforehand), "
-              f"{repeats} interleaved repeats (lamech, SymPy, lamech load + solve, then "
-              f"the other way round), each capped at {cap:.0f} s; wall time median (min–"
-              "max), ratio of medians; SymPy's split (form; solve) and lamech's load time "
-              "are the last run's. Both sides' multipliers agree at the initial state "
-              "(to 1e-8) before a time counts.", "",
-              "| problem | lamech `multipliers` | SymPy form + solve_multipliers (form; "
-              "solve) | SymPy / lamech | lamech load | lamech load + solve |",
-              "|---|---|---|---|---|---|"]
+    lines += [
+        "## B5 derivation to the multipliers",
+        "",
+        "From the equations of motion to every multiplier in closed form. lamech: "
+        "`lamech.symbolic.multipliers(system)` on the loaded System (M, h, A, γ and "
+        "the Euler-Lagrange equations with λ, then every λ as one expression, raw: "
+        "the KKT system solved by its structure, λ = (A M⁻¹ Aᵀ)⁻¹ (A M⁻¹ (h − Q) − "
+        "γ) with M⁻¹ by a symbolic LDLᵀ). SymPy: `LagrangesMethod(L, q, "
+        "hol_coneqs, nonhol_coneqs)` on the same L and constraints (built from the "
+        "same System, outside the time), `form_lagranges_equations()`, "
+        "`solve_multipliers()` (symbolic, raw). Beside them, lamech's whole report: "
+        "`lamech.load` (or `loads`, the problem text → System, its own column) + "
+        "`lamech.solve` (readable equations, elimination, tidy closed forms, "
+        "integrals, energy shell, lift-off and slip, forces). Every run in its own "
+        f"forked process on an empty SymPy cache (modules imported beforehand), "
+        f"{repeats} interleaved repeats (lamech, SymPy, lamech load + solve, then "
+        f"the other way round), each capped at {cap:.0f} s; wall time median (min–"
+        "max), ratio of medians; SymPy's split (form; solve) and lamech's load time "
+        "are the last run's. Both sides' multipliers agree at the initial state "
+        "(to 1e-8) before a time counts.",
+        "",
+        "| problem | lamech `multipliers` | SymPy form + solve_multipliers (form; "
+        "solve) | SymPy / lamech | lamech load | lamech load + solve |",
+        "|---|---|---|---|---|---|",
+    ]
 
     import sympy.physics.mechanics  # noqa: F401
 
@@ -1295,13 +1487,19 @@ def bench_b5(cap: float, lines: list[str], repeats: int = 3):
         def run():
             res, _, _ = _capped(fn, args, cap, cold=True)
             return None if res is None else (res[1], res[2], *res)
+
         return run
 
     for label, source in B5_PROBLEMS:
         system = _lamech_problem(source)
-        got = interleave([("lamech", case(lamech_b5_fast, system)),
-                          ("SymPy", case(sympy_b5_timed, system, sympy_lagranges(system))),
-                          ("full", case(lamech_b5_full, source))], repeats)
+        got = interleave(
+            [
+                ("lamech", case(lamech_b5_fast, system)),
+                ("SymPy", case(sympy_b5_timed, system, sympy_lagranges(system))),
+                ("full", case(lamech_b5_full, source)),
+            ],
+            repeats,
+        )
         fast, peer, full = got["lamech"], got["SymPy"], got["full"]
         if peer is not None:
             lam = peer.result[0]
@@ -1312,8 +1510,7 @@ def bench_b5(cap: float, lines: list[str], repeats: int = 3):
         if peer is None:
             sympy_cell = f"> {cap:.0f} s"
         else:
-            sympy_cell = (f"{_fmt_wall(peer)} ({_fmt_s(peer.result[3])}; "
-                          f"{_fmt_s(peer.result[4])})")
+            sympy_cell = f"{_fmt_wall(peer)} ({_fmt_s(peer.result[3])}; {_fmt_s(peer.result[4])})"
         if fast and peer:
             ratio = f"{peer.wall.median / fast.wall.median:.3g}×"
         elif fast:
@@ -1321,8 +1518,10 @@ def bench_b5(cap: float, lines: list[str], repeats: int = 3):
         else:
             ratio = "—"
         load = _fmt_s(full.result[3]) if full else "—"
-        row = (f"| {label} | {_fmt_wall(fast) if fast else f'> {cap:.0f} s'} | {sympy_cell} "
-               f"| {ratio} | {load} | {_fmt_wall(full) if full else f'> {cap:.0f} s'} |")
+        row = (
+            f"| {label} | {_fmt_wall(fast) if fast else f'> {cap:.0f} s'} | {sympy_cell} "
+            f"| {ratio} | {load} | {_fmt_wall(full) if full else f'> {cap:.0f} s'} |"
+        )
         print("  " + row)
         lines.append(row)
     lines.append("")
@@ -1340,17 +1539,24 @@ def _machine() -> list[str]:
         pass
     import scipy
     import sympy
-    versions = [f"Python {platform.python_version()}", f"SymPy {sympy.__version__}",
-                f"NumPy {np.__version__}", f"SciPy {scipy.__version__}"]
+
+    versions = [
+        f"Python {platform.python_version()}",
+        f"SymPy {sympy.__version__}",
+        f"NumPy {np.__version__}",
+        f"SciPy {scipy.__version__}",
+    ]
     for mod in ("numba", "mujoco", "pydy", "Cython", "casadi"):
         try:
             versions.append(f"{mod} {__import__(mod).__version__}")
         except ImportError:
             versions.append(f"{mod} not installed")
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return [f"- date: {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC",
-            f"- machine: {cpu}, {cores} cores usable, {platform.system()} {platform.machine()}",
-            "- versions: " + ", ".join(versions)]
+    return [
+        f"- date: {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC",
+        f"- machine: {cpu}, {cores} cores usable, {platform.system()} {platform.machine()}",
+        "- versions: " + ", ".join(versions),
+    ]
 
 
 PICTURE = HERE / "work_precision.png"
@@ -1365,23 +1571,30 @@ def bench_startup(repeats: int, lines: list[str]) -> None:
     import time
 
     exe = sys.executable
-    cases = [("lamech --help", [exe, "-m", "lamech", "--help"]),
-             ("lamech examples", [exe, "-m", "lamech", "examples"]),
-             ('python -c "import sympy"', [exe, "-c", "import sympy"]),
-             ('python -c "pass"', [exe, "-c", "pass"])]
+    cases = [
+        ("lamech --help", [exe, "-m", "lamech", "--help"]),
+        ("lamech examples", [exe, "-m", "lamech", "examples"]),
+        ('python -c "import sympy"', [exe, "-c", "import sympy"]),
+        ('python -c "pass"', [exe, "-c", "pass"]),
+    ]
     times: dict[str, list[float]] = {name: [] for name, _ in cases}
     for _ in range(repeats):
         for name, cmd in cases:
             t0 = time.perf_counter()
-            subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                           check=True)
+            subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
             times[name].append(time.perf_counter() - t0)
-    out = ["## Start-up (whole process, wall time)", "",
-           f"{repeats} interleaved rounds; target: `lamech --help` and `lamech examples` "
-           "under 0.4 s.", "", "| command | min | median | max |", "|---|---|---|---|"]
+    out = [
+        "## Start-up (whole process, wall time)",
+        "",
+        f"{repeats} interleaved rounds; target: `lamech --help` and `lamech examples` under 0.4 s.",
+        "",
+        "| command | min | median | max |",
+        "|---|---|---|---|",
+    ]
     for name, ts in times.items():
-        out.append(f"| `{name}` | {min(ts):.3f} s | {statistics.median(ts):.3f} s | "
-                   f"{max(ts):.3f} s |")
+        out.append(
+            f"| `{name}` | {min(ts):.3f} s | {statistics.median(ts):.3f} s | {max(ts):.3f} s |"
+        )
     out.append("")
     print("\n".join(out))
     lines += out
@@ -1390,15 +1603,20 @@ def bench_startup(repeats: int, lines: list[str]) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~4 minutes)")
-    ap.add_argument("--only", choices=["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9",
-                                       "symbolic", "solve"],
-                    action="append",
-                    help="run only these benchmarks (repeatable; symbolic is B5)")
-    ap.add_argument("--out", default=None,
-                    help="where to write the table (default bench/RESULTS.md; with --quick "
-                         "bench/quick/RESULTS.md, with --only bench/partial/RESULTS.md, both "
-                         "untracked, so a quick or partial run never overwrites the published "
-                         "results)")
+    ap.add_argument(
+        "--only",
+        choices=["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9", "symbolic", "solve"],
+        action="append",
+        help="run only these benchmarks (repeatable; symbolic is B5)",
+    )
+    ap.add_argument(
+        "--out",
+        default=None,
+        help="where to write the table (default bench/RESULTS.md; with --quick "
+        "bench/quick/RESULTS.md, with --only bench/partial/RESULTS.md, both "
+        "untracked, so a quick or partial run never overwrites the published "
+        "results)",
+    )
     args = ap.parse_args(argv)
     # a quick or partial run never overwrites the published table (untracked folders)
     folder = HERE / "quick" if args.quick else HERE / "partial" if args.only else HERE
@@ -1406,28 +1624,40 @@ def main(argv=None) -> int:
     args.out = args.out or str(folder / "RESULTS.md")
     global PICTURE
     PICTURE = folder / "work_precision.png"
-    want = {{"symbolic": "B5", "solve": "B9"}.get(w, w)
-            for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9"])}
-    lines = ["# lamech benchmark results", "",
-             f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
-             "shared machine are noisy (±20% and more while other work runs): the runs of "
-             "lamech and its peers are interleaved, each row gives min / median / max of "
-             "its repeats and the CPU time beside the wall time, and ratios are of "
-             "medians from the same process.", ""]
+    want = {
+        {"symbolic": "B5", "solve": "B9"}.get(w, w)
+        for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9"])
+    }
+    lines = [
+        "# lamech benchmark results",
+        "",
+        f"Written by `python -m bench{' --quick' if args.quick else ''}`. Timings on a "
+        "shared machine are noisy (±20% and more while other work runs): the runs of "
+        "lamech and its peers are interleaved, each row gives min / median / max of "
+        "its repeats and the CPU time beside the wall time, and ratios are of "
+        "medians from the same process.",
+        "",
+    ]
     lines += _machine() + [""]
     print("\n".join(lines))
     if "startup" in want:
         bench_startup(3 if args.quick else 7, lines)
     if "B1" in want:
-        bench_b1([2, 4, 8] if args.quick else [2, 4, 8, 12, 16, 30],
-                 20.0 if args.quick else 120.0, lines)
+        bench_b1(
+            [2, 4, 8] if args.quick else [2, 4, 8, 12, 16, 30], 20.0 if args.quick else 120.0, lines
+        )
     if "B2" in want:
         bench_b2([2, 8] if args.quick else [2, 8, 30, 100], lines, 1 if args.quick else 3)
     if "B3" in want:
         bench_b3([5] if args.quick else [5, 20], 10.0, args.quick, lines)
     if "B4" in want:
-        bench_b4(10 if args.quick else 50, 100 if args.quick else 1000,
-                 100 if args.quick else 500, 10.0, lines)
+        bench_b4(
+            10 if args.quick else 50,
+            100 if args.quick else 1000,
+            100 if args.quick else 500,
+            10.0,
+            lines,
+        )
     if "B5" in want:
         bench_b5(60.0 if args.quick else 300.0, lines)
     if "B9" in want:
@@ -1436,9 +1666,11 @@ def main(argv=None) -> int:
         bench_solve(lines, 1 if args.quick else 3, 60.0 if args.quick else 300.0, args.quick)
     if "B6" in want:
         from .sweep import bench_b6
+
         bench_b6(lines, 1 if args.quick else 3, args.quick)
     if "B7" in want:
         from .events import bench_b7
+
         bench_b7(100 if args.quick else 1000, args.quick, lines, 1 if args.quick else 3)
     Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"\nwrote {args.out}")

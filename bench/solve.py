@@ -108,11 +108,17 @@ def bench_solve(lines: list[str], repeats: int = 3, cap: float = 300.0, quick: b
     subprocess.run([py, "-m", "compileall", "-q", str(ROOT / "lamech")], capture_output=True)
     floor = [child_cpu([py, "-c", "import sympy"], cap) for _ in range(repeats)]
     base = statistics.median([f for f in floor if f is not None])
-    lines += ["## B9 whole process: `lamech solve FILE` against SymPy", "",
-              __doc__.split("\n\n", 1)[1].replace("\n", " ").strip(), "",
-              f"`python -c \"import sympy\"`: {base:.2f} s of CPU (median of {repeats}).", "",
-              "| problem | lamech solve (CPU s) | SymPy script (CPU s) | lamech / SymPy "
-              "| lamech / import sympy |", "|---|---|---|---|---|"]
+    lines += [
+        "## B9 whole process: `lamech solve FILE` against SymPy",
+        "",
+        __doc__.split("\n\n", 1)[1].replace("\n", " ").strip(),
+        "",
+        f'`python -c "import sympy"`: {base:.2f} s of CPU (median of {repeats}).',
+        "",
+        "| problem | lamech solve (CPU s) | SymPy script (CPU s) | lamech / SymPy "
+        "| lamech / import sympy |",
+        "|---|---|---|---|---|",
+    ]
     chosen = problems()
     if quick:
         chosen = [p for p in chosen if p[0] in ("cylinder", "pendulum", "double_pendulum")]
@@ -123,17 +129,21 @@ def bench_solve(lines: list[str], repeats: int = 3, cap: float = 300.0, quick: b
             script.write_text(sympy_script(system))
             ours, theirs = [], []
             for r in range(repeats):
-                pair = [("lamech", [py, "-m", "lamech", "solve", source]),
-                        ("sympy", [py, str(script)])]
-                for who, cmd in (pair if r % 2 == 0 else pair[::-1]):
+                pair = [
+                    ("lamech", [py, "-m", "lamech", "solve", source]),
+                    ("sympy", [py, str(script)]),
+                ]
+                for who, cmd in pair if r % 2 == 0 else pair[::-1]:
                     (ours if who == "lamech" else theirs).append(child_cpu(cmd, cap))
             a = statistics.median(x for x in ours if x is not None) if all(ours) else None
             b = statistics.median(x for x in theirs if x is not None) if all(theirs) else None
             ratio = f"{a / b:.2f}×" if a and b else "—"
             cell_a = f"{a:.2f}" if a else f"> {cap:.0f} or failed"
             cell_b = f"{b:.2f}" if b else f"> {cap:.0f} or failed"
-            row = (f"| {label} | {cell_a} | {cell_b} | {ratio} | "
-                   f"{(a / base) if a else float('nan'):.1f}× |")
+            row = (
+                f"| {label} | {cell_a} | {cell_b} | {ratio} | "
+                f"{(a / base) if a else float('nan'):.1f}× |"
+            )
             print("  " + row)
             lines.append(row)
     lines.append("")

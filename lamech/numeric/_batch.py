@@ -16,17 +16,18 @@ adaptive high-order Runge–Kutta with a compiled right-hand side, a projection 
 these events. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
-simulator's projection (:func:`._kernels.project.ev_project`), in the
+simulator's projection (the engine's ``ev_project``), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
-and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is
-:mod:`._kernels.batch` on the stepper of :mod:`._kernels.dop853` (the loop with events'
-too), whose twin in C (``lamech/numeric/_engine/``) is built when lamech is installed and
-runs a system from ``compile_system(system, jit=True)``; otherwise the same functions run
-as Python: the same numbers, slowly.
+and with the same iteration cap (6). The loop's code is ``batch.c`` on the stepper of
+``dop853.c`` (the loop with events' too), in lamech's engine in C
+(``lamech/numeric/_engine/``, built when lamech is installed), with the system's compiled
+functions for ``compile_system(system, jit=True)``; otherwise its NumPy functions are
+called back from the engine (:func:`._crules.callback_kernels`): the same numbers to
+rounding, slower, in one thread.
 
 :func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
-DOP853 loop carrying the simulator's contact and friction mode (:mod:`._kernels.loop`,
-:mod:`._kernels.modes`, :mod:`._kernels.impacts`), the watched events located by Brent's
+DOP853 loop carrying the simulator's contact and friction mode (``loop.c``,
+``modes.c``, ``impacts.c``), the watched events located by Brent's
 method on DOP853's dense output, lift-off, slip and stick applied in the loop, and a
 status that hands what it does not mirror (impacts and contacts, failures) to
 :func:`lamech.numeric.simulate`; with :func:`parameter_rows` and :func:`initial_states`,
@@ -124,8 +125,8 @@ def integrate_batch(
 
     ``rtol``, ``atol``: by default those of :class:`~lamech.Options` (the simulator's).
     ``ns`` from ``compile_system(system, jit=True)`` runs compiled (C); otherwise the
-    same loop runs as Python. Only for systems whose constraints are all bilateral and
-    without friction limits (raises ValueError otherwise): there are no events here.
+    same loop calls its NumPy functions back. Only for systems whose constraints are all
+    bilateral and without friction limits (raises ValueError otherwise): there are no events here.
     """
     system = ns.system
     if any(c.unilateral or c.friction is not None for c in system.constraints):
@@ -465,9 +466,9 @@ def integrate_events(
     has happened (status ``"found"``). ``params`` as for :func:`~lamech.integrate_batch`, or an
     array of parameter vectors (B, len(ns.parameters)). Compiled (the engine in C) when
     ``jit`` (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and it can
-    run, else the same loop runs as Python (same numbers). Compiled, the batch is
-    cut into slices run in ``threads`` threads (default: the CPUs this process may use;
-    the loop releases the GIL).
+    run, else the same loop with its NumPy functions called back (same numbers to
+    rounding). Compiled, the batch is cut into slices run in ``threads`` threads
+    (default: the CPUs this process may use; the loop releases the GIL).
     Inputs that switch (step, min, max, clip, piecewise) switch where their s crosses 0,
     located as the events are, and a system with t in it has its force events sought
     inside each step too (as in ``simulate``).

@@ -7,10 +7,13 @@ them (:func:`._cengine.c_kernels`), else its NumPy functions called back from C
 failed to compile, or with a function replaced, :attr:`NumericSystem.replaced`).
 
 A callback fills the arrays the engine hands it, as the generated C does (``engine.h``'s
-``lm_dynamics_fn`` and the others). One that raises (a user's expression out of its
-domain) returns NaN, as do the calls after it, and the exception is raised again in
-Python when the entry point returns (:class:`._cengine._Checked`), so a run stops with
-the message it stopped with when the rules ran as Python.
+``lm_dynamics_fn`` and the others). A function evaluated out of an expression's domain
+(ValueError, ArithmeticError: ``math.sqrt(-1)``, an overflow, a division by zero)
+fills NaN, as the compiled C does (``sqrt(-1)`` is NaN there): the engine then rejects
+the trial step or reports the failure, and the Python side names the cause
+(:meth:`._run.Run.kkt`). Any other exception (a replaced function's own error, Ctrl-C)
+is kept, the calls after it return NaN, and it is raised again in Python when the entry
+point returns (:class:`._cengine._Checked`).
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ def _view(address, count: int) -> np.ndarray:
     """The engine's ``count`` doubles at ``address`` as a NumPy array (no copy)."""
     if not count or not address:
         return np.zeros(0)
-    return np.frombuffer((_D * count).from_address(address), dtype=np.float64)
+    return np.ctypeslib.as_array((_D * count).from_address(address))
 
 
 class Callbacks:
@@ -75,6 +78,8 @@ class Callbacks:
                     try:
                         body(*a)
                         return
+                    except (ValueError, ArithmeticError):
+                        pass  # out of an expression's domain: NaN, as the compiled C gives
                     except BaseException as exc:  # noqa: BLE001 - raised again after the call
                         self.error = exc
                 nan(outputs(*a))
@@ -171,7 +176,8 @@ def rules_of(ns) -> CRules:
     kernels = engine_kernels(ns)
     rules = getattr(kernels, "rules", None)
     if rules is None:
-        rules = kernels.rules = CRules(kernels)
+        rules = CRules(kernels)
+        kernels.rules = rules  # type: ignore[attr-defined]
     return rules
 
 
