@@ -4,12 +4,13 @@ and the starts, built once when lamech is installed (``setup.py``: the extension
 own functions compiled by the machine's C compiler at first use (:mod:`._cc`) and handed
 to it as function pointers.
 
-The C is the twin of the kernels of :mod:`._kernels` (which stay: the same rules run as
-Python, for SciPy's road and the engine ``"python"``), computing the same terms in the
-same order. This module holds the records the C reads (:class:`_System` and the others,
-mirrors of ``engine.h``'s structs), checks every array Python hands over (dtype, order,
-shape, and the indices the engine follows: a wrong one is a ValueError here, never a
-crash there), and gives the engine's entry points the kernels' own Python signatures
+The C is the one implementation of the rules, used by every road: the loops here,
+SciPy's integrators through ``rules.c`` (:mod:`._crules`), and systems without compiled
+functions, whose NumPy functions the engine calls back (:func:`._crules.callback_kernels`:
+the engine ``"python"``). This module holds the records the C reads (:class:`_System`
+and the others, mirrors of ``engine.h``'s structs), checks every array Python hands over
+(dtype, order, shape, and the indices the engine follows: a wrong one is a ValueError here, never a
+crash there), and gives the engine's entry points the former kernels' Python signatures
 (:func:`c_kernels`), so that callers cannot tell the roads apart but by speed.
 
 ctypes, not the CPython API: the engine then needs no Python headers beyond the empty

@@ -36,11 +36,17 @@ _ENERGY = ctypes.CFUNCTYPE(None, _D, _P, _P, _P, _P)  # also the switches'
 _RESTITUTION = ctypes.CFUNCTYPE(None, _D, _P, _P, _P)
 
 
+_ARRAYS: dict[int, type] = {}
+
+
 def _view(address, count: int) -> np.ndarray:
     """The engine's ``count`` doubles at ``address`` as a NumPy array (no copy)."""
     if not count or not address:
         return np.zeros(0)
-    return np.ctypeslib.as_array((_D * count).from_address(address))
+    kind = _ARRAYS.get(count)
+    if kind is None:
+        kind = _ARRAYS[count] = _D * count  # ctypes makes the type anew each time: 1.3 us
+    return np.frombuffer(kind.from_address(address), dtype=np.float64)  # type: ignore[attr-defined]
 
 
 class Callbacks:
