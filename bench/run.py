@@ -33,6 +33,8 @@ B5  symbolic: derivation to the multipliers (equations -> every lambda in closed
 B9  whole process (bench/solve.py): `lamech solve FILE` against a SymPy script
     (LagrangesMethod + solve_multipliers) on the same problem, CPU time of each child
     process, interleaved, beside `python -c "import sympy"`.
+B10 a map of regimes (bench/map.py): `lamech.map` from the closed forms, points per CPU
+    second after start-up, beside `lamech sweep` simulating B6's cases.
 B7  ensembles with events (bench/events.py): 1000 balls dropped on a floor (first
     contact) and 1000 cylinders rolling off the lecture's fixed cylinder (lift-off),
     lamech's ``integrate_events`` against ``mujoco.rollout``, runs/s at equal accuracy of
@@ -1605,7 +1607,21 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="small sizes and caps (~4 minutes)")
     ap.add_argument(
         "--only",
-        choices=["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9", "symbolic", "solve"],
+        choices=[
+            "startup",
+            "B1",
+            "B2",
+            "B3",
+            "B4",
+            "B5",
+            "B6",
+            "B7",
+            "B9",
+            "B10",
+            "symbolic",
+            "solve",
+            "map",
+        ],
         action="append",
         help="run only these benchmarks (repeatable; symbolic is B5)",
     )
@@ -1625,8 +1641,8 @@ def main(argv=None) -> int:
     global PICTURE
     PICTURE = folder / "work_precision.png"
     want = {
-        {"symbolic": "B5", "solve": "B9"}.get(w, w)
-        for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9"])
+        {"symbolic": "B5", "solve": "B9", "map": "B10"}.get(w, w)
+        for w in (args.only or ["startup", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B9", "B10"])
     }
     lines = [
         "# lamech benchmark results",
@@ -1672,6 +1688,10 @@ def main(argv=None) -> int:
         from .events import bench_b7
 
         bench_b7(100 if args.quick else 1000, args.quick, lines, 1 if args.quick else 3)
+    if "B10" in want:
+        from .map import bench_b10
+
+        bench_b10(lines, 1 if args.quick else 3, args.quick)
     Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"\nwrote {args.out}")
     return 0

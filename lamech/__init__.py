@@ -65,6 +65,8 @@ _PUBLIC = {
     "integrate_batch": "numeric",
     # sweep
     "sweep": "sweeps",
+    "map": "sweeps",
+    "MapResult": "sweeps",
     "SweepResult": "sweeps",
     "SweepError": "sweeps",
     "run_sweep": "sweeps",  # deprecated: warns when called; use sweep
@@ -79,6 +81,7 @@ _PUBLIC = {
 __all__ = [
     "LamechError",
     "Body",
+    "MapResult",
     "Constraint",
     "Coordinate",
     "DegenerateConstraintsError",
@@ -104,6 +107,7 @@ __all__ = [
     "integrate_batch",
     "load",
     "loads",
+    "map",
     "modes",
     "multipliers",
     "plot_trajectory",
@@ -158,7 +162,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     )
     from .present import animate, plot_trajectory, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
-    from .sweeps import SweepError, SweepResult, sweep
+    from .sweeps import MapResult, SweepError, SweepResult, sweep
+    from .sweeps import map as map
     from .sweeps import run_sweep as run_sweep  # deprecated
     from .symbolic import (
         DegenerateConstraintsError,

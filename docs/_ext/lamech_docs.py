@@ -18,7 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-COMMANDS = ("", "solve", "modes", "examples", "simulate", "sweep", "report", "serve")
+COMMANDS = ("", "solve", "modes", "examples", "simulate", "sweep", "map", "report", "serve")
 
 
 def _write(path: Path, text: str) -> None:

@@ -88,19 +88,11 @@ def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, floa
 
 
 def _quantity(text: str, name: str, system, option: str):
-    """The quantity ``text`` of ``NAME=text`` in SI; a ValueError when the file's units
-    give ``name`` another dimension."""
-    from ..expr import quantity
+    """The quantity ``text`` of ``NAME=text`` in SI; a ValueError when its dimension is
+    not ``name``'s (the problem's, given or inferred; :func:`lamech.model.in_si`)."""
+    from ..model import in_si
 
-    q = quantity(text)
-    units = getattr(system, "units", None)
-    known = units.of(name) if units is not None else None  # x, x' or a parameter
-    if known is not None and known != q.dimension:
-        raise ValueError(
-            f"{option} {name}={text}: has dimension {q.dimension.described()}, but `{name}` "
-            f"has {known.described()} in the problem file"
-        )
-    return q.value
+    return in_si(system, {name: text}, option + " {name}={value}")[name]
 
 
 def positive_int(text: str) -> int:

@@ -13,6 +13,7 @@ import time
 from .._version import __version__
 from ._args import add_assignments, evaluate_assignments
 from ._files import add_data_dir
+from ._map import add_parser as add_map
 from ._report import add_parser as add_report
 from ._serve import add_parser as add_serve
 from ._simulate import add_parser as add_simulate  # light: argparse only
@@ -166,6 +167,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("name", nargs="?", help="a bundled example: print its problem file")
     add_simulate(sub)
     add_sweep(sub)
+    add_map(sub)
     add_report(sub)
     add_serve(sub)
     return p
@@ -267,6 +269,10 @@ def _dispatch(args: argparse.Namespace) -> int:
         from ._sweep import run as run_sweep
 
         return run_sweep(args)
+    if command == "map":
+        from ._map import run as run_map
+
+        return run_map(args)
     if command == "examples":
         from ..problem import example_names, example_path, example_title
 

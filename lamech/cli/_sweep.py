@@ -225,6 +225,8 @@ def _run(args) -> int:
         + f" in {result.seconds:.3g} s on {result.backend}",
         file=out,
     )
+    if result.units:  # issue 46: the SI unit of each column whose dimension is known
+        print("  units (SI): " + ", ".join(f"{k} {u}" for k, u in result.units.items()), file=out)
     failed = [r for r in result.rows if r["status"] != "ok"]
     for r in failed[:3]:
         where = ", ".join(f"{n} = {r[n]:g}" for n in result.parameters)

@@ -76,7 +76,7 @@ def _work(kind: str, text: str, options: dict) -> dict:
     import matplotlib
 
     matplotlib.use("Agg")
-    from ..model import ModelError
+    from ..model import ModelError, result_units
     from ..numeric import SimulationError, simulate
     from ..present import report_page
     from ..problem import ProblemFileError, loads
@@ -128,6 +128,9 @@ def _work(kind: str, text: str, options: dict) -> dict:
             **{n: _number(v) for n, v in zip(traj.coordinates, traj.q[0])},
             **{n + "'": _number(v) for n, v in zip(traj.coordinates, traj.qd[0])},
         }
+    units = result_units(system)
+    if units:  # issue 46: the unit of each value the page shows
+        answer["units"] = units
     return answer
 
 
@@ -135,7 +138,7 @@ def _simulated(system, options: dict) -> dict:
     """A page's slider moved: the simulation alone, at ``options["params"]`` (parameter
     values, ``mu`` or ``mu:<constraint>`` for a friction coefficient, as ``--param``),
     its events and status, without solving again or making a page."""
-    from ..model import ModelError, with_values
+    from ..model import ModelError, result_units, with_values
     from ..numeric import SimulationError, simulate
     from ..symbolic._conditions import is_angle
 
@@ -146,10 +149,12 @@ def _simulated(system, options: dict) -> dict:
     except (SimulationError, ModelError, ValueError, KeyError) as exc:
         return {"ok": False, "errors": errors(exc)}
     angles = {c.name for c in system.coordinates if is_angle(system, c.symbol)}
+    units = result_units(system)
     return {
         "ok": True,
         "title": system.title,
         "params": params,
+        **({"units": units} if units else {}),
         "status": str(traj.status),
         "message": traj.message,
         "events": _events(traj, angles),

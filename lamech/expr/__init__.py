@@ -54,7 +54,17 @@ from ._inputs import (
 )
 from ._parse import parse
 from ._print import latex, printable, to_text
-from ._units import Dimension, Quantity, is_quantity, quantity, unit
+from ._units import (
+    Dimension,
+    Quantity,
+    as_quantity,
+    is_angle_unit,
+    is_quantity,
+    quantity,
+    spelled_hint,
+    spelled_names,
+    unit,
+)
 
 __all__ = [
     "ExpressionError",
@@ -82,6 +92,10 @@ __all__ = [
     "Dimension",
     "Quantity",
     "is_quantity",
+    "is_angle_unit",
+    "as_quantity",
+    "spelled_names",
+    "spelled_hint",
     "quantity",
     "unit",
 ]

@@ -48,6 +48,10 @@ __all__ = [
     "ENERGY",
     "FORCE",
     "is_quantity",
+    "is_angle_unit",
+    "as_quantity",
+    "spelled_names",
+    "spelled_hint",
     "quantity",
     "unit",
 ]
@@ -193,6 +197,8 @@ class Quantity(NamedTuple):
     value: sp.Expr
     dimension: Dimension
     text: str
+    unit: str = ""
+    """The unit as written (``"cm"``)."""
 
 
 def is_quantity(value: Any) -> bool:
@@ -221,7 +227,42 @@ def quantity(text: str) -> Quantity:
             text,
         )
     factor, dimension = unit(m.group("unit"), text)
-    return Quantity(sp.Rational(number) * factor, dimension, text)
+    return Quantity(sp.Rational(number) * factor, dimension, text, m.group("unit"))
+
+
+def as_quantity(value: Any) -> Quantity | None:
+    """``value`` as a :class:`Quantity` in SI: the text of a quantity (``"30 cm"``) or a
+    pint Quantity (anything with ``magnitude`` and ``units``, from any registry: its
+    unit is read again by name); None for anything else (a number, an expression).
+    A pint Quantity's value is exact for a scalar (its float's decimal times the unit's
+    exact factor), an array of floats for an array.
+
+    Raises
+    ------
+    ExpressionError
+        As :func:`quantity` and :func:`unit`.
+    """
+    if isinstance(value, str):
+        return quantity(value) if is_quantity(value) else None
+    if not (hasattr(value, "magnitude") and hasattr(value, "units")):
+        return None
+    text = str(value.units)  # pint's names: "centimeter", "meter / second ** 2"
+    factor, dimension = (
+        (sp.Integer(1), DIMENSIONLESS) if text in ("", "dimensionless") else unit(text)
+    )
+    magnitude = value.magnitude
+    if getattr(magnitude, "shape", ()) == ():
+        try:
+            exact = sp.Rational(repr(float(magnitude))) * factor
+        except (TypeError, ValueError):
+            raise ExpressionError(
+                "a quantity's magnitude must be a real number", str(value)
+            ) from None
+        return Quantity(exact, dimension, str(value), text)
+    import numpy as np
+
+    array = np.asarray(magnitude, dtype=float) * float(factor)
+    return Quantity(array, dimension, str(value), text)
 
 
 _REGISTRY: Any = None
@@ -286,6 +327,49 @@ def unit(text: str, whole: str | None = None) -> tuple[sp.Expr, Dimension]:
             key = _PINT_BASES.get(base, base.strip("[]"))
             powers[key] = powers.get(key, Fraction(0)) + Fraction(q).limit_denominator(12) * p
     return factor, Dimension._make(powers)
+
+
+def is_angle_unit(text: str) -> bool:
+    """Whether the unit ``text`` is an angle or an angle per time (``deg``, ``rad``,
+    ``turn``, ``rpm``, ``deg/s``): a unit pint's registry roots in radians. False for
+    text that is not a unit."""
+    try:
+        ureg = _registry()
+        root = dict(ureg.get_root_units(ureg.parse_units(text.strip()))[1]._units)
+    except Exception:  # not a unit: said where the unit is read
+        return False
+    return root.get("radian") == 1 and set(root) <= {"radian", "second"}
+
+
+def spelled_names(unit_text: str, names: Any) -> list[tuple[str, str]]:
+    """The words of ``unit_text`` that spell one of ``names`` (a problem's parameters),
+    each with the unit pint reads it as: ``("2 g" beside a parameter g)`` gives
+    ``[("g", "gram")]``. In a quantity a word is always a unit, so ``"2 g"`` is two grams,
+    never twice the parameter g (that is ``"2*g"``)."""
+    out = []
+    for word in dict.fromkeys(re.findall(r"[A-Za-z_µΩ°][A-Za-z_µΩ°0-9]*", unit_text)):
+        if word in names:
+            try:
+                long = str(_registry().parse_units(word))
+            except Exception:  # not a unit alone (said where the unit is read)
+                continue
+            out.append((word, long))
+    return out
+
+
+def spelled_hint(value: str, unit_text: str, names: Any) -> str:
+    """What a quantity's unit that spells a parameter's name means (:func:`spelled_names`),
+    as a sentence; "" when it spells none."""
+    found = spelled_names(unit_text, names)
+    if not found:
+        return ""
+    said = ", ".join(f"`{w}` is the unit {long}, not the parameter {w}" for w, long in found)
+    m = _QUANTITY.match(value)
+    number = m.group("number") if m else value
+    w = found[0][0]
+    return (
+        f'in the quantity "{value}", {said}: write "{number}*{w}" for {number} times the parameter'
+    )
 
 
 def _exact_factor(f: float) -> sp.Expr:

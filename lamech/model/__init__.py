@@ -19,13 +19,15 @@ from .._moved import moved
 from ._assemble import assemble, split_lagrangian
 from ._base import ConstraintKind, ModelError, SceneryKind, ShapeKind
 from ._chart import Chart, ChartProposal, circle_chart, with_chart
-from ._dimensions import Units, infer_units
+from ._dimensions import Units, infer_units, result_units
 from ._kinematics import body_energy
 from ._loads import AppliedForce, Load, Spring, Torque, load_terms
+from ._overrides import check_dimensions, in_si
 from ._parts import (
     Body,
     Constraint,
     Coordinate,
+    Drive,
     ForceSpec,
     Friction,
     Parameter,
@@ -43,6 +45,7 @@ __all__ = [
     "Coordinate",
     "Constraint",
     "Friction",
+    "Drive",
     "Body",
     "ForceSpec",
     "Scenery",
@@ -68,6 +71,9 @@ __all__ = [
     "body_energy",
     "Units",
     "infer_units",
+    "result_units",
+    "in_si",
+    "check_dimensions",
 ]
 
 # The kinematics, the checks and the rules' vocabulary are lamech's own plumbing: they

@@ -34,7 +34,7 @@ radians, N/m for f in m^2; a velocity constraint's f times a time).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import TYPE_CHECKING
@@ -56,7 +56,7 @@ from ._base import ModelError
 if TYPE_CHECKING:
     from ._system import System
 
-__all__ = ["Units", "infer_units"]
+__all__ = ["Units", "infer_units", "result_units"]
 
 ACCELERATION = LENGTH / TIME**2
 _DIMENSIONLESS_ARGUMENT = (
@@ -75,6 +75,9 @@ class Units:
     symbols: tuple[tuple[str, Dimension], ...] = ()
     multipliers: tuple[tuple[str, Dimension], ...] = ()
     forces: tuple[tuple[str, Dimension], ...] = ()
+    angles: tuple[str, ...] = ()
+    """The parameters the file gives in a unit of angle (``"30 deg"``, ``"2 rad/s"``):
+    rad where their dimension is 1, rad/s where it is 1/s."""
 
     def of(self, name: str) -> Dimension | None:
         return dict(self.symbols).get(name)
@@ -523,3 +526,54 @@ def _units(system: System, dims: dict[sp.Symbol, Dimension], rules: _Rules) -> U
         if point is not None and not point.unknown:
             forces.append((con.name, ENERGY / point.const))
     return Units(tuple(symbols), tuple(multipliers), tuple(forces))
+
+
+def _with_rad(text: str) -> str:
+    """``1`` -> ``rad``, ``1/s`` -> ``rad/s``: an angle's unit, and its rate's."""
+    return "rad" if text == "1" else "rad" + text[1:] if text.startswith("1/") else text
+
+
+def result_units(system: System, forces: Iterable[str] | None = None) -> dict[str, str]:
+    """The SI unit of every named quantity of ``system`` whose dimension is known, by the
+    names the results use (issue 46): each parameter (``"m": "kg"``, ``"g": "m/s^2"``;
+    ``"rad"`` for one given in degrees), ``"t": "s"``, each coordinate and velocity
+    (``"r": "m"``, ``"r'": "m/s"``; an angle ``"rad"``, ``"rad/s"``), each multiplier
+    ``"lambda:<constraint>"`` (N, N*m, N/m, ...), each Cartesian force component
+    ``"force:<constraint>:<direction>"`` (N) and the ``"energy"`` (J). ``forces`` names
+    the force components as ``"<constraint>:<direction>"`` (default: the directions of
+    each constraint's ``force``, or x, y, z). Empty where the file gives no units."""
+    units = system.units
+    if units is None:
+        return {}
+    out: dict[str, str] = {}
+    for p in system.parameters:
+        d = units.of(p.name)
+        if d is not None:
+            out[p.name] = _with_rad(d.si()) if p.name in units.angles else d.si()
+    out["t"] = "s"
+    for c in system.coordinates:
+        for name in (c.name, c.name + "'"):
+            d = units.of(name)
+            if d is not None:
+                out[name] = _with_rad(d.si())
+    chart = system.chart
+    mapped = chart.map if chart is not None else ()
+    args = [a for _, e in mapped for f in e.atoms(sp.sin, sp.cos) for a in f.args]
+    for c in chart.coordinates if chart is not None else ():
+        # a chart's angle (a circle solved in its angle: x = l*sin(theta)) is in rad
+        if c.name not in out and any(c.symbol in a.free_symbols for a in args):
+            out[c.name], out[c.name + "'"] = "rad", "rad/s"
+    for name, d in units.multipliers:
+        out[f"lambda:{name}"] = d.si()
+    if forces is None:
+        forces = []
+        for con in system.constraints:
+            if con.force is not None:
+                dirs = [n for n, _ in con.force.along] or list("xyz"[: len(con.force.at)])
+                forces += [f"{con.name}:{d}" for d in dirs]
+    for key in forces:
+        d = units.force(key.split(":")[0])
+        if d is not None:
+            out[f"force:{key}"] = d.si()
+    out["energy"] = "J"
+    return out

@@ -32,6 +32,7 @@ from ._base import (
 )
 
 __all__ = [
+    "Drive",
     "parameter",
     "parameters",
     "parameter_numbers",
@@ -77,6 +78,17 @@ class Coordinate:
 
     def __post_init__(self) -> None:
         ModelError.check(coordinate_issues(self))
+
+
+@dataclass(frozen=True)
+class Drive:
+    """What makes a constraint a drive (a prescribed motion, ``[[drives]]``): its
+    multiplier is reported as the force or torque the drive applies, lambda df/dq_c on
+    its ``coordinate`` q_c (positive when it pushes the coordinate forward: with
+    f = q_c - motion(t), df/dq_c = 1 and the generalized force on q_c is lambda itself);
+    ``coordinate`` None for a general f(q, t), whose generalized force is lambda df/dq."""
+
+    coordinate: str | None = None
 
 
 @dataclass(frozen=True)
@@ -136,6 +148,7 @@ class Constraint:
     force: ForceSpec | None = None
     restitution: sp.Expr = sp.Integer(0)
     multiplier: sp.Symbol = field(default=None)
+    drive: Drive | None = None  # a prescribed motion ([[drives]]): see Drive
 
     def __post_init__(self) -> None:
         as_enum(self, "kind", ConstraintKind)
@@ -466,6 +479,10 @@ def constraint_issues(c: Constraint) -> Issues:
         out.append((join(where, "force"), "must be a ForceSpec or None"))
     if not is_expr(c.restitution):
         out.append((join(where, "restitution"), not_expr(c.restitution, "the restitution")))
+    if c.drive is not None and not isinstance(c.drive, Drive):
+        out.append((join(where, "drive"), "must be a Drive or None"))
+    elif c.drive is not None and (c.unilateral or c.friction is not None):
+        out.append((join(where, "drive"), "a drive is bilateral and has no friction"))
     expected = f"lambda_{c.name}"
     if isinstance(c.name, str) and (
         not isinstance(c.multiplier, sp.Symbol) or c.multiplier.name != expected

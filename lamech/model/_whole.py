@@ -237,6 +237,15 @@ def _expression_issues(s: System, scope: Scope) -> Issues:
         check(con.restitution, "restitution", f"{where} restitution")
         if con.friction is not None:
             check(con.friction.mu, "mu", f"{where} friction.mu")
+        names = [c.name for c in s.coordinates]
+        if con.drive is not None and con.drive.coordinate not in (None, *names):
+            out.append(
+                (
+                    f"{where} drive",
+                    f"drives `{con.drive.coordinate}`, which is not a coordinate; known: "
+                    + ", ".join(names),
+                )
+            )
         if con.force is not None:
             for x in con.force.at:
                 check(x, "at", f"{where} force.at")

@@ -3,7 +3,7 @@ with the contact and friction events of sweeps (:func:`integrate_events`).
 
 :func:`integrate_batch` integrates a batch of initial states of a compiled system
 (:func:`lamech.numeric.compile_system`) to ``t_end`` inside one compiled loop (lamech's
-engine in C, :mod:`._cengine`: the batch spread over the cores in threads),
+engine in C, ``lamech.numeric._cengine``: the batch spread over the cores in threads),
 and returns the final states and multipliers. It is the fast path for sweeps and
 ensembles of problems whose constraints are all bilateral and frictionless-or-sticking:
 it has no events (no lift-off, impact or slip) and no dense output.
@@ -22,7 +22,7 @@ and with the same iteration cap (6). The loop's code is ``batch.c`` on the stepp
 ``dop853.c`` (the loop with events' too), in lamech's engine in C
 (``lamech/numeric/_engine/``, built when lamech is installed), with the system's compiled
 functions for ``compile_system(system, jit=True)``; otherwise its NumPy functions are
-called back from the engine (:func:`._crules.callback_kernels`): the same numbers to
+called back from the engine (``lamech.numeric._crules.callback_kernels``): the same numbers to
 rounding, slower, in one thread.
 
 :func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
@@ -80,7 +80,7 @@ class BatchResult:
 
 def _python_loops(ns: NumericSystem):
     """(parallel loop, serial loop) of the batch part on the engine in C with the
-    system's NumPy functions called back (:func:`._crules.callback_kernels`: one thread,
+    system's NumPy functions called back (``lamech.numeric._crules.callback_kernels``: one thread,
     the callbacks hold the GIL)."""
     from ._crules import callback_kernels
 
@@ -211,7 +211,7 @@ def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
     """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's, with the
     system's compiled functions when ``jit`` (default: ``ns.jit``) and they compile
     (``"compiled"`` True), else with its NumPy functions called back
-    (:func:`._crules.callback_kernels`; also where one of ``ns``' functions was replaced:
+    (``lamech.numeric._crules.callback_kernels``; also where one of ``ns``' functions was replaced:
     the compiled functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
     use = bool(ns.jit if jit is None else jit) and not ns.replaced and compiled_available()
     key = (id(ns), use)

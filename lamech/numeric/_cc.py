@@ -1,6 +1,6 @@
 """A system's functions compiled by the machine's C compiler, for lamech's engine in C.
 
-The engine (:mod:`._cengine`, built when lamech is installed) calls each system's
+The engine (``lamech.numeric._cengine``, built when lamech is installed) calls each system's
 functions through their addresses. They are printed by SymPy's C printer from the same
 common subexpressions as the NumPy functions (:func:`._codegen._c_function`) and compiled
 in a fraction of a second on a problem's first compiled run, into a shared library kept

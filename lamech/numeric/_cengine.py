@@ -5,8 +5,8 @@ own functions compiled by the machine's C compiler at first use (:mod:`._cc`) an
 to it as function pointers.
 
 The C is the one implementation of the rules, used by every road: the loops here,
-SciPy's integrators through ``rules.c`` (:mod:`._crules`), and systems without compiled
-functions, whose NumPy functions the engine calls back (:func:`._crules.callback_kernels`:
+SciPy's integrators through ``rules.c`` (``lamech.numeric._crules``), and systems without compiled
+functions, whose NumPy functions the engine calls back (``lamech.numeric._crules.callback_kernels``:
 the engine ``"python"``). This module holds the records the C reads (:class:`_System`
 and the others, mirrors of ``engine.h``'s structs), checks every array Python hands over
 (dtype, order, shape, and the indices the engine follows: a wrong one is a ValueError here, never a
@@ -269,7 +269,7 @@ class CKernels:
     def __init__(self, pattern, diagonal: bool, n: int, m: int, nparams: int, addresses,
                  slots, keep, cache: str, path: Path | None, calls=None):  # fmt: skip
         lib = _library()
-        # ``calls``: the system's functions are Python called back (:mod:`._crules`); an
+        # ``calls``: the system's functions are Python called back (``lamech.numeric._crules``); an
         # exception one raised comes back here after the entry point returns
         self.lib = lib if calls is None else _Checked(lib, calls)
         self.parallel = calls is None  # a callback holds the GIL: one thread

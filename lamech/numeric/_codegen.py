@@ -33,11 +33,12 @@ function's docstring. Only code printed by SymPy from the derived expressions is
 compiled; no user text reaches ``exec``.
 
 ``compile_system(system, jit=True)`` runs the system on lamech's engine in C
-(:mod:`._cengine`, built when lamech is installed): the system's functions are printed as
-C from the same common subexpressions and compiled by the machine's C compiler
-(:mod:`._cc`, a fraction of a second, kept in the cache folder: ``NumericSystem.jit_cache``
-says whether it was loaded), and the engine's KKT solves, loops and events call them. The
-NumPy/``math`` version is the reference and gives the same numbers.
+(``lamech.numeric._cengine``, built when lamech is installed): the system's functions
+are printed as C from the same common subexpressions and compiled by the machine's C
+compiler (``lamech.numeric._cc``, a fraction of a second, kept in the cache folder:
+``NumericSystem.jit_cache`` says whether it was loaded), and the engine's KKT solves,
+loops and events call them. The NumPy/``math`` version is the reference and gives the
+same numbers.
 """
 
 from __future__ import annotations
@@ -92,7 +93,7 @@ class _Printer(PythonCodePrinter):
 
 
 class _CPrinter(C99CodePrinter):
-    """C of the same expressions (:mod:`._cc` compiles it): floats exact, and powers,
+    """C of the same expressions (``lamech.numeric._cc`` compiles it): floats exact, and powers,
     rationals and branches written as :class:`_Printer` writes them, so that the C and
     the Python do the same operations. What it cannot print is in ``_not_supported``
     (the system then has no C form)."""
@@ -186,8 +187,8 @@ class _Switches:
 
 def compiled_available() -> bool:
     """Whether systems can run compiled: lamech's engine in C was built at install
-    (:mod:`._cengine`) and a C compiler is there for each system's own functions
-    (:mod:`._cc`)."""
+    (``lamech.numeric._cengine``) and a C compiler is there for each system's own functions
+    (``lamech.numeric._cc``)."""
     from . import _cc, _cengine
 
     return _cc.compiler() is not None and _cengine.available()
@@ -223,7 +224,7 @@ class NumericSystem:
     pattern: tuple = ()  # structural nonzeros of A (see _kkt.sparsity)
     mass_diagonal: bool = False  # M diagonal symbolically: KKT solved by Schur complement
     source: str = ""
-    # the C of the functions the compiled loop calls (:mod:`._cc`), "" where there is none
+    # the C of the functions the compiled loop calls (lamech.numeric._cc), "" where none
     c_source: str = ""
     jit: bool = False
     # with jit, where the compiled code came from: "loaded" (the cache on disk, nothing
@@ -382,7 +383,7 @@ def _function_source(
 
 
 def _c_function(name, args, outputs, slots, repl, reduced, mapping) -> str | None:
-    """The C twin of one generated function (:mod:`._cc`): ``void c_<name>(double t,
+    """The C twin of one generated function (``lamech.numeric._cc``): ``void c_<name>(double t,
     const double *q, ..., double *<output>, ...)`` writing each output's nonzero entries
     (row-major) into arrays the caller zeroed; None where the C printer cannot print an
     expression."""
@@ -488,7 +489,7 @@ def _kernels(
     fns: dict, diagonal: bool, pattern, jit: bool | None, c_source: str, slots, sizes: tuple
 ):
     """(rhs_kernel, accelerations, kkt_solve, batch loops, compiled state): on the engine
-    in C (:mod:`._cengine`) when ``jit`` (None: wherever it can) and the system has C
+    in C (``lamech.numeric._cengine``) when ``jit`` (None: wherever it can) and the system has C
     (``c_source``) and a compiler compiles it, the state where its library came from
     (:func:`._cc.load`); else NumPy (no batch loops: :mod:`._batch` runs the engine's
     with the NumPy functions called back;
@@ -701,7 +702,7 @@ def compile_system(system: System, jit: bool | None = False) -> NumericSystem:
 
     ``jit=True`` or ``None`` runs it on lamech's engine in C where it can (the engine
     built at install and a C compiler for the system's own functions, compiled in a
-    fraction of a second or loaded from the cache folder: :mod:`._cengine`), else with
+    fraction of a second or loaded from the cache folder: ``lamech.numeric._cengine``), else with
     NumPy, silently; ``jit=False``: NumPy.
     """
     import time as _time

@@ -2,7 +2,7 @@
 (issue 45: one implementation of every rule): :class:`CRules` gives ``rules.c``'s entry
 points the Python signatures SciPy's road calls (:func:`._run.rules`), and
 :func:`engine_kernels` the engine for any system: its compiled functions where it has
-them (:func:`._cengine.c_kernels`), else its NumPy functions called back from C
+them (``lamech.numeric._cengine.c_kernels``), else its NumPy functions called back from C
 (:class:`Callbacks`: a system run with ``jit=False``, without a C compiler, whose C
 failed to compile, or with a function replaced, :attr:`NumericSystem.replaced`).
 
@@ -13,7 +13,7 @@ fills NaN, as the compiled C does (``sqrt(-1)`` is NaN there): the engine then r
 the trial step or reports the failure, and the Python side names the cause
 (:meth:`._run.Run.kkt`). Any other exception (a replaced function's own error, Ctrl-C)
 is kept, the calls after it return NaN, and it is raised again in Python when the entry
-point returns (:class:`._cengine._Checked`).
+point returns (``lamech.numeric._cengine._Checked``).
 """
 
 from __future__ import annotations
@@ -140,7 +140,7 @@ _CALLED_LOCK = threading.Lock()
 
 def callback_kernels(ns) -> CKernels:
     """The engine with ``ns``' NumPy functions called back (:class:`Callbacks`), once per
-    system. Raises :class:`._cengine.EngineMissing` where the engine was not built."""
+    system. Raises ``lamech.numeric._cengine.EngineMissing`` where the engine was not built."""
     with _CALLED_LOCK:
         known = _CALLED.get(id(ns))
         if known is not None and known[0] is ns and known[2] == ns._own_functions():

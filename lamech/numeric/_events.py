@@ -87,7 +87,8 @@ class Event:
     ``reversal`` (a stick that could not hold: the slip went on, reversed or not) and
     ``accumulation`` (a contact that begins where impacts accumulate: the bounces after
     the last logged impact too small to resolve, their flights summed in closed form;
-    ``accumulation`` is the time they took)."""
+    ``accumulation`` is the time they took) and ``energy_lost`` (an impact's kinetic
+    energy T- - T+ from the velocities before and after it)."""
 
     t: float
     kind: EventKind
@@ -101,6 +102,7 @@ class Event:
     initial: bool = False
     reversal: bool | None = None
     accumulation: float | None = None
+    energy_lost: float | None = None
 
     def to_json(self) -> dict:
         """The event as the ``--json`` summary gives it: t, kind, constraint,
@@ -118,6 +120,7 @@ class Event:
             "velocity_before",
             "restitution",
             "accumulation",
+            "energy_lost",
         ):
             value = getattr(self, name)
             if value is not None:

@@ -1,5 +1,5 @@
 """The KKT solve of the hot path with NumPy/LAPACK (:func:`kkt_solve_numpy`, the
-reference; its compiled twin is in C, :mod:`._cengine`), the
+reference; its compiled twin is in C, ``lamech.numeric._cengine``), the
 right-hand sides built on it (:func:`numpy_kernels`), and the sparsity pattern of the
 constraint rows that the compiled solve runs over (:func:`sparsity`).
 

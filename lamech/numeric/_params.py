@@ -14,14 +14,17 @@ from ..model._values import check_names, friction_names
 from ._codegen import NumericSystem, compile_system
 from ._options import SimulationError
 
-__all__ = ["friction_names", "with_friction_parameters", "numeric_system", "check_values"]
+__all__ = [
+    "friction_names", "with_friction_parameters", "numeric_system", "check_values", "values_in_si",
+]  # fmt: skip
 
 
 def numeric_system(
     system: System | NumericSystem | str, params: dict | None, jit: bool | None
 ) -> tuple[NumericSystem, np.ndarray]:
     """(compiled system, parameter vector with ``params`` {name: value} applied); a
-    friction coefficient named in ``params`` becomes a parameter first. ``system`` may
+    friction coefficient named in ``params`` becomes a parameter first; a value may be a
+    quantity (``"30 cm"``, a pint Quantity), converted to SI (:func:`values_in_si`). ``system`` may
     also be a problem file's path or an example's name (:func:`lamech.problem._coerce.as_system`).
     Raises :class:`SimulationError` for unknown names, values that are not finite
     numbers, and values the problem's own checks refuse (a parameter's sign, which the
@@ -35,6 +38,10 @@ def numeric_system(
         from ..problem._coerce import as_system
 
         system = as_system(system, "simulate")
+    if params:
+        params = values_in_si(
+            system.system if isinstance(system, NumericSystem) else system, params
+        )
     _check_finite(params or {})
     if params and not isinstance(system, NumericSystem):
         check_values(system, params)
@@ -54,6 +61,18 @@ def numeric_system(
     if params:
         _check_signs(ns, params, p)
     return ns, p
+
+
+def values_in_si(system: System, values: Mapping, what: str = "params") -> dict:
+    """``values`` with each quantity (``"30 cm"``, a pint Quantity) in SI, of the
+    dimension the problem gives the name (:func:`lamech.model.in_si`); SimulationError
+    otherwise."""
+    from ..model import ModelError, in_si
+
+    try:
+        return in_si(system, values, what + "[{name!r}] = {value!r}")
+    except ModelError as exc:
+        raise SimulationError(str(exc)) from None
 
 
 def _check_finite(params: dict) -> None:

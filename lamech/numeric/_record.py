@@ -6,8 +6,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import sympy as sp
 
+from ..model import result_units
+from ..symbolic._drives import turns
 from ._events import Status
+from ._losses import with_energy_lost
 from ._run import Run
 from ._trajectory import Trajectory
 
@@ -97,18 +101,22 @@ def assemble(
     q = np.array([s.q for s in out]).reshape(N, n)
     v = np.array([s.v for s in out]).reshape(N, n)
     conserved = ns.conservative and not ns.time_dependent and not run.dissipative
+    forces = _forces(run, out)
+    lambdas = np.array([s.lam for s in out]).reshape(N, m)
+    drive_forces, drive_power, drive_coordinates, drive_units = _drives(run, tt, q, v, lambdas)
+    drive_turns = {name: turns(ns.system, name) for name in drive_forces}
     return Trajectory(
         coordinates=list(ns.coordinate_names),
         constraints=list(ns.constraint_names),
         t=tt,
         q=q,
         qd=v,
-        lambdas=np.array([s.lam for s in out]).reshape(N, m),
-        forces=_forces(run, out),
+        lambdas=lambdas,
+        forces=forces,
         energy=np.array([s.T + s.V for s in out]),
         residual_position=np.array([s.rp for s in out]),
         residual_velocity=np.array([s.rv for s in out]),
-        events=run.events,
+        events=with_energy_lost(ns, run.setup.p, run.events),
         status=status,
         message=message,
         t_end=float(t_end),
@@ -124,7 +132,52 @@ def assemble(
         kinetic=np.array([s.T for s in out]),
         engine=engine,
         handed_back=run.handed_back,
+        units=result_units(ns.system, forces),
+        drive_forces=drive_forces,
+        drive_power=drive_power,
+        drive_coordinates=drive_coordinates,
+        drive_units=drive_units,
+        drive_turns=drive_turns,
     )
+
+
+def _drives(run: Run, t: np.ndarray, q: np.ndarray, v: np.ndarray, lam: np.ndarray):
+    """Per drive ([[drives]]), at the samples: the force or torque on its coordinate,
+    lambda_j df_j/dq_c (lambda_j for a general f), and the power of the drive's
+    generalized force, lambda_j A_j q'; the coordinate each drives and its unit."""
+    ns, p = run.setup.ns, run.setup.p
+    drives = [(j, c) for j, c in enumerate(ns.system.constraints) if c.drive is not None]
+    forces: dict[str, np.ndarray] = {}
+    power: dict[str, np.ndarray] = {}
+    coords: dict[str, str | None] = {}
+    if not drives:
+        return forces, power, coords, {}
+    rows = np.array(
+        [np.asarray(ns.constraints(t[k], q[k], p)[1], dtype=float) for k in range(len(t))]
+    )
+    names = list(ns.coordinate_names)
+    for j, c in drives:
+        Aj = rows[:, j, :].reshape(len(t), len(names))
+        coord = c.drive.coordinate if c.drive is not None else None
+        factor = Aj[:, names.index(coord)] if coord is not None else 1.0
+        forces[c.name] = lam[:, j] * factor
+        power[c.name] = lam[:, j] * np.einsum("ki,ki->k", Aj, v)
+        coords[c.name] = coord
+    return forces, power, coords, _drive_units(ns.system, [c for _, c in drives])
+
+
+def _drive_units(system, drives) -> dict[str, str]:
+    """The SI unit of each drive's force or torque where the file has units: its
+    multiplier's, where df/dq_c = 1 (a motion or a speed) or it drives no coordinate."""
+    out: dict[str, str] = {}
+    if system.units is None:
+        return out
+    for c in drives:
+        d = system.units.multiplier(c.name)
+        coord = c.drive.coordinate
+        if d is not None and (coord is None or sp.diff(c.expr, system.symbols[coord]) == 1):
+            out[c.name] = d.si()
+    return out
 
 
 def _forces(run: Run, out: list[Sample]) -> dict[str, np.ndarray]:

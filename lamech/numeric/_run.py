@@ -6,9 +6,9 @@ solve, the right-hand side, the projection and the residuals.
 
 The mode is the loop's own (:mod:`._kernels.codes`: the arrays ``imode`` and ``fmode``), and
 every rule that reads or changes it is the loop's code, the engine's in C, called here
-through :func:`rules` (``rules.c``, :mod:`._crules`): the start's mode, the event functions,
-arming, the projection, the settling, lift-off, slip, stick and impacts with the Zeno
-accumulation, the input switches. Where SciPy's integrators step (a method other than
+through :func:`rules` (``rules.c``, ``lamech.numeric._crules``): the start's mode, the event
+functions, arming, the projection, the settling, lift-off, slip, stick and impacts with the
+Zeno accumulation, the input switches. Where SciPy's integrators step (a method other than
 DOP853, ``engine="scipy"``, a system not compiled, or a segment the compiled loop hands
 back), they apply the very rules the compiled loop applies."""
 
@@ -61,9 +61,9 @@ class ConstraintKinds:
 
 
 def rules(ns: NumericSystem):
-    """The loop's rules on lamech's engine in C (:class:`._crules.CRules`: ``rules.c``),
+    """The loop's rules on lamech's engine in C (``lamech.numeric._crules.CRules``: ``rules.c``),
     around the system's compiled functions where it runs compiled, else its NumPy
-    functions called back (:func:`._crules.engine_kernels`): the very code the loop with
+    functions called back (``lamech.numeric._crules.engine_kernels``): the very code the loop with
     events runs."""
     from ._crules import rules_of
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -72,7 +73,7 @@ from ._options import (
     check_options,
 )
 from ._pace import Watch, stiffness
-from ._params import numeric_system
+from ._params import numeric_system, values_in_si
 from ._record import Progress, Recorder, assemble
 from ._run import Accel, Run, Setup
 from ._threads import one_blas_thread
@@ -102,7 +103,10 @@ def simulate(
         The end time.
     params : dict, optional
         Parameter values by name, overriding the problem's; a friction coefficient as
-        ``"mu:<constraint>"`` (or ``"mu"`` when there is one).
+        ``"mu:<constraint>"`` (or ``"mu"`` when there is one). A value in ``params``,
+        ``initial``, ``q0`` or ``qd0`` may be a quantity: text (``"30 cm"``, ``"10 deg"``)
+        or a pint Quantity, converted to SI and checked against the dimension the problem
+        gives or infers for its name.
     initial : dict, optional
         {coordinate or ``x'``: value}: sets those values and holds them while the other
         coordinates and velocities move (the projection onto the constraints) to meet the
@@ -191,6 +195,13 @@ def simulate(
     t0, hooks, options = _arguments(options, more)
     options = check_options(t_end, t0, options)
     ns, p = numeric_system(system, params, options.jit)
+    if isinstance(initial, Mapping):
+        initial = values_in_si(ns.system, initial, "initial")
+    if isinstance(q0, Mapping):
+        q0 = values_in_si(ns.system, q0, "q0")
+    if isinstance(qd0, Mapping):  # checked as velocities (x')
+        rates = values_in_si(ns.system, {f"{k}'": v for k, v in qd0.items()}, "qd0")
+        qd0 = {k[:-1]: v for k, v in rates.items()}
     y0 = initial_state(ns, p, initial, q0, qd0)
     times = options.times(t0, t_end)
     run = Run(Setup.of(ns, p, options))

@@ -3,6 +3,7 @@ the event log (see :func:`lamech.numeric.simulate`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,6 +38,12 @@ class Trajectory:
     events; ``"SciPy DOP853"`` and the other methods); ``handed_back``: the contacts and
     segments the loop left to the simulator's own code (a step it could not take, an impact
     it could not apply).
+
+    ``units``: where the problem file gives units (issue 46), the SI unit of each column of
+    :meth:`columns` whose dimension is known, by its name (``"t": "s"``, ``"r": "m"``,
+    ``"theta1": "rad"``, ``"theta1'": "rad/s"``, ``"lambda:contact": "N"``,
+    ``"force:contact:normal": "N"``, ``"energy": "J"``) and of each parameter; every
+    array is in these units (SI). Empty for a file without units.
     """
 
     coordinates: list[str]
@@ -65,6 +72,15 @@ class Trajectory:
     kinetic: np.ndarray | None = None
     engine: str = ""
     handed_back: int = 0
+    units: dict[str, str] = field(default_factory=dict)
+    # per drive ([[drives]]): its force or torque on the coordinate driven (the multiplier
+    # itself for a general f) and the power of its force, lambda A_j q', at the samples;
+    # the coordinate each drives (None for a general f)
+    drive_forces: dict = field(default_factory=dict)
+    drive_power: dict = field(default_factory=dict)
+    drive_coordinates: dict = field(default_factory=dict)
+    drive_units: dict = field(default_factory=dict)  # SI, where the file has units
+    drive_turns: dict = field(default_factory=dict)  # its coordinate an angle: a turn a cycle
 
     # ----- views ------------------------------------------------------------------
     @property
@@ -122,6 +138,7 @@ class Trajectory:
         cols += [(c + "'", self.qd[:, i]) for i, c in enumerate(self.coordinates)]
         cols += [("lambda:" + c, self.lambdas[:, j]) for j, c in enumerate(self.constraints)]
         cols += [("force:" + k, v) for k, v in self.forces.items()]
+        cols += [("drive:" + k, v) for k, v in self.drive_forces.items()]
         cols += [("energy", self.energy), ("residual", self.residual)]
         return cols
 
@@ -152,11 +169,11 @@ class Trajectory:
                 final[c] = float(self.final_q[i])
             for i, c in enumerate(self.coordinates):
                 final[c + "'"] = float(self.final_qd[i])
-        return {
+        out = {
             "title": self.title,
             "t_end": self.t_end,
             "final_time": self.final_time,
-            "events": [e.to_json() for e in self.events],
+            "events": [self._event_json(e) for e in self.events],
             "final": final,
             "max_residual": None if rp is None or rv is None else max(rp, rv),
             "max_residual_position": rp,
@@ -171,4 +188,73 @@ class Trajectory:
             "status": str(self.status),
             "message": self.message,
             "notes": list(self.notes),
+            **({"drives": self.drive_summary()} if self.drive_forces else {}),
         }
+        if self.units:
+            out["units"] = dict(self.units)
+        return out
+
+    def _angles(self) -> list[str]:
+        """The coordinates that are angles (in rad), where the file gives units."""
+        return [c for c in self.coordinates if self.units.get(c) == "rad"]
+
+    def _event_json(self, e: Event) -> dict:
+        out = e.to_json()
+        angles = self._angles()
+        if angles:  # with units: each angle in degrees beside its radians
+            there = e.coordinates
+            out["degrees"] = {c: math.degrees(there[c]) for c in angles if c in there}
+        return out
+
+    def drive_summary(self) -> dict:
+        """Per drive: ``peak`` |force or torque| and where (``at``: t and the
+        coordinates), ``rms``, ``mean_power`` (the work over the run / its duration) and
+        ``work_per_cycle`` (over the first turn of the coordinate driven, 2 pi; None
+        before a turn is complete, or where the system does not repeat after a turn of
+        it), from the samples."""
+        out = {}
+        t = self.t
+        span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
+        for name, tau in self.drive_forces.items():
+            power = self.drive_power[name]
+            ok = np.isfinite(tau)
+            if not ok.any():
+                continue
+            k = int(np.nanargmax(np.abs(tau)))
+            at = {"t": float(t[k])}
+            at.update({c: float(self.q[k, i]) for i, c in enumerate(self.coordinates)})
+            item = {
+                "coordinate": self.drive_coordinates.get(name),
+                "unit": self.drive_units.get(name),
+                "peak": float(abs(tau[k])),
+                "at": at,
+                "rms": _mean(t, tau**2, span) ** 0.5 if span > 0 else float(abs(tau[0])),
+                "mean_power": _mean(t, power, span) if span > 0 else float(power[0]),
+                "work_per_cycle": None,
+            }
+            coord = self.drive_coordinates.get(name)
+            if coord is not None and span > 0 and self.drive_turns.get(name):
+                item["work_per_cycle"] = _work_per_turn(t, self.coordinate(coord), power)
+            out[name] = item
+        return out
+
+
+def _mean(t: np.ndarray, y: np.ndarray, span: float) -> float:
+    """The time average of y over the samples (trapezoids)."""
+    return float(np.trapezoid(y, t) / span)
+
+
+def _work_per_turn(t: np.ndarray, q: np.ndarray, power: np.ndarray) -> float | None:
+    """The work of ``power`` over the first turn of q (|q - q(0)| reaching 2 pi, the
+    last part by linear interpolation); None before a turn is complete."""
+    moved = np.abs(q - q[0])
+    full = np.nonzero(moved >= 2 * np.pi)[0]
+    if not len(full):
+        return None
+    k = int(full[0])
+    s = (2 * np.pi - moved[k - 1]) / (moved[k] - moved[k - 1])
+    t_turn = t[k - 1] + s * (t[k] - t[k - 1])
+    p_turn = power[k - 1] + s * (power[k] - power[k - 1])
+    tt = np.append(t[:k], t_turn)
+    pp = np.append(power[:k], p_turn)
+    return float(np.trapezoid(pp, tt))

@@ -25,6 +25,7 @@ from ._trajectory import trajectory_text as _trajectory_text
 
 if TYPE_CHECKING:
     from ._animate import animate
+    from ._map_plot import plot_map
     from ._notebook import Animation, animation
     from ._page import report_page
     from ._plot import plot_trajectory
@@ -37,6 +38,7 @@ __all__ = [
     "trajectory_csv",
     "plot_trajectory",
     "plot_sweep",
+    "plot_map",
     "animate",
     "animation",
     "Animation",
@@ -76,6 +78,7 @@ __getattr__ = moved(
         "report_page": "_page",
         "plot_trajectory": "_plot",
         "plot_sweep": "_sweep_plot",
+        "plot_map": "_map_plot",
     },
 )
 del moved

@@ -30,6 +30,7 @@ from sympy.printing.jscode import JavascriptCodePrinter
 
 from .._errors import LamechError
 from ..expr import to_text
+from ..model import result_units
 from ..symbolic._conditions import is_angle
 from ..symbolic._sensitivity import free_parameters, friction_mu, in_free_parameters
 
@@ -80,6 +81,8 @@ class LiveModel:
     script: str
     params: tuple[tuple[str, float, float, float], ...]
     skipped: tuple[str, ...]
+    units: tuple[tuple[str, str], ...] = ()
+    """Where the file gives units (issue 46): each slider's SI unit, by name."""
 
 
 def _range(value: float) -> tuple[float, float]:
@@ -174,24 +177,78 @@ def live_model(sol, equilibria=None) -> LiveModel:
         (n, v, min(given[n][0], v), max(given[n][1], v)) if n in given else (n, v, *_range(v))
         for n, _, v in free
     )
+    units = result_units(system)
+    slider_units = {n: units[n] for n, *_ in params if n in units}
     parts["params"] = json.dumps(
-        [{"name": n, "value": v, "min": lo, "max": hi} for n, v, lo, hi in params]
+        [
+            {"name": n, "value": v, "min": lo, "max": hi}
+            | (
+                {"unit": slider_units[n], "accept": typed_units(system, n)}
+                if n in slider_units
+                else {}
+            )
+            for n, v, lo, hi in params
+        ]
     )
+    if units:  # the results' units: each multiplier's and the coordinate's
+        shown = {k: u for k, u in units.items() if k.startswith("lambda:")}
+        if shell.coordinate.name in units:
+            shown[shell.coordinate.name] = units[shell.coordinate.name]
+        parts["units"] = json.dumps(shown)
     script = "{\n" + ",\n".join(f"  {k}: {v}" for k, v in parts.items()) + "\n}"
-    return LiveModel(script.replace("</", "<\\/"), params, tuple(skipped))
+    return LiveModel(
+        script.replace("</", "<\\/"), params, tuple(skipped), tuple(slider_units.items())
+    )
 
 
-def _slider_rows(params) -> str:
+TYPED_UNITS = (
+    "m", "cm", "mm", "km", "um", "in", "ft", "kg", "g", "mg", "s", "ms", "min", "h",
+    "N", "kN", "mN", "J", "kJ", "N*m", "N/m", "N/cm", "N/mm", "kg*m^2", "g*cm^2",
+    "m/s", "cm/s", "km/h", "m/s^2", "cm/s^2", "rad", "deg", "rad/s", "deg/s", "rpm",
+    "Hz", "1/s", "N*s/m", "kg/m", "kg/m^3", "g/cm^3",
+)  # fmt: skip
+"""The units a slider's box takes typed after the number (``30 cm``), those of its
+dimension: a short list, so that the page needs no unit parser of its own."""
+
+
+def typed_units(system, name: str) -> dict[str, float]:
+    """{unit: factor to SI} of :data:`TYPED_UNITS` that fit parameter ``name``'s
+    dimension (rad and deg for a parameter of dimension 1 given as an angle; none for
+    another of dimension 1)."""
+    from ..expr import unit
+
+    units = system.units
+    dimension = units.of(name) if units is not None else None
+    if dimension is None or (dimension.dimensionless and name not in units.angles):
+        return {}
+    out = {}
+    for text in TYPED_UNITS:
+        factor, d = unit(text)
+        if d == dimension:
+            out[text] = float(factor)
+    return out
+
+
+def _slider_rows(params, units: dict[str, str] | None = None) -> str:
+    """The sliders' rows; a slider with a unit (``units``) shows it after its box, which
+    takes text: a number in that unit, or a number and another unit of its dimension
+    (``30 cm``)."""
+    units = units or {}
     rows = []
     for i, (name, value, lo, hi) in enumerate(params):
         n = html.escape(name)
+        unit = units.get(name)
+        kind, step = (
+            ('type="text" inputmode="decimal"', "") if unit else ('type="number"', 'step="any" ')
+        )
         rows.append(
             f'<tr><td><label for="live-p{i}">{n}</label></td>'
             f'<td><input type="range" id="live-p{i}" name="{n}" data-index="{i}" '
             f'min="{lo!r}" max="{hi!r}" step="any" value="{value!r}"></td>'
-            f'<td><input type="number" name="{n}-value" aria-label="{n}" data-index="{i}" '
-            f'step="any" value="{value!r}"></td>'
-            f'<td class="live-bad" id="live-bad{i}"></td></tr>'
+            f'<td><input {kind} name="{n}-value" aria-label="{n}" data-index="{i}" '
+            f'{step}value="{value!r}"></td>'
+            + (f'<td class="live-unit">{html.escape(unit)}</td>' if unit else "")
+            + f'<td class="live-bad" id="live-bad{i}"></td></tr>'
         )
     return '<table class="live-sliders">' + "".join(rows) + "</table>"
 
@@ -199,7 +256,8 @@ def _slider_rows(params) -> str:
 LIVE_STYLE = """
 .live-sliders td { padding: .1rem .5rem; }
 .live-sliders input[type=range] { width: 18rem; }
-.live-sliders input[type=number] { width: 7rem; }
+.live-sliders input[type=number], .live-sliders input[type=text] { width: 7rem; }
+.live-unit { color: #444; }
 .live-bad { color: #a00; font-size: .85rem; }
 .live-event { margin: .25rem 0; }
 .live-sens { color: #555; font-size: .85rem; margin-left: 1.5rem; }
@@ -225,9 +283,14 @@ def live_section(sol, equilibria=None, root_id: str = "live") -> tuple[str, str]
         "with no server. The range of each slider is the file's [sliders] entry, or 0.1 to "
         "3 times the file's value; a typed value outside it widens it."
     )
+    if model.units:
+        note += (
+            " Each value is in the SI unit shown beside it; a box also takes another unit "
+            "of its kind typed after the number (30 cm, 500 g, 10 deg)."
+        )
     skipped = "".join(f'<p class="note">not compiled: {html.escape(s)}</p>' for s in model.skipped)
     body = (
-        f'<p class="note">{note}</p>{_slider_rows(model.params)}'
+        f'<p class="note">{note}</p>{_slider_rows(model.params, dict(model.units))}'
         '<p><button type="button" id="live-reset">the file\'s values</button></p>'
         '<div id="live-events"></div><div id="live-simulated"></div>'
         '<svg id="live-plot" viewBox="0 0 640 260" role="img" '
@@ -246,8 +309,10 @@ RUNTIME = r"""
   var COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"];
   function fmt(v) { return isFinite(v) ? Number(v.toPrecision(6)).toString() : String(v); }
   function deg(x) { return (x * 180 / Math.PI).toFixed(2) + "\u00b0"; }
+  // with units (issue 46): " N" after a multiplier's value, " m" after a length
+  function unit(key) { var u = (M.units || {})[key]; return u ? " " + u : ""; }
   function at(x) {
-    return M.coord + " = " + x.toFixed(6) + (M.angle ? " rad (" + deg(x) + ")" : "");
+    return M.coord + " = " + x.toFixed(6) + (M.angle ? " rad (" + deg(x) + ")" : unit(M.coord));
   }
   function bisect(F, a, b) {
     var fa = F(a);
@@ -342,16 +407,17 @@ RUNTIME = r"""
     }
     if (lam0 < -scale) {
       return event("lets-go", name, "at the start", label + " lets go at the start: lambda_" +
-        name + " = " + fmt(lam0) + " < 0 at the initial state", null);
+        name + " = " + fmt(lam0) + unit("lambda:" + name) + " < 0 at the initial state", null);
     }
     var rs = roots(function (x) { return L.f(x, P); }, seg.segs);
     if (!rs.length) {
       return event("lets-go", name, "never", label + " holds (lambda_" + name + " = " +
-        fmt(lam0) + " > 0 at the start) in the whole range the motion reaches", null);
+        fmt(lam0) + unit("lambda:" + name) + " > 0 at the start) in the whole range the " +
+        "motion reaches", null);
     }
     var r = rs[0], Fp = L.dp.map(function (g) { return g(r, P); });
     return event("lets-go", name, "at the roots", label + " holds (lambda_" + name + " = " +
-      fmt(lam0) + " > 0 at the start) until it lets go at " + at(r), r,
+      fmt(lam0) + unit("lambda:" + name) + " > 0 at the start) until it lets go at " + at(r), r,
       sensitivity(L.dx(r, P), Fp, r));
   }
   function slips(fr, seg) {
@@ -359,7 +425,8 @@ RUNTIME = r"""
     var f0 = Lf.f(x0, P), n0 = Ln.f(x0, P), label = fr.name + " (mu = " + fmt(mu) + ")";
     if (!(n0 > 0)) {
       return event("slips", fr.name, "not determined", label + ": not determined, the normal " +
-        "force lambda_" + fr.normal + " = " + fmt(n0) + " is not positive at the start", null);
+        "force lambda_" + fr.normal + " = " + fmt(n0) + unit("lambda:" + fr.normal) +
+        " is not positive at the start", null);
     }
     if (Math.abs(f0) / n0 > mu * (1 + 1e-12)) {
       return event("slips", fr.name, "at the start", label + " slips at the start: |lambda_" +
@@ -424,7 +491,8 @@ RUNTIME = r"""
       el.appendChild(svg("path", {d: d, fill: "none", stroke: COLORS[j % COLORS.length],
         "stroke-width": 2, "data-multiplier": names[j]}));
       el.appendChild(svg("text", {x: L + 8 + 110 * j, y: T + 12, fill: COLORS[j % COLORS.length]},
-        "lambda_" + names[j]));
+        "lambda_" + names[j] + (unit("lambda:" + names[j]) ? " [" +
+        unit("lambda:" + names[j]).trim() + "]" : "")));
     });
     function show(x) { return M.angle ? deg(x) : fmt(x); }
     el.appendChild(svg("text", {x: L, y: B + 16}, show(lo)));
@@ -467,11 +535,25 @@ RUNTIME = r"""
     var count = Number(root.getAttribute("data-updates") || 0) + 1;
     root.setAttribute("data-updates", String(count));
   }
+  function typed(inp, i) {
+    // a slider's box with a unit takes "0.3" (in its unit) or "30 cm" (a unit it lists)
+    var t = inp.value.trim(), p = M.params[i];
+    if (inp.type !== "text") return Number(t === "" ? NaN : t);
+    var m = /^([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*)$/.exec(t);
+    if (!m) return NaN;
+    if (!m[2] || m[2] === p.unit) return Number(m[1]);
+    var f = (p.accept || {})[m[2]];
+    return f === undefined ? NaN : Number(m[1]) * f;
+  }
   function set(i, v, from) {
     var range = root.querySelector('input[type=range][data-index="' + i + '"]');
-    var num = root.querySelector('input[type=number][data-index="' + i + '"]');
-    var bad = byId("live-bad" + i);
-    if (!isFinite(v)) { bad.textContent = "not a number"; return; }
+    var num = root.querySelector('input:not([type=range])[data-index="' + i + '"]');
+    var bad = byId("live-bad" + i), p = M.params[i];
+    if (!isFinite(v)) {
+      bad.textContent = p.unit ? "give a number in " + p.unit + ", or with a unit: " +
+        Object.keys(p.accept || {}).join(", ") : "not a number";
+      return;
+    }
     bad.textContent = "";
     if (v < Number(range.min)) range.min = String(v);
     if (v > Number(range.max)) range.max = String(v);
@@ -505,10 +587,11 @@ RUNTIME = r"""
     var i = Number(inp.getAttribute("data-index"));
     inp.addEventListener("input", function () {
       if (inp.type === "number" && inp.value === "") return;
-      set(i, Number(inp.value), inp);
+      if (inp.type === "text" && !isFinite(typed(inp, i))) return;  // still being typed
+      set(i, inp.type === "text" ? typed(inp, i) : Number(inp.value), inp);
     });
     inp.addEventListener("change", function () {
-      set(i, Number(inp.value === "" ? NaN : inp.value), inp);
+      set(i, typed(inp, i), inp);
     });
   });
   byId("live-reset").addEventListener("click", function () {

@@ -45,8 +45,19 @@ def _mode_line(m) -> list[str]:
     return [head, f"  shape: {shape}"]
 
 
+def _with_unit(name: str, x: float, units: dict[str, str]) -> str:
+    """``x = 0.5``; with units ``x = 0.5 m``, ``theta = 0.5236 rad (30°)``."""
+    unit = units.get(name)
+    text = f"{name} = {x:.6g}"
+    if unit == "rad":
+        return f"{text} rad ({math.degrees(x):.4g}°)"
+    return f"{text} {unit}" if unit else text
+
+
 def modes_text(md) -> str:
-    """The readable ``lamech modes`` report of a :class:`~lamech.symbolic.Modes`."""
+    """The readable ``lamech modes`` report of a :class:`~lamech.symbolic.Modes`; where
+    the file gives units, each value with its unit (an angle in degrees too)."""
+    units = md.units
     title = f"Small oscillations: {md.system.title}"
     lines = [title, "=" * len(title), ""]
     lines.append(
@@ -66,7 +77,9 @@ def modes_text(md) -> str:
         if not e.exists:
             lines.append(f"  not at these parameter values ({e.note})")
             continue
-        lines.append("  at the values: " + ", ".join(f"{k} = {v:.6g}" for k, v in e.values.items()))
+        lines.append(
+            "  at the values: " + ", ".join(_with_unit(k, v, units) for k, v in e.values.items())
+        )
         if e.multipliers:
             lines.append(
                 (
@@ -74,7 +87,10 @@ def modes_text(md) -> str:
                     if any(k.endswith("'") for k in e.at)
                     else "  multipliers at rest: "
                 )
-                + ", ".join(f"lambda_{k} = {v:.6g}" for k, v in e.multipliers.items())
+                + ", ".join(
+                    _with_unit(f"lambda_{k}", v, {f"lambda_{k}": units.get(f"lambda:{k}", "")})
+                    for k, v in e.multipliers.items()
+                )
             )
         if e.note:
             lines.append(f"  note: {e.note}")

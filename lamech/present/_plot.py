@@ -27,18 +27,24 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
     # backend (a notebook keeps its inline one).
     from matplotlib.figure import Figure
 
+    units = getattr(traj, "units", None) or {}
+
+    def unit(key: str) -> str:  # " [N]" where the file gives units (issue 46)
+        return f" [{units[key]}]" if key in units else ""
+
     fig = Figure(figsize=(9, 7.5))
     ax1, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     t = traj.t
     for j, name in enumerate(traj.constraints):
         lam = traj.lambdas[:, j]
         if np.any(np.isfinite(lam)):
-            ax1.plot(t, lam, lw=1.6, label=drawn(f"λ {name}"))
+            ax1.plot(t, lam, lw=1.6, label=drawn(f"λ {name}{unit('lambda:' + name)}"))
     for key, arr in traj.forces.items():
         c, d = key.split(":", 1)
         j = traj.constraints.index(c)
         if np.any(np.isfinite(arr)) and not np.allclose(arr, traj.lambdas[:, j], equal_nan=True):
-            ax1.plot(t, arr, lw=1.0, ls="--", label=drawn(f"{c} force along {d}"))
+            label = f"{c} force along {d}{unit('force:' + key)}"
+            ax1.plot(t, arr, lw=1.0, ls="--", label=drawn(label))
     ax1.axhline(0.0, color="0.6", lw=0.8)
     ax1.set_ylabel("multiplier λ / constraint force")  # units: those of the file
     ax1.set_title(drawn(title or traj.title or "lamech simulation"))
@@ -64,8 +70,8 @@ def plot_trajectory(traj, path: str | Path, title: str | None = None) -> None:
         ax1.legend(fontsize=8, loc="best")
     ax1.grid(alpha=0.25)
     for i, name in enumerate(traj.coordinates):
-        ax2.plot(t, traj.q[:, i], lw=1.3, label=drawn(name))
-    ax2.set_xlabel("time t")
+        ax2.plot(t, traj.q[:, i], lw=1.3, label=drawn(name + unit(name)))
+    ax2.set_xlabel("time t" + unit("t"))
     ax2.set_ylabel("coordinates")
     ax2.legend(fontsize=8, loc="best")
     ax2.grid(alpha=0.25)

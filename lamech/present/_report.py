@@ -15,6 +15,7 @@ from ..expr import ExpressionError, latex, parse
 from ..expr import to_text as _expr_text
 from ..symbolic._budget import count_ops, graph_symbols
 from ..symbolic._reduce import READABLE_OPS
+from ._drives import drive_lines, drives_json
 from ._plain import tex_comment, tex_label, tex_text
 
 __all__ = ["to_text", "to_latex", "to_json"]
@@ -227,6 +228,8 @@ def to_json(sol) -> dict:
         out["subexpressions"] = {_t_whole(w): _t_whole(e) for w, e in named.definitions}
     if system.units is not None:
         out["units"] = _units_json(system)
+    if getattr(sol, "drives", None):
+        out["drives"] = drives_json(sol)
     out["notes"] = list(sol.notes)
     return out
 
@@ -404,6 +407,7 @@ def to_text(sol) -> str:
                     else _shown(e) + unit(k, force=True)
                 )
                 lines.append(f"    {d} = {value}")
+    lines += drive_lines(sol, _shown, unit)
     if named.definitions:
         lines += ["", "Named subexpressions (in the results above; each uses only those before it)"]
         lines += [f"  {_t(w)} = {_t(e)}" for w, e in named.definitions]

@@ -129,6 +129,7 @@ LIMITS = {
     "parameters": 500,
     "coordinates": 200,
     "constraints": 200,
+    "drives": 200,
     "bodies": 200,
     "scenery": 1000,
     "loads": 1000,

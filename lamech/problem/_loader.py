@@ -13,6 +13,7 @@ import math
 import re
 import stat
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +37,7 @@ from ..model._kinematics import angular_velocity, time_derivative
 from ..model._parts import parameter_numbers, signed_symbol
 from ._examples import example_names, example_path
 from ._files import LIMITS, MAX_BYTES, Issue, ProblemFileError, read_table, repeated_key
-from ._quantities import coordinate_values, parameter_value
+from ._quantities import coordinate_values, overridden, parameter_value, spelled_units
 from ._sections import PartsReader
 
 if sys.version_info >= (3, 11):
@@ -52,6 +53,7 @@ _KNOWN_SECTIONS = {
     "coordinates",
     "lagrangian",
     "constraints",
+    "drives",
     "bodies",
     "gravity",
     "forces",
@@ -64,16 +66,25 @@ _KNOWN_SECTIONS = {
 }
 
 
-def load(path: str | Path, data_dir: str | Path | None = None) -> System:
+def load(
+    path: str | Path,
+    data_dir: str | Path | None = None,
+    *,
+    params: Mapping[str, Any] | None = None,
+) -> System:
     """Load a problem file, or a bundled example by name (``"cylinder"``).
 
     A file the problem names (an ``[inputs]`` table) must lie, symlinks followed, in the
-    problem file's folder or in ``data_dir``.
+    problem file's folder or in ``data_dir``. ``params`` overrides parameter values by
+    name, as ``--param`` does: each a number in SI or a quantity, text (``"30 cm"``) or a
+    pint Quantity, converted to SI and checked against the parameter's dimension (the
+    file's, given or inferred; issue 46).
 
     Raises
     ------
     ProblemFileError
-        Everything wrong with the file, each with its line and the fix.
+        Everything wrong with the file, each with its line and the fix; a value of
+        ``params`` that does not fit its parameter.
     """
     p = Path(path)
     if not p.exists() and not p.suffix and str(path) in example_names():
@@ -109,14 +120,16 @@ def load(path: str | Path, data_dir: str | Path | None = None) -> System:
     folders = [p.resolve().parent]
     if data_dir is not None:
         folders.append(Path(data_dir).resolve())
-    return _parse(text.replace("\r\n", "\n"), str(path), tuple(folders))
+    system = _parse(text.replace("\r\n", "\n"), str(path), tuple(folders))
+    return overridden(system, params, str(path)) if params else system
 
 
-def loads(text: str, name: str = "<string>") -> System:
+def loads(text: str, name: str = "<string>", *, params: Mapping[str, Any] | None = None) -> System:
     """Load a problem from TOML text; ``name`` is used in error messages. A problem
     given as text has no folder: it may name no files (an ``[inputs]`` table is refused;
-    save it as a file and :func:`load` that)."""
-    return _parse(text, name, None)
+    save it as a file and :func:`load` that). ``params``: as :func:`load`'s."""
+    system = _parse(text, name, None)
+    return overridden(system, params, name) if params else system
 
 
 def _parse(text: str, name: str, folders: tuple[Path, ...] | None) -> System:
@@ -243,7 +256,7 @@ class _Loader(PartsReader):
         bodies = self._bodies()
         self._angular_velocities(frame, bodies)
         energies = self._lagrangian(bodies)
-        constraints = self._constraints()
+        constraints = self._constraints() + self._drives(coords)
         forces = self._forces(coords)
         loads = self._loads()
         scenery = self._scenery()
@@ -285,9 +298,13 @@ class _Loader(PartsReader):
             units = infer_units(system, self.dimensions, where_T, where_V, loads)
         except ModelError as exc:
             self.model_problems(exc)
+            # "2 g" beside a parameter g, where a conflict names it: said there too
+            spelled_units(self, system, None, [m for _, m in exc.issues])
             self.fail_if_any()
             raise
-        return dataclasses.replace(system, units=units)
+        units = dataclasses.replace(units, angles=tuple(sorted(self.angles)))
+        notes = tuple(spelled_units(self, system, units))
+        return dataclasses.replace(system, units=units, notes=system.notes + notes)
 
     def _chart(self, coords: list[Coordinate]) -> Chart | None:
         """``[parametrisation]``: ``coordinates = ["theta1", ...]`` (the new ones) and

@@ -12,13 +12,14 @@ radians, a length in metres), as every result is.
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import sympy as sp
 
-from ..expr import Dimension, ExpressionError, is_quantity, quantity, unit
+from ..expr import Dimension, ExpressionError, is_angle_unit, is_quantity, quantity, unit
 
-__all__ = ["parameter_value", "coordinate_values"]
+__all__ = ["parameter_value", "coordinate_values", "overridden", "spelled_units"]
 
 _TIME = Dimension.of(T=1)
 
@@ -34,6 +35,9 @@ def parameter_value(reader: Any, name: str, value: Any) -> Any:
         reader.problem(f"parameters.{name}", exc.message, ("parameters", None, name))
         return None
     reader.dimensions[name] = q.dimension
+    reader.quantities[name] = value
+    if is_angle_unit(q.unit):
+        reader.angles.add(name)
     return q.value
 
 
@@ -108,3 +112,63 @@ def coordinate_values(reader: Any, name: str, spec: dict) -> tuple[Any, Any]:
                 loc,
             )
     return out[0], out[1]
+
+
+def overridden(system: Any, params: Any, name: str) -> Any:
+    """``system`` with the parameter values ``params`` (numbers in SI, quantities as text
+    or pint Quantities) put in its file's place (:func:`lamech.model.with_values`), each
+    quantity converted to SI and its dimension checked (:func:`lamech.model.in_si`); a
+    ProblemFileError naming the value otherwise."""
+    from ..model import ModelError, in_si, with_values
+    from ._files import Issue, ProblemFileError
+
+    try:
+        values = in_si(system, params)
+        for key, value in values.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, sp.Number)):
+                raise ModelError(
+                    [
+                        (
+                            "",
+                            f"params[{key!r}] = {value!r}: give a number (in SI) or a "
+                            'quantity ("30 cm", or a pint Quantity)',
+                        )
+                    ]
+                )
+        return with_values(system, parameters={k: float(v) for k, v in values.items()})
+    except ValueError as exc:  # ModelError too
+        raise ProblemFileError(name, [Issue("", str(exc))]) from None
+
+
+def spelled_units(reader: Any, system: Any, units: Any, conflicts: Any = ()) -> list[str]:
+    """Where a parameter's quantity is a number and a unit that spells a parameter's name
+    (``a = "2 g"`` beside a parameter g: two grams, never twice g), the warnings to give:
+    one for each such parameter whose dimension nothing else in the file fixes, so that
+    the checks could not tell grams from twice g. With ``units`` None (the checks found
+    ``conflicts``, their messages), each such parameter a conflict names is reported as
+    a problem at its line instead, beside the conflict it may explain."""
+    from ..expr import quantity, spelled_hint
+    from ..model import ModelError, infer_units
+
+    names = {p.name for p in system.parameters}
+    out = []
+    for name, text in reader.quantities.items():
+        word = quantity(text).unit.strip()
+        hint = spelled_hint(text, word, names) if word.isidentifier() else ""
+        if not hint:
+            continue
+        if units is None:
+            if any(re.search(rf"(?<![\w']){re.escape(name)}(?![\w'])", c) for c in conflicts):
+                reader.problem(f"parameters.{name}", hint, ("parameters", None, name))
+            continue
+        others = {k: d for k, d in reader.dimensions.items() if k != name}
+        try:
+            alone = infer_units(system, others) if others else None
+        except ModelError:
+            continue
+        if alone is None or alone.of(name) is None:
+            out.append(
+                f"parameters.{name}: {hint}; nothing else in the file fixes the dimension of "
+                f"`{name}`, so the checks cannot tell which was meant"
+            )
+    return out

@@ -39,6 +39,8 @@ class Reader:
         self.spin_hints: dict[str, str] = {}  # body: why `body.wx` means nothing
         # the dimensions the file gives by a unit (issue 46), by parameter or coordinate
         self.dimensions: dict[str, Dimension] = {}
+        self.angles: set[str] = set()  # the parameters given in a unit of angle ("30 deg")
+        self.quantities: dict[str, str] = {}  # each parameter given as a quantity: its text
 
     def problem(
         self, where: str, message: str, loc: tuple = (None, None, None), text: str | None = None

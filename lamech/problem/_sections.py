@@ -11,6 +11,8 @@ from ..model import (
     Body,
     Constraint,
     ConstraintKind,
+    Coordinate,
+    Drive,
     ForceSpec,
     Friction,
     Scenery,
@@ -273,6 +275,82 @@ class PartsReader(Reader):
                 )
                 if constraint is not None:
                     out.append(constraint)
+        return out
+
+    def _drives(self, coords: list[Coordinate]) -> list[Constraint]:
+        """``[[drives]]``: each a prescribed motion, made a holonomic constraint whose
+        multiplier is the drive's force or torque (:class:`lamech.model.Drive`):
+        ``coordinate`` with ``motion`` (f = q - motion(t)) or ``speed`` (a constant rate
+        from the coordinate's initial value: f = q - q0 - speed t), or a general ``f``."""
+        raw = self.data.get("drives", [])
+        if not isinstance(raw, list):
+            self.problem(
+                "drives",
+                "drives are an array of tables: each starts with `[[drives]]`",
+                (None, None, "drives"),
+            )
+            return []
+        by_name = {c.name: c for c in coords}
+        out = []
+        for i, spec in enumerate(raw):
+            loc0 = ("drives", i, None)
+            if not isinstance(spec, dict):
+                self.problem(f"drives[{i + 1}]", "must be a table", loc0)
+                continue
+            name = spec.get("name", f"drive{i + 1}")
+            where = f"drives[{i + 1}] `{name}`"
+            extra = set(spec) - {"name", "coordinate", "motion", "speed", "f"}
+            if extra:
+                self.problem(
+                    where,
+                    f"unknown key `{sorted(extra)[0]}`; a drive takes name, and coordinate "
+                    "with motion or speed, or a general f (with a coordinate or not)",
+                    loc0,
+                )
+                continue
+            given = [k for k in ("motion", "speed", "f") if k in spec]
+            if len(given) != 1:
+                self.problem(
+                    where,
+                    "give exactly one of `motion` (the coordinate as a function of t), "
+                    "`speed` (a constant rate) or `f` (a general f(q, t) = 0)",
+                    loc0,
+                )
+                continue
+            key = given[0]
+            coordinate = spec.get("coordinate")
+            if coordinate is None and key != "f":
+                self.problem(
+                    where, f"`{key}` needs the `coordinate` it prescribes", ("drives", i, key)
+                )
+                continue
+            if coordinate is not None and coordinate not in by_name:
+                self.problem(
+                    where,
+                    f"unknown coordinate `{coordinate}`; known: " + ", ".join(by_name),
+                    ("drives", i, "coordinate"),
+                )
+                continue
+            e = self.field(spec[key], "f", f"{where} {key}", ("drives", i, key))
+            if e is None:
+                continue
+            if coordinate is not None and key != "f":
+                c = by_name[coordinate]
+                if key == "speed":
+                    if e.free_symbols & {self.t, *(k.symbol for k in coords)}:
+                        self.problem(
+                            where,
+                            "`speed` is a constant rate (parameters only); write a motion "
+                            "that varies as `motion` (the coordinate as a function of t)",
+                            ("drives", i, key),
+                        )
+                        continue
+                    e = c.initial + e * self.t
+                e = c.symbol - e
+            drive = Drive(coordinate)
+            made = self.make(Constraint, name, e, ConstraintKind.HOLONOMIC, drive=drive, part=where)
+            if made is not None:
+                out.append(made)
         return out
 
     def _friction(self, spec, where, loc) -> Friction | None:

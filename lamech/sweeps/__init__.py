@@ -5,12 +5,14 @@ processes, or on a Dask cluster, with resume (see :mod:`lamech.sweeps._run`).
 """
 
 from .._moved import moved
+from ._map import MapResult, parameter_map
+from ._map import parameter_map as map  # lamech.map
 from ._parse import Measure, SweepError
 from ._result import SweepResult
 from ._run import run_sweep as run_sweep  # deprecated: warns when called
 from ._run import sweep
 
-__all__ = ["sweep", "SweepResult", "SweepError", "Measure"]
+__all__ = ["sweep", "SweepResult", "SweepError", "Measure", "map", "parameter_map", "MapResult"]
 
 _INTERNAL = "internal to lamech.sweeps"
 __getattr__ = moved(

@@ -48,6 +48,11 @@ class SweepResult:
         compiled loop with events (...)").
     path : pathlib.Path or None
         The table on disk (``out=``), if any.
+    units : dict of str to str
+        Where the problem gives units (issue 46): the SI unit of each column whose
+        dimension is known (``"R2": "m"``, ``"liftoff:t": "s"``, ``"liftoff:theta1":
+        "rad"``, ``"max:lambda:contact": "N"``); every value is in these units. Empty
+        for a problem without units.
     interrupted, stopped
         For a sweep that did not finish (only the command line sees one: :func:`lamech.sweep`
         raises instead): ``interrupted`` is True after Ctrl-C (or the command's SIGTERM
@@ -80,6 +85,7 @@ class SweepResult:
     path: Path | None = None
     ran_cases: list[int] = field(default_factory=list)
     retried: int = 0
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def cases(self) -> int:

@@ -49,6 +49,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import re
 import sys
 import time
 import uuid
@@ -59,7 +60,8 @@ from typing import Any
 
 import numpy as np
 
-from ..model import System
+from ..expr import ExpressionError, as_quantity, is_quantity
+from ..model import ModelError, System, in_si, result_units
 from ..numeric._engines import engine_name
 from ..numeric._options import Options
 from ..numeric._params import friction_names, with_friction_parameters
@@ -67,7 +69,7 @@ from ._case import COMPILED, Plan, run_case
 from ._compiled import run_compiled
 from ._dask import run_dask
 from ._local import cpus, run_local
-from ._parse import MAX_CASES, SweepError, number, parse_measure, parse_values
+from ._parse import EVENT_MEASURES, MAX_CASES, SweepError, number, parse_measure, parse_values
 from ._result import SweepResult
 from ._table import Table
 
@@ -86,11 +88,16 @@ def _with_friction_parameters(system: System, names: Iterable[str]) -> System:
         raise SweepError(str(exc)) from None
 
 
-def _grid(params: Mapping[str, object], units=None) -> tuple[dict[str, np.ndarray], _Cases]:
+def _grid(params: Mapping[str, object], system: System) -> tuple[dict[str, np.ndarray], _Cases]:
+    """The grid's values by name, each in SI: ``"A:B:N"``, ``"a,b,c"`` or a sequence of
+    numbers, where a number may be a quantity (``"10 cm:50 cm:5"``; a pint Quantity or
+    an array of them) of the dimension the problem gives or infers for it."""
     if not params:
         raise SweepError("no parameters to sweep; give at least one (NAME=A:B:N)")
+    units = system.units
     values: dict[str, np.ndarray] = {}
     for name, spec in params.items():
+        spec = _in_si(system, name, spec)
         if isinstance(spec, str):
             arr = parse_values(spec, name, units.of(name) if units is not None else None)
         else:
@@ -104,6 +111,43 @@ def _grid(params: Mapping[str, object], units=None) -> tuple[dict[str, np.ndarra
     if total > MAX_CASES:
         raise SweepError(f"{total} cases exceed the limit of {MAX_CASES}")
     return values, _Cases(values)
+
+
+def _in_si(system: System, name: str, spec: object) -> object:
+    """``spec`` with a pint Quantity (or a sequence of them) in SI, and a text's
+    quantities checked against the problem's dimensions (:func:`lamech.model.in_si`)."""
+    what = f"parameter `{name}`: {{value!r}}"
+    try:
+        if isinstance(spec, str):
+            first = next((p for p in re.split(r"[:,]", spec) if is_quantity(p)), None)
+            known = system.units is not None and system.units.of(name) is not None
+            if first is not None and not known:  # parse_values checks against a known one
+                in_si(system, {name: first.strip()}, what)
+            return spec
+        if isinstance(spec, (list, tuple)) and spec and as_quantity(spec[0]) is not None:
+            return [in_si(system, {name: x}, what)[name] for x in spec]
+        return in_si(system, {name: spec}, what)[name]
+    except (ModelError, ExpressionError) as exc:
+        raise SweepError(str(exc).removeprefix(": ")) from None
+
+
+def _column_units(system: System, measures: list, columns: list[str]) -> dict[str, str]:
+    """The SI unit of each column whose dimension the problem gives or infers (issue 46):
+    a parameter's, an event's time (s) and coordinates, a series' (N for a multiplier in
+    N); empty for a problem without units."""
+    units = result_units(system)
+    if not units:
+        return {}
+    out = {c: units[c] for c in columns if c in units}  # the swept parameters
+    for m in measures:
+        if m.kind in EVENT_MEASURES:
+            for c in columns:
+                head, _, tail = c.rpartition(":")
+                if head == m.text and (tail == "t" or tail in units):
+                    out[c] = "s" if tail == "t" else units[tail]
+        elif m.target in units:
+            out[m.text] = units[m.target]
+    return out
 
 
 class _Cases(Sequence):
@@ -223,7 +267,7 @@ def execute(
     except SimulationError as exc:
         raise SweepError(str(exc)) from None
     engine = engine_name(options.engine, SweepError)
-    values, cases = _grid(params, system.units)
+    values, cases = _grid(params, system)
     system = _with_friction_parameters(system, list(values))
     ms = [parse_measure(m, system) for m in measures]
     if not ms:
@@ -242,7 +286,10 @@ def execute(
                 + ", ".join(coords + [c + "'" for c in coords])
             )
         dimension = system.units.of(name) if system.units is not None else None
-        init.append((name, number(str(x), f"initial `{name}`", dimension)))
+        value: object = x
+        if dimension is None or not isinstance(x, str):  # text of a known one: number checks
+            value = _in_si(system, name, x)
+        init.append((name, number(str(value), f"initial `{name}`", dimension)))
     columns = ["case", *values]
     for m in ms:
         columns += m.columns(coords)
@@ -322,6 +369,7 @@ def _run_cases(
         retried=len(found) - len(done),
         path=path,
         compile_seconds=compile_seconds,
+        units=_column_units(system, ms, columns),
     )
     if progress is None:
         progress = sys.stderr.isatty()
@@ -419,7 +467,9 @@ def sweep(
         Each swept name and its values: ``"A:B:N"`` (N values, both ends included),
         ``"a,b,c"``, or a sequence of numbers. A name is a parameter of the problem, or
         ``mu:<constraint>`` (``mu`` when there is one) for a friction coefficient. The
-        grid is their product, the last name varying fastest.
+        grid is their product, the last name varying fastest. A value may be a quantity
+        (``"10 cm:50 cm:5"``, a pint Quantity or a list of them, ``[10, 30] * ureg.cm``),
+        converted to SI and checked against the name's dimension in the problem.
     measures : str or sequence of str, default ("liftoff",)
         ``liftoff``, ``slip``, ``stick``, ``contact``, ``impact`` (the first such event,
         each optionally ``:<constraint>``: its time and coordinates, NaN when none),
@@ -430,7 +480,7 @@ def sweep(
         End time of every simulation (each starts at t = 0).
     initial : dict of str to float, optional
         Coordinates (or velocities ``x'``) set for every case; the others move to meet
-        the constraints, holding these.
+        the constraints, holding these. A value may be a quantity (``"1 deg"``).
     out : str or path-like, optional
         The table on disk: CSV, or Parquet when the name ends ``.parquet``. Rows are
         appended as cases finish; beside it ``<out>.sweep.json`` records what made it.

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..expr import to_text
-from ..model import System
+from ..model import System, result_units
 
 __all__ = ["Equilibrium", "Linear", "Mode", "Modes"]
 
@@ -163,8 +163,19 @@ class Modes:
 
         return modes_latex(self)
 
+    @property
+    def units(self) -> dict[str, str]:
+        """Where the file gives units (issue 46): the SI unit of each parameter, coordinate,
+        velocity and multiplier (``"lambda:<constraint>"``) by name
+        (:func:`lamech.model.result_units`), and of a mode's ``"frequency"`` (rad/s),
+        ``"growth"`` (1/s) and ``"period"`` (s); empty for a file without units."""
+        table = result_units(self.system)
+        if table:
+            table |= {"frequency": "rad/s", "growth": "1/s", "period": "s"}
+        return table
+
     def to_json(self) -> dict:
-        return {
+        out: dict = {
             "title": self.system.title,
             "independent": list(self.independent),
             "equilibria": [e.to_json() for e in self.equilibria],
@@ -172,3 +183,7 @@ class Modes:
             "free": self.free,
             "frame": self.frame,
         }
+        units = self.units
+        if units:
+            out["units"] = units
+        return out

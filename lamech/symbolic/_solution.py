@@ -11,7 +11,7 @@ import numpy as np
 import sympy as sp
 
 from ..expr import to_text
-from ..model import ModelError, System, circle_chart, with_chart
+from ..model import ModelError, System, circle_chart, result_units, with_chart
 from ..model._checks import holding_at_start, initial_values, numeric_matrix, open_at_start
 from ._budget import count_ops
 from ._conditions import (
@@ -25,6 +25,7 @@ from ._conditions import (
     vanishing_points,
 )
 from ._derive import DegenerateConstraintsError, Dynamics, dynamics, kkt_numeric
+from ._drives import drive_forces
 from ._forces import cartesian_forces, generalized_forces, residual_notes
 from ._integrals import Integrals, Shell, energy_shell, integrals
 from ._normal import normal
@@ -69,6 +70,7 @@ class Solution:
     work: tuple = (0, 0)  # (units spent, budget) of the normal forms (_work.Work)
     untidied: tuple[str, ...] = ()  # results shown as derived: the budget ran out
     partial: bool = False  # interrupted (Ctrl-C) while simplifying: see the notes
+    drives: dict = field(default_factory=dict)  # drive -> DriveForce (_drives)
 
     # ----- the public face --------------------------------------------------------
     @property
@@ -78,6 +80,16 @@ class Solution:
     @property
     def coordinates(self) -> list[str]:
         return [c.name for c in self.system.coordinates]
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Where the file gives units (issue 46), the SI unit of each parameter, ``t``,
+        coordinate, velocity, multiplier (``"lambda:<constraint>"``: N, N*m, N/m, ...)
+        and Cartesian force component (``"force:<constraint>:<direction>"``), by the
+        names a :class:`~lamech.numeric.Trajectory`'s columns use
+        (:func:`lamech.model.result_units`); empty for a file without units. The
+        expressions themselves are in SI, as every value in them is."""
+        return result_units(self.system)
 
     @property
     def independent(self) -> list[str]:
@@ -356,7 +368,7 @@ def _solve(system: System) -> Solution:
         notes += residual_notes(dyn_h, red, cart)  # a residual: which bodies to name
     with labelled("equations"):
         equations = tuple(readable(e, system) for e in dyn.equations)
-    return Solution(
+    sol = Solution(
         system,
         dyn,
         red,
@@ -375,6 +387,10 @@ def _solve(system: System) -> Solution:
         equations,
         closes,
     )
+    if any(c.drive is not None for c in system.constraints):
+        with labelled("drives"):
+            sol = replace(sol, drives=drive_forces(sol))
+    return sol
 
 
 def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> list[str]:

@@ -4,8 +4,8 @@ maps.
 
 The rules themselves (the mode, the events, the projection, the KKT solves, DOP853 and
 the loops) were Python kernels here, each with its twin in C; they are now written once,
-in C (``lamech/numeric/_engine/*.c``, :mod:`.._cengine`), used by every road: the loop
-with events, the batch loop, and SciPy's integrators (:mod:`.._crules`). A system
+in C (``lamech/numeric/_engine/*.c``, ``lamech.numeric._cengine``), used by every road: the loop
+with events, the batch loop, and SciPy's integrators (``lamech.numeric._crules``). A system
 without compiled functions has its NumPy functions called back by the engine.
 """
 
