@@ -683,7 +683,9 @@ def _source(system: System, dyn: Dynamics, c: bool = True):
                 [
                     C_HEADER
                     + order.replace("*/", "* /")
-                    + " */\n#include <math.h>\n#include <stdlib.h>",
+                    + " */\n#include <math.h>\n#include <stdlib.h>\n"
+                    # C99's math.h need not define M_PI (glibc's does only beyond -std=c99)
+                    + "#ifndef M_PI\n#define M_PI 3.14159265358979323846\n#endif",
                     c_parts[0],
                     derived,
                     *c_parts[1:],

@@ -53,7 +53,7 @@ class Callbacks:
     """The NumPy functions of ``ns`` as C function pointers (``addresses``, in the order
     of ``lm_system``'s fields: dynamics, dynamics_sparse, constraints, energy,
     restitution, switches); ``error`` the first exception one raised since the engine's
-    entry point was entered."""
+    entry point was entered, in the calling thread (threads may share the system)."""
 
     def __init__(self, ns):
         n, m, K = ns.n, ns.m, len(ns.switch_names)
@@ -61,7 +61,7 @@ class Callbacks:
         PTR, IDX = (np.asarray(a, dtype=np.int64) for a in ns.pattern[:2])
         erow = np.repeat(np.arange(m), np.diff(PTR)) if m else np.zeros(0, dtype=np.int64)
         nnz = IDX.shape[0]
-        self.error: BaseException | None = None
+        self._local = threading.local()  # a callback runs in the thread that called the engine
         f_dyn, f_con, f_en = ns.dynamics, ns.constraints, ns.energy
         f_res, f_sw = ns.restitution, ns.switches
 
@@ -132,6 +132,15 @@ class Callbacks:
             _ENERGY(guarded(switches, lambda t, q, v, p, s: [(s, K)])),
         )  # fmt: skip
         self.addresses = [ctypes.cast(f, _P).value for f in self.pointers]
+
+    @property
+    def error(self) -> BaseException | None:
+        """The first exception a callback raised in this thread since it was cleared."""
+        return getattr(self._local, "error", None)
+
+    @error.setter
+    def error(self, value: BaseException | None) -> None:
+        self._local.error = value
 
 
 _CALLED: dict[int, tuple] = {}
