@@ -1,9 +1,12 @@
 """lamech's engine in C (issue 45): built when lamech is installed, the same integer codes
-as the kernels, clean under ``-Wall -Wextra -Werror``, every array checked where Python
-hands it over (a wrong one is a ValueError, never a crash), the same numbers as the
-kernels run as Python on every bundled example, and (slow) clean under AddressSanitizer
-and UndefinedBehaviorSanitizer on runs with lift-off, impacts, Zeno, stick and slip, inputs
-that switch, and the batch loops."""
+as Python reads, clean under ``-Wall -Wextra -Werror``, every array checked where Python
+hands it over (a wrong one is a ValueError, never a crash), the same numbers with the
+system's compiled functions as with its NumPy functions called back (the engine
+"python") on every bundled example, on every road (the loop, the batch loops, SciPy's
+integrators applying the engine's rules), a callback's exception raised again in Python,
+and (slow) clean under AddressSanitizer and UndefinedBehaviorSanitizer on runs with
+lift-off, impacts, Zeno, stick and slip, inputs that switch, the batch loops and SciPy's
+road."""
 
 from __future__ import annotations
 
@@ -29,6 +32,7 @@ from lamech.numeric import (
 )
 from lamech.numeric._cc import compiler
 from lamech.numeric._cengine import LIBRARY_ENV, c_kernels
+from lamech.numeric._crules import callback_kernels, rules_of
 from lamech.numeric._kernels import codes
 from lamech.problem import chain_toml
 
@@ -46,7 +50,22 @@ def test_the_engine_was_built_at_install_and_runs_the_problems():
     assert simulate(ns, 0.5, samples=3).engine == "loop (C)"
 
 
-def test_the_c_codes_are_the_kernels_codes():
+@needs_cc
+def test_every_bundled_example_compiles_to_c():
+    """Each bundled example's functions compile (pi in a constraint, ``M_PI``, is not
+    defined by -std=c99's math.h: the driven four-bar fell back to NumPy silently)."""
+    from lamech.numeric._cc import CompileFailed
+
+    for name in EXAMPLES:
+        ns = compile_system(lamech.load(name), jit=False)
+        try:
+            c_kernels(ns.pattern, ns.mass_diagonal, ns.n, ns.m, len(ns.parameters),
+                      ns.c_source, ns.switch_slots)  # fmt: skip
+        except CompileFailed as exc:
+            pytest.fail(f"{name}: {exc}")
+
+
+def test_the_c_codes_are_pythons_codes():
     text = (ENGINE / "codes.h").read_text()
     found = {k: int(v) for k, v in re.findall(r"#define LM_(\w+) (-?\d+)", text)}
     assert found == codes.constants()
@@ -92,9 +111,10 @@ PROBLEMS = ["ball", "ball_on_incline", "trammel", "hoop_cartesian", "ellipse_bea
 
 @needs_cc
 @pytest.mark.parametrize("name", EXAMPLES + [f"problems/{p}" for p in PROBLEMS])
-def test_the_engine_gives_the_kernels_numbers(name):
+def test_compiled_and_called_back_functions_give_the_same_numbers(name):
     """Every bundled example (and the tests' problems with impacts and Cartesian charts)
-    on the engine in C and on the same loop run as Python: the same events and states."""
+    on the engine with its compiled functions and with its NumPy functions called back
+    (the engine "python"): the same events and states."""
     system = (
         lamech.load(HERE / f"{name}.toml") if name.startswith("problems/") else lamech.load(name)
     )
@@ -109,7 +129,7 @@ def test_the_engine_gives_the_kernels_numbers(name):
 
 
 @needs_cc
-def test_the_batch_loops_give_the_kernels_numbers():
+def test_the_batch_loops_give_the_same_numbers_with_callbacks():
     compiled = compile_system(lamech.loads(chain_toml(3)), jit=True)
     python = compile_system(lamech.loads(chain_toml(3)), jit=False)
     rng = np.random.default_rng(5)
@@ -166,6 +186,101 @@ def test_what_python_hands_the_engine_is_checked():
                     np.zeros(ns.n), kinds, 1e-9)  # fmt: skip
 
 
+SCIPY_ROAD = ["ladder", "vertical_circle", "cylinder", "problems/ball", "problems/ball_on_incline",
+              "problems/ladder_at_rest"]  # fmt: skip
+
+
+def _load(name: str):
+    if name.startswith("problems/"):
+        return lamech.load(HERE / f"{name}.toml")
+    return lamech.load(name)
+
+
+@needs_cc
+@pytest.mark.parametrize("name", SCIPY_ROAD)
+def test_scipys_road_applies_the_engines_rules_with_either_functions(name):
+    """SciPy's integrators apply the engine's rules (rules.c): with the system's compiled
+    functions and with its NumPy functions called back, the same events and states; and
+    the loop with events agrees with both (one implementation of every rule)."""
+    kw = dict(samples=5, rtol=1e-10, atol=1e-12)
+    compiled = compile_system(_load(name), jit=True)
+    python = compile_system(_load(name), jit=False)
+    a = simulate(compiled, 1.5, engine="scipy", **kw)
+    b = simulate(python, 1.5, engine="scipy", **kw)
+    assert a.engine == b.engine == "SciPy DOP853"
+    _compare(a, b, 1e-8)
+    assert rules_of(compiled) is not rules_of(python)
+    assert rules_of(compiled).k.parallel and not rules_of(python).k.parallel
+
+
+def test_the_rules_check_what_python_hands_them():
+    """The rules' arrays of the wrong shape or type, and indices out of range, are refused
+    before the engine sees them."""
+    ns = compile_system(lamech.load("ladder"), jit=False)
+    rules = rules_of(ns)
+    kinds = np.zeros((3, ns.m), dtype=np.int64)
+    kinds[2] = -1
+    imode = np.ones((4, ns.m), dtype=np.int64)
+    imode[1] = 0
+    fmode = np.zeros((5, ns.m))
+    rows, hrows, sj, sk, sc = rules.ev_mode(kinds, imode, fmode)
+    assert list(rows) == list(range(ns.m)) and hrows.shape == sj.shape == (0,)
+    y = np.concatenate(ns.initial_state())
+    p = ns.parameters.copy()
+    with pytest.raises(ValueError, match="shape"):
+        rules.ev_project(0.0, y[:-1].copy(), p, rows, hrows, fmode[2].copy())
+    with pytest.raises(ValueError, match="outside"):
+        rules.ev_project(0.0, y.copy(), p, rows + 9, hrows, fmode[2].copy())
+    with pytest.raises(ValueError, match="int64"):
+        rules.ev_watch(kinds, imode.astype(np.int32))
+    with pytest.raises(ValueError, match="kinds"):
+        rules.ev_watch(np.full((3, ns.m), 5, dtype=np.int64), imode)
+    tl = codes.tolerances(rtol=1e-8, atol=1e-10, t_end=1.0)
+    act = (rows, hrows, sj, sk, sc)
+    lim = codes.limits(max_steps=0, impacts=True)
+    lg = (np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64), np.zeros(4),
+          np.zeros((4, 2 * ns.n)), np.zeros((4, 4)), np.zeros((2, 0), dtype=np.int64),
+          np.zeros(0, dtype=np.bool_))  # fmt: skip
+    md = (kinds, imode, fmode)
+    with pytest.raises(ValueError, match="range"):
+        rules.ev_apply(0.0, y.copy(), p, 9, 0, act, md, tl, lim, lg, 0)
+    with pytest.raises(ValueError, match="nev"):
+        rules.ev_settle(0.0, y.copy(), p, md, tl, lg, 5)
+    assert rules.ev_settle(0.0, y.copy(), p, md, tl, lg, 0)[1] == 0
+
+
+def test_a_callback_that_raises_is_raised_again_in_python():
+    """A system's NumPy function called back by the engine: out of an expression's domain
+    (ValueError, ArithmeticError) it gives NaN as the compiled C would; any other
+    exception it raises returns NaN there and is raised when the engine returns, on every
+    road."""
+    import dataclasses
+
+    ns = compile_system(lamech.load("pendulum"), jit=False)
+
+    def failing(error):
+        def dynamics(t, q, v, p):
+            if t > 0.3:
+                raise error
+            return ns.dynamics(t, q, v, p)
+
+        return dataclasses.replace(ns, dynamics=dynamics)
+
+    broken = failing(RuntimeError("the user's own function"))
+    assert broken.replaced
+    y0 = np.concatenate(ns.initial_state())
+    with pytest.raises(RuntimeError, match="the user's own function"):
+        integrate_events(broken, y0[None, :], 1.0, jit=False)
+    with pytest.raises(RuntimeError, match="the user's own function"):
+        simulate(broken, 1.0, engine="python", samples=3)
+    k = callback_kernels(broken)
+    with pytest.raises(RuntimeError):
+        k.accelerations(0.5, y0, broken.parameters.copy())
+    assert np.all(np.isfinite(k.accelerations(0.1, y0, broken.parameters.copy())))
+    domain = callback_kernels(failing(ValueError("math domain error")))
+    assert np.all(np.isnan(domain.accelerations(0.5, y0, ns.parameters.copy())))
+
+
 SANITIZED = textwrap.dedent(
     """
     import numpy as np
@@ -185,6 +300,13 @@ SANITIZED = textwrap.dedent(
     xy = np.stack((np.cumsum(np.sin(a), 1), -np.cumsum(np.cos(a), 1)), axis=2).reshape(8, 8)
     r = integrate_batch(ns, np.concatenate((xy, np.zeros((8, 8))), axis=1), 1.0)
     print("batch", bool(r.ok.all()))
+    for name in names:  # SciPy's road on the engine's rules, compiled and called back
+        for jit in (True, False):
+            ns = compile_system(lamech.load(name), jit=jit)
+            t = simulate(ns, 0.5, engine="scipy", samples=3)
+            print(name, jit, t.engine, t.status)
+    ns = compile_system(lamech.load(names[-1]), jit=False)
+    print("python", simulate(ns, 0.5, engine="python", samples=3).engine)
     """
 )
 
@@ -222,5 +344,6 @@ def test_the_engine_is_clean_under_address_and_undefined_behaviour_sanitizers(tm
     )
     assert done.returncode == 0, done.stderr[-4000:]
     assert "ERROR: AddressSanitizer" not in done.stderr and "runtime error" not in done.stderr
-    assert "batch True" in done.stdout
+    assert "batch True" in done.stdout and "python loop (Python)" in done.stdout
+    assert done.stdout.count("SciPy DOP853") == 2 * len(names), done.stdout
     assert done.stdout.count("loop (C)") == len(names), done.stdout

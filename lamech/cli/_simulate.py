@@ -165,7 +165,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         default="auto",
         help="what integrates (the names of lamech sweep --engine): 'compiled', lamech's "
         "DOP853 loop with events in C (each problem's own functions compiled on its "
-        "first run, in a fraction of a second); 'python', the same loop as Python; "
+        "first run, in a fraction of a second); 'python', the same loop in C with the "
+        "problem's functions called back in Python (NumPy, no C compiler needed); "
         "'scipy', SciPy's integrator driven from Python; 'auto' (default) the compiled "
         "loop wherever it can run the problem (DOP853, a C compiler), else SciPy ('loop', "
         "an older name: compiled where the problem is, else Python)",

@@ -16,17 +16,18 @@ adaptive high-order Runge–Kutta with a compiled right-hand side, a projection 
 these events. The loop is SciPy's DOP853 (same tableau, the same error norm and
 step-size control: ``scipy.integrate._ivp.rk``), plus, after every accepted step, the
 projection of positions (Gauss–Newton) and velocities onto the constraints: the
-simulator's projection (:func:`._kernels.project.ev_project`), in the
+simulator's projection (the engine's ``ev_project``), in the
 Euclidean metric (its normal equations A A^T w = f, solved by the compiled elimination)
-and with the same iteration cap (:data:`PROJECTION_ITERATIONS`). The loop's code is
-:mod:`._kernels.batch` on the stepper of :mod:`._kernels.dop853` (the loop with events'
-too), whose twin in C (``lamech/numeric/_engine/``) is built when lamech is installed and
-runs a system from ``compile_system(system, jit=True)``; otherwise the same functions run
-as Python: the same numbers, slowly.
+and with the same iteration cap (6). The loop's code is ``batch.c`` on the stepper of
+``dop853.c`` (the loop with events' too), in lamech's engine in C
+(``lamech/numeric/_engine/``, built when lamech is installed), with the system's compiled
+functions for ``compile_system(system, jit=True)``; otherwise its NumPy functions are
+called back from the engine (``lamech.numeric._crules.callback_kernels``): the same numbers to
+rounding, slower, in one thread.
 
 :func:`integrate_events` is the loop with events, what ``lamech sweep`` runs: the same
-DOP853 loop carrying the simulator's contact and friction mode (:mod:`._kernels.loop`,
-:mod:`._kernels.modes`, :mod:`._kernels.impacts`), the watched events located by Brent's
+DOP853 loop carrying the simulator's contact and friction mode (``loop.c``,
+``modes.c``, ``impacts.c``), the watched events located by Brent's
 method on DOP853's dense output, lift-off, slip and stick applied in the loop, and a
 status that hands what it does not mirror (impacts and contacts, failures) to
 :func:`lamech.numeric.simulate`; with :func:`parameter_rows` and :func:`initial_states`,
@@ -38,7 +39,6 @@ simulator's (mass-matrix metric), so that its event times are the simulator's to
 
 from __future__ import annotations
 
-import functools
 import os
 
 import numpy as np
@@ -46,7 +46,6 @@ import numpy as np
 from ._codegen import NumericSystem, compiled_available
 from ._events import EventKind
 from ._kernels import codes
-from ._kkt import python_side_solve
 from ._options import Options
 from ._run import ConstraintKinds
 from ._tableau import _tables
@@ -79,53 +78,14 @@ class BatchResult:
         self.ok = np.all(np.isfinite(y), axis=1) & (steps >= 0)
 
 
-def _python_namespace(ns: NumericSystem) -> dict:
-    """The kernels (:mod:`._kernels`) as Python around the system's NumPy functions: one
-    namespace of their functions where the KKT solve and the right-hand sides are the
-    NumPy ones of ``ns`` (the same loop the compiled system runs, slowly), and
-    ``"sy"`` the system record they take."""
-    from ._kernels import python_namespace
-
-    namespace = python_namespace()
-    solve = python_side_solve(ns)
-    namespace["kkt_solve"] = lambda sy, *args: solve(*args)
-    namespace["rhs_kernel"] = lambda sy, *args: ns.rhs_kernel(*args)
-
-    def rhs_into(sy, t, y, p, rows, slip_j, slip_k, slip_c, out, work, iwork):
-        out[:] = ns.rhs_kernel(t, y, p, rows, slip_j, slip_k, slip_c)
-
-    namespace["rhs_into"] = rhs_into
-    namespace["accelerations"] = lambda sy, *args: ns.accelerations(*args)
-    namespace["gauss_inplace"] = _gauss_lapack
-    arrays = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in ns.pattern)
-    namespace["sy"] = (
-        bool(ns.mass_diagonal), *arrays, ns.dynamics, None, ns.constraints, ns.energy,
-        ns.restitution, ns.switches, False, np.asarray(ns.switch_slots, dtype=np.int64),
-    )  # fmt: skip
-    return namespace
-
-
-def _gauss_lapack(K: np.ndarray, x: np.ndarray) -> None:
-    """:func:`lamech.linalg.gauss_inplace` for the kernels run as Python: x becomes the
-    solution of K y = x (NaN where K is singular) by LAPACK, the same partial pivoting.
-    The compiled loop's elimination is entry by entry, which C runs fast and Python
-    runs a thousand times slower (the projection's 120-square systems of a 60-link
-    chain)."""
-    try:
-        x[:] = np.linalg.solve(K, x)
-    except np.linalg.LinAlgError:
-        x[:] = np.nan
-
-
-def _bound(namespace: dict, names) -> dict:
-    """The functions ``names`` of a namespace with its system record bound."""
-    return {name: functools.partial(namespace[name], namespace["sy"]) for name in names}
-
-
 def _python_loops(ns: NumericSystem):
-    """(parallel loop, serial loop) of the batch part as Python (:func:`_python_namespace`)."""
-    f = _bound(_python_namespace(ns), ("batch_run", "batch_run_serial"))
-    return f["batch_run"], f["batch_run_serial"]
+    """(parallel loop, serial loop) of the batch part on the engine in C with the
+    system's NumPy functions called back (``lamech.numeric._crules.callback_kernels``: one thread,
+    the callbacks hold the GIL)."""
+    from ._crules import callback_kernels
+
+    f = callback_kernels(ns).functions
+    return f["batch_run_serial"], f["batch_run_serial"]
 
 
 _CACHE: dict[int, tuple] = {}
@@ -165,8 +125,8 @@ def integrate_batch(
 
     ``rtol``, ``atol``: by default those of :class:`~lamech.Options` (the simulator's).
     ``ns`` from ``compile_system(system, jit=True)`` runs compiled (C); otherwise the
-    same loop runs as Python. Only for systems whose constraints are all bilateral and
-    without friction limits (raises ValueError otherwise): there are no events here.
+    same loop calls its NumPy functions back. Only for systems whose constraints are all
+    bilateral and without friction limits (raises ValueError otherwise): there are no events here.
     """
     system = ns.system
     if any(c.unilateral or c.friction is not None for c in system.constraints):
@@ -248,38 +208,25 @@ _EVENT_CACHE: dict[tuple[int, bool], tuple] = {}
 
 
 def _event_functions(ns: NumericSystem, jit: bool | None = None) -> dict:
-    """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's when ``jit``
-    (default: ``ns.jit``) and the system runs compiled (``lamech.numeric._cengine``), else the same
-    functions as Python (also where one of ``ns``' functions was replaced: the compiled
-    functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
+    """{"ev_run", "ev_starts", "ev_segment", "compiled"}: the engine in C's, with the
+    system's compiled functions when ``jit`` (default: ``ns.jit``) and they compile
+    (``"compiled"`` True), else with its NumPy functions called back
+    (``lamech.numeric._crules.callback_kernels``; also where one of ``ns``' functions was replaced:
+    the compiled functions would not run the replacement, :attr:`NumericSystem.replaced`)."""
     use = bool(ns.jit if jit is None else jit) and not ns.replaced and compiled_available()
-    known = _EVENT_CACHE.get((id(ns), use))
+    key = (id(ns), use)
+    known = _EVENT_CACHE.get(key)
     if known is not None and known[0] is ns:
         return known[1]
     names = ("ev_run", "ev_starts", "ev_segment")
-    f = None
-    if use and ns.c_source:
-        from ._cc import CompileFailed
-        from ._cengine import EngineMissing, c_kernels
+    from ._crules import callback_kernels, engine_kernels
 
-        try:
-            f = c_kernels(
-                ns.pattern,
-                ns.mass_diagonal,
-                ns.n,
-                ns.m,
-                len(ns.parameters),
-                ns.c_source,
-                ns.switch_slots,
-            ).functions
-        except (EngineMissing, CompileFailed):
-            f = None
-    use = f is not None
-    if f is None:
-        f = _bound(_python_namespace(ns), names)
+    kernels = engine_kernels(ns, use) if use else callback_kernels(ns)
+    use = kernels.parallel  # compiled: its own functions, no callback
+    f = kernels.functions
     out: dict = {k: f[k] for k in names}
     out["compiled"] = use
-    _EVENT_CACHE[(id(ns), use)] = (ns, out)
+    _EVENT_CACHE[key] = (ns, out)
     return out
 
 
@@ -519,9 +466,9 @@ def integrate_events(
     has happened (status ``"found"``). ``params`` as for :func:`~lamech.integrate_batch`, or an
     array of parameter vectors (B, len(ns.parameters)). Compiled (the engine in C) when
     ``jit`` (default: ``ns.jit``, whether ``ns`` was compiled with ``jit=True``) and it can
-    run, else the same loop runs as Python (same numbers). Compiled, the batch is
-    cut into slices run in ``threads`` threads (default: the CPUs this process may use;
-    the loop releases the GIL).
+    run, else the same loop with its NumPy functions called back (same numbers to
+    rounding). Compiled, the batch is cut into slices run in ``threads`` threads
+    (default: the CPUs this process may use; the loop releases the GIL).
     Inputs that switch (step, min, max, clip, piecewise) switch where their s crosses 0,
     located as the events are, and a system with t in it has its force events sought
     inside each step too (as in ``simulate``).

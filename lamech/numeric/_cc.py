@@ -17,7 +17,7 @@ row-major); the loop calls them with its arrays' addresses.
 
 ``$LAMECH_CC``: the compiler command (default ``$CC``, else ``cc``, ``gcc`` or ``clang``,
 the first found); ``0`` or ``none``: no C (the system runs on NumPy and SciPy, or the
-engine's loop as Python).
+engine with their NumPy functions called back).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ FUNCTIONS = (
 """The functions of a system's library, in the order of the system record's fields."""
 
 # -ffp-contract=off: no fused multiply-add where the source has a product and a sum, as
-# the kernels as Python (NumPy) compute it; -O2 without -march=native: a cache folder shared by
+# the NumPy functions compute it; -O2 without -march=native: a cache folder shared by
 # machines (a cluster's home) must not hold code another processor cannot run.
 FLAGS = ("-O2", "-std=c99", "-ffp-contract=off", "-fPIC", "-shared")
 

@@ -4,12 +4,13 @@ and the starts, built once when lamech is installed (``setup.py``: the extension
 own functions compiled by the machine's C compiler at first use (:mod:`._cc`) and handed
 to it as function pointers.
 
-The C is the twin of the kernels of :mod:`._kernels` (which stay: the same rules run as
-Python, for SciPy's road and the engine ``"python"``), computing the same terms in the
-same order. This module holds the records the C reads (:class:`_System` and the others,
-mirrors of ``engine.h``'s structs), checks every array Python hands over (dtype, order,
-shape, and the indices the engine follows: a wrong one is a ValueError here, never a
-crash there), and gives the engine's entry points the kernels' own Python signatures
+The C is the one implementation of the rules, used by every road: the loops here,
+SciPy's integrators through ``rules.c`` (``lamech.numeric._crules``), and systems without compiled
+functions, whose NumPy functions the engine calls back (``lamech.numeric._crules.callback_kernels``:
+the engine ``"python"``). This module holds the records the C reads (:class:`_System`
+and the others, mirrors of ``engine.h``'s structs), checks every array Python hands over
+(dtype, order, shape, and the indices the engine follows: a wrong one is a ValueError here, never a
+crash there), and gives the engine's entry points the former kernels' Python signatures
 (:func:`c_kernels`), so that callers cannot tell the roads apart but by speed.
 
 ctypes, not the CPython API: the engine then needs no Python headers beyond the empty
@@ -41,7 +42,7 @@ __all__ = [
     "CKernels",
 ]
 
-ABI_VERSION = 1
+ABI_VERSION = 2
 """The version of ``engine.h``'s records this module writes (``lm_abi_version``)."""
 LIBRARY_ENV = "LAMECH_ENGINE_LIBRARY"
 """An environment variable naming another build of the engine to load instead of the
@@ -106,6 +107,40 @@ _SIGNATURES = {
     "lm_kkt_solve_entry": (_I64, [
         _REF(_System), _P, _P, _P, _P, _P, _P, _I64, _P, _P, _P, _I64, _P,
     ]),
+    # rules.c
+    "lm_rule_start": (_I64, [_REF(_System), _D, _P, _P, _REF(_Mode), _P, _REF(_Log), _I64, _P]),
+    "lm_rule_settle": (_I64, [_REF(_System), _D, _P, _P, _REF(_Mode), _P, _REF(_Log), _I64, _P]),
+    "lm_rule_apply": (_I64, [
+        _REF(_System), _D, _P, _P, _I64, _I64, _P, _I64, _P, _I64, _P, _P, _P, _I64,
+        _REF(_Mode), _P, _P, _REF(_Log), _I64, _P,
+    ]),
+    "lm_rule_switch": (_I64, [
+        _REF(_System), _D, _P, _P, _I64, _REF(_Mode), _P, _REF(_Log), _I64, _P,
+    ]),
+    "lm_rule_values": (_I64, [
+        _REF(_System), _D, _P, _P, _P, _P, _I64, _REF(_Mode), _P, _I64, _P, _I64, _P, _P, _P,
+        _I64, _P, _P,
+    ]),
+    "lm_rule_arm": (_I64, [_REF(_System), _D, _P, _P, _P, _P, _I64, _REF(_Mode), _P, _P]),
+    "lm_rule_project": (_I64, [_REF(_System), _D, _P, _P, _P, _I64, _P, _I64, _P]),
+    "lm_rule_accumulated": (_I64, [
+        _REF(_System), _D, _P, _P, _REF(_Mode), _REF(_Log), _I64, _P,
+    ]),
+    "lm_rule_dips": (_I64, [
+        _REF(_System), _D, _D, _P, _I64, _P, _P, _P, _I64, _REF(_Mode), _P, _I64, _P, _I64,
+        _P, _P, _P, _I64, _P, _P, _P, _P, _P,
+    ]),
+    "lm_rule_lock": (_I64, [_REF(_System), _D, _P, _P]),
+    "lm_rule_crossed": (_I64, [_REF(_System), _D, _P, _P, _P, _P]),
+    "lm_rule_mode": (None, [_REF(_Mode), _P, _P, _P, _P, _P, _P]),
+    "lm_rule_watch": (_I64, [_REF(_Mode), _P, _P]),
+    "lm_rule_functions": (None, [
+        _P, _P, _I64, _REF(_Mode), _P, _P, _I64, _P, _P, _P, _P, _P, _P,
+    ]),
+    "lm_rule_bound": (_D, [_D, _REF(_Mode)]),
+    "lm_rule_depth": (_D, [_P, _P, _I64]),
+    "lm_rule_dip_time": (_D, [_D, _D, _I64, _I64]),
+    "lm_rule_again": (_I64, [_I64, _I64, _D, _D, _REF(_Mode)]),
 }  # fmt: skip
 
 _LIB: dict[str, object] = {}
@@ -232,8 +267,12 @@ class CKernels:
     ``"memory"``), ``path`` that library's file in the cache folder (None: in memory)."""
 
     def __init__(self, pattern, diagonal: bool, n: int, m: int, nparams: int, addresses,
-                 slots, keep, cache: str, path: Path | None):  # fmt: skip
-        self.lib = _library()
+                 slots, keep, cache: str, path: Path | None, calls=None):  # fmt: skip
+        lib = _library()
+        # ``calls``: the system's functions are Python called back (``lamech.numeric._crules``); an
+        # exception one raised comes back here after the entry point returns
+        self.lib = lib if calls is None else _Checked(lib, calls)
+        self.parallel = calls is None  # a callback holds the GIL: one thread
         PTR, IDX, CPTR, CROW, CPOS = (np.ascontiguousarray(a, dtype=_I) for a in pattern)
         slots = np.ascontiguousarray(slots, dtype=_I).reshape(-1)
         if PTR.shape != (m + 1,) or CPTR.shape != (n + 1,):
@@ -345,6 +384,9 @@ class CKernels:
         """Every row of Y0 to t_end (the kernel ``batch_run``), slices in parallel threads."""
         B = Y0.shape[0] if isinstance(Y0, np.ndarray) else 0
         self._batch_checks(Y0, P, tab, tl, lim, out, steps)
+        if not self.parallel:
+            self._batch_part(Y0, P, tab, tl, lim, out, steps, 0, B)
+            return
         _parallel(B, lambda a, b: self._batch_part(Y0, P, tab, tl, lim, out, steps, a, b))
 
     def batch_run_serial(self, Y0, P, tab, tl, lim, out, steps):
@@ -383,14 +425,19 @@ class CKernels:
             _addr(value_v, _F, (n,), "value_v"), self._check_kinds(kinds), float(tol),
         ))  # fmt: skip
 
-    def ev_segment(self, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
-        """The loop with events from (fo[FO_T], y) (the kernel ``ev_segment``): (t,
-        status, events logged, steps)."""
-        m, N = self.m, 2 * self.n
+    def mode_record(self, md) -> _Mode:
+        """The mode (kinds, imode, fmode) checked, as the engine's record."""
+        m = self.m
         kinds, imode, fmode = md
         mode = _Mode(m, self._check_kinds(kinds), _addr(imode, _I, (4, m), "imode", True),
                      _addr(fmode, _F, (5, m), "fmode", True))  # fmt: skip
         _in_range(imode[1], 0, 4, "imode's friction states")
+        return mode
+
+    def log_record(self, lg, nev) -> _Log:
+        """The event record lg (kinds, constraints, times, states, details, want, found)
+        checked, with the count ``nev`` of events in it, as the engine's record."""
+        m, N = self.m, 2 * self.n
         EK, EJ, ET, EY, EX, want, found = lg
         cap = EK.shape[0] if isinstance(EK, np.ndarray) and EK.ndim == 1 else -1
         w = want.shape[1] if isinstance(want, np.ndarray) and want.ndim == 2 else -1
@@ -403,6 +450,14 @@ class CKernels:
         )  # fmt: skip
         if not 0 <= int(nev) <= cap:
             raise ValueError("engine: nev outside the event record")
+        return log
+
+    def ev_segment(self, p, tab, md, tl, lim, lg, nev, smp, y, io, fo):
+        """The loop with events from (fo[FO_T], y) (the kernel ``ev_segment``): (t,
+        status, events logged, steps)."""
+        m, N = self.m, 2 * self.n
+        mode = self.mode_record(md)
+        log = self.log_record(lg, nev)
         TS, SY, SL, SR = smp
         S = TS.shape[0] if isinstance(TS, np.ndarray) and TS.ndim == 1 else -1
         samples = _Samples(
@@ -451,6 +506,30 @@ class CKernels:
             _addr(TOUT, _F, (B,), "TOUT", True), _addr(STATUS, _I, (B,), "STATUS", True),
             _addr(NEV, _I, (B,), "NEV", True), _addr(STEPS, _I, (B,), "STEPS", True),
         ))  # fmt: skip
+
+
+class _Checked:
+    """The engine's library for a system whose functions are called back in Python: each
+    entry point run, then the first exception a callback raised (``calls.error``; the
+    callback returned NaN instead) raised here."""
+
+    def __init__(self, lib, calls):
+        self._lib, self._calls = lib, calls
+
+    def __getattr__(self, name: str):
+        fn = getattr(self._lib, name)
+        calls = self._calls
+
+        def call(*args):
+            calls.error = None
+            try:
+                return fn(*args)
+            finally:
+                error, calls.error = calls.error, None
+                if error is not None:
+                    raise error
+
+        return call
 
 
 def _threads() -> int:

@@ -243,7 +243,7 @@ class NumericSystem:
         """Whether a function was replaced after :func:`compile_system` made this system
         (``dataclasses.replace(ns, constraints=...)``): the compiled loops (the loop with
         events, the batch loops), built from ``source``, would not run the replacement,
-        so they are not used for it (its own functions run, as Python)."""
+        so they are not used for it (its own functions run, called back from C)."""
         now = self._own_functions()
         return len(now) != len(self.generated) or any(
             a is not b for a, b in zip(now, self.generated)
@@ -491,7 +491,8 @@ def _kernels(
     """(rhs_kernel, accelerations, kkt_solve, batch loops, compiled state): on the engine
     in C (``lamech.numeric._cengine``) when ``jit`` (None: wherever it can) and the system has C
     (``c_source``) and a compiler compiles it, the state where its library came from
-    (:func:`._cc.load`); else NumPy (no batch loops: :mod:`._batch` runs them as Python;
+    (:func:`._cc.load`); else NumPy (no batch loops: :mod:`._batch` runs the engine's
+    with the NumPy functions called back;
     state ""). ``sizes``: (n, m, the length of p)."""
     if jit is None or jit:
         if c_source and compiled_available():

@@ -77,7 +77,7 @@ def force_dips(
     run: Run, dense, t_a: float, t_b: float, g_a: np.ndarray, g_b: np.ndarray
 ) -> dict[int, tuple[float, float]]:
     """Force events that go through zero and back inside one step, which its ends cannot
-    see (the loop's :func:`._kernels.loop.ev_dips`, at :data:`FORCE_SAMPLES` points of the
+    see (the loop's the engine's ``ev_dips``, at :data:`FORCE_SAMPLES` points of the
     step's dense output): {watch index: (t_a, s)}, s the first point where the event's
     function is <= 0 while it is > 0 at both ends. Asked for only where the system
     depends on t explicitly."""
@@ -102,7 +102,7 @@ def locate(
     """(te, i): the first of the events ``hit`` (indices into the mode's watch list)
     within (t_a, t_b] (for event i in ``brackets``, within that bracket), located on
     the dense output; (t_b, -1) where each was a contact's impact just applied found
-    again (:func:`._kernels.modes.ev_again`, as the loop drops it)."""
+    again (the engine's ``ev_again``, as the loop drops it)."""
 
     te, ie = t_b, -1
     brackets = brackets or {}
@@ -147,13 +147,13 @@ def _root(g, lo: float, hi: float, t_b: float) -> float:
 
 def lock_switches(run: Run, t: float, y: np.ndarray) -> None:
     """Hold every switch on the branch it is on at (t, y) (the loop's
-    :func:`._kernels.modes.ev_lock`): step(s) = 1 where s >= 0."""
+    the engine's ``ev_lock``): step(s) = 1 where s >= 0."""
     run.rules.ev_lock(t, y, run.setup.p)
 
 
 def switches_crossed(run: Run, t: float, y: np.ndarray) -> np.ndarray:
     """The switches whose s at (t, y) is on the other side of their held branch
-    (:func:`._kernels.modes.ev_crossed`)."""
+    (the engine's ``ev_crossed``)."""
     return run.rules.ev_crossed(t, y, run.setup.p)
 
 

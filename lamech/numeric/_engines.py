@@ -4,7 +4,9 @@
   problem, else the other engines' best choice;
 - ``"compiled"``: the loop with events on the engine in C (the system's own functions
   compiled now if they were not);
-- ``"python"``: the same loop run as Python (the same numbers, slowly);
+- ``"python"``: the same loop on the engine in C, with the system's functions called back
+  in Python (its NumPy functions: no C compiler needed, the same numbers to rounding,
+  slower per step); the name stays from when the loop itself ran as Python;
 - ``"scipy"``: SciPy's integrators driven from Python (for a sweep: ``simulate`` for every
   case).
 

@@ -1,7 +1,7 @@
 """The initial state as numbers: the coordinates' initial expressions at a parameter
 vector, values held by name with the others moved onto the constraints
 (:func:`consistent_initial`: the loop's consistent start,
-:func:`._kernels.project.ev_consistent`, run as Python), and the arrays or dicts a caller
+the engine's ``lm_consistent``, ``lamech.numeric._crules``), and the arrays or dicts a caller
 overrides them with (:func:`initial_state`)."""
 
 from __future__ import annotations

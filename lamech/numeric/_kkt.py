@@ -1,6 +1,5 @@
 """The KKT solve of the hot path with NumPy/LAPACK (:func:`kkt_solve_numpy`, the
-reference; its compiled twin is in C, ``lamech.numeric._cengine``, and as Python in
-:mod:`._kernels`), the
+reference; its compiled twin is in C, ``lamech.numeric._cengine``), the
 right-hand sides built on it (:func:`numpy_kernels`), and the sparsity pattern of the
 constraint rows that the compiled solve runs over (:func:`sparsity`).
 
@@ -39,7 +38,7 @@ def slip_directions(A, rows, mu, slip_j, slip_k, slip_c) -> np.ndarray:
 
 
 def python_side_solve(ns):
-    """The KKT solve the Python side of a run uses (the rules run as Python, a compiled
+    """The KKT solve the Python side of a run uses (SciPy's steps, a compiled
     run's first sample and handed-back segments): NumPy's (:func:`kkt_solve_numpy`), also
     for a compiled system, where the compiled solve would be an entry point of its own to
     load for a handful of solves (0.07 s of CPU, measured 2026-11-27); ``ns``' own where
@@ -49,7 +48,7 @@ def python_side_solve(ns):
 
 def kkt_solve_numpy(diagonal: bool):
     """solve(M, rhs, A, gam, mu, rows, slip_j, slip_k, slip_c) -> [q''; lambda_rows] with
-    NumPy/LAPACK (NaN where singular): the KKT system of :mod:`._kernels`, by the
+    NumPy/LAPACK (NaN where singular): the KKT system of the engine's kkt.c, by the
     Schur complement when M is diagonal with no zero entry and the KKT matrix is larger
     than 32 (30-link chain: a 30-square solve instead of a 90-square one, 74 -> 48 us;
     below that NumPy's per-call overhead makes the few extra products cost more than they

@@ -1,4 +1,4 @@
-"""``simulate`` on the loop with events (:func:`._kernels.loop.ev_segment`): the same DOP853
+"""``simulate`` on the loop with events (the engine's ``ev_segment``): the same DOP853
 loop, projection, event location and mode changes as the sweeps' loop
 (:func:`lamech.numeric.integrate_events`), here with the output times sampled inside it
 (state, lambda from the mode's KKT solve, residuals and energy).
@@ -6,13 +6,13 @@ loop, projection, event location and mode changes as the sweeps' loop
 The loop runs in chunks of :data:`CHUNK` steps, so that ``progress``, ``pace`` and Ctrl-C
 are served between them; a chunk resumes exactly where the last stopped (its step size
 carried over). The loop and the simulator's own steps share one mode (the run's arrays,
-``Run.md``, changed in place) and one set of rules: the loop applies lift-off,
-slip, stick and impacts (Newton's law with restitution, the engaging contact with its
-friction, the Zeno accumulation, whose ``contact`` is logged at the accumulation time)
-compiled, the simulator the same functions as Python. What the loop does not do it hands
-back: a contact it cannot apply (a singular impact matrix, a gap met below the surface)
-the simulator reports, and after a step the loop cannot take (a step-size collapse, a
-blow-up, a penetration, a gap that turns within a step, a mode that does not settle, a
+``Run.md``, changed in place) and one set of rules: the loop applies lift-off, slip, stick
+and impacts (Newton's law with restitution, the engaging contact with its friction, the Zeno
+accumulation, whose ``contact`` is logged at the accumulation time) in C, the simulator the
+same functions through ``lamech.numeric._crules``. What the loop does not do it hands back:
+a contact it cannot apply (a singular impact matrix, a gap met below the surface) the
+simulator reports, and after a step the loop cannot take (a step-size collapse, a blow-up, a
+penetration, a gap that turns within a step, a mode that does not settle, a
 singular KKT matrix) SciPy's DOP853 integrates one segment, up to its next event, with
 the simulator's diagnosis of a failure. The conditioning check of the simulator's steps
 (a nearly singular KKT matrix stops the run) is not made in the loop; an exactly

@@ -4,19 +4,17 @@ kinds, the event thresholds), :class:`Run` the data that change (the contact and
 friction mode, the counters and the event log) with the evaluations at a state: the KKT
 solve, the right-hand side, the projection and the residuals.
 
-The mode is the loop's own (:mod:`._kernels.codes`: the arrays ``imode`` and ``fmode``),
-and every rule that reads or changes it is the loop's code (:mod:`._kernels`), run here
-as Python (:func:`rules`): the start's mode, the event functions, arming, the projection,
-the settling, lift-off, slip, stick and impacts with the Zeno accumulation, the input
-switches. Where SciPy's integrators step (a method other than DOP853, ``engine="scipy"``,
-a system not compiled, or a segment the compiled loop hands back), they apply the very
-rules the compiled loop applies."""
+The mode is the loop's own (:mod:`._kernels.codes`: the arrays ``imode`` and ``fmode``), and
+every rule that reads or changes it is the loop's code, the engine's in C, called here
+through :func:`rules` (``rules.c``, ``lamech.numeric._crules``): the start's mode, the event
+functions, arming, the projection, the settling, lift-off, slip, stick and impacts with the
+Zeno accumulation, the input switches. Where SciPy's integrators step (a method other than
+DOP853, ``engine="scipy"``, a system not compiled, or a segment the compiled loop hands
+back), they apply the very rules the compiled loop applies."""
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
-from types import SimpleNamespace
 from typing import NamedTuple
 
 import numpy as np
@@ -62,33 +60,14 @@ class ConstraintKinds:
         return np.stack([self.unilateral, self.holonomic, self.normal]).astype(np.int64)
 
 
-_RULES: dict[int, tuple] = {}
+def rules(ns: NumericSystem):
+    """The loop's rules on lamech's engine in C (``lamech.numeric._crules.CRules``: ``rules.c``),
+    around the system's compiled functions where it runs compiled, else its NumPy
+    functions called back (``lamech.numeric._crules.engine_kernels``): the very code the loop with
+    events runs."""
+    from ._crules import rules_of
 
-
-def rules(ns: NumericSystem) -> SimpleNamespace:
-    """The loop's rules (:mod:`._kernels`) as Python around the system's NumPy functions,
-    those that take the system record with it bound (:func:`._batch._python_namespace`):
-    the same code the compiled loop runs."""
-    known = _RULES.get(id(ns))
-    if known is not None and known[0] is ns:
-        return known[1]
-    from ._batch import _python_namespace
-
-    space = _python_namespace(ns)
-    sy = space["sy"]
-    bound = {}
-    for name in ("ev_start", "ev_settle", "ev_apply", "ev_values", "ev_arm", "ev_project",
-                 "ev_accumulated", "ev_consistent", "ev_dips", "ev_lock",
-                 "ev_crossed", "ev_switch"):  # fmt: skip
-        bound[name] = functools.partial(space[name], sy)
-    for name in ("ev_mode", "ev_watch", "ev_functions", "ev_bound", "ev_depth", "dip_time",
-                 "ev_again"):  # fmt: skip
-        bound[name] = space[name]
-    out = SimpleNamespace(**bound)
-    if len(_RULES) >= 32:
-        _RULES.clear()
-    _RULES[id(ns)] = (ns, out)
-    return out
+    return rules_of(ns)
 
 
 @dataclass(frozen=True)
@@ -142,7 +121,7 @@ class Run:
     with its active set ``act`` and watched events ``watch`` (:meth:`rebuild`),
     ``evaluations`` (KKT solves), ``dissipative`` (a slip or an inelastic impact
     happened), ``events`` and ``handed_back`` (the contacts and segments the loop with
-    events left to the simulator's own steps). ``rules``: the loop's rules as Python
+    events left to the simulator's own steps). ``rules``: the loop's rules (the engine's)
     (:func:`rules`), with the tolerances ``tl``, limits ``lim`` and event record ``lg``
     they take."""
 
@@ -211,7 +190,7 @@ class Run:
         return new
 
     def start(self, t: float, y: np.ndarray) -> bool:
-        """The mode of the start (t, y) (:func:`._kernels.modes.ev_start`); whether every
+        """The mode of the start (t, y) (the engine's ``ev_start``); whether every
         active constraint is met there."""
         nev, st = self.rules.ev_start(t, y, self.setup.p, self.md, self.tl, self.lg, 0)
         self.logged(nev)
@@ -219,7 +198,7 @@ class Run:
 
     def settle(self, t: float, y: np.ndarray) -> np.ndarray:
         """y projected and the mode made consistent at (t, y)
-        (:func:`._kernels.modes.ev_settle`: release unilateral constraints pulling,
+        (the engine's ``ev_settle``: release unilateral constraints pulling,
         let friction beyond mu N slip); :class:`Stop` where it cannot be."""
         y = np.array(y, dtype=float)
         nev, st = self.rules.ev_settle(t, y, self.setup.p, self.md, self.tl, self.lg, 0)
@@ -230,7 +209,7 @@ class Run:
 
     def apply(self, t: float, y: np.ndarray, kind: int, j: int) -> np.ndarray:
         """The event (``EV_*`` kind, constraint j) applied at (t, y) and the mode settled
-        (:func:`._kernels.loop.ev_apply`); the state after it."""
+        (the engine's ``ev_apply``); the state after it."""
         y = np.array(y, dtype=float)
         st, nev, _ = self.rules.ev_apply(
             t, y, self.setup.p, kind, j, self.act, self.md, self.tl, self.lim, self.lg, 0
@@ -247,7 +226,7 @@ class Run:
 
     def switch(self, t: float, y: np.ndarray, k: int) -> np.ndarray:
         """Input switch k takes its other branch from t on, and the mode is settled
-        (:func:`._kernels.loop.ev_switch`); the state after it."""
+        (the engine's ``ev_switch``); the state after it."""
         y = np.array(y, dtype=float)
         st, nev, _ = self.rules.ev_switch(t, y, self.setup.p, k, self.md, self.tl, self.lg, 0)
         self.logged(nev)
@@ -256,7 +235,7 @@ class Run:
         return y
 
     def values(self, t: float, y: np.ndarray, acc: Accel | None = None) -> np.ndarray:
-        """The watched events' functions at (t, y) (:func:`._kernels.modes.ev_functions`;
+        """The watched events' functions at (t, y) (the engine's ``ev_functions``;
         ``acc`` the KKT solve there, if known)."""
         if not len(self.watch[0]):
             return np.zeros(0)
@@ -268,7 +247,7 @@ class Run:
 
     def arm(self, t: float, y: np.ndarray) -> bool:
         """Arm the contact and stick events that moved far enough from zero at the
-        accepted (t, y) (:func:`._kernels.loop.ev_arm`); whether any was."""
+        accepted (t, y) (the engine's ``ev_arm``); whether any was."""
         return bool(self.rules.ev_arm(t, y, self.setup.p, self.watch, self.md, self.tl))
 
     def bound(self, t_end: float) -> float:
@@ -414,7 +393,7 @@ class Run:
             return np.full(y.shape, np.nan)
 
     def project(self, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
-        """y projected onto the mode's manifold (:func:`._kernels.project.ev_project`:
+        """y projected onto the mode's manifold (the engine's ``ev_project``:
         positions onto f_h = offset_h by Gauss-Newton, then velocities onto
         A_r v + b_r = 0, each correction the smallest in the mass-matrix metric); also the
         size of the correction."""

@@ -24,7 +24,7 @@ the step's dense output:
   (Newton's law, ``restitution`` e); it bounces (``impact``) or, when e = 0 or the
   bounce is too small to resolve, engages (``contact``). Bounces that accumulate
   (0 < e < 1) engage at the last one resolved and log the ``contact`` at their
-  accumulation time, 2 e |F_j-| / (|a_n| (1 - e)) later (:func:`._kernels.impacts.ev_impact`);
+  accumulation time, 2 e |F_j-| / (|a_n| (1 - e)) later (the engine's ``ev_impact``);
 * ``slip``: |lambda_friction| reaches mu N: the friction constraint is removed and
   kinetic friction applied, opposing the slip velocity;
 * ``stick``: the slip velocity reaches zero and sticking can hold (else the slip
@@ -172,13 +172,14 @@ def simulate(
     it: ``lamech.numeric._loop``) when the system is compiled (the engine in C), else
     SciPy's integrator
     driven from Python (``"scipy"``); ``"compiled"`` asks for the compiled loop,
-    ``"python"`` for the same loop as Python (the same numbers, slowly); the names of
+    ``"python"`` for the same loop with the system's NumPy functions called back from C
+    (the same numbers to rounding, slower); the names of
     ``lamech.numeric._engines``, shared with ``sweep`` (the older ``"loop"`` is accepted). The loop
     applies lift-off, impacts (with the accumulation of bounces), slip and stick, inputs
     that switch and the force events inside the steps of a system with t in it, and hands
     a step it cannot take to SciPy's DOP853 for one segment; it does not run other methods
     (SimulationError for ``"compiled"`` and ``"python"``; ``"auto"`` uses SciPy there).
-    Both apply the same rules (the loop's functions; SciPy's steps run them as Python).
+    Both apply the same rules: the engine's, in C (SciPy's steps call them too).
 
     While it runs, BLAS (NumPy's and SciPy's OpenBLAS) uses one thread, in the whole
     process: its helper threads only slow these small solves down. The limits in force

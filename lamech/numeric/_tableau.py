@@ -1,5 +1,5 @@
 """DOP853's tables, SciPy's own coefficients, as the compiled loops take them
-(:mod:`._kernels.dop853`): read from SciPy's file on first use, without importing
+(the engine's ``dop853.c``): read from SciPy's file on first use, without importing
 ``scipy.integrate``."""
 
 from __future__ import annotations
@@ -67,5 +67,5 @@ def _dense_tableau():
 
 
 def _tables() -> tuple:
-    """DOP853's tables as the loops take them (``tab``: :mod:`._kernels.dop853`)."""
+    """DOP853's tables as the loops take them (``tab``: the engine's ``lm_tables``)."""
     return (*_tableau(), *_dense_tableau())

@@ -25,7 +25,7 @@ threadpoolctl is imported on first use (``lamech --help`` stays light) and scans
 libraries loaded then (1.5 ms; setting a limit then costs microseconds); it scans again
 if SciPy's linear algebra (with its own OpenBLAS) has been loaded since. lamech does not
 load SciPy's linear algebra for this: neither the compiled loop (its products are loops,
-:mod:`._kernels.arrays`) nor the loop run as Python (NumPy's BLAS) uses it, and importing
+the engine's arrays.c), with or without callbacks, uses it, and importing
 it cost 0.2 s of CPU per process (measured 2026-11-27). A run on SciPy's integrators
 (whose stiff methods' LU use SciPy's BLAS) loads it before it enters the limit
 (:func:`lamech.numeric.simulate`): a library loaded inside the block is not limited until

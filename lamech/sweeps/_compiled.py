@@ -1,7 +1,8 @@
 """A sweep's cases in this process by the compiled loop with events
 (:func:`lamech.numeric.integrate_events`, lamech's engine in C over the cores, or the same
-loop as Python), in chunks; the cases it cannot finish as :func:`lamech.numeric.simulate` would
-are handed back to run by simulate (see :mod:`lamech.sweeps._run`)."""
+loop with the problem's NumPy functions called back), in chunks; the cases it cannot finish
+as :func:`lamech.numeric.simulate` would are handed back to run by simulate (see
+:mod:`lamech.sweeps._run`)."""
 
 from __future__ import annotations
 

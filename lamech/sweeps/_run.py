@@ -30,7 +30,8 @@ in this process, over the cores) when every measure is an event measure or
 ``final:`` of a coordinate or velocity, the method is DOP853 and nothing in the system
 depends on t explicitly (``engine="auto"``);
 on lamech's engine in C (built at install; each problem's own functions compiled in a
-fraction of a second), else the same loop as Python; impacts are applied in it. A case whose
+fraction of a second), else the same loop with the problem's NumPy functions called
+back; impacts are applied in it. A case whose
 run meets what that loop leaves to the simulator (a failure, more than 64 events, an
 impact it cannot apply: see :data:`lamech.numeric._batch.FALLBACKS`) and every case of
 any other sweep runs
@@ -508,8 +509,9 @@ def sweep(
         versions, still accepted). ``engine`` is one of {"auto", "compiled", "python",
         "scipy"}, default "auto".
         ``auto`` and ``compiled``: the loop with events on lamech's engine in C where the
-        measures allow it (else, or without a C compiler, the same loop as Python);
-        ``python``: that loop as Python; ``scipy``:
+        measures allow it (else, or without a C compiler, the same loop with the
+        problem's NumPy functions called back); ``python``: that loop with them called
+        back; ``scipy``:
         every case by :func:`lamech.simulate` (``"simulate"``, its older name, is
         accepted).
     output : str, optional

@@ -166,4 +166,4 @@ lm_act lm_act_all(lm_ctx *cx, int64_t m)
     return act;
 }
 
-int64_t lm_abi_version(void) { return 1; }
+int64_t lm_abi_version(void) { return 2; }

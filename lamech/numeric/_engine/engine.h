@@ -2,11 +2,12 @@
  * installed (setup.py: the extension module lamech.numeric._cengine_lib), loaded by ctypes
  * (lamech/numeric/_cengine.py).
  *
- * It is the C twin of the kernels in lamech/numeric/_kernels/ (which stay as the same
- * rules run as Python: SciPy's road and the engine "python"): every function here names
- * the kernel it mirrors, and computes the same terms in the same order (compiled with
- * -ffp-contract=off: no fused multiply-add), so the numbers agree to the last bit or
- * nearly.
+ * It is the one implementation of the rules (the mode, the events, the projection, the
+ * KKT solves, the loops), used by every road: the loop with events, the batch loop, and
+ * SciPy's integrators through rules.c. Comments name each function's former Python
+ * kernel (lamech/numeric/_kernels/, of which codes.py, the codes, remains). A system whose
+ * functions are not compiled hands them over as callbacks (lamech/numeric/_cengine.py)
+ * with the same signatures.
  *
  * Conventions
  * - Arrays are row-major doubles or int64_t, as NumPy's C-contiguous arrays; booleans are
@@ -281,5 +282,55 @@ int64_t lm_kkt_solve_entry(const lm_system *sy, const double *M, const double *r
                            const int64_t *rows, int64_t na, const int64_t *slip_j,
                            const int64_t *slip_k, const double *slip_c, int64_t ns,
                            double *out);
+
+/* ------------------------------------------------------------------------------------
+ * rules.c: the mode's rules, for the roads that step outside the loop (SciPy's
+ * integrators). Those calling the system's functions return 0 or LM_ST_MEMORY, their
+ * results in res (the kernel's integers, in its order) or out.
+ */
+int64_t lm_rule_start(const lm_system *sy, double t, double *y, const double *p, lm_mode *md,
+                      const double *tl, lm_log *lg, int64_t nev, int64_t *res);
+int64_t lm_rule_settle(const lm_system *sy, double t, double *y, const double *p, lm_mode *md,
+                       const double *tl, lm_log *lg, int64_t nev, int64_t *res);
+int64_t lm_rule_apply(const lm_system *sy, double t, double *y, double *p, int64_t kind,
+                      int64_t j, const int64_t *rows, int64_t na, const int64_t *hrows,
+                      int64_t nh, const int64_t *slip_j, const int64_t *slip_k,
+                      const double *slip_c, int64_t ns, lm_mode *md, const double *tl,
+                      const int64_t *lim, lm_log *lg, int64_t nev, int64_t *res);
+int64_t lm_rule_switch(const lm_system *sy, double t, double *y, double *p, int64_t k,
+                       lm_mode *md, const double *tl, lm_log *lg, int64_t nev, int64_t *res);
+int64_t lm_rule_values(const lm_system *sy, double t, const double *y, const double *p,
+                       const int64_t *wk, const int64_t *wj, int64_t nw, const lm_mode *md,
+                       const int64_t *rows, int64_t na, const int64_t *hrows, int64_t nh,
+                       const int64_t *slip_j, const int64_t *slip_k, const double *slip_c,
+                       int64_t ns, const double *tl, double *out);
+int64_t lm_rule_arm(const lm_system *sy, double t, const double *y, const double *p,
+                    const int64_t *wk, const int64_t *wj, int64_t nw, lm_mode *md,
+                    const double *tl, int64_t *res);
+int64_t lm_rule_project(const lm_system *sy, double t, double *y, const double *p,
+                        const int64_t *rows, int64_t na, const int64_t *hrows, int64_t nh,
+                        const double *offset);
+int64_t lm_rule_accumulated(const lm_system *sy, double t, const double *y, const double *p,
+                            lm_mode *md, lm_log *lg, int64_t nev, int64_t *res);
+int64_t lm_rule_dips(const lm_system *sy, double t, double t_new, const double *YS, int64_t S,
+                     const double *p, const int64_t *wk, const int64_t *wj, int64_t nw,
+                     const lm_mode *md, const int64_t *rows, int64_t na, const int64_t *hrows,
+                     int64_t nh, const int64_t *slip_j, const int64_t *slip_k,
+                     const double *slip_c, int64_t ns, const double *tl, const double *g_a,
+                     const double *g_b, double *upper, int64_t *res);
+int64_t lm_rule_lock(const lm_system *sy, double t, const double *y, double *p);
+int64_t lm_rule_crossed(const lm_system *sy, double t, const double *y, const double *p,
+                        int64_t *out, int64_t *res);
+void lm_rule_mode(const lm_mode *md, int64_t *rows, int64_t *hrows, int64_t *slip_j,
+                  int64_t *slip_k, double *slip_c, int64_t *counts);
+int64_t lm_rule_watch(const lm_mode *md, int64_t *wk, int64_t *wj);
+void lm_rule_functions(const int64_t *wk, const int64_t *wj, int64_t nw, const lm_mode *md,
+                       const double *tl, const double *y, int64_t n, const double *lam,
+                       const double *mu, const double *f, const double *A, const double *b,
+                       double *out);
+double lm_rule_bound(double t_end, const lm_mode *md);
+double lm_rule_depth(const double *tl, const double *q, int64_t n);
+double lm_rule_dip_time(double t, double t_new, int64_t c, int64_t samples);
+int64_t lm_rule_again(int64_t kind, int64_t j, double r, double xb, const lm_mode *md);
 
 #endif

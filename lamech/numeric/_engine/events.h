@@ -71,6 +71,18 @@ void ev_run(lm_ctx *cx, int64_t B, double *Y0, double *P, const int64_t *kinds, 
 int64_t ev_run_one(lm_ctx *cx, const double *y0, double *p, lm_mode *md, const double *tl,
                    const int64_t *lim, lm_log *lg, double *y_out, double *t_out,
                    int64_t *nev_out, int64_t *steps_out);
+/* the rules SciPy's road applies too (rules.c's entry points) */
+int ev_arm(lm_ctx *cx, double t, const double *y, const double *p, const lm_watch *w,
+           lm_mode *md, const double *tl);
+double dip_time(double t, double t_new, int64_t c, int64_t samples);
+int ev_dips(lm_ctx *cx, double t, double t_new, const double *YS, int64_t S, const double *p,
+            const lm_watch *w, const lm_mode *md, const lm_act *act, const double *tl,
+            const double *g_a, const double *g_b, double *upper);
+int64_t ev_apply(lm_ctx *cx, double te, double *ye, double *p, int64_t kind, int64_t j,
+                 const lm_act *act, lm_mode *md, const double *tl, const int64_t *lim,
+                 lm_log *lg, int64_t *nev, int *settled);
+int64_t ev_switch(lm_ctx *cx, double ts, double *ys, double *p, int64_t k, lm_mode *md,
+                  const double *tl, lm_log *lg, int64_t *nev, int *settled);
 int64_t ev_segment(lm_ctx *cx, double *p, lm_mode *md, const double *tl, const int64_t *lim,
                    lm_log *lg, int64_t nev, lm_samples *smp, double *y, int64_t *io,
                    double *fo, double *t_out, int64_t *nev_out, int64_t *steps_out);

@@ -84,7 +84,7 @@ static int ev_grazes(lm_ctx *cx, double t, const double *y, double t_new, const 
 
 /* loop.ev_arm: arm the disarmed contacts whose gap opened beyond tl[TL_ARM_POS] and the
  * disarmed sticks whose slip velocity grew beyond tl[TL_ARM_VEL] at (t, y); whether any */
-static int ev_arm(lm_ctx *cx, double t, const double *y, const double *p, const lm_watch *w,
+int ev_arm(lm_ctx *cx, double t, const double *y, const double *p, const lm_watch *w,
                   lm_mode *md, const double *tl)
 {
     int64_t n = cx->sy->n, m = md->m;
@@ -122,7 +122,7 @@ static int ev_arm(lm_ctx *cx, double t, const double *y, const double *p, const 
 }
 
 /* loop.dip_time: the c-th (from 0) of samples evenly spaced interior points of a step */
-static double dip_time(double t, double t_new, int64_t c, int64_t samples)
+double dip_time(double t, double t_new, int64_t c, int64_t samples)
 {
     return t + (t_new - t) * (double)(c + 1) / (double)(samples + 1);
 }
@@ -130,7 +130,7 @@ static double dip_time(double t, double t_new, int64_t c, int64_t samples)
 /* loop.ev_dips: force events (lift-off, slip) positive at both ends of the step (g_a,
  * g_b) that go through zero inside it: at the states YS (S, N) of the dense output at its
  * S interior points, the first point where one is <= 0 set in upper; whether any was */
-static int ev_dips(lm_ctx *cx, double t, double t_new, const double *YS, int64_t S,
+int ev_dips(lm_ctx *cx, double t, double t_new, const double *YS, int64_t S,
                    const double *p, const lm_watch *w, const lm_mode *md, const lm_act *act,
                    const double *tl, const double *g_a, const double *g_b, double *upper)
 {
@@ -158,7 +158,7 @@ static int ev_dips(lm_ctx *cx, double t, double t_new, const double *YS, int64_t
  * reversal where the direction changes), a contact's impact. The status: 0, ST_CONTACT
  * (nothing changed: below the surface, impacts not in the loop, singular), or the
  * settling's failure; *settled where the mode was settled (ye the settled state). */
-static int64_t ev_apply(lm_ctx *cx, double te, double *ye, double *p, int64_t kind, int64_t j,
+int64_t ev_apply(lm_ctx *cx, double te, double *ye, double *p, int64_t kind, int64_t j,
                         const lm_act *act, lm_mode *md, const double *tl, const int64_t *lim,
                         lm_log *lg, int64_t *nev, int *settled)
 {
@@ -229,7 +229,7 @@ static int64_t ev_apply(lm_ctx *cx, double te, double *ye, double *p, int64_t ki
 
 /* loop.ev_switch: input switch k takes its other branch from ts on (its slot in p
  * flipped), logged, and the mode settled at (ts, ys): as ev_apply's */
-static int64_t ev_switch(lm_ctx *cx, double ts, double *ys, double *p, int64_t k, lm_mode *md,
+int64_t ev_switch(lm_ctx *cx, double ts, double *ys, double *p, int64_t k, lm_mode *md,
                          const double *tl, lm_log *lg, int64_t *nev, int *settled)
 {
     int64_t slot = cx->sy->slots[k];

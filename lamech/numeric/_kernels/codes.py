@@ -186,7 +186,7 @@ def tolerances(
 
 FORCE_SAMPLES = 4
 """Interior points of a step at which the force events of a system with t in it are
-sought (:func:`.loop.ev_dips`, and the simulator's own steps)."""
+sought (the engine's ``ev_dips``, and the simulator's own steps)."""
 
 
 def limits(
@@ -199,7 +199,7 @@ def limits(
 ) -> np.ndarray:
     """The limits record ``lim`` (LM_*) of the named values; ``dips``: seek force events
     inside each step (:data:`FORCE_SAMPLES` points), for a system with t in it;
-    ``starts``: :func:`.loop.ev_run` makes each start consistent before its run."""
+    ``starts``: the engine's ``ev_run`` makes each start consistent before its run."""
     lim = np.zeros(LM_SIZE, dtype=np.int64)
     lim[LM_MAX_STEPS], lim[LM_TO_END], lim[LM_IMPACTS] = max_steps, to_end, impacts
     lim[LM_DIPS] = FORCE_SAMPLES if dips else 0
