@@ -82,6 +82,26 @@ def test_report_without_simulation_and_with_a_param(tmp_path):
     page = out.read_text(encoding="utf-8")
     assert 'id="motion"' not in page and "data:image/gif" not in page
     assert "Step 1. The Lagrangian" in page
+    # without a simulation the drawing takes the closed forms at the file's start
+    drawing = page.split('<svg id="drawing"', 1)[1].split("</svg>", 1)[0]
+    assert 'class="body"' in drawing and 'class="force"' in drawing
+
+
+@pytest.mark.slow
+def test_the_drawing_escapes_the_title(tmp_path):
+    problem = tmp_path / "p.toml"
+    text = (ROOT / "lamech" / "examples" / "pendulum.toml").read_text(encoding="utf-8")
+    title = next(line for line in text.splitlines() if line.startswith("title"))
+    problem.write_text(
+        text.replace(title, 'title = "<script>alert(1)</script> & co"'), encoding="utf-8"
+    )
+    out = tmp_path / "p.html"
+    run = _lamech("report", str(problem), "-o", str(out), "--no-simulate")
+    assert run.returncode == 0, run.stderr
+    page = out.read_text(encoding="utf-8")
+    assert "<script>alert" not in page
+    label = "&lt;script&gt;alert(1)&lt;/script&gt; &amp; co at its initial state"
+    assert f'aria-label="{label}"' in page
 
 
 @pytest.mark.slow

@@ -477,7 +477,7 @@ RUNTIME = r"""
     if (ymax === ymin) ymax = ymin + 1;
     var pad = 0.05 * (ymax - ymin);
     ymin -= pad; ymax += pad;
-    var L = 70, R = 630, T = 10, B = 212;
+    var L = 70, R = 630, T = 22, B = 212;
     function X(x) { return L + (R - L) * (x - lo) / (hi - lo); }
     function Y(y) { return B - (B - T) * (y - ymin) / (ymax - ymin); }
     el.appendChild(svg("rect", {x: L, y: T, width: R - L, height: B - T, fill: "none",
@@ -490,7 +490,7 @@ RUNTIME = r"""
         "class": "tick"}));
       el.appendChild(svg("text", {x: px, y: B + 14, "text-anchor": "middle"}, fmt(v)));
     });
-    ticks(ymin, ymax, 5).forEach(function (v) {
+    ticks(ymin, ymax, 6).forEach(function (v) {
       el.appendChild(svg("line", {x1: L, x2: R, y1: Y(v), y2: Y(v), stroke: "#eee",
         "class": "tick"}));
       el.appendChild(svg("text", {x: L - 5, y: Y(v) + 4, "text-anchor": "end"}, fmt(v)));
@@ -516,7 +516,7 @@ RUNTIME = r"""
         "stroke-width": 2, "data-multiplier": names[j]}));
       us[unit("lambda:" + names[j]).trim()] = true;
       var u = unit("lambda:" + names[j]).trim();
-      el.appendChild(svg("text", {x: L + 8 + 130 * j, y: T + 14,
+      el.appendChild(svg("text", {x: L + 130 * j, y: T - 7,
         fill: COLORS[j % COLORS.length]}, "lambda_" + names[j] + (u ? " [" + u + "]" : "")));
     });
     var yu = Object.keys(us).filter(function (u) { return u; });

@@ -61,7 +61,7 @@ TICKS_JS = (
 )
 
 _W, _H = 640, 280
-_L, _R, _T, _B = 70, 625, 14, 225
+_L, _R, _T, _B = 70, 625, 22, 225
 
 
 def _label(v: float) -> str:
@@ -113,7 +113,7 @@ def line_plot(
             f'stroke="#eee"/><text x="{px:.1f}" y="{_B + 15}" text-anchor="middle">'
             f"{_label(v)}</text>"
         )
-    for v in nice_ticks(y0, y1):
+    for v in nice_ticks(y0, y1, 6):
         py = Y(v)
         out.append(
             f'<line class="tick" x1="{_L}" x2="{_R}" y1="{py:.1f}" y2="{py:.1f}" '
@@ -127,6 +127,7 @@ def line_plot(
             out.append(
                 f'<line class="mark" x1="{X(v):.1f}" x2="{X(v):.1f}" y1="{_T}" y2="{_B}" '
                 f'stroke="#555" stroke-dasharray="4 3"><title>{html.escape(text)}</title></line>'
+                f'<text x="{X(v):.1f}" y="{_T - 6}" text-anchor="middle">{html.escape(text)}</text>'
             )
     colours = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
     for j, ((name, _), y) in enumerate(zip(ys, finite)):
@@ -144,8 +145,7 @@ def line_plot(
         )
         if len(ys) > 1:
             out.append(
-                f'<text x="{_L + 8 + 120 * j}" y="{_T + 14}" fill="{colour}">'
-                f"{html.escape(name)}</text>"
+                f'<text x="{_L + 120 * j}" y="{_T - 6}" fill="{colour}">{html.escape(name)}</text>'
             )
     out.append(
         f'<text class="axis-title" x="{(_L + _R) / 2:.0f}" y="{_H - 8}" '
