@@ -4,7 +4,7 @@ The geometry is the animation's (:class:`._animate.Scene`, one sample): each bod
 shape, the scenery, the contact points, and the Cartesian force of each constraint with a
 ``force = {at, along}`` spec as an arrow at its point. A constraint without one is drawn
 on the drawn points by virtual work: its generalized force lambda df/dq carried to the
-points' positions p(q) by least squares (J^T F = lambda df/dq, J = dp/dq), which is the
+points' positions p(q) (J^T F = lambda df/dq, J = dp/dq; :func:`_carriers`), which is the
 force itself for a point in Cartesian coordinates. A file without ``[[bodies]]`` whose
 coordinates are Cartesian pairs (x, y; x1, y1; ...) is drawn as those points.
 
@@ -130,10 +130,31 @@ def _virtual_work_arrows(system, params, state: InitialState, points) -> list:
         grad = np.array([lam * _number(sp.diff(c.expr, s), values) for s in q])
         if not np.isfinite(grad).all():
             continue
-        F, *_ = np.linalg.lstsq(J.T, grad, rcond=None)
-        for i, f in enumerate(F.reshape(-1, 2)):
+        for i, f in _carriers(J, grad):
             out.append((c.name, at[i], f))
     return out
+
+
+def _carriers(J: np.ndarray, Q: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """(point, force) that do the virtual work ``Q`` (J^T F = Q, J the stacked (2 per
+    point) Jacobian of the points' positions): the one point that carries it with the
+    least force (a drive pushing a cart carries a pendulum hung from it: the cart), else
+    all points together where they carry it exactly; none where they cannot."""
+    scale = 1e-9 * (1.0 + float(np.abs(Q).max()))
+    best = None
+    for i in range(J.shape[0] // 2):
+        Ji = J[2 * i : 2 * i + 2]
+        F, *_ = np.linalg.lstsq(Ji.T, Q, rcond=None)
+        if np.abs(Ji.T @ F - Q).max() <= scale and (
+            best is None or np.hypot(*F) < np.hypot(*best[1])
+        ):
+            best = (i, F)
+    if best is not None:
+        return [best]
+    F, *_ = np.linalg.lstsq(J.T, Q, rcond=None)
+    if np.abs(J.T @ F - Q).max() > scale:
+        return []
+    return [(i, f) for i, f in enumerate(F.reshape(-1, 2)) if np.hypot(*f) > scale]
 
 
 class _Canvas:

@@ -109,11 +109,22 @@ def first_screen(sol, traj=None, params=None, eqs=()) -> str:
     drawing = initial_svg(sol, traj, params)
     parts = ['<section id="first" class="first">']
     if drawing:
-        parts.append(
-            f"<figure>{drawing}<figcaption>At the start: the bodies, the scenery, the contact "
-            "points (open circles) and each constraint force (red arrows, lengths in "
-            "proportion to the force).</figcaption></figure>"
-        )
+        shown = ["the bodies"]
+        if 'class="scenery"' in drawing:
+            shown.append("the scenery")
+        if 'class="contact"' in drawing:
+            shown.append("the contact points (open circles)")
+        if 'class="force"' in drawing:
+            shown.append(
+                "each constraint force (red arrows, their lengths in proportion to the "
+                "forces; hover for the value)"
+            )
+        else:
+            shown.append(
+                "no force arrow (give a constraint a force = {at, along} to draw its force)"
+            )
+        text = "At the start: " + ", ".join(shown[:-1]) + " and " + shown[-1] + "."
+        parts.append(f"<figure>{drawing}<figcaption>{html.escape(text)}</figcaption></figure>")
     else:
         parts.append(
             '<p class="note">No drawing: the problem declares no [[bodies]] (add them '
