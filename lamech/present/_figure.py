@@ -280,7 +280,9 @@ def initial_svg(sol, traj=None, params=None) -> str:
             f'<text x="{_f(ox - 3)}" y="{_f(oy - r - 4)}" font-size="11" fill="#888">'
             f"{'z' if space else 'y'}</text>"
         )
-    for kind, p, size in scenery:
+    # fixed circles under the lines, the lines' joints under the points
+    layer = {"circle": 0, "point": 2}
+    for kind, p, size in sorted(scenery, key=lambda g: layer.get(g[0], 1)):
         pts = [cv(x) for x in p]
         if kind == "circle" and size is not None:
             x, y = pts[0]
@@ -297,6 +299,12 @@ def initial_svg(sol, traj=None, params=None) -> str:
                 f'<polyline class="scenery" points="{d}" fill="none" stroke="#404040" '
                 'stroke-width="2"/>'
             )
+            # the joints: each end (a crank's pin shows on a rod lying along it)
+            for x, y in (pts[0], pts[-1]):
+                out.append(
+                    f'<circle class="joint" cx="{_f(x)}" cy="{_f(y)}" r="3" fill="#fff" '
+                    'stroke="#404040" stroke-width="1.5"/>'
+                )
     for _, i, shape in prims:
         colour = _COLOURS[i % len(_COLOURS)]
         name = html.escape(scene.bodies[i][0])
