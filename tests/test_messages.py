@@ -189,12 +189,12 @@ def test_gravity_that_pulls_up_is_questioned():
         assert _gravity_notes(lamech.loads(FLOOR.replace("VALUE", V))) == [], V
 
 
-@pytest.mark.slow  # loads the 24 examples: 5 s
+@pytest.mark.slow  # loads the 25 examples: 5 s
 def test_gravity_is_not_questioned_in_any_bundled_example():
-    """The 24 examples load without the warning: the incline's m g (n cos(alpha) - s
+    """The 25 examples load without the warning: the incline's m g (n cos(alpha) - s
     sin(alpha)) has a sine in its slope, and V made from the bodies is lamech's own."""
     names = lamech.example_names()
-    assert len(names) == 24
+    assert len(names) == 25
     assert [n for n in names if _gravity_notes(lamech.load(n))] == []
 
 

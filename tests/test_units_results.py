@@ -327,3 +327,42 @@ def test_a_sweep_in_units_says_the_unit_of_each_column(cylinder_file):
     assert "  units (SI): R2 m, liftoff:t s, liftoff:r m, liftoff:theta1 rad" in out.stderr
     plain = _cli("sweep", "cylinder", "--param", "R2=0.4:0.6:2", *args, "--engine", "scipy")
     assert "units" not in plain.stderr
+
+
+# ----- solve --json: the flat map of units the other commands give ---------------------
+def test_solve_json_gives_the_same_flat_units_as_simulate(cylinder_file, tmp_path):
+    solved = json.loads(_cli("solve", str(cylinder_file), "--json").stdout)["units"]
+    run = json.loads(_cli("simulate", str(cylinder_file), "--t-end", "0.1", "--json").stdout)
+    assert solved["lambda:contact"] == "N" and solved["force:contact:normal"] == "N"
+    assert solved["theta1"] == "rad" and solved["theta1'"] == "rad/s"
+    assert solved["R2"] == "m" and solved["t"] == "s" and solved["energy"] == "J"
+    assert {k: v for k, v in run["units"].items() if k in solved} == {
+        k: v for k, v in solved.items() if k in run["units"]
+    }
+    assert set(run["units"]) <= set(solved)
+    # the nested maps of before, kept (deprecated) beside the flat one
+    assert solved["multipliers"] == {"contact": "N", "rolling": "N"}
+    assert solved["coordinates"]["theta1"] == "rad"
+    # the angle lamech picks itself for a circle (x = l sin(thetarod)) is in rad
+    path = tmp_path / "pendulum.toml"
+    path.write_text(PENDULUM, encoding="utf-8")
+    units = json.loads(_cli("solve", str(path), "--json").stdout)["units"]
+    assert units["thetarod"] == "rad" and units["thetarod'"] == "rad/s"
+    assert units["lambda:rod"] == "N" and units["x"] == "m"
+
+
+def test_a_quantity_given_to_a_file_without_units_leaves_the_results_unit_free():
+    """A file without units gives its results without units, even where a --param or
+    params= value carries one (converted to SI; docs/tutorials/units.md): one quantity
+    does not say the units of the rest of the file."""
+    solved = json.loads(_cli("solve", "cylinder", "--json", "--param", "R2=30 cm").stdout)
+    assert "units" not in solved
+    text = _cli("solve", "cylinder", "--param", "R2=30 cm").stdout
+    assert "[N]" not in text and "lambda_contact = " in text
+    run = json.loads(
+        _cli("simulate", "cylinder", "--t-end", "0.1", "--json", "--param", "R2=30 cm").stdout
+    )
+    assert "units" not in run and run["final"]["r"] == pytest.approx(1.3, abs=1e-12)
+    system = lamech.load("cylinder", params={"R2": "30 cm"})
+    assert lamech.solve(system).units == {}
+    assert lamech.simulate("cylinder", 0.1, params={"R2": "30 cm"}).units == {}

@@ -112,7 +112,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument(
         "--plot",
         metavar="PNG",
-        help="plot multipliers/forces with the events marked, and the coordinates (matplotlib)",
+        help="plot multipliers/forces with the events marked, and the coordinates; with "
+        "drives, each drive's force or torque against time and, where it turns its "
+        "coordinate, against that angle (matplotlib)",
     )
     s.add_argument(
         "--animate",

@@ -231,11 +231,11 @@ def quantity(text: str) -> Quantity:
 
 
 def as_quantity(value: Any) -> Quantity | None:
-    """``value`` as a :class:`Quantity` in SI: the text of a quantity (``"30 cm"``) or a
-    pint Quantity (anything with ``magnitude`` and ``units``, from any registry: its
-    unit is read again by name); None for anything else (a number, an expression).
-    A pint Quantity's value is exact for a scalar (its float's decimal times the unit's
-    exact factor), an array of floats for an array.
+    """``value`` as a ``Quantity`` (:func:`quantity`'s) in SI: the text of a quantity
+    (``"30 cm"``) or a pint Quantity (anything with ``magnitude`` and ``units``, from any
+    registry: its unit is read again by name); None for anything else (a number, an
+    expression). A pint Quantity's value is exact for a scalar (its float's decimal
+    times the unit's exact factor), an array of floats for an array.
 
     Raises
     ------

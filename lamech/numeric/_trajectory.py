@@ -40,7 +40,7 @@ class Trajectory:
     it could not apply).
 
     ``units``: where the problem file gives units (issue 46), the SI unit of each column of
-    :meth:`columns` whose dimension is known, by its name (``"t": "s"``, ``"r": "m"``,
+    ``columns()`` whose dimension is known, by its name (``"t": "s"``, ``"r": "m"``,
     ``"theta1": "rad"``, ``"theta1'": "rad/s"``, ``"lambda:contact": "N"``,
     ``"force:contact:normal": "N"``, ``"energy": "J"``) and of each parameter; every
     array is in these units (SI). Empty for a file without units.
@@ -189,6 +189,7 @@ class Trajectory:
             "message": self.message,
             "notes": list(self.notes),
             **({"drives": self.drive_summary()} if self.drive_forces else {}),
+            **({"reactions": self.reaction_summary()} if self.forces else {}),
         }
         if self.units:
             out["units"] = dict(self.units)
@@ -206,12 +207,25 @@ class Trajectory:
             out["degrees"] = {c: math.degrees(there[c]) for c in angles if c in there}
         return out
 
+    def _where(self, y: np.ndarray) -> tuple[float, dict]:
+        """The largest of ``y`` (finite samples, >= 0) refined between the samples, and
+        where: t and the coordinates there (:func:`_refined_peak`)."""
+        kinks = np.array([e.t for e in self.events], dtype=float)
+        value, at_t, q = _refined_peak(self.t, y, self.q, self.qd, kinks)
+        at = {"t": at_t}
+        at.update({c: float(q[i]) for i, c in enumerate(self.coordinates)})
+        return value, at
+
     def drive_summary(self) -> dict:
         """Per drive: ``peak`` |force or torque| and where (``at``: t and the
-        coordinates), ``rms``, ``mean_power`` (the work over the run / its duration) and
-        ``work_per_cycle`` (over the first turn of the coordinate driven, 2 pi; None
-        before a turn is complete, or where the system does not repeat after a turn of
-        it), from the samples."""
+        coordinates), refined between the samples (the vertex of the parabola through the
+        largest sample and its neighbours; the coordinates there by cubic Hermite
+        interpolation of the samples' positions and velocities), ``rms``, ``mean_power``
+        (the work over the run / its duration) and ``work_per_cycle`` (over the first
+        turn of the coordinate driven, 2 pi; None before a turn is complete, or where the
+        system does not repeat after a turn of it), from the samples; ``unit`` of the
+        force or torque, and ``power_unit`` (W) and ``work_unit`` (J), where the file has
+        units."""
         out = {}
         t = self.t
         span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
@@ -220,23 +234,94 @@ class Trajectory:
             ok = np.isfinite(tau)
             if not ok.any():
                 continue
-            k = int(np.nanargmax(np.abs(tau)))
-            at = {"t": float(t[k])}
-            at.update({c: float(self.q[k, i]) for i, c in enumerate(self.coordinates)})
+            peak, at = self._where(np.abs(tau))
             item = {
                 "coordinate": self.drive_coordinates.get(name),
                 "unit": self.drive_units.get(name),
-                "peak": float(abs(tau[k])),
+                "peak": peak,
                 "at": at,
                 "rms": _mean(t, tau**2, span) ** 0.5 if span > 0 else float(abs(tau[0])),
                 "mean_power": _mean(t, power, span) if span > 0 else float(power[0]),
                 "work_per_cycle": None,
             }
+            if self.units:
+                item["power_unit"], item["work_unit"] = "W", "J"
             coord = self.drive_coordinates.get(name)
             if coord is not None and span > 0 and self.drive_turns.get(name):
                 item["work_per_cycle"] = _work_per_turn(t, self.coordinate(coord), power)
             out[name] = item
         return out
+
+    def reactions(self) -> dict[str, np.ndarray]:
+        """Per named reaction (a constraint with a ``force = {...}`` spec): the magnitude
+        of its Cartesian force at the samples, the root of the sum of the squares of its
+        components (``forces["<constraint>:<direction>"]``; the directions taken as
+        orthogonal); NaN while it is released."""
+        parts: dict[str, list[np.ndarray]] = {}
+        for key, arr in self.forces.items():
+            parts.setdefault(key.split(":", 1)[0], []).append(np.asarray(arr, dtype=float))
+        return {c: np.sqrt(sum(a**2 for a in arrs)) for c, arrs in parts.items()}
+
+    def reaction_summary(self) -> dict:
+        """Per named reaction: the ``peak`` magnitude of its Cartesian force and where
+        (``at``: t and the coordinates), refined between the samples as a drive's peak
+        (:meth:`drive_summary`); ``unit`` (N) where the file has units."""
+        out = {}
+        for name, mag in self.reactions().items():
+            if not np.isfinite(mag).any():
+                continue
+            peak, at = self._where(mag)
+            keys = [k for k in self.units if k.startswith(f"force:{name}:")]
+            out[name] = {"peak": peak, "at": at, "unit": self.units[keys[0]] if keys else None}
+        return out
+
+
+def _refined_peak(
+    t: np.ndarray, y: np.ndarray, q: np.ndarray, qd: np.ndarray, kinks: np.ndarray
+) -> tuple[float, float, np.ndarray]:
+    """The largest value of the samples ``y`` (NaN skipped) refined between them: the
+    largest of the polynomial through the largest sample and its neighbours (a quartic
+    through five samples, a parabola through three near an end or a NaN) between the
+    neighbours, where it bends down there (else the sample itself); never across an
+    event's time in ``kinks`` (a slip, a lift-off: the samples there are not of one
+    smooth curve), where the sample itself is the answer; its time, and the coordinates
+    there by cubic Hermite interpolation of ``q`` and ``qd`` on the step that holds
+    it."""
+    k = int(np.nanargmax(y))
+    value, at, qk = float(y[k]), float(t[k]), np.array(q[k], dtype=float)
+    if not 0 < k < len(t) - 1:
+        return value, at, qk
+
+    def smooth(a: int, b: int) -> bool:  # no NaN and no event on t[a] .. t[b - 1]
+        inside = (kinks > t[a]) & (kinks < t[b - 1])
+        return bool(np.all(np.isfinite(y[a:b])) and not inside.any())
+
+    if not smooth(k - 1, k + 2):
+        return value, at, qk
+    lo, hi = k - 1, k + 2
+    if k >= 2 and k + 3 <= len(t) and smooth(k - 2, k + 3):
+        lo, hi = k - 2, k + 3
+    h = float(t[k + 1] - t[k - 1]) / 2
+    x = (np.asarray(t[lo:hi], dtype=float) - float(t[k])) / h  # scaled: well conditioned
+    poly = np.polynomial.Polynomial.fit(x, np.asarray(y[lo:hi], dtype=float), hi - lo - 1)
+    poly = poly.convert()
+    x0, x1 = float(x[k - 1 - lo]), float(x[k + 1 - lo])
+    best = None
+    for r in poly.deriv().roots():
+        if abs(r.imag) < 1e-12 and x0 <= r.real <= x1 and poly.deriv(2)(r.real) < 0:
+            v = float(poly(r.real))
+            if v >= value and (best is None or v > best[0]):
+                best = (v, float(r.real))
+    if best is None:
+        return value, at, qk
+    value, s = best[0], float(t[k]) + best[1] * h
+    j = k - 1 if s < float(t[k]) else k
+    step = float(t[j + 1] - t[j])
+    u = (s - float(t[j])) / step
+    h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+    h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+    qs = h00 * q[j] + h10 * step * qd[j] + h01 * q[j + 1] + h11 * step * qd[j + 1]
+    return float(value), float(s), np.asarray(qs, dtype=float)
 
 
 def _mean(t: np.ndarray, y: np.ndarray, span: float) -> float:

@@ -84,22 +84,35 @@ def drives_json(sol) -> dict:
 
 
 def simulated_drive_lines(summary: dict) -> list[str]:
-    """The drives of a simulation's summary (``summary["drives"]``) as text."""
+    """The drives of a simulation's summary (``summary["drives"]``) as text, and beside
+    them the named reactions' peaks (``summary["reactions"]``)."""
     drives = summary.get("drives") or {}
     if not drives:
         return []
     lines = [
-        "  drives (force or torque on the coordinate driven, positive forward; at the samples):"
+        "  drives (force or torque on the coordinate driven, positive forward; the peak "
+        "refined between the samples):"
     ]
     for name, d in drives.items():
-        u = f" [{d['unit']}]" if d.get("unit") else ""
-        at = d["at"]
-        where = ", ".join(f"{k} = {v:.8g}" for k, v in at.items() if k != "t")
+        u = f" {d['unit']}" if d.get("unit") else ""
         on = f" on {d['coordinate']}" if d.get("coordinate") else ""
+        pu = f" {d['power_unit']}" if d.get("power_unit") else ""
         lines.append(
-            f"    {name}{on}: peak |value| {d['peak']:.8g}{u} at t = {at['t']:.8g} ({where}); "
-            f"RMS {d['rms']:.8g}{u}; mean power {d['mean_power']:.8g}"
+            f"    {name}{on}: peak |value| {d['peak']:.8g}{u} {_at(d['at'])}; "
+            f"RMS {d['rms']:.8g}{u}; mean power {d['mean_power']:.8g}{pu}"
         )
         if d.get("work_per_cycle") is not None:
-            lines[-1] += f"; work per turn {d['work_per_cycle']:.8g}"
+            wu = f" {d['work_unit']}" if d.get("work_unit") else ""
+            lines[-1] += f"; work per turn {d['work_per_cycle']:.8g}{wu}"
+    reactions = summary.get("reactions") or {}
+    if reactions:
+        lines.append("  reactions (the magnitude of each named constraint force):")
+        for name, r in reactions.items():
+            u = f" {r['unit']}" if r.get("unit") else ""
+            lines.append(f"    {name}: peak {r['peak']:.8g}{u} {_at(r['at'])}")
     return lines
+
+
+def _at(at: dict) -> str:
+    where = ", ".join(f"{k} = {v:.8g}" for k, v in at.items() if k != "t")
+    return f"at t = {at['t']:.8g} ({where})"

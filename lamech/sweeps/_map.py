@@ -110,7 +110,7 @@ def parameter_map(
 ) -> MapResult:
     """The map of ``system`` (a System, a problem file or a bundled example's name) over
     the grid of ``params`` ({name: "A:B:N", "a,b,c" or an array}, every combination),
-    for ``measures`` (default: :data:`MAP_MEASURES`): a :class:`MapResult`. A measure
+    for ``measures`` (default: ``("slip", "liftoff")``): a :class:`MapResult`. A measure
     with no closed form (stick, contact, impact, a series) is refused, pointing to
     :func:`lamech.sweep`. See the module docstring.
 
