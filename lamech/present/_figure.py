@@ -184,9 +184,10 @@ def _unit_text(units, name: str, force: bool) -> str:
     return "" if d is None else " " + d.si()
 
 
-def initial_svg(sol, traj=None, params=None) -> str:
-    """The SVG (a string) of ``sol``'s system at its initial state, with its constraint
-    forces as arrows; "" when there is nothing to draw."""
+def _parts(sol, traj, params):
+    """What the drawing holds, in the plane (of a scene in space: x and z): the bodies'
+    shapes, the scenery, the force arrows (name, at, F) and the contact points; None when
+    there is nothing to draw."""
     from ._animate import Scene
 
     system = sol.system
@@ -196,7 +197,7 @@ def initial_svg(sol, traj=None, params=None) -> str:
     if not bodies:
         pairs = _cartesian_points(system)
         if not pairs:
-            return ""
+            return None
         from ..model import Body
 
         bodies = [Body(name=n, mass=sp.Integer(1), position=tuple(p)) for n, p in pairs]
@@ -232,6 +233,17 @@ def initial_svg(sol, traj=None, params=None) -> str:
         for _, track in scene.tracks
         if np.isfinite(track[0]).all()
     ]
+    return scene, space, prims, scenery, arrows, contacts
+
+
+def initial_svg(sol, traj=None, params=None) -> str:
+    """The SVG (a string) of ``sol``'s system at its initial state, with its constraint
+    forces as arrows; "" when there is nothing to draw."""
+    parts = _parts(sol, traj, params)
+    if parts is None:
+        return ""
+    scene, space, prims, scenery, arrows, contacts = parts
+    system = sol.system
     # the box: every drawn point
     xy = []
     for _, _i, shape in prims:
@@ -280,7 +292,36 @@ def initial_svg(sol, traj=None, params=None) -> str:
             f'<text x="{_f(ox - 3)}" y="{_f(oy - r - 4)}" font-size="11" fill="#888">'
             f"{'z' if space else 'y'}</text>"
         )
-    # fixed circles under the lines, the lines' joints under the points
+    out += _scenery_svg(cv, scenery)
+    out += _bodies_svg(cv, scene, prims, space)
+    for p in contacts:
+        x, y = cv(p)
+        out.append(
+            f'<circle class="contact" cx="{_f(x)}" cy="{_f(y)}" r="3.5" fill="#fff" '
+            'stroke="#000" stroke-width="1.5"/>'
+        )
+    units = system.units
+    for name, a, v in arrows:
+        (x1, y1), (x2, y2) = cv(a), cv(a + scale * v)
+        if np.hypot(x2 - x1, y2 - y1) < 2:
+            continue
+        size = float(np.hypot(*v))
+        label = html.escape(f"{name}: |F| = {size:.4g}{_unit_text(units, name, True)}")
+        out.append(
+            f'<g class="force" data-constraint="{html.escape(name)}"><title>{label}</title>'
+            f'<line x1="{_f(x1)}" y1="{_f(y1)}" x2="{_f(x2)}" y2="{_f(y2)}" stroke="#d62728" '
+            'stroke-width="2.5" marker-end="url(#arrowhead)"/>'
+            f'<text x="{_f(x2 + 4)}" y="{_f(y2 - 4)}" font-size="12" fill="#d62728">'
+            f"{html.escape(name)}</text></g>"
+        )
+    out.append("</svg>")
+    return "".join(out)
+
+
+def _scenery_svg(cv: _Canvas, scenery: list) -> list[str]:
+    """The scenery's elements: fixed circles under the lines, the lines' joints under
+    the points."""
+    out: list[str] = []
     layer = {"circle": 0, "point": 2}
     for kind, p, size in sorted(scenery, key=lambda g: layer.get(g[0], 1)):
         pts = [cv(x) for x in p]
@@ -305,6 +346,12 @@ def initial_svg(sol, traj=None, params=None) -> str:
                     f'<circle class="joint" cx="{_f(x)}" cy="{_f(y)}" r="3" fill="#fff" '
                     'stroke="#404040" stroke-width="1.5"/>'
                 )
+    return out
+
+
+def _bodies_svg(cv: _Canvas, scene, prims: list, space: bool) -> list[str]:
+    """Each body, by its shape, in a group named after it."""
+    out: list[str] = []
     for _, i, shape in prims:
         colour = _COLOURS[i % len(_COLOURS)]
         name = html.escape(scene.bodies[i][0])
@@ -336,28 +383,7 @@ def initial_svg(sol, traj=None, params=None) -> str:
             x, y = cv(shape[1])
             out.append(f'<circle cx="{_f(x)}" cy="{_f(y)}" r="7" fill="{colour}"/>')
         out.append("</g>")
-    for p in contacts:
-        x, y = cv(p)
-        out.append(
-            f'<circle class="contact" cx="{_f(x)}" cy="{_f(y)}" r="3.5" fill="#fff" '
-            'stroke="#000" stroke-width="1.5"/>'
-        )
-    units = system.units
-    for name, a, v in arrows:
-        (x1, y1), (x2, y2) = cv(a), cv(a + scale * v)
-        if np.hypot(x2 - x1, y2 - y1) < 2:
-            continue
-        size = float(np.hypot(*v))
-        label = html.escape(f"{name}: |F| = {size:.4g}{_unit_text(units, name, True)}")
-        out.append(
-            f'<g class="force" data-constraint="{html.escape(name)}"><title>{label}</title>'
-            f'<line x1="{_f(x1)}" y1="{_f(y1)}" x2="{_f(x2)}" y2="{_f(y2)}" stroke="#d62728" '
-            'stroke-width="2.5" marker-end="url(#arrowhead)"/>'
-            f'<text x="{_f(x2 + 4)}" y="{_f(y2 - 4)}" font-size="12" fill="#d62728">'
-            f"{html.escape(name)}</text></g>"
-        )
-    out.append("</svg>")
-    return "".join(out)
+    return out
 
 
 class _WithBodies:
