@@ -82,6 +82,26 @@ def test_report_without_simulation_and_with_a_param(tmp_path):
     page = out.read_text(encoding="utf-8")
     assert 'id="motion"' not in page and "data:image/gif" not in page
     assert "Step 1. The Lagrangian" in page
+    # without a simulation the drawing takes the closed forms at the file's start
+    drawing = page.split('<svg id="drawing"', 1)[1].split("</svg>", 1)[0]
+    assert 'class="body"' in drawing and 'class="force"' in drawing
+
+
+@pytest.mark.slow
+def test_the_drawing_escapes_the_title(tmp_path):
+    problem = tmp_path / "p.toml"
+    text = (ROOT / "lamech" / "examples" / "pendulum.toml").read_text(encoding="utf-8")
+    title = next(line for line in text.splitlines() if line.startswith("title"))
+    problem.write_text(
+        text.replace(title, 'title = "<script>alert(1)</script> & co"'), encoding="utf-8"
+    )
+    out = tmp_path / "p.html"
+    run = _lamech("report", str(problem), "-o", str(out), "--no-simulate")
+    assert run.returncode == 0, run.stderr
+    page = out.read_text(encoding="utf-8")
+    assert "<script>alert" not in page
+    label = "&lt;script&gt;alert(1)&lt;/script&gt; &amp; co at its initial state"
+    assert f'aria-label="{label}"' in page
 
 
 @pytest.mark.slow
@@ -164,3 +184,63 @@ def test_the_report_runs_under_its_own_policy_in_headless_chromium(cylinder_page
     assert refused == ["img-src", "script-src-elem"]
     assert page.locator("body[data-ran]").count() == 0
     page.close()
+
+
+FIRST_SCREEN = {  # issue 48: the page opens on the drawing and the key results
+    "cylinder": ("--initial", "theta1=0.01"),
+    "pendulum": (),
+    "slider_crank": (),
+    str(ROOT / "tests" / "problems" / "trammel.toml"): (),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.shared_cache
+@pytest.mark.parametrize("problem", list(FIRST_SCREEN))
+def test_the_first_screen_shows_the_system_and_its_results(problem, chromium, tmp_path):
+    """The first 800 px of the page: a drawing of the system at its start (an <svg> with
+    its bodies and at least one force arrow) and the key results; the problem file
+    folded at the end; every plot's axes titled, with ticks between their ends."""
+    out = tmp_path / "page.html"
+    run = _lamech("report", problem, "-o", str(out), *FIRST_SCREEN[problem])
+    assert run.returncode == 0, run.stderr
+    page = chromium.new_page(viewport={"width": 1100, "height": 800})
+    console: list[str] = []
+    page.on("console", lambda m: console.append(f"{m.type}: {m.text}"))
+    page.on("pageerror", lambda e: console.append(f"pageerror: {e}"))
+    page.goto(out.as_uri())
+    page.wait_for_selector("body[data-rendered]", timeout=30_000)
+
+    def bottom(selector: str) -> float:
+        box = page.locator(selector).first.bounding_box()
+        assert box is not None, selector
+        return box["y"] + box["height"]
+
+    drawing = page.locator("#first svg#drawing")
+    assert drawing.count() == 1
+    assert drawing.locator("g.body").count() >= 1
+    assert drawing.locator("g.force line").count() >= 1
+    assert bottom("#first svg#drawing") <= 800
+    assert page.locator(".keys li").count() >= 1 and bottom(".keys li") <= 800
+    assert page.locator(".key-lambda").count() >= 1
+    # the problem file: folded, after everything else
+    details = page.locator("details#problem-file")
+    assert details.count() == 1 and details.get_attribute("open") is None
+    assert page.locator("#problem-file pre").is_visible() is False
+    # the plots: axis titles and ticks
+    if page.locator("#live-plot").count():
+        page.wait_for_selector("#live[data-updates]", timeout=30_000)
+        assert page.locator("#live-plot .axis-title").count() == 2
+        assert page.locator("#live-plot line.tick").count() >= 6
+    if "slider_crank" in problem:
+        plot = page.locator("svg#drive-motor")
+        titles = plot.locator(".axis-title").all_text_contents()
+        assert titles == ["phi [deg]", "torque of motor"]
+        assert plot.locator("line.tick").count() >= 6
+    shot = tmp_path / "first.png"
+    page.screenshot(path=str(shot), full_page=False)
+    assert shot.stat().st_size > 10_000
+    ARTEFACTS.mkdir(exist_ok=True)
+    (ARTEFACTS / f"report-first-{Path(problem).stem}.png").write_bytes(shot.read_bytes())
+    page.close()
+    assert console == [], console

@@ -172,6 +172,35 @@ class Scene:
             self._axis_length(i) if R is not None else None for i, R in enumerate(self.rotations)
         ]
 
+    # ----- in the plane --------------------------------------------------------------------
+    def plane_shape(self, i: int, k: int) -> tuple:
+        """What is drawn of body i at frame k in the plane: ``("circle", centre, radius,
+        spoke end)`` (the spoke turns with ``angle``), ``("rod", end, end)`` along its
+        angle, or ``("point", centre)``; points as (x, y). The animation and the report's
+        drawing of the initial state (:mod:`._figure`) both draw these."""
+        _, kind, size, pos, angle = self.bodies[i]
+        x, y = pos[k][:2]
+        if kind == "circle":
+            a = angle[k] if angle is not None else 0.0
+            return ("circle", (x, y), size, (x + size * np.cos(a), y + size * np.sin(a)))
+        if kind == "rod" and angle is not None:  # a rod has an angle
+            dx, dy = 0.5 * size * np.cos(angle[k]), 0.5 * size * np.sin(angle[k])
+            return ("rod", (x - dx, y - dy), (x + dx, y + dy))
+        return ("point", (x, y))
+
+    def arrow_scale(self, span: float) -> float:
+        """Length per unit of force: the largest force of the whole motion drawn 0.15 of
+        the view's ``span`` long (0 when no force is known)."""
+        peak = max(
+            (
+                np.nanmax(np.linalg.norm(v, axis=1))
+                for _, _, v in self.arrows
+                if np.isfinite(v).any()
+            ),
+            default=0.0,
+        )
+        return 0.15 * span / peak if peak > 0 else 0.0
+
     # ----- in space ----------------------------------------------------------------------
     def orientation(self, i: int) -> np.ndarray:
         """(n_frames, 3, 3): body i's axes in the world (columns), the world's own for a
@@ -443,11 +472,7 @@ def _plane_view(fig, scene: Scene, heading: str) -> Callable[[int], None]:
         else:
             (dot,) = ax.plot([], [], "o", color=colour, ms=9, zorder=3)
             artists.append(("point", dot, None, trail))
-    peak = max(
-        (np.nanmax(np.linalg.norm(v, axis=1)) for _, _, v in scene.arrows if np.isfinite(v).any()),
-        default=0.0,
-    )
-    scale = 0.15 * span / peak if peak > 0 else 0.0
+    scale = scene.arrow_scale(span)
     quivers = []
     for _name, at, vec in scene.arrows:
         arrow = FancyArrowPatch(
@@ -471,21 +496,19 @@ def _plane_view(fig, scene: Scene, heading: str) -> Callable[[int], None]:
                 art.set_radius(abs(radius[k]))
             else:
                 art.set_data(pts[k, :, 0], pts[k, :, 1])
-        for (kind, main, spoke, trail), (_, _, size, pos, angle) in zip(artists, scene.bodies):
-            x, y = pos[k]
+        for i, (kind, main, spoke, trail) in enumerate(artists):
+            pos = scene.bodies[i][3]
             trail.set_data(pos[: k + 1, 0], pos[: k + 1, 1])
+            shape = scene.plane_shape(i, k)
             if kind == "circle":
                 assert isinstance(main, Circle) and spoke is not None
-                main.center = (x, y)
-                a = angle[k] if angle is not None else 0.0
-                spoke.set_data([x, x + size * np.cos(a)], [y, y + size * np.sin(a)])
-            elif kind == "rod":
-                assert isinstance(main, Line2D) and angle is not None  # a rod has an angle
-                dx, dy = 0.5 * size * np.cos(angle[k]), 0.5 * size * np.sin(angle[k])
-                main.set_data([x - dx, x + dx], [y - dy, y + dy])
+                _, centre, _, end = shape
+                main.center = centre
+                spoke.set_data([centre[0], end[0]], [centre[1], end[1]])
             else:
                 assert isinstance(main, Line2D)
-                main.set_data([x], [y])
+                ends = shape[1:]
+                main.set_data([p[0] for p in ends], [p[1] for p in ends])
         for arrow, at, vec in quivers:
             v = vec[k] * scale
             visible = bool(

@@ -33,6 +33,7 @@ from ..expr import to_text
 from ..model import result_units
 from ..symbolic._conditions import is_angle
 from ..symbolic._sensitivity import free_parameters, friction_mu, in_free_parameters
+from ._svgplot import TICKS_JS
 
 __all__ = ["LiveError", "to_javascript", "live_model", "live_section"]
 
@@ -263,6 +264,9 @@ LIVE_STYLE = """
 .live-sens { color: #555; font-size: .85rem; margin-left: 1.5rem; }
 #live-plot { width: 100%; max-width: 40rem; height: auto; border: 1px solid #ddd; }
 #live-plot text { font-size: 11px; fill: #444; }
+#live-plot .axis-title, svg.plot .axis-title { font-size: 12px; fill: #222; }
+svg.plot { width: 100%; max-width: 40rem; height: auto; border: 1px solid #ddd; }
+svg.plot text { font-size: 11px; fill: #444; }
 """
 
 
@@ -293,7 +297,7 @@ def live_section(sol, equilibria=None, root_id: str = "live") -> tuple[str, str]
         f'<p class="note">{note}</p>{_slider_rows(model.params, dict(model.units))}'
         '<p><button type="button" id="live-reset">the file\'s values</button></p>'
         '<div id="live-events"></div><div id="live-simulated"></div>'
-        '<svg id="live-plot" viewBox="0 0 640 260" role="img" '
+        '<svg id="live-plot" viewBox="0 0 640 256" role="img" '
         'aria-label="multipliers on the energy shell"></svg>'
         f'<div id="live-modes"></div>{skipped}'
     )
@@ -449,6 +453,7 @@ RUNTIME = r"""
     return event("slips", fr.name, "at the roots", label + " sticks until it starts to slip at " +
       at(r), r, sensitivity(Fx, Fp, r));
   }
+  @TICKS@
   function svg(tag, attrs, text) {
     var e = document.createElementNS("http://www.w3.org/2000/svg", tag);
     for (var k in attrs) e.setAttribute(k, attrs[k]);
@@ -470,17 +475,36 @@ RUNTIME = r"""
       });
     });
     if (ymax === ymin) ymax = ymin + 1;
-    var L = 50, R = 630, T = 10, B = 230;
+    var pad = 0.05 * (ymax - ymin);
+    ymin -= pad; ymax += pad;
+    var L = 70, R = 630, T = 22, B = 212;
     function X(x) { return L + (R - L) * (x - lo) / (hi - lo); }
     function Y(y) { return B - (B - T) * (y - ymin) / (ymax - ymin); }
-    el.appendChild(svg("line", {x1: L, x2: R, y1: Y(0), y2: Y(0), stroke: "#999"}));
-    el.appendChild(svg("line", {x1: L, x2: L, y1: T, y2: B, stroke: "#999"}));
+    el.appendChild(svg("rect", {x: L, y: T, width: R - L, height: B - T, fill: "none",
+      stroke: "#999"}));
+    // ticks: round values (degrees for an angle), a faint grid line at each
+    var k = M.angle ? 180 / Math.PI : 1;
+    ticks(lo * k, hi * k, 6, M.angle).forEach(function (v) {
+      var px = X(v / k);
+      el.appendChild(svg("line", {x1: px, x2: px, y1: T, y2: B, stroke: "#eee",
+        "class": "tick"}));
+      el.appendChild(svg("text", {x: px, y: B + 14, "text-anchor": "middle"}, fmt(v)));
+    });
+    ticks(ymin, ymax, 6).forEach(function (v) {
+      el.appendChild(svg("line", {x1: L, x2: R, y1: Y(v), y2: Y(v), stroke: "#eee",
+        "class": "tick"}));
+      el.appendChild(svg("text", {x: L - 5, y: Y(v) + 4, "text-anchor": "end"}, fmt(v)));
+    });
+    if (ymin < 0 && ymax > 0) {
+      el.appendChild(svg("line", {x1: L, x2: R, y1: Y(0), y2: Y(0), stroke: "#999"}));
+    }
     marks.forEach(function (m) {
       if (m >= lo && m <= hi) {
         el.appendChild(svg("line", {x1: X(m), x2: X(m), y1: T, y2: B, stroke: "#555",
           "stroke-dasharray": "4 3", "class": "live-mark"}));
       }
     });
+    var us = {};
     ys.forEach(function (col, j) {
       var d = "", pen = false;
       col.forEach(function (y, i) {
@@ -490,16 +514,19 @@ RUNTIME = r"""
       });
       el.appendChild(svg("path", {d: d, fill: "none", stroke: COLORS[j % COLORS.length],
         "stroke-width": 2, "data-multiplier": names[j]}));
-      el.appendChild(svg("text", {x: L + 8 + 110 * j, y: T + 12, fill: COLORS[j % COLORS.length]},
-        "lambda_" + names[j] + (unit("lambda:" + names[j]) ? " [" +
-        unit("lambda:" + names[j]).trim() + "]" : "")));
+      us[unit("lambda:" + names[j]).trim()] = true;
+      var u = unit("lambda:" + names[j]).trim();
+      el.appendChild(svg("text", {x: L + 130 * j, y: T - 7,
+        fill: COLORS[j % COLORS.length]}, "lambda_" + names[j] + (u ? " [" + u + "]" : "")));
     });
-    function show(x) { return M.angle ? deg(x) : fmt(x); }
-    el.appendChild(svg("text", {x: L, y: B + 16}, show(lo)));
-    el.appendChild(svg("text", {x: R - 40, y: B + 16}, show(hi)));
-    el.appendChild(svg("text", {x: (L + R) / 2 - 20, y: B + 26}, M.coord));
-    el.appendChild(svg("text", {x: 2, y: Y(ymax) + 10}, fmt(ymax)));
-    el.appendChild(svg("text", {x: 2, y: Y(ymin)}, fmt(ymin)));
+    var yu = Object.keys(us).filter(function (u) { return u; });
+    var xu = M.angle ? "deg" : unit(M.coord).trim();
+    el.appendChild(svg("text", {x: (L + R) / 2, y: B + 34, "text-anchor": "middle",
+      "class": "axis-title"}, M.coord + (xu ? " [" + xu + "]" : "") +
+      " (the coordinate along the motion)"));
+    el.appendChild(svg("text", {transform: "translate(14 " + (T + B) / 2 + ") rotate(-90)",
+      "text-anchor": "middle", "class": "axis-title"}, "multiplier on the energy shell" +
+      (yu.length === 1 ? " [" + yu[0] + "]" : "")));
   }
   function modes() {
     var el = byId("live-modes");
@@ -600,3 +627,4 @@ RUNTIME = r"""
   update();
 })
 """
+RUNTIME = RUNTIME.replace("  @TICKS@\n", TICKS_JS.lstrip("\n"), 1)

@@ -1,7 +1,9 @@
 """``lamech report``: one self-contained HTML page of a problem.
 
-The page holds the problem file, the results, the derivation step by step, the force
-plot with the events, the animation and the simulation summary, and opens offline: the
+The page opens on a drawing of the system at its initial state beside the key results
+(:mod:`._first`), then the sliders, the results, the drives' torques, the derivation
+step by step, the force plot with the events, the animation and the simulation summary,
+and the problem file (folded) at the end; it opens offline: the
 math is rendered in the browser by KaTeX, vendored in ``vendor/katex`` (MIT licence,
 kept beside it and quoted in the page), its script and style inlined and its fonts
 embedded as data URIs (woff2 only: every browser that runs KaTeX reads it); plots and
@@ -20,6 +22,7 @@ from functools import cache
 from pathlib import Path
 
 from ..symbolic import Derivation
+from ._first import FIRST_STYLE, drives_html, first_screen
 from ._live import LIVE_STYLE, live_section
 from ._policy import REFERRER, report_policy, tagged
 from ._report import latex_names
@@ -198,35 +201,48 @@ def report_page(
     and style for the frame that inherits that page's policy."""
     script, style, licence = _katex()
     title = html.escape(sol.system.title)
+    eqs = equilibria(sol)
+    drives = drives_html(sol, traj)
     sections = [
-        ("problem", "The problem"),
-        ("results", "Results"),
+        ("first", "At the start"),
         ("live", "Move the parameters"),
-        ("steps", "Step by step"),
+        ("results", "Results"),
     ]
+    if drives:
+        sections.append(("drives", "Drives"))
+    sections.append(("steps", "Step by step"))
     if traj is not None:
         sections.append(("motion", "The motion"))
+    sections.append(("problem", "The problem"))
     nav = " ".join(f'<a href="#{k}">{v}</a>' for k, v in sections)
     body = [f"<h1>{title}</h1>", f"<nav>{nav}</nav>"]
     if note:
         body.append(f'<p class="note">{html.escape(note)}</p>')
-    body.append('<h2 id="problem">The problem</h2>')
-    if source is not None:
-        body.append(f"<pre>{html.escape(source)}</pre>")
-    body += ['<h2 id="results">Results</h2>', _results_html(sol)]
-    live, live_script = live_section(sol, equilibria(sol))
+    body.append(first_screen(sol, traj, params, eqs))
+    live, live_script = live_section(sol, eqs)
     body += ['<section id="live"><h2>Move the parameters</h2>', live, "</section>"]
+    body += ['<h2 id="results">Results</h2>', _results_html(sol)]
+    if drives:
+        body += ['<h2 id="drives">Drives: force or torque against the coordinate driven</h2>']
+        body.append(drives)
     body += ['<h2 id="steps">Step by step</h2>', _steps_html(derivation)]
     if traj is not None:
         sim, notes = _simulation_html(traj, sol.system, params)
         body += ['<h2 id="motion">The motion</h2>', sim]
         body += [f'<p class="note">{html.escape(n)}</p>' for n in notes]
+    body.append('<h2 id="problem">The problem</h2>')
+    if source is not None:
+        lines = source.count("\n") + 1
+        body.append(
+            f'<details id="problem-file"><summary>The problem file ({lines} lines)</summary>'
+            f"<pre>{html.escape(source)}</pre></details>"
+        )
     body.append(
         "<footer>Made by lamech. Math rendered by KaTeX (embedded; licence below).<pre>"
         + html.escape(licence)
         + "</pre></footer>"
     )
-    styles = [style, _STYLE + LIVE_STYLE]
+    styles = [style, _STYLE + LIVE_STYLE + FIRST_STYLE]
     scripts = [script, _RENDER] + ([live_script] if live_script else [])
     policy = html.escape(report_policy(scripts, styles))
     return (
