@@ -194,6 +194,19 @@ def _library() -> ctypes.CDLL:
         return lib
 
 
+def _fast_module():
+    """The extension module's own functions of a right-hand side (``module.c``), or None
+    where another build of the engine is loaded (:data:`LIBRARY_ENV`: it has only the
+    ctypes entry points) or the module has none."""
+    if os.environ.get(LIBRARY_ENV):
+        return None
+    try:
+        import lamech.numeric._cengine_lib as module
+    except ImportError:  # pragma: no cover - _library() imported it already
+        return None
+    return module if hasattr(module, "rhs") and hasattr(module, "accelerations") else None
+
+
 def available() -> bool:
     """Whether the engine was built and loads."""
     try:
@@ -300,6 +313,10 @@ class CKernels:
             CPOS.ctypes.data, nnz, *addresses, slots.ctypes.data, slots.shape[0],
         )  # fmt: skip
         self.ref = ctypes.byref(self.record)
+        self.address = ctypes.addressof(self.record)
+        # the extension's own right-hand side; not with callbacks (their exceptions are
+        # raised again by _Checked around the ctypes calls)
+        self.fast = _fast_module() if calls is None else None
         self.cache, self.path = cache, path
         self.functions = {
             "kkt_solve": self.kkt_solve,
@@ -340,6 +357,13 @@ class CKernels:
     def rhs_kernel(self, t, y, p, rows, slip_j, slip_k, slip_c):
         """y' = [v; q''] on the active rows (the kernel ``rhs_kernel``)."""
         N = 2 * self.n
+        if self.fast is not None:  # the extension's own function: checked in C
+            out = np.empty(N)
+            y = np.ascontiguousarray(y, dtype=_F)
+            self._status(
+                self.fast.rhs(self.address, float(t), y, p, rows, slip_j, slip_k, slip_c, out)
+            )
+            return out
         (r, sj, sk, sc), na, ns = self._act(rows, slip_j, slip_k, slip_c)
         y = np.ascontiguousarray(y, dtype=_F)
         out = np.empty(N)
@@ -353,6 +377,9 @@ class CKernels:
         """[q''; lambda] with every constraint active (the kernel ``accelerations``)."""
         y = np.ascontiguousarray(y, dtype=_F)
         out = np.empty(self.n + self.m)
+        if self.fast is not None:  # the extension's own function: checked in C
+            self._status(self.fast.accelerations(self.address, float(t), y, p, out))
+            return out
         self._status(self.lib.lm_accelerations_entry(
             self.ref, float(t), _addr(y, _F, (2 * self.n,), "y"),
             _addr(p, _F, (self.np,), "p"), out.ctypes.data,
