@@ -50,6 +50,7 @@ def test_the_engine_was_built_at_install_and_runs_the_problems():
     assert simulate(ns, 0.5, samples=3).engine == "loop (C)"
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 @needs_cc
 def test_every_bundled_example_compiles_to_c():
     """Each bundled example's functions compile (pi in a constraint, ``M_PI``, is not

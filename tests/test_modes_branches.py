@@ -130,6 +130,7 @@ def test_the_parametric_tautochrone_rests_at_the_bottom_with_omega_squared_g_ove
     assert_every_equilibrium_rests(md, p["g"])
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_the_rod_in_a_bowl_rests_only_horizontal_at_the_bottom():
     """The rod (length 2a) with both ends on the bowl (radius r) rests horizontal at the
     bottom, y = -d, d = sqrt(r^2 - a^2), and rocks in the angle psi of its centre about
@@ -158,6 +159,7 @@ def test_the_rod_in_a_bowl_rests_only_horizontal_at_the_bottom():
     assert all(e.values["y"] < 0 for e in holding)
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_no_warning_from_generated_code_reaches_the_terminal(tmp_path, capfd, monkeypatch):
     """The numeric search evaluates generated functions where they are NaN (a square
     root of a negative number off the manifold): 18 kB of RuntimeWarning with the

@@ -95,6 +95,7 @@ def steady_accelerations_agree(system, e, t: float) -> float:
     return float(np.abs(np.linalg.solve(K, rhs)[:3] - want).max())
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_the_spun_hoop_in_cartesian_coordinates_has_the_textbooks_relative_equilibria():
     system = lamech.loads(HOOP, "hoop.toml")
     p = _values(system)

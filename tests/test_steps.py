@@ -24,6 +24,7 @@ from lamech.symbolic import Derivation
 from lamech.symbolic._steps import CORRECTION, Term
 
 SLOW = {
+    "four_bar_driven",
     "andrews_squeezer",
     "rolling_disc",
     "double_pendulum",

@@ -143,6 +143,7 @@ def test_latex_writes_each_multiplier_with_its_unit(cylinders):
     assert r"\mathrm{N}" not in lamech.to_latex(plain)
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_param_takes_a_quantity_of_the_dimension_the_file_gives(tmp_path):
     path = tmp_path / "cylinder_units.toml"
     path.write_text(_with_units(), encoding="utf-8")
@@ -518,6 +519,7 @@ def test_a_load_of_the_wrong_dimension_is_refused_at_its_line(old, new, line, wo
         assert w in message, message
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_a_sweep_takes_quantities_in_si_and_refuses_another_dimension(tmp_path):
     path = tmp_path / "cylinder_units.toml"
     path.write_text(_with_units(), encoding="utf-8")

@@ -108,6 +108,7 @@ def test_a_trajectory_in_units_has_a_unit_for_each_of_its_columns(cylinder_file)
 
 
 # ----- modes ------------------------------------------------------------------------
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_a_pendulum_of_50_cm_oscillates_at_sqrt_g_over_half_a_metre_rad_per_s(tmp_path):
     md = lamech.modes(lamech.loads(PENDULUM))
     omega = md.equilibria[0].modes[0].frequency
@@ -160,6 +161,7 @@ def test_simulate_with_r2_in_cm_runs_as_with_r2_in_metres(cylinder_file):
     assert a["events"][0]["coordinates"]["r"] == pytest.approx(1.4, abs=1e-12)
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_a_sweep_of_a_file_without_units_takes_a_range_in_cm_and_refuses_kg():
     args = ["--initial", "theta1=1 deg", "--measure", "liftoff", "--t-end", "3"]
     out = _cli("sweep", "cylinder", "--param", "R2=40cm:60cm:2", *args, "--engine", "scipy")
@@ -320,6 +322,7 @@ def test_the_served_page_gets_the_units_of_what_it_shows():
         assert "units" not in plain and '<td class="live-unit">' not in plain["page"]
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_a_sweep_in_units_says_the_unit_of_each_column(cylinder_file):
     args = ["--initial", "theta1=1 deg", "--measure", "liftoff", "--t-end", "3"]
     out = _cli("sweep", str(cylinder_file), "--param", "R2=40cm:60cm:2", *args, "--engine", "scipy")
@@ -330,6 +333,7 @@ def test_a_sweep_in_units_says_the_unit_of_each_column(cylinder_file):
 
 
 # ----- solve --json: the flat map of units the other commands give ---------------------
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_solve_json_gives_the_same_flat_units_as_simulate(cylinder_file, tmp_path):
     solved = json.loads(_cli("solve", str(cylinder_file), "--json").stdout)["units"]
     run = json.loads(_cli("simulate", str(cylinder_file), "--t-end", "0.1", "--json").stdout)
@@ -351,6 +355,7 @@ def test_solve_json_gives_the_same_flat_units_as_simulate(cylinder_file, tmp_pat
     assert units["lambda:rod"] == "N" and units["x"] == "m"
 
 
+@pytest.mark.slow  # 2 s or more in the default set (2026-11-29)
 def test_a_quantity_given_to_a_file_without_units_leaves_the_results_unit_free():
     """A file without units gives its results without units, even where a --param or
     params= value carries one (converted to SI; docs/tutorials/units.md): one quantity
