@@ -353,6 +353,9 @@ def test_solve_json_gives_the_same_flat_units_as_simulate(cylinder_file, tmp_pat
     units = json.loads(_cli("solve", str(path), "--json").stdout)["units"]
     assert units["thetarod"] == "rad" and units["thetarod'"] == "rad/s"
     assert units["lambda:rod"] == "N" and units["x"] == "m"
+    # the Python API's JSON is the command's
+    api = lamech.to_json(lamech.solve(lamech.load(cylinder_file)))["units"]
+    assert api == solved
 
 
 @pytest.mark.slow  # 2 s or more in the default set (2026-11-29)

@@ -329,7 +329,7 @@ def _dispatch(args: argparse.Namespace) -> int:
 
         result = steps(solution)  # to_text, to_latex and to_json take a Derivation too
     if getattr(args, "json", False):
-        print(json.dumps(_flat_units(to_json(result), solution), indent=2, ensure_ascii=False))
+        print(json.dumps(to_json(result), indent=2, ensure_ascii=False))
     elif getattr(args, "latex", False):
         print(in_flags(to_latex(result)), end="")
     else:
@@ -401,19 +401,6 @@ def _in_angles(system):
         if completed is None:
             raise ValueError(f"--angles: {exc}") from None
         return completed
-
-
-def _flat_units(data: dict, solution) -> dict:
-    """``"units"`` of ``lamech solve --json`` as the flat map the other commands give
-    (:attr:`lamech.symbolic.Solution.units`: ``"lambda:contact": "N"``, ``"theta1": "rad"``,
-    the angle of a chart lamech picks for a circle, each parameter, ``"t"``, ``"energy"``),
-    followed by the nested ``"multipliers"``, ``"forces"`` and ``"coordinates"`` kept for
-    old readers (deprecated); no key for a file without units."""
-    flat = solution.units
-    if flat:
-        old = data.get("units", {})
-        data["units"] = {**flat, **{k: v for k, v in old.items() if k not in flat}}
-    return data
 
 
 def _overridden(system, param_pairs, initial_pairs):

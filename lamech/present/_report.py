@@ -227,7 +227,11 @@ def to_json(sol) -> dict:
     if named.definitions:
         out["subexpressions"] = {_t_whole(w): _t_whole(e) for w, e in named.definitions}
     if system.units is not None:
-        out["units"] = _units_json(system)
+        # the flat map every command gives (Solution.units: "lambda:contact": "N", a
+        # chart's angle, each parameter), then the nested keys kept for old readers
+        old = _units_json(system)
+        flat = dict(getattr(sol, "units", None) or {})
+        out["units"] = {**flat, **{k: v for k, v in old.items() if k not in flat}}
     if getattr(sol, "drives", None):
         out["drives"] = drives_json(sol)
     out["notes"] = list(sol.notes)
