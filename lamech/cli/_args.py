@@ -6,6 +6,8 @@ import argparse
 import math
 
 __all__ = [
+    "add_grid",
+    "grid_params",
     "add_tolerance_options",
     "option_choices",
     "option_help",
@@ -53,6 +55,32 @@ def add_assignments(parser: argparse.ArgumentParser, flag: str, text: str) -> No
     parser.add_argument(
         flag, action="append", default=[], type=assignment, metavar="NAME=VALUE", help=text
     )
+
+
+def add_grid(parser: argparse.ArgumentParser) -> None:
+    """The grid's repeatable ``--param NAME=VALUES`` (``lamech sweep`` and ``lamech map``)."""
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUES",
+        required=True,
+        help="a parameter (or `mu`/`mu:<constraint>`, a friction coefficient) and "
+        "its values: A:B:N (N values, both ends included), a,b,c or one "
+        "value; repeat for a grid",
+    )
+
+
+def grid_params(given: list[str]) -> dict[str, str]:
+    """{name: values} of the grid's ``--param`` texts; a name given twice is a
+    SweepError."""
+    from ..sweeps import SweepError
+    from ..sweeps._parse import parse_assignment
+
+    params = dict(parse_assignment(p, "--param") for p in given)
+    if len(params) != len(given):
+        raise SweepError("a parameter is given twice: " + ", ".join(given))
+    return params
 
 
 def evaluate_assignments(pairs, system, option: str, env=None) -> dict[str, float]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._args import shown_name
+from ._args import add_grid, grid_params, shown_name
 from ._files import add_data_dir
 from ._terms import in_flags
 
@@ -28,15 +28,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
     add_data_dir(s)
-    s.add_argument(
-        "--param",
-        action="append",
-        default=[],
-        metavar="NAME=VALUES",
-        required=True,
-        help="a parameter (or `mu`, a friction coefficient) and its values: A:B:N, "
-        "a,b,c or one value; repeat for a grid",
-    )
+    add_grid(s)
     s.add_argument(
         "--measure",
         action="append",
@@ -57,13 +49,10 @@ def run(args) -> int:
     from ..outputs import OutputError, check_output, write_output
     from ..problem import ProblemFileError, load
     from ..sweeps import SweepError, parameter_map
-    from ..sweeps._parse import parse_assignment
     from ..symbolic import DegenerateConstraintsError
 
     try:
-        params = dict(parse_assignment(p, "--param") for p in args.param)
-        if len(params) != len(args.param):
-            raise SweepError("a parameter is given twice: " + ", ".join(args.param))
+        params = grid_params(args.param)
         if args.out == "-":
             args.out = None
         if args.out:

@@ -9,7 +9,9 @@ import math
 import sys
 
 from ._args import (
+    add_grid,
     add_tolerance_options,
+    grid_params,
     option_choices,
     options_from,
     positive_float,
@@ -37,16 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     s.add_argument("problem", help="a .toml problem file or a bundled example name")
     add_data_dir(s)
-    s.add_argument(
-        "--param",
-        action="append",
-        default=[],
-        metavar="NAME=VALUES",
-        required=True,
-        help="a parameter (or `mu`/`mu:<constraint>`, a friction coefficient) and "
-        "its values: A:B:N (N values, both ends included), a,b,c or one "
-        "value; repeat for a grid",
-    )
+    add_grid(s)
     s.add_argument(
         "--measure",
         action="append",
@@ -150,9 +143,7 @@ def _run(args) -> int:
 
     stopped_by: list[BaseException] = []
     try:
-        params = dict(parse_assignment(p, "--param") for p in args.param)
-        if len(params) != len(args.param):
-            raise SweepError("a parameter is given twice: " + ", ".join(args.param))
+        params = grid_params(args.param)
         initial = dict(parse_assignment(p, "--initial") for p in args.initial)
         if args.out == "-":
             args.out = None  # the table on standard output, as without --out

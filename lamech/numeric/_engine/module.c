@@ -66,39 +66,51 @@ static const lm_system *system_at(PyObject *address)
     return (const lm_system *)p;
 }
 
+/* the arguments every function here begins with: their count, the system's record and t */
+static int head(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t want, const char *usage,
+                const lm_system **sy, double *t)
+{
+    if (nargs != want) {
+        PyErr_SetString(PyExc_TypeError, usage);
+        return -1;
+    }
+    *sy = system_at(args[0]);
+    if (*sy == NULL)
+        return -1;
+    *t = PyFloat_AsDouble(args[1]);
+    if (*t == -1.0 && PyErr_Occurred())
+        return -1;
+    return 0;
+}
+
 /* accelerations(system address, t, y, p, out): [q''; lambda] with every constraint
  * active into out (n + m); returns the entry point's status */
 static PyObject *accelerations(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "accelerations(system, t, y, p, out)");
+    const lm_system *sy;
+    double t;
+    if (head(args, nargs, 5, "accelerations(system, t, y, p, out)", &sy, &t) < 0)
         return NULL;
-    }
-    const lm_system *sy = system_at(args[0]);
-    if (sy == NULL)
-        return NULL;
-    double t = PyFloat_AsDouble(args[1]);
-    if (t == -1.0 && PyErr_Occurred())
-        return NULL;
-    Py_buffer y, p, out;
-    if (vector(args[2], &y, 'd', 2 * sy->n, 0, "y") < 0)
-        return NULL;
-    if (vector(args[3], &p, 'd', sy->np, 0, "p") < 0) {
-        PyBuffer_Release(&y);
-        return NULL;
-    }
-    if (vector(args[4], &out, 'd', sy->n + sy->m, 1, "out") < 0) {
-        PyBuffer_Release(&y);
-        PyBuffer_Release(&p);
-        return NULL;
-    }
-    int64_t code = lm_accelerations_entry(sy, t, (const double *)y.buf, (const double *)p.buf,
-                                          (double *)out.buf);
-    PyBuffer_Release(&y);
-    PyBuffer_Release(&p);
-    PyBuffer_Release(&out);
-    return PyLong_FromLongLong((long long)code);
+    Py_buffer b[3];
+    int got = 0;
+    PyObject *result = NULL;
+    if (vector(args[2], &b[0], 'd', 2 * sy->n, 0, "y") < 0)
+        goto done;
+    got = 1;
+    if (vector(args[3], &b[1], 'd', sy->np, 0, "p") < 0)
+        goto done;
+    got = 2;
+    if (vector(args[4], &b[2], 'd', sy->n + sy->m, 1, "out") < 0)
+        goto done;
+    got = 3;
+    int64_t code = lm_accelerations_entry(sy, t, (const double *)b[0].buf,
+                                          (const double *)b[1].buf, (double *)b[2].buf);
+    result = PyLong_FromLongLong((long long)code);
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&b[i]);
+    return result;
 }
 
 /* rhs(system address, t, y, p, rows, slip_j, slip_k, slip_c, out): y' = [v; q''] on the
@@ -106,15 +118,10 @@ static PyObject *accelerations(PyObject *self, PyObject *const *args, Py_ssize_t
 static PyObject *rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
-    if (nargs != 9) {
-        PyErr_SetString(PyExc_TypeError, "rhs(system, t, y, p, rows, slip_j, slip_k, slip_c, out)");
-        return NULL;
-    }
-    const lm_system *sy = system_at(args[0]);
-    if (sy == NULL)
-        return NULL;
-    double t = PyFloat_AsDouble(args[1]);
-    if (t == -1.0 && PyErr_Occurred())
+    const lm_system *sy;
+    double t;
+    if (head(args, nargs, 9, "rhs(system, t, y, p, rows, slip_j, slip_k, slip_c, out)", &sy,
+             &t) < 0)
         return NULL;
     Py_buffer b[7];
     int got = 0;
