@@ -119,6 +119,9 @@ def _unit_forces(dyn: Dynamics, red: Reduction, j: int) -> dict:
     J = contact_partial_velocities(system, spec).applyfunc(red.apply)
     Q = (dyn.A[j, :].T * c.multiplier).applyfunc(red.apply)
     dim = J.rows
+    square = _square_forces(J, dyn.A[j, :].T.applyfunc(red.apply), system, red)
+    if square is not None:
+        return _components(square * c.multiplier, spec, dim, red, sp.Integer(0))
     basis = _range_basis(J, system, red)
     if basis is None:
         return {"residual": tidy(sp.sqrt(sum(e**2 for e in Q)))}
@@ -136,6 +139,12 @@ def _unit_forces(dyn: Dynamics, red: Reduction, j: int) -> dict:
     F = (B * y).applyfunc(tidy)
     res_vec = (Q - J.T * F).applyfunc(tidy)
     residual = tidy(sp.sqrt(sum((e**2 for e in res_vec), sp.Integer(0))))
+    return _components(F, spec, dim, red, residual, lambda d: _in_range(B, d, system, red))
+
+
+def _components(F: sp.Matrix, spec, dim: int, red: Reduction, residual, determined=None) -> dict:
+    """F's components along the spec's named directions (x, y(, z) when none is named),
+    None along a direction ``determined`` says J cannot determine, and the residual."""
     directions = spec.along or tuple(
         (axis, tuple(sp.Integer(1 if k == i else 0) for k in range(dim)))
         for i, axis in enumerate("xyz"[:dim])
@@ -143,12 +152,50 @@ def _unit_forces(dyn: Dynamics, red: Reduction, j: int) -> dict:
     comps: dict = {}
     for name, d in directions:
         dvec = sp.Matrix(d).applyfunc(red.apply)
-        if not _in_range(B, dvec, system, red):
+        if determined is not None and not determined(dvec):
             comps[name] = None
             continue
         comps[name] = tidy((F.T * dvec)[0] / sp.sqrt(sum(e**2 for e in dvec)))
     comps["residual"] = residual
     return comps
+
+
+def _square_forces(J: sp.Matrix, Q: sp.Matrix, system: System, red: Reduction):
+    """F with J^T F = Q from ``dim`` of its rows, when J (dim x n) has full row rank at
+    generic states and the F so found satisfies every row there: F is then the one
+    solution, and the least squares (four products of partial velocities, seconds of
+    tidying for a linkage's loop) is not needed. None otherwise (a point that cannot
+    carry the force, a rank-deficient J, a state where it cannot be evaluated)."""
+    dim = J.rows
+    envs = _probe_states(system, red)
+    mats = [_numeric(J, e) for e in envs]
+    if any(m is None for m in mats) or not mats:
+        return None
+    if any(np.linalg.matrix_rank(m, tol=1e-9 * max(1.0, np.abs(m).max())) < dim for m in mats):
+        return None
+    rows: list[int] = []  # coordinates whose rows of J^T are independent at every probe
+    for k in range(J.cols):
+        trial = rows + [k]
+        if all(np.linalg.matrix_rank(m[:, trial], tol=1e-9) == len(trial) for m in mats):
+            rows = trial
+        if len(rows) == dim:
+            break
+    if len(rows) < dim:
+        return None
+    JS = sp.Matrix([[J[i, k] for i in range(dim)] for k in rows])
+    QS = sp.Matrix([Q[k] for k in rows])
+    try:
+        F = JS.LUsolve(QS).applyfunc(tidy)
+    except (ValueError, ZeroDivisionError):  # NonInvertibleMatrixError is a ValueError
+        return None
+    res = Q - J.T * F
+    for env in envs:
+        r, q = _numeric(res, env), _numeric(Q, env)
+        if r is None or q is None:
+            return None
+        if np.linalg.norm(r) > 1e-9 * max(1.0, float(np.linalg.norm(q))):
+            return None
+    return F
 
 
 def _numeric(M: sp.Matrix, env: dict) -> np.ndarray | None:
