@@ -168,8 +168,9 @@ def _square_forces(J: sp.Matrix, Q: sp.Matrix, system: System, red: Reduction):
     carry the force, a rank-deficient J, a state where it cannot be evaluated)."""
     dim = J.rows
     envs = _probe_states(system, red)
-    mats = [_numeric(J, e) for e in envs]
-    if any(m is None for m in mats) or not mats:
+    evaluated = [_numeric(J, e) for e in envs]
+    mats = [m for m in evaluated if m is not None]
+    if len(mats) < len(evaluated) or not mats:
         return None
     if any(np.linalg.matrix_rank(m, tol=1e-9 * max(1.0, np.abs(m).max())) < dim for m in mats):
         return None
