@@ -104,7 +104,7 @@ def test_a_negative_radius_is_refused_at_its_line(extra, start):
     assert "radius" in err and ">= 0" in err and f":{_line(text, start)}:" in err, err
 
 
-@pytest.mark.parametrize("n", [16, 200, 350])
+@pytest.mark.parametrize("n", [pytest.param(16, marks=pytest.mark.slow), 200, 350])
 def test_min_and_max_of_many_arguments_do_not_recurse(n):
     args = ",".join(f"x^2+{i}*x" for i in range(n))
     text = CART.format(force=f"max({args})", extra="")

@@ -70,8 +70,21 @@ TABLE = [
 ]
 
 
+# the rows of 2 s or more (SymPy solving the example): left out of the default set
+SLOW = {
+    ("hoop_bead", "the hoop's normal force"),
+    ("incline_disk", "friction on a rolling disk"),
+    ("spherical_pendulum", "string tension"),
+    ("spherical_pendulum", "tension on the shell"),
+    ("wedge", "normal force on the block"),
+}
+assert SLOW <= {r[:2] for r in TABLE}, SLOW - {r[:2] for r in TABLE}
+
+
 @pytest.mark.parametrize(
-    "example, what, get, name, textbook", TABLE, ids=[f"{r[0]}: {r[1]}" for r in TABLE]
+    "example, what, get, name, textbook",
+    [pytest.param(*r, marks=pytest.mark.slow) if r[:2] in SLOW else r for r in TABLE],
+    ids=[f"{r[0]}: {r[1]}" for r in TABLE],
 )
 def test_the_printed_form_is_the_textbooks(example, what, get, name, textbook):
     from lamech.expr import parse

@@ -145,7 +145,7 @@ def test_a_particle_too_fast_on_top_of_the_sphere_leaves_at_once():
 @pytest.mark.parametrize(
     "name, constraint, expected",
     [
-        (
+        pytest.param(
             "wedge",
             "contact",
             lambda p: (
@@ -155,6 +155,7 @@ def test_a_particle_too_fast_on_top_of_the_sphere_leaves_at_once():
                 * __import__("math").cos(p["alpha"])
                 / (p["M"] + p["m"] * __import__("math").sin(p["alpha"]) ** 2)
             ),
+            marks=pytest.mark.slow,
         ),
         ("incline_disk", "contact", lambda p: p["m"] * p["g"] * __import__("math").cos(p["alpha"])),
     ],
@@ -409,7 +410,9 @@ restitution = "e"
 """
 
 
-@pytest.mark.parametrize("rtol", [1e-6, 1e-8, 1e-10, 1e-12])
+@pytest.mark.parametrize(
+    "rtol", [*(pytest.param(r, marks=pytest.mark.slow) for r in (1e-6, 1e-8, 1e-10)), 1e-12]
+)
 def test_a_ball_bouncing_many_times_comes_to_rest_on_the_floor(rtol):
     """With rtol <= 1e-8 the ball (e = 0.8) fell through the floor after ~20 bounces with
     status ok: a bounce whose whole flight fits in one step never re-armed the contact.
@@ -482,10 +485,25 @@ def test_a_particle_does_not_pass_through_a_bump_inside_one_step():
 
 
 # ----- item 4: bundled examples are physically complete -------------------------------
+# the cases of 2 s or more: left out of the default set
+SLOW_SURFACES = {
+    "andrews_squeezer",
+    "double_pendulum",
+    "four_bar",
+    "heavy_top",
+    "hoop_bead",
+    "moving_support",
+    "rolling_disc",
+    "rolling_sphere",
+    "spherical_pendulum",
+}
+assert SLOW_SURFACES <= set(lamech.problem.example_names()), SLOW_SURFACES
+
+
 @pytest.mark.parametrize(
     "name",
     [
-        pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
+        pytest.param(n, marks=pytest.mark.slow) if n in SLOW_SURFACES else n
         for n in lamech.problem.example_names()
     ],
 )

@@ -57,7 +57,10 @@ f = "l - r"
 # lambda = dL/dr = m g cos(theta): +m g hanging, -m g inverted.
 
 
-@pytest.mark.parametrize("M, m, L, free_first", [(3.0, 0.5, 0.7, True), (2.0, 1.0, 1.0, False)])
+@pytest.mark.parametrize(
+    "M, m, L, free_first",
+    [pytest.param(3.0, 0.5, 0.7, True, marks=pytest.mark.slow), (2.0, 1.0, 1.0, False)],
+)
 def test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted(M, m, L, free_first):
     g = 9.81
     md = lamech.modes(lamech.loads(_cart_pendulum(M, m, L, free_first)))
@@ -106,7 +109,7 @@ def test_cli_modes_of_the_cart_pendulum_at_the_inverted_position(tmp_path, capsy
     "command, by_name, by_number",
     [
         (["simulate", "pendulum", "--t-end", "0.2", "--samples", "3"], "theta=theta0", "theta=0.5"),
-        (["solve", "pendulum"], "theta=l", "theta=1"),
+        pytest.param(["solve", "pendulum"], "theta=l", "theta=1", marks=pytest.mark.slow),
     ],
 )
 def test_a_parameters_name_as_an_initial_value_is_its_value(command, by_name, by_number, capsys):
