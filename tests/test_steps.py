@@ -312,3 +312,20 @@ def test_readme_steps_excerpt_is_real_output(cylinder):
     # in the same order
     positions = [actual.index(line) for line in shown]
     assert positions == sorted(positions)
+
+
+def _corrections(derivation) -> list[str]:
+    from lamech.symbolic._steps import CORRECTION
+
+    return [n for s in derivation.steps for n in s.notes if n.startswith(CORRECTION)]
+
+
+@pytest.mark.slow
+def test_the_lecture_corrections_are_in_the_lectures_problems_only():
+    assert len(_corrections(lamech.steps(lamech.solve("pendulum")))) == 2
+    # the lecture's pendulum with other numbers is still the lecture's
+    other = lamech.model.with_values(lamech.load("pendulum"), parameters={"l": 2.0})
+    assert len(_corrections(lamech.steps(lamech.solve(other)))) == 2
+    # a disk rolling with friction down an incline, Atwood's machine: not the notes'
+    assert _corrections(lamech.steps(lamech.solve("incline_disk"))) == []
+    assert _corrections(lamech.steps(lamech.solve("atwood"))) == []
