@@ -1,6 +1,7 @@
 """The Python API's faces: the top level and each sub-package export their names without
 a warning; a name a face no longer exports (plumbing, or renamed) still resolves, from
-the module that defines it, with a DeprecationWarning saying where it lives."""
+the module that defines it, with a DeprecationWarning saying where it lives. Misuse is
+answered with what to pass: a problem of the wrong type, values the command line refuses."""
 
 from __future__ import annotations
 
@@ -122,7 +123,7 @@ def _help(command: str) -> str:
     return " ".join(out.getvalue().split())
 
 
-# ----- item 7: the Python API answers misuse with what to pass --------------------------
+# ----- the Python API answers misuse with what to pass -----------------------------------
 @pytest.mark.slow
 def test_a_problem_may_be_named_by_its_file_or_example_in_every_api_function(tmp_path):
     by_name = lamech.solve("pendulum")

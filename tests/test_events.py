@@ -9,10 +9,7 @@ import pytest
 
 import lamech
 
-PENDULUM = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
-
-
-# ----- item 1: landing while slipping ------------------------------------------------
+# ----- landing while slipping ------------------------------------------------------------
 LOOP = """
 title = "Solid disk inside a vertical loop"
 [parameters]
@@ -96,7 +93,7 @@ def test_a_disk_landing_on_the_loop_while_slipping_obeys_coulomb_and_newton_eule
     assert energy(y_plus, v1, w1) < energy(y_minus, v0, w0)
 
 
-# ----- item 5: no silent penetration after many impacts -----------------------------------
+# ----- no silent penetration after many impacts ------------------------------------------
 BALL_2D = """
 title = "Ball bouncing across a floor"
 [parameters]
@@ -191,7 +188,7 @@ def test_a_particle_does_not_pass_through_a_bump_inside_one_step():
     assert np.allclose([ev.coordinates["x'"], ev.coordinates["y'"]], reflected, atol=1e-8)
 
 
-# ----- item 4: bundled examples are physically complete -------------------------------
+# ----- bundled examples are physically complete ------------------------------------------
 # the cases of 2 s or more: left out of the default set
 SLOW_SURFACES = {
     "andrews_squeezer",

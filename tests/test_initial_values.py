@@ -56,7 +56,7 @@ def test_solve_takes_param_and_initial_like_simulate():
     assert bad.returncode == 2 and "sign" in bad.stderr and "Traceback" not in bad.stderr
 
 
-# ----- item 3: a parameter's name as a value; a report without matplotlib ----------------
+# ----- a parameter's name as a value -----------------------------------------------------
 @pytest.mark.parametrize(
     "command, by_name, by_number",
     [

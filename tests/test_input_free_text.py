@@ -1,6 +1,7 @@
 """A problem file's free text (its title, its force directions' names) is shown as text
 in every picture and every piece of LaTeX lamech writes (issue 44, items 4 and 5):
-matplotlib never reads mathtext in it, TeX never a command."""
+matplotlib never reads mathtext in it, TeX never a command, generated code never the
+title."""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """Issue 29, item 5: impossible inputs refused with their line (clip with lo > hi, an
-inertia no body has, a negative radius), and min/max of many arguments handled
-without recursion."""
+inertia no body has, a negative radius, a division by an expression identically zero),
+min/max of many arguments handled without recursion, a problem too big refused at once,
+and one bad value not hiding the next."""
 
 from __future__ import annotations
 
@@ -166,9 +167,6 @@ def test_a_bad_value_does_not_hide_the_next_error(text, message):
         lamech.loads(bad, "p.toml")
     for m in message:
         assert m in str(info.value)
-
-
-PENDULUM_TEXT = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
 
 
 @pytest.mark.parametrize(

@@ -1,7 +1,9 @@
 """The library's messages name its arguments (`` `max_step=` ``); the command line says
 its flags (``--max-step``) for the same messages (the command line's terms module). And
 where a file is valid but probably not what its author meant (issue 43, section 5), a
-word: a bilateral contact whose multiplier changes sign, gravity's sign."""
+word: a bilateral contact whose multiplier changes sign, gravity's sign, a T that
+disagrees with the bodies, an angle in degrees written as radians. A mistake is named
+(a missing prime, a typo) and a file name never reaches the terminal as control codes."""
 
 from __future__ import annotations
 
@@ -365,10 +367,10 @@ def test_control_characters_in_a_file_name_are_escaped(tmp_path, monkeypatch, ca
     assert "lamech: bad\\x1b[31m.toml: " in err and "\x1b" not in err
 
 
-PENDULUM_TEXT = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
+PENDULUM_TEXT = PENDULUM
 
 
-# ----- item 6: messages that mislead ------------------------------------------------------
+# ----- messages that mislead -------------------------------------------------------------
 def test_a_typo_in_a_bodys_position_is_the_only_problem_reported(tmp_path, capsys):
     path = tmp_path / "typo.toml"
     path.write_text(
@@ -384,7 +386,7 @@ def test_a_typo_in_a_bodys_position_is_the_only_problem_reported(tmp_path, capsy
     assert "no [[bodies]]" not in err and "missing" not in err
 
 
-# ----- item 5: a word where a user needs one ----------------------------------------------
+# ----- a word where a user needs one -----------------------------------------------------
 @pytest.mark.parametrize(
     "written, shown",
     [

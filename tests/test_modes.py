@@ -505,9 +505,6 @@ def test_modes_print_as_the_cli_shows_them_and_repr_in_one_line(capsys):
     assert repr(md.equilibria[0]) == "<Equilibrium theta = 0: stable, 1 mode>"
 
 
-PENDULUM_TEXT = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
-
-
 CART_T = ("M/2*X'^2 + m/2*((X' + r'*sin(theta) + r*cos(theta)*theta')^2"
           " + (r*sin(theta)*theta' - r'*cos(theta))^2)")  # fmt: skip
 
@@ -540,7 +537,7 @@ f = "l - r"
 """
 
 
-# ----- item 2: values assigned to coordinates by name, never by position -------------------
+# ----- values assigned to coordinates by name, never by position -------------------------
 # The truth, by hand: with r = l the Lagrangian is
 #   L = (M + m)/2 X'^2 + m l cos(theta) X' theta' + m l^2/2 theta'^2 + m g l cos(theta);
 # X is cyclic, (M + m) X' + m l cos(theta) theta' = const, and about theta = 0 (pi) the

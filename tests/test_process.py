@@ -1,7 +1,8 @@
 """The ``lamech`` command's own process: NumPy and SciPy load with one BLAS thread (their
 OpenBLAS helper threads spin for about 0.1 s of CPU each as they start), unless the
 user's environment says otherwise, and the collector does not walk every object again
-as the process ends; a call of ``main`` from Python changes neither."""
+as the process ends; a call of ``main`` from Python changes neither. A closed pipe
+ends it quietly (141), Ctrl-C with one line (130), even while it starts up."""
 
 from __future__ import annotations
 

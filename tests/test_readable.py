@@ -240,7 +240,7 @@ def test_equations_are_simplified_as_a_student_would():
     )
 
 
-# ----- item 8: what a student would write ----------------------------------------------
+# ----- what a student would write --------------------------------------------------------
 @pytest.mark.slow
 def test_results_read_as_a_student_would_write_them():
     """X sin(a)/cos(a) was left for X tan(a); sin(2a) over a denominator with a leading

@@ -13,7 +13,7 @@ from lamech.cli import main
 from lamech.sweeps import SweepError, sweep
 
 
-# ----- item 8: a resume checks what it resumes ------------------------------------------
+# ----- a resume checks what it resumes ---------------------------------------------------
 def _cylinder_sweep(out, params=None, **kw):
     kw.setdefault("t_end", 2.7)
     kw.setdefault("samples", 11)
