@@ -7,7 +7,10 @@ cache made what a test sees of the cache depend on which tests ran before it on 
 worker (issue 28 item 1). Each test has a folder of its own; only the tests marked
 ``shared_cache`` (the ones that compile, and ask for their engine) share
 one per run, so a system one of them compiled is loaded by the others. ``slow`` says only
-that a test is left out of the default set (``-m "not slow"``); CI runs it all the same."""
+that a test is left out of the default set (``-m "not slow"``); CI runs it all the same.
+It is marked where the test or its case is defined (``pytest_generate_tests`` below keeps
+a case of every parametrized test in the default set). tests/README.md lists the files by
+feature."""
 
 from __future__ import annotations
 
