@@ -1,10 +1,12 @@
 """The Python API's faces: the top level and each sub-package export their names without
 a warning; a name a face no longer exports (plumbing, or renamed) still resolves, from
-the module that defines it, with a DeprecationWarning saying where it lives."""
+the module that defines it, with a DeprecationWarning saying where it lives. Misuse is
+answered with what to pass: a problem of the wrong type, values the command line refuses."""
 
 from __future__ import annotations
 
 import importlib
+import math
 import warnings
 
 import pytest
@@ -119,3 +121,96 @@ def _help(command: str) -> str:
     with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
         main([command, "--help"])
     return " ".join(out.getvalue().split())
+
+
+# ----- the Python API answers misuse with what to pass -----------------------------------
+@pytest.mark.slow
+def test_a_problem_may_be_named_by_its_file_or_example_in_every_api_function(tmp_path):
+    by_name = lamech.solve("pendulum")
+    assert by_name.multipliers == lamech.solve(lamech.load("pendulum")).multipliers
+    path = tmp_path / "p.toml"
+    path.write_text(lamech.problem.example_path("pendulum").read_text(), encoding="utf-8")
+    assert lamech.solve(path).multipliers == by_name.multipliers
+    a = lamech.simulate("pendulum", 0.2, samples=3)
+    b = lamech.simulate(lamech.load("pendulum"), 0.2, samples=3)
+    assert a.status == "ok" and (a.q == b.q).all()
+    assert [e.stability for e in lamech.modes("pendulum").equilibria] == ["stable", "unstable"]
+    with pytest.raises(ValueError, match=r"lamech\.loads\(text\)"):
+        lamech.solve(path.read_text())
+
+
+@pytest.mark.parametrize(
+    "call, argument",
+    [
+        (lambda: lamech.solve(None), "solve: system"),
+        (lambda: lamech.solve(42), "solve: system"),
+        (lambda: lamech.modes(None), "modes: problem"),
+        (lambda: lamech.simulate(None, 1.0), "simulate: system"),
+        (lambda: lamech.sweep(None, {"l": [1.0]}, t_end=0.1), "sweep: problem"),
+        (lambda: lamech.dynamics(None), "dynamics: system"),
+        (lambda: lamech.multipliers(None), "multipliers: system"),
+    ],
+)
+def test_a_problem_of_the_wrong_type_is_a_type_error_naming_the_argument(call, argument):
+    with pytest.raises(TypeError, match=argument + r" must be a lamech.System \(lamech.load"):
+        call()
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"g": math.nan}, r"params\['g'\] must be a finite number, got nan"),
+        ({"l": math.inf}, r"params\['l'\] must be a finite number"),
+        ({"g": "x"}, r"params\['g'\] must be a number, got 'x'"),
+        ({"l": 0}, "parameter `l` is 1 in the file and its sign is part of the derivation"),
+        ({"m": -1}, "parameter `m` is 1 in the file and its sign is part of the derivation"),
+    ],
+)
+def test_simulate_refuses_the_parameter_values_the_command_line_refuses(params, message):
+    with pytest.raises(lamech.SimulationError, match=message):
+        lamech.simulate(lamech.load("pendulum"), 1.0, params=params)
+
+
+def test_a_compiled_systems_parameters_keep_their_signs():
+    ns = lamech.compile_system(lamech.load("cylinder"))
+    with pytest.raises(lamech.SimulationError, match=r"params\['m'\] = -1: `m` is 1 in the file"):
+        lamech.simulate(ns, 1.0, params={"m": -1.0})
+    with pytest.raises(lamech.SimulationError, match="a coefficient of friction is >= 0"):
+        lamech.simulate(lamech.load("cylinder"), 1.0, params={"mu": -0.1})
+    assert lamech.simulate("cylinder", 0.1, samples=3, params={"mu": 0.0}).status == "ok"
+
+
+@pytest.mark.parametrize(
+    "at, error, message",
+    [
+        ({"theta": math.nan}, ValueError, r"at\['theta'\] must be a finite number, got nan"),
+        ({"theta": "pi"}, ValueError, r"at\['theta'\] must be a real number, got 'pi'"),
+        ([0.1], TypeError, r"at must be a dict \{coordinate: value\}"),
+    ],
+)
+def test_modes_at_must_be_finite_numbers_by_name(at, error, message):
+    with pytest.raises(error, match=message):
+        lamech.modes(lamech.load("pendulum"), at=at)
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"samples": 10**9}, "samples=1000000000: more output times than lamech keeps"),
+        ({"dt": 1e-10}, "dt=1e-10 gives 1e[+]10 samples: more output times than lamech keeps"),
+    ],
+)
+def test_more_samples_than_memory_holds_are_refused_before_the_run(options, message):
+    with pytest.raises(lamech.SimulationError, match=message):
+        lamech.simulate(lamech.load("pendulum"), 1.0, **options)
+
+
+def test_a_sweeps_single_measure_may_be_a_string():
+    kw = {"t_end": 0.6, "samples": 3, "workers": 1, "progress": False,
+          "initial": {"theta1": 0.01}}  # fmt: skip
+    one = lamech.sweep("cylinder", {"mu": [0.5]}, "liftoff", **kw).rows
+    listed = lamech.sweep("cylinder", {"mu": [0.5]}, ["liftoff"], **kw).rows
+    assert list(one[0]) == list(listed[0]) and "liftoff:t" in one[0]
+    assert one[0]["status"] == listed[0]["status"] == "ok"
+    with pytest.raises(TypeError, match="sweep: params must be a dict"):
+        lamech.sweep("cylinder", [("mu", 0.5)], "liftoff", **kw)

@@ -203,7 +203,7 @@ def test_b7_peers_are_the_ball_and_the_lecture_wheel():
     assert abs(cub[0] - 0.37) < 1e-14 and 0.3 < lin[0] < 0.4 and abs(lin[0] - 0.37) > 1e-4
 
 
-@pytest.mark.parametrize("name", ["pendulum", "atwood"])
+@pytest.mark.parametrize("name", ["pendulum", pytest.param("atwood", marks=pytest.mark.slow)])
 def test_b9s_sympy_script_runs_and_prints_a_multiplier_per_constraint(name, tmp_path):
     """B9's SymPy side is a script written from lamech's model (its multipliers are
     checked against lamech's in test_symbolic_peer_solves_lamechs_problem): it renders,

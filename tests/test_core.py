@@ -123,7 +123,7 @@ def test_large_systems_keep_their_coordinates():
     assert "one sign of a square root" in red.notes[0]
 
 
-@pytest.mark.parametrize("n", [2, 8])
+@pytest.mark.parametrize("n", [pytest.param(2, marks=pytest.mark.slow), 8])
 def test_chain_tensions_at_rest_against_statics(n):
     """An aligned chain released at rest falls tangentially as one piece at that
     instant (every bob accelerates by -g sin(alpha) along the tangent), so the links
@@ -156,7 +156,14 @@ def test_cyclic_momentum_of_the_spherical_pendulum():
 
 
 @pytest.mark.parametrize(
-    "name", ["cylinder", "pendulum", "hoop_bead", "knife_edge", "double_atwood"]
+    "name",
+    [
+        pytest.param("cylinder", marks=pytest.mark.slow),
+        "pendulum",
+        pytest.param("hoop_bead", marks=pytest.mark.slow),
+        "knife_edge",
+        pytest.param("double_atwood", marks=pytest.mark.slow),
+    ],
 )
 def test_json_expressions_parse_back(name):
     """Every expression in --json parses with lamech's own parser to the same value."""

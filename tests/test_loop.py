@@ -64,7 +64,24 @@ def _pair(name):
     return (simulate(ns, t_end, engine="scipy", **kw), simulate(ns, t_end, engine="python", **kw))
 
 
-@pytest.mark.parametrize("name", sorted(CASES))
+# the cases of 2 s or more: left out of the default set
+SLOW_RUNS = {
+    "cylinder",
+    "four_bar",
+    "knife_edge",
+    "ladder",
+    "pendulum",
+    "reversal",
+    "stick",
+    "wedge",
+}
+assert SLOW_RUNS <= set(CASES), SLOW_RUNS - set(CASES)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_RUNS else n for n in sorted(CASES)],
+)
 def test_the_loop_gives_simulates_events_samples_and_forces(name):
     a, b = _pair(name)
     assert a.engine == "SciPy DOP853" and b.engine == "loop (Python)"
@@ -256,7 +273,18 @@ def _same_runs(a, b, tol=1e-9):
     assert a.final_time == b.final_time and a.energy_conserved == b.energy_conserved
 
 
-@pytest.mark.parametrize("name", sorted(IMPACT_CASES))
+# the cases of 2 s or more: left out of the default set
+SLOW_IMPACTS = {"incline", "zeno ball", "zeno slip"}
+assert SLOW_IMPACTS <= set(IMPACT_CASES), SLOW_IMPACTS - set(IMPACT_CASES)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.slow) if n in SLOW_IMPACTS else n
+        for n in sorted(IMPACT_CASES)
+    ],
+)
 def test_the_loop_applies_impacts_contacts_and_the_zeno_accumulation_itself(name):
     """The loop applies each impact as the simulator does (the bounce, the contact with
     its friction sticking or slipping through the impact, the accumulation's contact at

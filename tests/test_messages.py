@@ -1,7 +1,9 @@
 """The library's messages name its arguments (`` `max_step=` ``); the command line says
 its flags (``--max-step``) for the same messages (the command line's terms module). And
 where a file is valid but probably not what its author meant (issue 43, section 5), a
-word: a bilateral contact whose multiplier changes sign, gravity's sign."""
+word: a bilateral contact whose multiplier changes sign, gravity's sign, a T that
+disagrees with the bodies, an angle in degrees written as radians. A mistake is named
+(a missing prime, a typo) and a file name never reaches the terminal as control codes."""
 
 from __future__ import annotations
 
@@ -9,6 +11,8 @@ import dataclasses
 import json
 import math
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -272,3 +276,197 @@ def test_params_sweep_and_with_values_know_the_same_names():
             attempt()
         said.append(str(info.value).partition("unknown parameter")[2])
     assert said[0] == said[1] == said[2] == " `R3`; known: m, g, R1, R2, mu:rolling, mu"
+
+
+PENDULUM = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
+
+
+@pytest.mark.slow
+def test_a_velocity_missing_from_T_is_named(tmp_path):
+    """T = m/2 (r'^2 + r^2 theta^2): a forgotten prime leaves theta without inertia; the
+    solve names it instead of crashing in SymPy (SymPy 1.14 has no
+    sympy.NonInvertibleMatrixError at the top level)."""
+    text = PENDULUM.replace("r^2*theta'^2", "r^2*theta^2")
+    assert text != PENDULUM
+    system = lamech.loads(text, "noprime.toml")
+    with pytest.raises(lamech.DegenerateConstraintsError) as info:
+        lamech.solve(system)
+    message = str(info.value)
+    assert "`theta'` does not appear in T" in message and "missing prime" in message
+    path = tmp_path / "noprime.toml"
+    path.write_text(text, encoding="utf-8")
+    out = subprocess.run(
+        [sys.executable, "-m", "lamech", "solve", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "missing prime" in out.stderr
+
+
+@pytest.mark.slow
+def test_a_T_that_disagrees_with_the_bodies_is_a_warning_at_the_top():
+    """The README promises that lamech says so when [lagrangian] and [[bodies]]
+    disagree: first thing in the report, not a last note."""
+    text = PENDULUM.replace("r^2*theta'^2", "r*theta'^2")
+    assert text != PENDULUM
+    report = lamech.to_text(lamech.solve(lamech.loads(text, "x.toml")))
+    head = report.splitlines()[:5]
+    assert any(
+        line.startswith("warning: [lagrangian] T differs from the kinetic energy") for line in head
+    ), head
+
+
+@pytest.mark.slow
+def test_simulate_warns_first_and_writes_into_new_folders(tmp_path):
+    """The T/[[bodies]] disagreement is said by simulate too, before anything else; the
+    README's `--out out/traj.csv` creates out/."""
+    path = tmp_path / "t.toml"
+    path.write_text(PENDULUM.replace("r^2*theta'^2", "r*theta'^2"), encoding="utf-8")
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lamech",
+            "simulate",
+            str(path),
+            "--t-end",
+            "0.2",
+            "--samples",
+            "5",
+            "--out",
+            str(tmp_path / "out" / "t.csv"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.splitlines()[0].startswith("lamech: warning: [lagrangian] T differs")
+    assert len((tmp_path / "out" / "t.csv").read_text().splitlines()) == 6
+
+
+@pytest.mark.slow
+def test_control_characters_in_a_file_name_are_escaped(tmp_path, monkeypatch, capsys):
+    """A file name (or title, or key) cannot clear the screen or recolour the terminal."""
+    from lamech.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["solve", "no\x1b[2Jwhere.toml"]) == 2
+    err = capsys.readouterr().err
+    assert "no\\x1b[2Jwhere.toml: no such file" in err and "\x1b" not in err
+    # a message from solving, not loading: the same
+    singular = PENDULUM.replace(
+        "T = \"m/2*(r'^2 + r^2*theta'^2)\"", "T = \"m/2*(r' + theta')^2\""
+    ).replace('f = "l - r"', 'f = "l - r - theta + theta0"')
+    assert singular != PENDULUM
+    (tmp_path / "bad\x1b[31m.toml").write_text(singular, encoding="utf-8")
+    assert main(["solve", "bad\x1b[31m.toml"]) == 2
+    err = capsys.readouterr().err
+    assert "lamech: bad\\x1b[31m.toml: " in err and "\x1b" not in err
+
+
+PENDULUM_TEXT = PENDULUM
+
+
+# ----- messages that mislead -------------------------------------------------------------
+def test_a_typo_in_a_bodys_position_is_the_only_problem_reported(tmp_path, capsys):
+    path = tmp_path / "typo.toml"
+    path.write_text(
+        'title = "typo"\n[parameters]\nm = 1.0\ng = 9.81\nl = 1.0\n[coordinates]\n'
+        "theta = { initial = 0.3, velocity = 0 }\n"
+        '[[bodies]]\nname = "bob"\nmass = "m"\nposition = ["l*sin(theta)", "-l*cos(thta)"]\n'
+        '[gravity]\nacceleration = "g"\n',
+        encoding="utf-8",
+    )
+    assert main(["solve", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown name `thta`" in err and ":11:" in err
+    assert "no [[bodies]]" not in err and "missing" not in err
+
+
+# ----- a word where a user needs one -----------------------------------------------------
+@pytest.mark.parametrize(
+    "written, shown",
+    [
+        ("theta_dot", "unknown name `theta_dot`"),
+        ("dtheta", "unknown name `dtheta`"),
+        ("thetadot", "unknown name `thetadot`"),
+        ("theta.", "syntax error at `theta.`"),
+        ("theta.dot", "`theta.dot`"),
+    ],
+)
+def test_a_velocity_written_another_way_is_answered_with_the_prime(written, shown):
+    text = PENDULUM_TEXT.replace("r^2*theta'^2", f"r^2*{written}^2")
+    with pytest.raises(lamech.ProblemFileError) as err:
+        lamech.loads(text)
+    message = str(err.value)
+    assert shown in message and "a velocity is written with a prime: `theta'`" in message
+    assert "lagrangian.T" in message
+
+
+def test_a_released_pendulum_through_its_pivot_says_the_polar_chart_is_singular():
+    # upside down at rest, the string slack: the bob falls freely through the pivot,
+    # reached after sqrt(2 l / g); there theta's inertia m r^2 vanishes
+    tr = lamech.simulate(
+        lamech.load("pendulum"), 3.0, initial={"theta": 3.14159265}, engine="scipy"
+    )
+    assert tr.status == "failed"
+    assert "`theta` has no inertia there: its mass matrix entry m*r^2 vanishes as r -> 0" in (
+        tr.message
+    )
+    assert "the pole of the polar" in tr.message and "Cartesian coordinates" in tr.message
+    assert "dependent constraints" not in tr.message
+    assert tr.final_time == pytest.approx(math.sqrt(2 * 1.0 / 9.81), abs=1e-4)
+
+
+def _degree_warnings(notes) -> list[str]:
+    return [n for n in notes if "If " in n and "degrees were meant" in n]
+
+
+@pytest.mark.slow
+def test_an_angle_of_whole_degrees_written_as_radians_is_said_once(capsys):
+    disk = lamech.problem.example_path("incline_disk").read_text(encoding="utf-8")
+    system = lamech.loads(disk.replace("alpha = 0.5", "alpha = 30"))
+    said = _degree_warnings(system.notes)
+    assert len(said) == 1 and said[0].startswith("parameter `alpha` is 30, an angle in ")
+    assert said[0].endswith(
+        "where angles are in radians: 30 rad is 4.77 turns. If 30 degrees were meant, write "
+        "30*pi/180 (= 0.523599)"
+    )
+    assert main(["solve", "pendulum", "--initial", "theta=45"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("If 45 degrees were meant, write 45*pi/180 (= 0.785398)") == 1
+    run = lamech.simulate("pendulum", 0.1, samples=3, initial={"theta": 45})
+    assert len(_degree_warnings(run.notes)) == 1 and "`theta` is 45" in run.notes[0]
+    # radians, a frequency in cos(w t), and new values that are radians: nothing said
+    assert _degree_warnings(lamech.simulate("pendulum", 0.1, samples=3).notes) == []
+    shaken = lamech.problem.example_path("moving_support").read_text(encoding="utf-8")
+    assert _degree_warnings(lamech.loads(shaken.replace("w = 3.0", "w = 30")).notes) == []
+    again = lamech.model.with_values(system, parameters={"alpha": 0.5})
+    assert _degree_warnings(again.notes) == []
+
+
+def test_friction_on_a_bilateral_normal_is_said_to_mean_little():
+    text = lamech.problem.example_path("cylinder").read_text(encoding="utf-8")
+    bilateral = lamech.loads(text.replace("unilateral = true\n", "", 1))
+    notes = [n for n in bilateral.notes if "bilateral" in n]
+    assert len(notes) == 1
+    assert notes[0].startswith("friction `rolling` takes its normal force from `contact`")
+    assert "unilateral = true" in notes[0]
+    assert not any("bilateral" in n for n in lamech.load("cylinder").notes)
+
+
+@pytest.mark.slow
+def test_a_force_named_on_one_of_the_two_bodies_it_joins_says_which_to_name():
+    text = lamech.problem.example_path("moving_support").read_text(encoding="utf-8")
+    one = lamech.solve(lamech.loads(text.replace('body = ["bob", "cart"]', 'body = "bob"')))
+    assert one.forces["string"]["residual"] != 0
+    said = [n for n in one.notes if n.startswith("`string` joins")]
+    assert said == [
+        "`string` joins `bob` and `cart` (it moves both): its force named on `bob` alone "
+        "leaves a residual, and its components are not the force; name both, body = "
+        '["bob", "cart"] (the force on the second is the opposite), and the residual is 0'
+    ]
+    # (named on both, as the bundled file does, the residual is 0: tests/test_examples.py)

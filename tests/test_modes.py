@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from test_trust import CARTESIAN_PENDULUM as CARTESIAN
+from test_whole_manifold import CARTESIAN_PENDULUM as CARTESIAN
 
 import lamech
 from lamech.cli import main
@@ -503,3 +503,92 @@ def test_modes_print_as_the_cli_shows_them_and_repr_in_one_line(capsys):
     assert short.startswith('<Modes of "Simple pendulum') and "\n" not in short
     assert "2 equilibria (1 stable)" in short and len(short) < 200, short
     assert repr(md.equilibria[0]) == "<Equilibrium theta = 0: stable, 1 mode>"
+
+
+CART_T = ("M/2*X'^2 + m/2*((X' + r'*sin(theta) + r*cos(theta)*theta')^2"
+          " + (r*sin(theta)*theta' - r'*cos(theta))^2)")  # fmt: skip
+
+
+def _cart_pendulum(M: float, m: float, length: float, free_first: bool = True) -> str:
+    """A pendulum (bob m on a rod of length l, ``l - r = 0`` as a user writes it) hanging
+    from a cart M that slides freely on a horizontal rail; theta from the downward
+    vertical."""
+    cart = "X     = { initial = 0, velocity = 0 }\n"
+    rest = 'r     = { initial = "l", velocity = 0 }\ntheta = { initial = 0.3, velocity = 0 }\n'
+    coords = cart + rest if free_first else rest + cart
+    return f"""
+title = "Pendulum on a free cart"
+
+[parameters]
+M = {M}
+m = {m}
+g = 9.81
+l = {length}
+
+[coordinates]
+{coords}
+[lagrangian]
+T = "{CART_T}"
+V = "-m*g*r*cos(theta)"
+
+[[constraints]]
+name = "rod"
+f = "l - r"
+"""
+
+
+# ----- values assigned to coordinates by name, never by position -------------------------
+# The truth, by hand: with r = l the Lagrangian is
+#   L = (M + m)/2 X'^2 + m l cos(theta) X' theta' + m l^2/2 theta'^2 + m g l cos(theta);
+# X is cyclic, (M + m) X' + m l cos(theta) theta' = const, and about theta = 0 (pi) the
+# linearised theta'' = -(+) g (M + m) / (M l) dtheta: omega^2 = g (M + m)/(M l) hanging,
+# the same number as the square of the growth rate inverted. The r equation,
+# d/dt dL/dr' - dL/dr - lambda df/dr = 0 with df/dr = -1, at rest gives
+# lambda = dL/dr = m g cos(theta): +m g hanging, -m g inverted.
+
+
+@pytest.mark.parametrize(
+    "M, m, L, free_first",
+    [pytest.param(3.0, 0.5, 0.7, True, marks=pytest.mark.slow), (2.0, 1.0, 1.0, False)],
+)
+def test_the_cart_pendulum_hangs_stably_and_is_unstable_inverted(M, m, L, free_first):
+    g = 9.81
+    md = lamech.modes(lamech.loads(_cart_pendulum(M, m, L, free_first)))
+    rate2 = g * (M + m) / (M * L)
+    by_theta = {}
+    for e in md.equilibria:
+        assert e.exists and e.holds
+        # the label and the values say the same configuration
+        for name, value in e.at.items():
+            assert e.values[name] == pytest.approx(float(value), abs=1e-12), (name, e.at)
+        by_theta[round(e.values["theta"], 9)] = e
+    assert sorted(by_theta) == [0.0, round(math.pi, 9)]
+    hanging, inverted = by_theta[0.0], by_theta[round(math.pi, 9)]
+    assert hanging.values["X"] == inverted.values["X"] == 0.0
+    assert hanging.stability == "stable" or hanging.stability == "marginal"  # X drifts freely
+    omegas = [mo.frequency for mo in hanging.modes if mo.frequency is not None]
+    assert len(omegas) == 1 and omegas[0] == pytest.approx(math.sqrt(rate2), rel=1e-12)
+    assert not any(mo.growth for mo in hanging.modes)
+    assert hanging.multipliers["rod"] == pytest.approx(m * g, rel=1e-12)
+    assert inverted.stability == "unstable"
+    growth = [mo.growth for mo in inverted.modes if mo.growth is not None]
+    assert len(growth) == 1 and growth[0] == pytest.approx(math.sqrt(rate2), rel=1e-12)
+    assert not any(mo.frequency for mo in inverted.modes)
+    assert inverted.multipliers["rod"] == pytest.approx(-m * g, rel=1e-12)
+    # the mode's shape: the momentum (M + m) dX' + m l dtheta' = 0 kept zero
+    shape = next(mo for mo in hanging.modes if mo.frequency).shape
+    assert shape["X"] / shape["theta"] == pytest.approx(-m * L / (M + m), rel=1e-12)
+
+
+@pytest.mark.slow
+def test_cli_modes_of_the_cart_pendulum_at_the_inverted_position(tmp_path, capsys):
+    path = tmp_path / "cart.toml"
+    path.write_text(_cart_pendulum(2.0, 1.0, 1.0), encoding="utf-8")
+    assert main(["modes", str(path), "--at", "X=0", "--at", "theta=pi"]) == 0
+    out = capsys.readouterr().out
+    assert "theta = 3.14159" in out and "lambda_rod = -9.81" in out
+    assert f"grows: rate {math.sqrt(9.81 * 3 / 2):.6g} /s" in out
+    assert main(["modes", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "Equilibrium 2: X = 0, theta = pi" in out
+    assert "at the values: X = 0, r = 1, theta = 3.14159" in out

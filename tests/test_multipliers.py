@@ -54,12 +54,18 @@ def at(expr: sp.Expr, env: dict) -> complex:
         return complex(ev(sp.sympify(expr)))
 
 
+# the cases of 2 s or more: left out of the default set
+SLOW = {
+    "andrews_squeezer",
+    "heavy_top",
+    "rolling_sphere",
+}
+assert SLOW <= set(lamech.example_names()), SLOW - set(lamech.example_names())
+
+
 @pytest.mark.parametrize(
     "name",
-    [
-        pytest.param(n, marks=pytest.mark.slow) if n == "rolling_sphere" else n
-        for n in lamech.example_names()
-    ],
+    [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in lamech.example_names()],
 )
 def test_raw_multipliers_solve_the_kkt_system(name):
     system = lamech.load(name)

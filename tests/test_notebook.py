@@ -50,3 +50,15 @@ def test_an_animation_plays_inline_offline():
 def test_a_solution_renders_with_dotted_velocities(solved_example):
     latex = solved_example("pendulum")._repr_latex_()
     assert r"\dot{\theta}" in latex and "theta'" not in latex
+
+
+def test_velocities_render_with_dots_in_jupyter(solved_example):
+    """A multiplier shown raw in a notebook (SymPy's LaTeX) reads l m theta-dot^2, not
+    theta'^{2}; the text form keeps the file grammar."""
+    import sympy as sp
+
+    s = solved_example("pendulum")
+    latex = sp.latex(s.multipliers["string"])
+    assert latex == r"g m \cos{\left(\theta \right)} + l m \dot{\theta}^{2}"
+    assert lamech.to_text(s).count("theta'^2") >= 1
+    assert r"\ddot{r}" in sp.latex(s.equations[0])

@@ -1,7 +1,8 @@
 """The ``lamech`` command's own process: NumPy and SciPy load with one BLAS thread (their
 OpenBLAS helper threads spin for about 0.1 s of CPU each as they start), unless the
 user's environment says otherwise, and the collector does not walk every object again
-as the process ends; a call of ``main`` from Python changes neither."""
+as the process ends; a call of ``main`` from Python changes neither. A closed pipe
+ends it quietly (141), Ctrl-C with one line (130), even while it starts up."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import sys
 
 import pytest
 
+import lamech
 from lamech.cli import main
 
 _AS_THE_COMMAND = """
@@ -99,3 +101,104 @@ def test_a_run_on_the_loop_does_not_load_scipys_linear_algebra(engine, tmp_path)
         "scipy.integrate": False,
         "numba": False,
     }
+
+
+def _closed_pipe_run(args: list[str]) -> subprocess.CompletedProcess:
+    """Run ``lamech ARGS`` with its standard output a pipe nobody reads (closed)."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        return subprocess.run(
+            [sys.executable, "-m", "lamech", *args],
+            stdout=write,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        os.close(write)
+
+
+@pytest.mark.parametrize(
+    "args", [["examples"], pytest.param(["solve", "pendulum"], marks=pytest.mark.slow)]
+)
+def test_a_closed_pipe_ends_quietly(args):
+    out = _closed_pipe_run(args)
+    assert "Traceback" not in out.stderr and "BrokenPipeError" not in out.stderr
+    assert out.returncode == 141
+
+
+@pytest.mark.slow
+def test_sweep_into_a_closed_pipe_ends_quietly():
+    out = _closed_pipe_run(
+        [
+            "sweep",
+            "pendulum",
+            "--param",
+            "l=0.5,1",
+            "--measure",
+            "max:lambda:string",
+            "--t-end",
+            "0.2",
+            "--samples",
+            "3",
+            "--workers",
+            "1",
+        ]
+    )
+    assert "Traceback" not in out.stderr and "BrokenPipeError" not in out.stderr
+    assert out.returncode == 141
+
+
+def test_ctrl_c_where_no_command_handles_it_is_one_line_and_130(monkeypatch, capsys):
+    """Ctrl-C while SymPy loads or the problem is read: no traceback, the shell's 130."""
+    from lamech.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(lamech.problem, "load", interrupted)
+    assert main(["solve", "pendulum"]) == 130
+    out, err = capsys.readouterr()
+    assert (out, err) == ("", "lamech: interrupted\n")
+
+
+# ``python -m lamech`` as run by ``-m`` (runpy, sys.argv the command's), with an import
+# hook that stops the import of SymPy until the test's signal comes: the signal lands
+# while lamech is starting up, whatever the machine's speed (a fixed sleep before the
+# signal once let a fast machine finish starting and interrupt the solve instead)
+PAUSED_AT_SYMPY = """
+import importlib.abc, runpy, sys, time
+
+class PauseAtSympy(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name == "sympy":
+            sys.meta_path.remove(self)
+            print("importing sympy", file=sys.stderr, flush=True)
+            time.sleep(120)  # until the signal
+        return None
+
+sys.meta_path.insert(0, PauseAtSympy())
+sys.argv = ["lamech", *sys.argv[1:]]
+runpy.run_module("lamech", run_name="__main__", alter_sys=True)
+"""
+
+
+def test_ctrl_c_during_start_up_of_the_real_command():
+    import signal
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", PAUSED_AT_SYMPY, "solve", "cylinder"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        assert proc.stderr.readline() == "importing sympy\n"  # lamech is starting up
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert "Traceback" not in err
+    assert (proc.returncode, out, err) == (130, "", "lamech: interrupted\n")

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from lamech.cli import main
+
 ROOT = Path(__file__).resolve().parents[1]
 ARTEFACTS = ROOT / "tests" / "artefacts"
 
@@ -244,3 +246,19 @@ def test_the_first_screen_shows_the_system_and_its_results(problem, chromium, tm
     (ARTEFACTS / f"report-first-{Path(problem).stem}.png").write_bytes(shot.read_bytes())
     page.close()
     assert console == [], console
+
+
+@pytest.mark.slow
+def test_the_report_without_matplotlib_is_written_and_says_it_has_no_plots(
+    tmp_path, monkeypatch, capsys
+):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib fails
+    out = tmp_path / "report.html"
+    assert main(["report", "pendulum", "-o", str(out), "--t-end", "0.2"]) == 0
+    err = capsys.readouterr().err
+    assert "no plot or animation: they need matplotlib" in err
+    page = out.read_text(encoding="utf-8")
+    assert "no plot and no animation: they need matplotlib" in page
+    assert "data:image/png" not in page and "final state" in page

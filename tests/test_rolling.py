@@ -101,7 +101,8 @@ def _kane_disc():
     return rates
 
 
-@pytest.mark.parametrize("case", ["rolling_disc", pytest.param("by_name", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["rolling_disc", "by_name"])
 def test_the_rolling_disc_accelerates_as_sympys_kanes_method_says(case):
     """At random states: u' from KanesMethod against lamech's q'' carried to the same
     speeds, u = (theta', psi' sin(theta) + phi', psi' cos(theta)) (the angular

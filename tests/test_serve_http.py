@@ -247,7 +247,12 @@ def test_a_foreign_origin_is_refused(server):
 
 @pytest.mark.parametrize(
     "kind",
-    ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x", None],
+    [
+        pytest.param("text/plain", marks=pytest.mark.slow),
+        "application/x-www-form-urlencoded",
+        pytest.param("multipart/form-data; boundary=x", marks=pytest.mark.slow),
+        pytest.param(None, marks=pytest.mark.slow),
+    ],
 )
 def test_work_takes_json_only(server, kind):
     for path in ("/api/check", "/api/run", "/api/sweep"):
@@ -275,9 +280,20 @@ def test_work_takes_json_only(server, kind):
         ("{oops", "not JSON"),
         ("[1, 2]", '"text"'),
         ('{"text": 3}', '"text"'),
-        ('{"text": "x", "simulate": true, "t_end": NaN}', "t_end"),
-        ('{"text": "x", "simulate": true, "t_end": 1, "initial": {"theta1": "0.1"}}', "finite"),
-        ('{"text": "x", "simulate": true, "t_end": 1, "initial": [1]}', "initial"),
+        # the requests that simulate, 2 s or more: left out of the default set
+        pytest.param(
+            '{"text": "x", "simulate": true, "t_end": NaN}', "t_end", marks=pytest.mark.slow
+        ),
+        pytest.param(
+            '{"text": "x", "simulate": true, "t_end": 1, "initial": {"theta1": "0.1"}}',
+            "finite",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            '{"text": "x", "simulate": true, "t_end": 1, "initial": [1]}',
+            "initial",
+            marks=pytest.mark.slow,
+        ),
     ],
 )
 def test_malformed_requests_are_4xx_with_a_message(server, body, words):

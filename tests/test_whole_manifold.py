@@ -270,3 +270,60 @@ def test_a_charts_start_is_kept_exact():
     assert psi.initial == sp.Rational(1, 2)
     shell = " ".join(str(e) for e in sol.on_energy_shell.values())
     assert "cos(1/2)" in shell and "00000" not in shell
+
+
+CARTESIAN_PENDULUM = """
+title = "Pendulum in Cartesian coordinates"
+[parameters]
+m = 1.0
+g = 9.81
+l1 = 1.0
+[coordinates]
+x1 = { initial = 0.6, velocity = 0 }
+y1 = { initial = -0.8, velocity = 0 }
+[lagrangian]
+T = "m/2*(x1'^2 + y1'^2)"
+V = "m*g*y1"
+[[constraints]]
+name = "rod"
+f = "l1 - sqrt(x1^2 + y1^2)"
+"""
+
+
+@pytest.mark.slow
+def test_a_kept_constraint_is_used_on_its_manifold():
+    """f = l1 - sqrt(x1^2 + y1^2) kept: sqrt(x1^2 + y1^2) is l1 and x1 x1' + y1 y1' = 0
+    in every result. The tension is the textbook m v^2/l1 - m g y1/l1 (was a quartic
+    over (x1^2 + y1^2)^(3/2)); at states on the manifold it equals the polar form
+    m l theta'^2 + m g cos(theta) (x1 = l sin(theta), y1 = -l cos(theta)). The
+    coordinates are kept (keep = true): lamech would otherwise solve the circle in its
+    angle."""
+    import numpy as np
+    import sympy as sp
+
+    kept = CARTESIAN_PENDULUM.replace("velocity = 0 }", "velocity = 0, keep = true }")
+    sol = lamech.solve(lamech.loads(kept, "cart.toml"))
+    S = sol.symbols
+    m, g, l1 = S["m"], S["g"], S["l1"]
+    x, y, xd, yd = S["x1"], S["y1"], S["x1'"], S["y1'"]
+    lam = sol.multipliers["rod"]
+    assert sp.simplify(lam - m * (xd**2 + yd**2 - g * y) / l1) == 0
+    text = lamech.to_text(sol)
+    assert "sqrt" not in text.split("Constraints")[1].split("Notes")[0].replace(
+        "f = l1 - sqrt(x1^2 + y1^2)", ""
+    )
+    x1dd = x * (g * y - xd**2 - yd**2) / l1**2
+    assert sp.simplify(sol.closed.accelerations[S["x1''"]] - x1dd) == 0
+    rng = np.random.default_rng(3)
+    for th, w, L in rng.uniform([-3, -4, 0.3], [3, 4, 2], size=(5, 3)):
+        state = {
+            m: 1.3,
+            g: 9.81,
+            l1: L,
+            x: L * np.sin(th),
+            y: -L * np.cos(th),
+            xd: L * w * np.cos(th),
+            yd: L * w * np.sin(th),
+        }
+        polar = 1.3 * L * w**2 + 1.3 * 9.81 * np.cos(th)
+        assert float(lam.subs(state)) == pytest.approx(polar, rel=1e-12)

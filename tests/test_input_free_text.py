@@ -1,6 +1,7 @@
 """A problem file's free text (its title, its force directions' names) is shown as text
 in every picture and every piece of LaTeX lamech writes (issue 44, items 4 and 5):
-matplotlib never reads mathtext in it, TeX never a command."""
+matplotlib never reads mathtext in it, TeX never a command, generated code never the
+title."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+import lamech
 from lamech.present._plain import drawn, tex_label, tex_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,3 +129,25 @@ def test_a_sweep_picture_of_a_table_named_with_dollars_is_drawn(tmp_path):
     png = tmp_path / "sweep.png"
     plot_sweep(run, png)  # the table's name is the picture's title
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+PENDULUM = lamech.problem.example_path("pendulum").read_text(encoding="utf-8")
+
+
+def test_the_title_never_reaches_generated_code():
+    """A backslash-N (a Python escape) or a NUL in the title once broke the generated
+    source; the title is the user's text and is not part of it."""
+    import dataclasses
+
+    text = PENDULUM.replace(
+        'title = "Simple pendulum: the string\'s tension as a Lagrange multiplier"',
+        'title = \'Pendulum \\N{oops} """ \\x00 \\\'',
+    )
+    assert text != PENDULUM
+    system = lamech.loads(text, "p.toml")
+    assert "\\N{oops}" in system.title
+    for title in (system.title, "nul \x00 inside"):
+        ns = lamech.compile_system(dataclasses.replace(system, title=title))
+        assert title not in ns.source
+    traj = lamech.simulate(system, 0.05, samples=3)
+    assert traj.status == "ok", traj.message
