@@ -257,6 +257,96 @@ def test_sympys_four_bar_in_relative_joint_angles_finishes_and_agrees_with_sympy
         assert parse(eq, names, "output").free_symbols
 
 
+def _four_bar_states(problem, count: int, seed: int) -> list[dict]:
+    """States on the loop of SymPy's four-bar (relative angles): q1 and q1' at random near
+    the file's start, q2, q3 where the loop closes (Newton from the start), q2', q3' from
+    the loop's velocity equations: numbers found apart from lamech's forms."""
+    from scipy.optimize import fsolve
+
+    env = problem.parameter_values
+    p = {s.name: float(v) for s, v in env.items()}
+    l1, l2, l3, l4 = p["l1"], p["l2"], p["l3"], p["l4"]
+    start = [float(sp.sympify(c.initial).xreplace(env)) for c in problem.coordinates]
+    rng = np.random.default_rng(seed)
+
+    def loop(x, q1):
+        q2, q3 = x
+        return [
+            l1 + l2 * np.cos(q1) + l3 * np.cos(q1 + q2) + l4 * np.cos(q1 + q2 + q3),
+            l2 * np.sin(q1) + l3 * np.sin(q1 + q2) + l4 * np.sin(q1 + q2 + q3),
+        ]
+
+    out = []
+    while len(out) < count:
+        q1 = start[0] + rng.uniform(-0.3, 0.3)
+        (q2, q3), info, ok, _ = fsolve(loop, start[1:], args=(q1,), full_output=True)
+        if ok != 1 or np.abs(loop((q2, q3), q1)).max() > 1e-12:
+            continue
+        a12, a123 = q1 + q2, q1 + q2 + q3
+        # d/dt of the loop: columns q1', q2', q3'
+        A = np.array(
+            [
+                [-l2 * np.sin(q1) - l3 * np.sin(a12) - l4 * np.sin(a123),
+                 -l3 * np.sin(a12) - l4 * np.sin(a123), -l4 * np.sin(a123)],
+                [l2 * np.cos(q1) + l3 * np.cos(a12) + l4 * np.cos(a123),
+                 l3 * np.cos(a12) + l4 * np.cos(a123), l4 * np.cos(a123)],
+            ]
+        )  # fmt: skip
+        w1 = rng.uniform(-2, 2)
+        w2, w3 = np.linalg.solve(A[:, 1:], -A[:, 0] * w1)
+        out.append({"q1": q1, "q2": q2, "q3": q3, "q1'": w1, "q2'": w2, "q3'": w3})
+    return out
+
+
+@pytest.mark.slow
+def test_sympys_four_bar_with_a_motion_constraint_delivers_short_forms_sympy_agrees_with():
+    """Issue 43: SymPy's four-bar with its loop's y closure given as a motion constraint
+    printed multipliers of 439,000 characters and reduced equations of 540,000 in
+    --json. Now every long result is written in named subexpressions (the whole
+    document under SymPy's raw multipliers of the holonomic four-bar, 94,000
+    characters), and the multipliers rebuilt from the JSON equal SymPy's
+    LagrangesMethod's (hol_coneqs + nonhol_coneqs) at states on the loop, each with
+    one sign throughout (SymPy's convention for lambda is the opposite of lamech's)."""
+    from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols
+
+    from lamech.expr import parse
+
+    problem = lamech.load(HERE / "problems" / "four_bar_sympy_motion.toml")
+    sol = lamech.solve(problem)
+    data = lamech.to_json(sol)
+    assert len(json.dumps(data)) < 94_000
+    S = sol.symbols
+    names = dict(S)
+    defs = {}
+    for w, rhs in data["subexpressions"].items():
+        names[w] = sp.Symbol(w)
+        defs[names[w]] = parse(rhs, names, "output")
+    given = {k: parse(v, names, "output") for k, v in data["multipliers"].items()}
+
+    qs = dynamicsymbols("q1:4")
+    sub = {S[f"q{i + 1}"]: q for i, q in enumerate(qs)}
+    sub.update({S[f"q{i + 1}'"]: q.diff() for i, q in enumerate(qs)})
+    hol = [c.expr.xreplace(sub) for c in problem.constraints if c.name == "loopx"]
+    vel = "l2*cos(q1)*q1' + l3*cos(q1 + q2)*(q1' + q2') + l4*cos(q1 + q2 + q3)*(q1' + q2' + q3')"
+    nonhol = [parse(vel, dict(S), "output").xreplace(sub)]
+    lm = LagrangesMethod(problem.L.xreplace(sub), qs, hol_coneqs=hol, nonhol_coneqs=nonhol)
+    lm.form_lagranges_equations()
+    env = dict(problem.parameter_values)
+    signs: dict = {}
+    for state in _four_bar_states(problem, 4, seed=3):
+        op = {**env, **{q: state[f"q{i + 1}"] for i, q in enumerate(qs)}}
+        op.update({q.diff(): state[f"q{i + 1}'"] for i, q in enumerate(qs)})
+        theirs = lm.solve_multipliers(op_point=op, sol_type="Matrix")
+        values = {**env, problem.t: 0.0, **{S[k]: v for k, v in state.items()}}
+        for w, rhs in defs.items():
+            values[w] = float(rhs.xreplace(values))
+        for k, name in enumerate(["loopx", "loopy"]):
+            ours = float(given[name].xreplace(values))
+            t = float(theirs[k])
+            sign = signs.setdefault(name, 1.0 if ours * t >= 0 else -1.0)
+            assert ours == pytest.approx(sign * t, rel=1e-8, abs=1e-9)
+
+
 @pytest.mark.slow
 def test_ctrl_c_while_simplifying_prints_what_is_done_marked_partial():
     """Issue 30: a first Ctrl-C during a long solve stops the simplification; the solve

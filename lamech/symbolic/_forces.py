@@ -17,6 +17,7 @@ import sympy as sp
 
 from ..model import System
 from ..model._kinematics import contact_partial_velocities
+from ._budget import count_ops
 from ._derive import Dynamics
 from ._reduce import Reduction, angles_of, tidy
 
@@ -42,7 +43,7 @@ def generalized_forces(dyn: Dynamics, red: Reduction, multipliers: dict, on_mani
     chain = len(angles_of(dyn.system, red)) >= 2
     for j, c in enumerate(dyn.system.constraints):
         lam = multipliers.get(c.name, c.multiplier)
-        long = chain or sp.count_ops(lam) > TIDY_PRODUCT_OPS
+        long = chain or count_ops(lam) > TIDY_PRODUCT_OPS
         row = {}
         for i, coord in enumerate(dyn.system.coordinates):
             Q = lam * tidy(red.apply(dyn.A[j, i])) if chain else red.apply(lam * dyn.A[j, i])
@@ -92,7 +93,7 @@ def cartesian_forces(dyn: Dynamics, red: Reduction, multipliers: dict) -> dict:
         if lam == c.multiplier:
             out[c.name] = unit
             continue
-        long = sp.count_ops(lam) > LONG_OPS
+        long = count_ops(lam) > LONG_OPS
         comps: dict = {}
         for k, v in unit.items():
             if v is None or v == 0:
