@@ -1,6 +1,6 @@
-"""Tables as CSV: a sweep's (:class:`~lamech.SweepResult`, and its table on disk, which
-:mod:`lamech.sweeps._table` writes row by row with :func:`csv_line` as cases finish) and a
-map's (:class:`~lamech.MapResult`).
+"""Tables as CSV, and as Parquet: a sweep's (:class:`~lamech.SweepResult`, and its table
+on disk, which :mod:`lamech.sweeps._table` writes row by row with :func:`csv_line` as the
+cases finish) and a map's (:class:`~lamech.MapResult`).
 
 A number is written as the shortest text that reads back the same float (``repr``),
 ``nan`` where there is none; integers (``case``) as integers; text (``status``,
@@ -14,11 +14,14 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["cell", "csv_line", "table_csv", "map_csv"]
+from ..outputs import write_output
+
+__all__ = ["cell", "csv_line", "table_csv", "map_csv", "write_parquet"]
 
 
 def cell(x) -> str:
@@ -62,3 +65,14 @@ def map_csv(result) -> str:
         for n in names
     ]
     return _csv([names, *zip(*values)])
+
+
+def write_parquet(
+    path: str | os.PathLike, columns: Sequence[str], rows: Iterable[Mapping], flag: str
+) -> None:
+    """Write a table as Parquet to ``path`` (whole or not at all; needs pandas and
+    pyarrow); ``flag`` names the path in a message."""
+    import pandas as pd
+
+    frame = pd.DataFrame(list(rows), columns=list(columns))
+    write_output(path, lambda tmp: frame.to_parquet(tmp, index=False), (".parquet",), flag)

@@ -10,11 +10,12 @@ the table strictly: a damaged line (a field that is not a number, a row with too
 fields, a case twice) is refused with its line number; only a last line cut short by an
 interruption is dropped. Rows whose status is not ``ok`` are run again.
 
-The rows' text (how a number, a status, a message is written) is the present layer's
-(:mod:`lamech.present._table`, which :func:`lamech.to_csv` uses too): the table is written
-here, as the cases finish, but formatted there, through the one import of this module
-against the layer order, declared in the import-linter contract. This module keeps what
-makes the table a journal: the lock, the record beside it, reading it back."""
+How the rows are written (a number's text, a status, a message; a Parquet table's frame)
+is the present layer's, :mod:`lamech.present._table`, which :func:`lamech.to_csv` uses
+too: the table is written here, as the cases finish, and formatted there, through the
+one import of this module against the layer order (declared in the import-linter
+contract). This module keeps what makes the table a journal: the lock, the record beside
+it, reading it back."""
 
 from __future__ import annotations
 
@@ -295,18 +296,13 @@ class Table:
         self.close()
         if self.path is None:
             return
-        if self.parquet:
-            import pandas as pd
+        from ..present._table import table_csv, write_parquet
 
-            frame = pd.DataFrame(rows, columns=self.columns)
-            write_output(
-                self.path, lambda tmp: frame.to_parquet(tmp, index=False), (".parquet",), "`out=`"
-            )
+        if self.parquet:
+            write_parquet(self.path, self.columns, rows, "`out=`")
             assert self.journal is not None  # set from path, which is not None
             self.journal.unlink(missing_ok=True)
             return
-        from ..present._table import table_csv
-
         write_output(self.path, table_csv(self.columns, rows), (".csv",), "`out=`")
 
 
