@@ -146,7 +146,7 @@ def to_csv(result: Any, path: str | os.PathLike | None = None) -> str | None:
     result : Trajectory, SweepResult or MapResult
         The table.
     path : str or path-like, optional
-        A ``.csv`` file to write (whole or not at all: :func:`lamech.outputs.write_output`);
+        A ``.csv`` file to write (whole or not at all, as every file lamech writes);
         None (the default) returns the text.
 
     Returns
