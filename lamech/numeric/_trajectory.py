@@ -44,6 +44,9 @@ class Trajectory:
     ``"theta1": "rad"``, ``"theta1'": "rad/s"``, ``"lambda:contact": "N"``,
     ``"force:contact:normal": "N"``, ``"energy": "J"``) and of each parameter; every
     array is in these units (SI). Empty for a file without units.
+
+    A Trajectory holds data: its summary as text, JSON and CSV are
+    :func:`lamech.to_text`, :func:`lamech.to_json` and :func:`lamech.to_csv`.
     """
 
     coordinates: list[str]
