@@ -5,6 +5,7 @@ import-linter, see ``pyproject.toml``)::
 
     cli       the ``lamech`` command (argument parsing only)
     present   text, LaTeX, JSON, CSV, plots, animations: the only layer that formats or draws
+              (the result types below it hold data)
     sweeps    parameter sweeps on local processes or Dask
     numeric   generated code, the KKT solves, the simulator, the batch integrator
     symbolic  derivation, elimination, closed forms, integrals, conditions, forces
@@ -74,6 +75,7 @@ _PUBLIC = {
     "to_text": "present",
     "to_latex": "present",
     "to_json": "present",
+    "to_csv": "present",
     "plot_trajectory": "present",
     "animate": "present",
 }
@@ -115,6 +117,7 @@ __all__ = [
     "solve",
     "steps",
     "sweep",
+    "to_csv",
     "to_json",
     "to_latex",
     "to_text",
@@ -160,7 +163,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
         integrate_batch,
         simulate,
     )
-    from .present import animate, plot_trajectory, to_json, to_latex, to_text
+    from .present import animate, plot_trajectory, to_csv, to_json, to_latex, to_text
     from .problem import ProblemFileError, example_names, from_dict, load, loads
     from .sweeps import MapResult, SweepError, SweepResult, sweep
     from .sweeps import map as map

@@ -24,8 +24,9 @@ def moved(
         The package's name (``"lamech.sweeps"``).
     names : dict of str to (str, str)
         Each name no longer on the face: (the private module that defines it, relative to
-        the package, e.g. ``"_parse"``; what to use instead, said in the warning). The
-        module may define it under another name as ``"_module:name"``.
+        the package, e.g. ``"_parse"``, or absolute, ``"lamech.present._table"``, where it
+        moved to another layer; what to use instead, said in the warning). The module may
+        define it under another name as ``"_module:name"``.
     lazy : dict of str to str, optional
         Names of the face itself imported on first use (no warning): {name: module}.
     """
@@ -39,11 +40,13 @@ def moved(
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         where, instead = names[name]
         module, _, attr = where.partition(":")
+        if not module.startswith("lamech."):
+            module = f"{package}.{module}"
         warnings.warn(
-            f"{package}.{name} is deprecated: {instead} ({package}.{module}.{attr or name})",
+            f"{package}.{name} is deprecated: {instead} ({module}.{attr or name})",
             DeprecationWarning,
             stacklevel=2,
         )
-        return getattr(importlib.import_module(f"{package}.{module}"), attr or name)
+        return getattr(importlib.import_module(module), attr or name)
 
     return __getattr__

@@ -102,7 +102,7 @@ def test_simulate_gives_the_torque_along_the_motion():
     hand = tau(phi)
     peak = float(np.max(np.abs(hand)))
     assert np.max(np.abs(traj.drive_forces["motor"] - hand)) <= 1e-7 * peak
-    summary = traj.summary()["drives"]["motor"]
+    summary = lamech.to_json(traj)["drives"]["motor"]
     (hi, at_hi), (lo, at_lo) = _hand_extremes()
     # refined between the samples: the hand extremes' value, at one of their angles
     assert summary["peak"] == pytest.approx(max(hi, -lo), rel=1e-9)
@@ -126,7 +126,7 @@ def test_the_peak_is_refined_between_coarse_samples():
     (hi, _), (lo, _) = _hand_extremes()
     truth = max(hi, -lo)
     sampled = float(np.max(np.abs(traj.drive_forces["motor"])))
-    summary = traj.summary()["drives"]["motor"]
+    summary = lamech.to_json(traj)["drives"]["motor"]
     assert abs(summary["peak"] - truth) < abs(sampled - truth) / 100
     assert summary["peak"] == pytest.approx(truth, rel=5e-6)
     at = summary["at"]
@@ -143,7 +143,7 @@ def test_a_named_reactions_peak_is_the_pendulums_tension_at_the_bottom():
     p = {q.name: float(q.value) for q in system.parameters}
     traj = lamech.simulate(system, 2.0, initial={"theta": theta0}, samples=41)
     assert traj.status == "ok", traj.message
-    reactions = traj.summary()["reactions"]
+    reactions = lamech.to_json(traj)["reactions"]
     (name,) = reactions
     truth = p["m"] * p["g"] * (3 - 2 * math.cos(theta0))
     sampled = float(np.nanmax(traj.reactions()[name]))
@@ -251,7 +251,7 @@ def test_a_drive_that_leaves_freedom_does_the_work_the_energy_gains():
     work = np.concatenate([[0.0], np.cumsum((power[1:] + power[:-1]) / 2 * np.diff(traj.t))])
     gained = traj.energy - traj.energy[0]
     assert np.max(np.abs(work - gained)) <= 1e-5 * np.max(np.abs(traj.energy))
-    summary = traj.summary()["drives"]["shaker"]
+    summary = lamech.to_json(traj)["drives"]["shaker"]
     assert summary["work_per_cycle"] is None  # x is not an angle: no turn to a cycle
     # a general f (no coordinate) is the same constraint: its multiplier, the same force
     general = lamech.loads(CART.replace("DRIVE", 'f = "x - A*sin(w*t)"'))
@@ -282,7 +282,7 @@ def test_a_peak_at_an_event_is_not_refined_across_it():
     around it, so the peak is the sample's (a time of the samples)."""
     traj = lamech.simulate(lamech.load("cylinder"), 3.0, initial={"theta1": 0.01})
     slip = next(e.t for e in traj.events if e.kind == "slip")
-    rolling = traj.summary()["reactions"]["rolling"]
+    rolling = lamech.to_json(traj)["reactions"]["rolling"]
     assert abs(rolling["at"]["t"] - slip) < 2 * (traj.t[1] - traj.t[0])
     assert rolling["at"]["t"] in traj.t
     assert rolling["peak"] == float(np.nanmax(traj.reactions()["rolling"]))

@@ -204,3 +204,73 @@ def test_no_public_function_takes_more_than_eight_parameters():
             if count > 8:
                 long[name] = count
     assert not long, long
+
+
+# Below the present layer, writing a format: a CSV writer, JSON text, a DataFrame or a
+# figure saved. Reading is not writing (csv.reader, json.load, pandas.read_parquet).
+WRITERS = {"csv.writer", "csv.DictWriter", "json.dump", "json.dumps"}
+WRITER_METHODS = {"to_csv", "to_parquet", "to_excel", "savefig", "writerow", "writerows"}
+RECORDS = {
+    # the record of a sweep beside its table (<table>.sweep.json), read back on resume to
+    # refuse a table made with other options
+    ("lamech/sweeps/_table.py", "json.dumps"),
+    # the manifest of the engine's build cache (file hashes), read back to check it
+    ("lamech/numeric/_integrity.py", "json.dumps"),
+}
+
+
+def _format_writes(source: str) -> list[tuple[int, str]]:
+    """(line, what) of each format written in ``source`` (see WRITERS)."""
+    tree = ast.parse(source)
+    alias = {}  # a local name -> the dotted name it stands for
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                top = a.name.split(".")[0]
+                alias[a.asname or top] = a.name if a.asname else top
+                if top == "matplotlib":
+                    found.append((node.lineno, "import matplotlib"))
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            if node.module.split(".")[0] == "matplotlib":
+                found.append((node.lineno, f"from {node.module} import"))
+            for a in node.names:
+                alias[a.asname or a.name] = f"{node.module}.{a.name}"
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        if isinstance(func, ast.Attribute) and func.attr in WRITER_METHODS:
+            found.append((node.lineno, f".{func.attr}()"))
+        elif isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name):
+            name = f"{alias.get(func.value.id, func.value.id)}.{func.attr}"
+            if name in WRITERS:
+                found.append((node.lineno, name))
+        elif isinstance(func, ast.Name) and alias.get(func.id) in WRITERS:
+            found.append((node.lineno, str(alias[func.id])))
+    return found
+
+
+def test_only_the_present_layer_writes_formats():
+    """CSV, JSON and plots have one home, ``lamech/present/`` (``lamech.to_csv``,
+    ``lamech.to_json``, ``plot_*``); the CLI above it prints what present gives. Below it
+    (sweeps, numeric, symbolic, problem, model, expr, linalg) the result types hold data:
+    no module there calls ``csv.writer``/``csv.DictWriter``, ``json.dump``/``json.dumps``,
+    a ``to_csv``/``to_parquet``/``to_excel``/``savefig``/``writerow`` method, or imports
+    matplotlib. A sweep's table on disk is written by ``sweeps/_table.py`` as the cases
+    finish, its rows' text made by ``present/_table.py`` (the import declared in
+    pyproject.toml). Exceptions: records lamech writes for itself and reads back, never
+    results (``RECORDS``: the sweep's ``.sweep.json`` beside its table, the engine cache's
+    manifest). Reading a file (``csv.reader``, ``json.load``) is allowed anywhere, and so
+    is building a plain dict (``Event.to_json``)."""
+    lamech = ROOT / "lamech"
+    found = []
+    for path in sorted(lamech.rglob("*.py")):
+        if path.relative_to(lamech).parts[0] in ("present", "cli", "__main__.py"):
+            continue
+        rel = path.relative_to(ROOT).as_posix()
+        for line, what in _format_writes(path.read_text(encoding="utf-8")):
+            if (rel, what) not in RECORDS:
+                found.append(f"{rel}:{line}: {what}")
+    assert not found, found
+    assert all((ROOT / rel).exists() for rel, _ in RECORDS)  # no stale exception

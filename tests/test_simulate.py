@@ -257,7 +257,7 @@ def test_csv_and_summary(pendulum):
     ]
     assert len(rows) == 3
     assert float(rows[2][2]) == tr.q[-1, 1]  # 17 significant digits round-trip
-    s = tr.summary()
+    s = lamech.to_json(tr)
     for key in (
         "events",
         "final",
@@ -273,6 +273,27 @@ def test_csv_and_summary(pendulum):
     assert s["status"] == "ok"
     tr2 = simulate(pendulum, 1.0, dt=0.25)
     assert np.allclose(tr2.t, [0, 0.25, 0.5, 0.75, 1.0])
+
+
+def test_to_csv_and_to_json_are_the_trajectorys_formats_and_its_old_summary_warns(
+    pendulum, tmp_path
+):
+    """lamech.to_csv / lamech.to_json are the one home of a run's CSV and JSON (the
+    present layer); Trajectory.summary() still gives the JSON for a release, warning."""
+    tr = simulate(pendulum, 1.0, samples=3)
+    text = lamech.to_csv(tr)
+    assert text == lamech.present.trajectory_csv(tr)
+    rows = list(csv.reader(io.StringIO(text)))
+    assert [float(x) for x in next(zip(*rows[1:]))] == tr.t.tolist()  # t, read back exactly
+    assert lamech.to_csv(tr, tmp_path / "run.csv") is None
+    assert (tmp_path / "run.csv").read_text(encoding="utf-8") == text
+    with pytest.warns(DeprecationWarning, match=r"lamech.to_json\(trajectory\) gives the same"):
+        old = tr.summary()
+    assert old == lamech.to_json(tr) and json.loads(json.dumps(old)) == old
+    with pytest.raises(
+        TypeError, match="to_csv takes a Trajectory, a SweepResult or a MapResult, not dict"
+    ):
+        lamech.to_csv({"t": [0.0, 1.0]})
 
 
 def test_parameters_as_arguments(pendulum):
@@ -368,7 +389,7 @@ def test_events_and_status_are_typed():
     assert isinstance(ev, Event) and ev.kind is EventKind.LIFT_OFF and ev.kind == "lift-off"
     js = ev.to_json()
     assert list(js) == ["t", "kind", "constraint", "coordinates"] and js["kind"] == "lift-off"
-    assert tr.summary()["events"] == [js] and tr.summary()["status"] == "ok"
+    assert lamech.to_json(tr)["events"] == [js] and lamech.to_json(tr)["status"] == "ok"
     assert FrictionState("slip") is FrictionState.SLIP
 
 
@@ -653,7 +674,7 @@ def test_driven_into_a_singular_configuration():
     assert np.allclose(tr.multiplier("drive"), t / (1 - t**2) ** 2, rtol=1e-6, atol=1e-12)
     rows = list(csv.DictReader(io.StringIO(lamech.present.trajectory_csv(tr))))
     assert len(rows) == len(t)
-    assert tr.summary()["status"] == "failed"
+    assert lamech.to_json(tr)["status"] == "failed"
 
 
 def test_nan_in_the_dynamics_fails_with_time_and_cause():
@@ -782,7 +803,7 @@ def test_thirty_link_chain_without_special_handling():
 
     tr = lamech.simulate(lamech.loads(chain_toml(30)), 1.0, samples=3)
     assert tr.status == "ok", tr.message
-    assert tr.summary()["max_residual"] < 1e-10
+    assert lamech.to_json(tr)["max_residual"] < 1e-10
     assert tr.energy_error < 1e-9
 
 

@@ -299,6 +299,25 @@ def test_dataframe_and_the_deprecated_names():
         _cylinder({"mu": [0.3]}, ["slip"], output="table")
 
 
+def test_to_csv_gives_the_table_the_sweep_writes(tmp_path):
+    """lamech.to_csv is the one home of a sweep's CSV: the table on disk (written row by
+    row as the cases finish, then sorted) is its text, and every number reads back as
+    the same float."""
+    out = tmp_path / "t.csv"
+    res = _cylinder({"mu": [0.2, 0.3]}, ["slip", "liftoff"], out=out)
+    text = lamech.to_csv(res)
+    assert out.read_text(encoding="utf-8") == text
+    rows = list(csv.DictReader(text.splitlines()))
+    assert list(rows[0]) == res.columns and len(rows) == len(res) == 2
+    for row, kept in zip(rows, res.rows):
+        assert row["case"] == str(kept["case"]) and row["status"] == kept["status"]
+        for name in res.measure_columns + ["mu"]:
+            same = float(row[name]) == kept[name]
+            assert same or (math.isnan(kept[name]) and row[name] == "nan"), name
+    with pytest.warns(DeprecationWarning, match=r"format_value is deprecated: internal to lam"):
+        assert lamech.sweeps.format_value(0.1) == "0.1"
+
+
 def test_xarray_dataset():
     pytest.importorskip("xarray", reason="xarray not installed (optional)")
     ds = _cylinder({"mu": [0.2, 0.3], "R2": [0.3, 0.5]}, ["slip"]).to_xarray()

@@ -63,10 +63,14 @@ def run(args) -> int:
             from ..present import plot_map
 
             plot_map(result, args.out)
-        elif args.out:
-            write_output(args.out, result.to_csv(), (".csv",), flag="--out")
         else:
-            sys.stdout.write(result.to_csv())
+            from ..present import to_csv
+
+            text = to_csv(result) or ""
+            if args.out:
+                write_output(args.out, text, (".csv",), flag="--out")
+            else:
+                sys.stdout.write(text)
     except ProblemFileError as exc:
         print(f"lamech: error in problem file\n{in_flags(str(exc))}", file=sys.stderr)
         return 2

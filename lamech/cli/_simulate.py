@@ -362,7 +362,7 @@ def _run(args, phase: list[str]) -> int:
             file=sys.stderr,
         )
         return 2
-    from ..present import to_text, trajectory_csv
+    from ..present import to_json, to_text, trajectory_csv
 
     to_stdout = args.out == "-"  # the table on stdout, the summary beside it on stderr
     if args.out:
@@ -415,7 +415,7 @@ def _run(args, phase: list[str]) -> int:
     summary = sys.stderr if to_stdout else sys.stdout
     if args.json:
         print(
-            json.dumps(traj.summary(), indent=2, ensure_ascii=False, default=_json_default),
+            json.dumps(to_json(traj), indent=2, ensure_ascii=False, default=_json_default),
             file=summary,
         )
     else:

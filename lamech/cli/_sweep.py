@@ -248,11 +248,6 @@ def _total(result) -> int:
 
 
 def _print_csv(result) -> None:
-    import csv
+    from ..present import to_csv
 
-    from ..sweeps._table import format_value
-
-    w = csv.writer(sys.stdout, lineterminator="\n")
-    w.writerow(result.columns)
-    for row in result.rows:
-        w.writerow([format_value(row[c]) for c in result.columns])
+    sys.stdout.write(to_csv(result) or "")

@@ -3,7 +3,7 @@ the event log (see :func:`lamech.numeric.simulate`)."""
 
 from __future__ import annotations
 
-import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -44,6 +44,9 @@ class Trajectory:
     ``"theta1": "rad"``, ``"theta1'": "rad/s"``, ``"lambda:contact": "N"``,
     ``"force:contact:normal": "N"``, ``"energy": "J"``) and of each parameter; every
     array is in these units (SI). Empty for a file without units.
+
+    A Trajectory holds data: its summary as text, JSON and CSV are
+    :func:`lamech.to_text`, :func:`lamech.to_json` and :func:`lamech.to_csv`.
     """
 
     coordinates: list[str]
@@ -160,52 +163,17 @@ class Trajectory:
 
     # ----- summary ----------------------------------------------------------------
     def summary(self) -> dict:
-        """The ``--json`` summary of the run."""
-        rp = float(np.nanmax(self.residual_position)) if len(self.t) else None
-        rv = float(np.nanmax(self.residual_velocity)) if len(self.t) else None
-        final = {}
-        if self.final_q is not None and self.final_qd is not None:
-            for i, c in enumerate(self.coordinates):
-                final[c] = float(self.final_q[i])
-            for i, c in enumerate(self.coordinates):
-                final[c + "'"] = float(self.final_qd[i])
-        out = {
-            "title": self.title,
-            "t_end": self.t_end,
-            "final_time": self.final_time,
-            "events": [self._event_json(e) for e in self.events],
-            "final": final,
-            "max_residual": None if rp is None or rv is None else max(rp, rv),
-            "max_residual_position": rp,
-            "max_residual_velocity": rv,
-            "max_projection": self.max_projection,
-            "energy_error": self.energy_error,
-            "steps": self.steps,
-            "evaluations": self.evaluations,
-            "engine": self.engine,
-            "handed_back": self.handed_back,
-            "samples": int(len(self.t)),
-            "status": str(self.status),
-            "message": self.message,
-            "notes": list(self.notes),
-            **({"drives": self.drive_summary()} if self.drive_forces else {}),
-            **({"reactions": self.reaction_summary()} if self.forces else {}),
-        }
-        if self.units:
-            out["units"] = dict(self.units)
-        return out
+        """The ``--json`` summary of the run: deprecated, :func:`lamech.to_json` gives it
+        (the present layer formats; this calls it, the one import of this method against
+        the layer order, declared in the import-linter contract)."""
+        warnings.warn(
+            "Trajectory.summary() is deprecated: lamech.to_json(trajectory) gives the same object",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from ..present._trajectory import trajectory_json
 
-    def _angles(self) -> list[str]:
-        """The coordinates that are angles (in rad), where the file gives units."""
-        return [c for c in self.coordinates if self.units.get(c) == "rad"]
-
-    def _event_json(self, e: Event) -> dict:
-        out = e.to_json()
-        angles = self._angles()
-        if angles:  # with units: each angle in degrees beside its radians
-            there = e.coordinates
-            out["degrees"] = {c: math.degrees(there[c]) for c in angles if c in there}
-        return out
+        return trajectory_json(self)
 
     def _where(self, y: np.ndarray) -> tuple[float, dict]:
         """The largest of ``y`` (finite samples, >= 0) refined between the samples, and

@@ -2,13 +2,19 @@
 
 :func:`to_text`, :func:`to_latex` and :func:`to_json` take a
 :class:`~lamech.symbolic.Solution` (the ``lamech solve`` report) or, for text and JSON, a
-:class:`~lamech.numeric.Trajectory` (the ``lamech simulate`` summary). Plots and
-animations use matplotlib (imported when one is drawn; the backend is chosen by the
-caller: the CLI selects Agg, a notebook keeps its own).
+:class:`~lamech.numeric.Trajectory` (the ``lamech simulate`` summary); :func:`to_csv` the
+tables: a Trajectory's samples, a :class:`~lamech.sweeps.SweepResult`'s rows, a
+:class:`~lamech.sweeps.MapResult`'s points. Plots and animations use matplotlib (imported
+when one is drawn; the backend is chosen by the caller: the CLI selects Agg, a notebook
+keeps its own).
+
+The result types (``Trajectory``, ``SweepResult``, ``MapResult``) hold data; their text,
+JSON and CSV are made here, and only here.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +27,7 @@ from ._steps import steps_json as _steps_json
 from ._steps import steps_latex as _steps_latex
 from ._steps import steps_text as _steps_text
 from ._trajectory import trajectory_csv
+from ._trajectory import trajectory_json as _trajectory_json
 from ._trajectory import trajectory_text as _trajectory_text
 
 if TYPE_CHECKING:
@@ -35,6 +42,7 @@ __all__ = [
     "to_text",
     "to_latex",
     "to_json",
+    "to_csv",
     "trajectory_csv",
     "plot_trajectory",
     "plot_sweep",
@@ -124,7 +132,56 @@ def to_json(result: Any) -> dict:
     """The ``--json`` object of a Solution (schema in docs/reference/json.md) or a Trajectory."""
     if _is_derivation(result):
         return _steps_json(result)
-    return result.summary() if _is_trajectory(result) else _solution_json(result)
+    return _trajectory_json(result) if _is_trajectory(result) else _solution_json(result)
+
+
+def to_csv(result: Any, path: str | os.PathLike | None = None) -> str | None:
+    """The CSV of a table: a Trajectory's samples (the columns of ``lamech simulate
+    --out``, 17 significant digits), a SweepResult's rows (``lamech sweep``'s table) or a
+    MapResult's points (``lamech map``'s); numbers in a sweep's or a map's table as the
+    shortest text that reads back the same float.
+
+    Parameters
+    ----------
+    result : Trajectory, SweepResult or MapResult
+        The table.
+    path : str or path-like, optional
+        A ``.csv`` file to write (whole or not at all, as every file lamech writes);
+        None (the default) returns the text.
+
+    Returns
+    -------
+    str or None
+        The CSV text when ``path`` is None.
+
+    Examples
+    --------
+    >>> import lamech
+    >>> m = lamech.map("cylinder", {"mu": "0.2,0.4"})
+    >>> header, first, second = lamech.to_csv(m).splitlines()
+    >>> header.split(",")[:4]
+    ['mu', 'slip:t', 'slip:r', 'slip:theta1']
+    >>> first.split(",")[:4]  # a map has no times: nan
+    ['0.2', 'nan', '1.5', '0.466922898163114']
+    """
+    if _is_trajectory(result):
+        return trajectory_csv(result, path)
+    from ..outputs import write_output
+    from ..sweeps import MapResult, SweepResult
+    from ._table import map_csv, table_csv
+
+    if isinstance(result, SweepResult):
+        text = table_csv(result.columns, result.rows)
+    elif isinstance(result, MapResult):
+        text = map_csv(result)
+    else:
+        raise TypeError(
+            f"to_csv takes a Trajectory, a SweepResult or a MapResult, not {type(result).__name__}"
+        )
+    if path is None:
+        return text
+    write_output(path, text, (".csv",))
+    return None
 
 
 def to_latex(result: Any, standalone_math: bool = False) -> str:

@@ -1,17 +1,20 @@
-"""A :class:`~lamech.numeric.Trajectory` as text (the summary ``lamech simulate`` prints)
-and as CSV (17 significant digits, both ends of the run)."""
+"""A :class:`~lamech.numeric.Trajectory` as text (the summary ``lamech simulate`` prints),
+as the ``--json`` object (:func:`trajectory_json`, what :func:`lamech.to_json` gives) and
+as CSV (17 significant digits, both ends of the run)."""
 
 from __future__ import annotations
 
 import csv
 import io
 import math
-from pathlib import Path
+import os
+
+import numpy as np
 
 from ..outputs import write_output
 from ._drives import simulated_drive_lines
 
-__all__ = ["trajectory_text", "trajectory_csv"]
+__all__ = ["trajectory_text", "trajectory_csv", "trajectory_json"]
 
 
 def _fmt(x: float) -> str:
@@ -24,7 +27,7 @@ def _g(x) -> str:
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
+def trajectory_csv(traj, path: str | os.PathLike | None = None) -> str | None:
     """Write the CSV of ``traj.columns()`` to ``path`` (a .csv file, by
     :func:`lamech.outputs.write_output`); return the text when None."""
     cols = traj.columns()
@@ -38,6 +41,58 @@ def trajectory_csv(traj, path: str | Path | None = None) -> str | None:
         return text
     write_output(path, text, (".csv",))
     return None
+
+
+def trajectory_json(traj) -> dict:
+    """The ``--json`` summary of a run (docs/reference/json.md): status, events (with
+    units, each angle in degrees beside its radians), the final state, residuals, the
+    energy error, counters, and the drives' and named reactions' peaks
+    (:meth:`~lamech.numeric.Trajectory.drive_summary`,
+    :meth:`~lamech.numeric.Trajectory.reaction_summary`)."""
+    rp = float(np.nanmax(traj.residual_position)) if len(traj.t) else None
+    rv = float(np.nanmax(traj.residual_velocity)) if len(traj.t) else None
+    final = {}
+    if traj.final_q is not None and traj.final_qd is not None:
+        for i, c in enumerate(traj.coordinates):
+            final[c] = float(traj.final_q[i])
+        for i, c in enumerate(traj.coordinates):
+            final[c + "'"] = float(traj.final_qd[i])
+    angles = [c for c in traj.coordinates if traj.units.get(c) == "rad"]
+    out = {
+        "title": traj.title,
+        "t_end": traj.t_end,
+        "final_time": traj.final_time,
+        "events": [_event_json(e, angles) for e in traj.events],
+        "final": final,
+        "max_residual": None if rp is None or rv is None else max(rp, rv),
+        "max_residual_position": rp,
+        "max_residual_velocity": rv,
+        "max_projection": traj.max_projection,
+        "energy_error": traj.energy_error,
+        "steps": traj.steps,
+        "evaluations": traj.evaluations,
+        "engine": traj.engine,
+        "handed_back": traj.handed_back,
+        "samples": int(len(traj.t)),
+        "status": str(traj.status),
+        "message": traj.message,
+        "notes": list(traj.notes),
+        **({"drives": traj.drive_summary()} if traj.drive_forces else {}),
+        **({"reactions": traj.reaction_summary()} if traj.forces else {}),
+    }
+    if traj.units:
+        out["units"] = dict(traj.units)
+    return out
+
+
+def _event_json(e, angles: list[str]) -> dict:
+    """An event as the summary gives it; with units, each of the ``angles`` (the
+    coordinates in rad) in degrees beside its radians."""
+    out = e.to_json()
+    if angles:
+        there = e.coordinates
+        out["degrees"] = {c: math.degrees(there[c]) for c in angles if c in there}
+    return out
 
 
 def _value(name: str, x: float, units: dict[str, str], degrees: bool = False) -> str:
@@ -56,7 +111,7 @@ def trajectory_text(traj) -> str:
     """The readable summary of a run: status, events, final state, residuals, energy;
     with units (issue 46), each value with its unit, an event's angles in degrees too,
     and the units of the CSV's columns."""
-    s = traj.summary()
+    s = trajectory_json(traj)
     units = getattr(traj, "units", None) or {}
     sec = " s" if units else ""
     lines = [

@@ -23,7 +23,8 @@ __getattr__ = moved(
         "parse_assignment": ("_parse", _INTERNAL),
         "parse_measure": ("_parse", _INTERNAL),
         "sweepable_names": ("_run", _INTERNAL),
-        "format_value": ("_table", _INTERNAL),
+        # a table's cell text moved to the layer that formats (lamech.to_csv writes a table)
+        "format_value": ("lamech.present._table:cell", "internal to lamech.present"),
         "EVENT_MEASURES": ("_parse", _INTERNAL),
         "SERIES_MEASURES": ("_parse", _INTERNAL),
         "MAX_CASES": ("_parse", _INTERNAL),

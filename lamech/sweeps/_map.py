@@ -34,6 +34,7 @@ points is not seen; nor is a root on the way back, after a turning point.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -63,7 +64,8 @@ class MapResult:
     names them, ``<measure>:start`` (1.0 where it happens at the start), then
     ``first``: the event met first, ``"<measure>"``, ``"<measure> at the start"`` or
     ``"none"``); ``notes`` what has no closed form and why; ``seconds``: the CPU time
-    of the evaluation (after the closed forms were compiled)."""
+    of the evaluation (after the closed forms were compiled). :func:`lamech.to_csv` gives
+    it as CSV (what ``lamech map`` writes)."""
 
     parameters: list[str]
     measures: list[str]
@@ -76,17 +78,17 @@ class MapResult:
         return len(self.columns["first"])
 
     def to_csv(self) -> str:
-        """The table as CSV, numbers as :func:`lamech.sweep`'s table writes them (the
-        shortest text that reads back the same float)."""
-        names = list(self.columns)
-        text = [
-            list(map(repr, np.asarray(self.columns[n], dtype=float).tolist()))
-            if n != "first"
-            else list(self.columns[n])
-            for n in names
-        ]
-        rows = (",".join(cells) for cells in zip(*text))
-        return ",".join(names) + "\n" + "".join(r + "\n" for r in rows)
+        """The table as CSV: deprecated, :func:`lamech.to_csv` gives it (the present
+        layer formats; this calls it, the one import of this method against the layer
+        order, declared in the import-linter contract)."""
+        warnings.warn(
+            "MapResult.to_csv() is deprecated: lamech.to_csv(result) gives the same text",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from ..present._table import map_csv
+
+        return map_csv(self)
 
 
 @dataclass(frozen=True)

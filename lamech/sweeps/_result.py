@@ -25,7 +25,8 @@ class SweepResult:
     ``liftoff:t`` and ``liftoff:<coordinate>``, a ``max:<series>``, ...), ``status`` and
     ``message``. :meth:`column` gives one as a NumPy array, :meth:`to_dataframe` the
     whole table as a pandas DataFrame, :meth:`to_xarray` an xarray Dataset with one
-    dimension per parameter; in Jupyter it shows as a table and a plot.
+    dimension per parameter, :func:`lamech.to_csv` the CSV of ``lamech sweep``'s table; in
+    Jupyter it shows as a table and a plot.
 
     Attributes
     ----------

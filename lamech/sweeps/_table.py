@@ -8,7 +8,14 @@ share one table. While a sweep writes, it holds a lock on ``<table>.lock`` (rele
 it ends, however it ends): a second sweep on the same table is refused. A resume reads
 the table strictly: a damaged line (a field that is not a number, a row with too few
 fields, a case twice) is refused with its line number; only a last line cut short by an
-interruption is dropped. Rows whose status is not ``ok`` are run again."""
+interruption is dropped. Rows whose status is not ``ok`` are run again.
+
+How the rows are written (a number's text, a status, a message; a Parquet table's frame)
+is the present layer's, :mod:`lamech.present._table`, which :func:`lamech.to_csv` uses
+too: the table is written here, as the cases finish, and formatted there, through the
+one import of this module against the layer order (declared in the import-linter
+contract). This module keeps what makes the table a journal: the lock, the record beside
+it, reading it back."""
 
 from __future__ import annotations
 
@@ -21,12 +28,10 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
 from ..outputs import write_output
 from ._parse import SweepError
 
-__all__ = ["Table", "format_value", "STATUSES"]
+__all__ = ["Table", "STATUSES"]
 
 STATUSES = ("ok", "failed", "error")
 """The statuses a row on disk may have (an interrupted case is never written)."""
@@ -45,15 +50,6 @@ OPTIONS = {
 }
 """What a resume must match, and the argument of :func:`lamech.sweep` that sets it (the
 command line names its flag: :mod:`lamech.cli._terms`)."""
-
-
-def format_value(x) -> str:
-    if isinstance(x, str):
-        return x
-    if isinstance(x, (int, np.integer)):
-        return str(int(x))
-    x = float(x)
-    return "nan" if math.isnan(x) else repr(x)
 
 
 class Table:
@@ -276,16 +272,18 @@ class Table:
         self.journal.parent.mkdir(parents=True, exist_ok=True)
         assert self.record is not None
         write_output(self.record, json.dumps(self.spec, indent=1) + "\n", (".json",), "`out=`")
+        # the rows' text is the present layer's (the module docstring)
+        from ..present._table import table_csv
+
         self._fh = open(self.journal, "w", newline="", encoding="utf-8")
-        self._writer = csv.writer(self._fh, lineterminator="\n")
-        self._writer.writerow(self.columns)
-        for row in kept:
-            self._writer.writerow([format_value(row[c]) for c in self.columns])
+        self._fh.write(table_csv(self.columns, kept))
         self._fh.flush()
 
     def append(self, row: dict) -> None:
         if self._fh is not None:
-            self._writer.writerow([format_value(row[c]) for c in self.columns])
+            from ..present._table import csv_line
+
+            self._fh.write(csv_line([row[c] for c in self.columns]))
             self._fh.flush()
 
     def close(self) -> None:
@@ -298,30 +296,24 @@ class Table:
         self.close()
         if self.path is None:
             return
-        if self.parquet:
-            import pandas as pd
+        from ..present._table import table_csv, write_parquet
 
-            frame = pd.DataFrame(rows, columns=self.columns)
-            write_output(
-                self.path, lambda tmp: frame.to_parquet(tmp, index=False), (".parquet",), "`out=`"
-            )
+        if self.parquet:
+            write_parquet(self.path, self.columns, rows, "`out=`")
             assert self.journal is not None  # set from path, which is not None
             self.journal.unlink(missing_ok=True)
             return
-        out = io.StringIO(newline="")
-        w = csv.writer(out, lineterminator="\n")
-        w.writerow(self.columns)
-        for row in rows:
-            w.writerow([format_value(row[c]) for c in self.columns])
-        write_output(self.path, out.getvalue(), (".csv",), "`out=`")
+        write_output(self.path, table_csv(self.columns, rows), (".csv",), "`out=`")
 
 
 _MEND = ": mend or delete that line, or run without `resume=True` to start a new table"
 
 
-def _number(x) -> str:
-    """2.7, 3, 1e-11: as short as exact."""
-    text = format_value(x)
+def _number(x: float) -> str:
+    """2.7, 3, 1e-11: as short as exact (in a message)."""
+    if isinstance(x, int):
+        return str(int(x))
+    text = "nan" if math.isnan(x) else repr(float(x))
     return text[:-2] if text.endswith(".0") else text
 
 
