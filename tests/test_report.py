@@ -90,6 +90,7 @@ def test_report_without_simulation_and_with_a_param(tmp_path):
     assert 'class="label"' not in drawing  # pivot, string and bob on one line, apart
 
 
+@pytest.mark.slow
 def test_a_drawing_on_one_line_names_its_links_apart(tmp_path):
     """The slider-crank at phi = 0 lies on one line: crank, rod and guide on top of one
     another. Each named link and body is labelled, its extent drawn in a lane of its own

@@ -313,6 +313,7 @@ def test_malformed_requests_are_4xx_with_a_message(server, body, words):
         assert words in _message(data), data
 
 
+@pytest.mark.slow
 def test_the_initial_state_takes_quantities_of_its_dimension(server):
     """The page's start, like ``--initial``: a number, or a quantity with units in SI
     (``"1 deg"``, ``"2 deg/s"``); a quantity of another dimension is a 400 naming it."""
