@@ -158,7 +158,7 @@ def test_the_page_in_headless_chromium(chromium):
         # issue 28 item 4: a partial start completed on the constraints (theta2 solved
         # for), and the status gives what the run did: slipped at 33.5°, left at 52.6°
         # (the closed form's pure-rolling 55.15° is not what happened)
-        page.fill("#initial", "theta1=0.01")
+        page.fill("#initial", "theta1=0.5730 deg, theta1'=0")  # a quantity, as --initial
         page.click("#simulate")
         page.wait_for_function(
             "() => document.getElementById('status').textContent.startsWith('done')",

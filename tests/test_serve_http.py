@@ -25,6 +25,7 @@ pytest.importorskip("uvicorn", reason="lamech[serve] not installed")
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "lamech" / "examples"
 CYLINDER = (EXAMPLES / "cylinder.toml").read_text(encoding="utf-8")
+PENDULUM = (EXAMPLES / "pendulum.toml").read_text(encoding="utf-8")
 SLOW = (EXAMPLES / "double_pendulum.toml").read_text(encoding="utf-8")  # ~10 s to solve
 TOKEN = "s3cret-token"
 AUTH = {"Authorization": f"token {TOKEN}"}
@@ -285,8 +286,13 @@ def test_work_takes_json_only(server, kind):
             '{"text": "x", "simulate": true, "t_end": NaN}', "t_end", marks=pytest.mark.slow
         ),
         pytest.param(
-            '{"text": "x", "simulate": true, "t_end": 1, "initial": {"theta1": "0.1"}}',
+            '{"text": "x", "simulate": true, "t_end": 1, "initial": {"theta1": true}}',
             "finite",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            '{"text": "x", "simulate": true, "t_end": 1, "initial": {"theta1": ""}}',
+            "quantity",
             marks=pytest.mark.slow,
         ),
         pytest.param(
@@ -305,6 +311,30 @@ def test_malformed_requests_are_4xx_with_a_message(server, body, words):
             continue
         assert 400 <= status < 500, (status, data)
         assert words in _message(data), data
+
+
+@pytest.mark.slow
+def test_the_initial_state_takes_quantities_of_its_dimension(server):
+    """The page's start, like ``--initial``: a number, or a quantity with units in SI
+    (``"1 deg"``, ``"2 deg/s"``); a quantity of another dimension is a 400 naming it."""
+    import math
+
+    asked = {"text": PENDULUM, "simulate": True, "t_end": 0.01, "events_only": True}
+    start = {"theta": "10 deg", "theta'": "-30 deg/s"}
+    status, _, data = server.request("POST", "/api/run", {**asked, "initial": start})
+    assert status == 200 and data["ok"], data
+    assert math.isclose(data["start"]["theta"], math.radians(10), rel_tol=1e-12)
+    assert math.isclose(data["start"]["theta'"], math.radians(-30), rel_tol=1e-12)
+    for wrong, words in [
+        ({"theta": "30 cm"}, "initial theta=30 cm: the problem gives this no unit"),
+        ({"theta'": "3 kg"}, "initial theta'=3 kg:"),
+        ({"theta": "3 parsecs"}, "initial theta=3 parsecs:"),
+    ]:
+        for more in ({}, {"events_only": False}):
+            asked_here = {**asked, **more, "initial": wrong}
+            status, _, data = server.request("POST", "/api/run", asked_here)
+            assert status == 400 and data["ok"] is False, (status, data)
+            assert words in _message(data), data
 
 
 @pytest.mark.slow

@@ -341,11 +341,14 @@ def test_values_syntax():
     assert list(parse_values("0.1:0.6:6")) == [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
     assert list(parse_values("0.1, 0.2,3")) == [0.1, 0.2, 3.0]
     assert list(parse_values("2")) == [2.0]
+    assert list(parse_values("0.3:0.3:1")) == [0.3]  # one point: the one value
+    assert list(parse_values("10 cm:10 cm:1")) == [0.1]
     for bad, msg in [
         ("0.1:1", "A:B:N"),
         ("a:1:3", "not a number"),
         ("0:1:x", "integer"),
-        ("0:1:1", "count >= 2"),
+        ("0:1:1", r"one value but two ends: write mu=0 for that value, or 0:1:N with N >= 2"),
+        ("0:0:0", "count 0: a range has at least 1 value"),
         ("0.1,,0.2", "not a number"),
         ("nan", "finite"),
         ("__import__('os')", "not a number"),
@@ -419,6 +422,23 @@ def test_cli_table_plot_and_errors(tmp_path, capsys):
     assert rc == 2 and "unknown parameter `R3`" in err and "known: m, g, R1, R2" in err
     rc = main(["sweep", "cylinder", "--param", "mu=0.3", "--t-end", "1", "--resume"])
     assert rc == 2 and "--resume needs --out" in capsys.readouterr().err
+
+
+def test_a_grid_of_one_point(capsys):
+    """``A:A:1`` is the one value A, on the command line of sweep and map; ``A:B:1``
+    with A != B is refused saying what to write (which of the two ends is meant is not
+    known), with the commands' status 2 for bad input."""
+    rc = main(["sweep", "cylinder", "--param", "mu=0.3:0.3:1", "--t-end", "0.1"])
+    out, err = capsys.readouterr()
+    assert rc == 0 and "1 cases (mu: 1)" in err and out.splitlines()[1].startswith("0,0.3,")
+    rc = main(["map", "cylinder", "--param", "mu=0.3:0.3:1"])
+    out, err = capsys.readouterr()
+    assert rc == 0 and "1 points in" in err and out.splitlines()[1].startswith("0.3,")
+    for command in (["sweep", "cylinder", "--t-end", "0.1"], ["map", "cylinder"]):
+        assert main([*command, "--param", "mu=0.2:0.5:1"]) == 2
+        err = capsys.readouterr().err
+        assert "range '0.2:0.5:1' has one value but two ends" in err, err
+        assert "write mu=0.2 for that value, or 0.2:0.5:N with N >= 2" in err, err
 
 
 @pytest.mark.slow

@@ -66,8 +66,8 @@ def add_grid(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUES",
         required=True,
         help="a parameter (or `mu`/`mu:<constraint>`, a friction coefficient) and "
-        "its values: A:B:N (N values, both ends included), a,b,c or one "
-        "value; repeat for a grid",
+        "its values: A:B:N (N values, both ends included; A:A:1 is A), a,b,c "
+        "or one value; repeat for a grid",
     )
 
 

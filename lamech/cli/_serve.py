@@ -222,17 +222,22 @@ async def _body(request) -> tuple[dict | None, Any]:
     return data, None
 
 
-def _initial(value: Any) -> dict[str, float] | str:
-    """The page's partial initial state {name or name': number}, or what is wrong."""
+def _initial(value: Any) -> dict[str, float | str] | str:
+    """The page's partial initial state {name or name': number or text}, or what is
+    wrong. A text (``"10 deg"``) is read in the child process, as ``--initial`` reads it
+    (:func:`lamech.cli._workers.start_in_si`)."""
     if value is None:
         return {}
     if not isinstance(value, dict) or len(value) > 1000:
-        return 'initial must be an object {"theta1": 0.01, "theta1\'": 0}'
-    out = {}
+        return 'initial must be an object {"theta1": 0.01, "theta1\'": "2 deg/s"}'
+    out: dict[str, float | str] = {}
     for k, v in value.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            return f"initial `{k}` must be a finite number"
-        out[k] = float(v)
+        if isinstance(v, str) and v.strip() and len(v) <= 200:
+            out[k] = v.strip()
+        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            return f'initial `{k}` must be a finite number or a quantity with units ("10 deg")'
+        else:
+            out[k] = float(v)
     return out
 
 
@@ -329,7 +334,7 @@ def make_app(
             return _busy()
         finally:
             listener.cancel()
-        return JSONResponse(answer)
+        return JSONResponse(answer, answer.pop("refused", 200))  # 400: the request's start
 
     async def home(request: Request) -> HTMLResponse:
         nonce = secrets.token_urlsafe(18)  # one per answer: its scripts and styles carry it

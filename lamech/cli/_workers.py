@@ -18,7 +18,7 @@ import time
 from collections import deque
 from typing import Any
 
-__all__ = ["Busy", "Lane", "Runner", "errors", "limit_memory"]
+__all__ = ["Busy", "Lane", "Runner", "errors", "limit_memory", "start_in_si"]
 
 
 class Busy(Exception):
@@ -68,6 +68,23 @@ def _events(traj, angles: set[str]) -> list[dict]:
     return out
 
 
+def start_in_si(system, initial: dict) -> dict:
+    """The page's partial initial state with each text read as ``--initial`` reads its
+    VALUE (:func:`lamech.cli._args.evaluate_assignments`): a quantity (``"10 deg"``,
+    ``"2 deg/s"``) in SI, of the dimension the problem gives the coordinate, or an
+    expression of the parameters; a ValueError names the entry."""
+    from ._args import evaluate_assignments
+
+    texts = [(k, v) for k, v in initial.items() if isinstance(v, str)]
+    return {**initial, **evaluate_assignments(texts, system, "initial")} if texts else initial
+
+
+def _refused(exc: BaseException) -> dict:
+    """The answer to a start the problem cannot take (a wrong dimension, an unknown
+    unit): the server's 400."""
+    return {"ok": False, "errors": errors(exc), "refused": 400}
+
+
 def _work(kind: str, text: str, options: dict) -> dict:
     """Check, or solve (and simulate) the problem ``text``: a JSON-able answer. With
     ``options["initial"]`` ({coordinate or ``x'``: value}) the simulation starts there,
@@ -89,12 +106,18 @@ def _work(kind: str, text: str, options: dict) -> dict:
             return {"ok": True, "title": system.title}
         if options.get("events_only"):
             return _simulated(system, options)
+    except (ProblemFileError, ModelError, ValueError) as exc:
+        return {"ok": False, "errors": errors(exc)}
+    try:
+        initial = start_in_si(system, options.get("initial") or {}) or None
+    except ValueError as exc:
+        return _refused(exc)
+    try:
         sol = solve(system)
         derivation = steps(sol)
     except (ProblemFileError, DegenerateConstraintsError, ModelError, ValueError) as exc:
         return {"ok": False, "errors": errors(exc)}
     traj, note = None, ""
-    initial = options.get("initial") or None
     if options.get("simulate"):
         try:
             traj = simulate(system, float(options["t_end"]), initial=initial)
@@ -145,7 +168,14 @@ def _simulated(system, options: dict) -> dict:
     params = options.get("params") or {}
     try:
         system = with_values(system, parameters=params) if params else system
-        traj = simulate(system, float(options["t_end"]), initial=options.get("initial") or None)
+    except (ModelError, ValueError) as exc:
+        return {"ok": False, "errors": errors(exc)}
+    try:
+        initial = start_in_si(system, options.get("initial") or {}) or None
+    except ValueError as exc:
+        return _refused(exc)
+    try:
+        traj = simulate(system, float(options["t_end"]), initial=initial)
     except (SimulationError, ModelError, ValueError, KeyError) as exc:
         return {"ok": False, "errors": errors(exc)}
     angles = {c.name for c in system.coordinates if is_angle(system, c.symbol)}

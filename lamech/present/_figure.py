@@ -294,6 +294,8 @@ def initial_svg(sol, traj=None, params=None) -> str:
         )
     out += _scenery_svg(cv, scenery)
     out += _bodies_svg(cv, scene, prims, space)
+    names = [scene.bodies[i][0] for _, i, _ in prims] + [g.name for g in system.scenery]
+    out += _lanes_svg(cv, list(zip(names, _extents(prims, scenery, space))))
     for p in contacts:
         x, y = cv(p)
         out.append(
@@ -383,6 +385,120 @@ def _bodies_svg(cv: _Canvas, scene, prims: list, space: bool) -> list[str]:
             x, y = cv(shape[1])
             out.append(f'<circle cx="{_f(x)}" cy="{_f(y)}" r="7" fill="{colour}"/>')
         out.append("</g>")
+    return out
+
+
+def _extents(prims: list, scenery: list, space: bool) -> list[list]:
+    """The world points that place each body (in ``prims``' order) then each piece of
+    scenery: a point, a rod's ends, a line's points; a circle of some size gives its
+    centre and two opposite rims (so it is never "on one line")."""
+    out = []
+    for _, _i, shape in prims:
+        if space:
+            out.append(list(shape))
+        elif shape[0] == "circle":
+            c, r = np.array(shape[1], dtype=float), float(shape[2])
+            out.append([c, c - r, c + np.array([r, -r])])
+        else:
+            out.append([np.array(p, dtype=float) for p in shape[1:]])
+    for _kind, p, size in scenery:
+        pts = [np.asarray(x, dtype=float) for x in p]
+        r = size or 0.0
+        out.append(pts + ([pts[0] - r, pts[0] + np.array([r, -r])] if r else []))
+    return out
+
+
+_LANE, _CHAR, _GAP = 22.0, 6.5, 6.0  # px between lanes, per character of a label, apart
+
+
+def _lanes_svg(cv: _Canvas, elements: list[tuple[str, list]]) -> list[str]:
+    """Where every body and piece of scenery lies on one straight line and two links
+    overlap there (the slider-crank at phi = 0: the rod over the guide), each element
+    (name, world points) is named in a lane beside the line (:func:`_label_svg`); lanes
+    alternate above and below, a name taking the nearest lane where it overlaps no other.
+    Nothing when the drawing has breadth of its own or its links only meet end to end (a
+    pendulum hanging straight): the joints tell them apart."""
+    line = _on_one_line(cv, elements)
+    if line is None:
+        return []
+    base, u, items = line
+    lanes: dict[int, list[tuple[float, float]]] = {}
+    out: list[str] = []
+    for a, b, name in sorted(items):
+        reach = abs(_CHAR * len(name) * u[0]) + abs(12 * u[1])  # the label along the line
+        mid = 0.5 * (a + b)
+        span = (min(a, mid - reach / 2), max(b, mid + reach / 2))
+        k = next(
+            k
+            for k in (j * sign for j in range(1, 100) for sign in (1, -1))
+            if all(span[1] + _GAP <= lo or hi + _GAP <= span[0] for lo, hi in lanes.get(k, []))
+        )
+        lanes.setdefault(k, []).append(span)
+        out += _label_svg(base, u, k, (a, b), name)
+    return out
+
+
+def _on_one_line(cv: _Canvas, elements: list[tuple[str, list]]):
+    """(base, u, [(a, b, name)]): the screen point and unit direction (left to right, or
+    top down) of the line every element lies on and each element's extent along it in
+    pixels from ``base``; None when they are not on one line or no two links overlap."""
+    placed = [
+        (name, [np.asarray(p, dtype=float) for p in pts if np.isfinite(p).all()])
+        for name, pts in elements
+    ]
+    placed = [(name, pts) for name, pts in placed if pts]
+    allp = np.array([p for _, pts in placed for p in pts]).reshape(-1, 2)
+    if len(placed) < 2 or len(allp) < 2:
+        return None
+    centre = allp.mean(axis=0)
+    _, sv, vt = np.linalg.svd(allp - centre)
+    if sv[0] <= 0 or sv[1] > 0.02 * sv[0]:
+        return None
+    base, tip = np.array(cv(centre)), np.array(cv(centre + vt[0]))
+    u = (tip - base) / np.hypot(*(tip - base))
+    if u[0] < 0 or (abs(u[0]) < 1e-9 and u[1] < 0):
+        u = -u
+    items = []
+    for name, pts in placed:
+        s = [float(np.dot(np.array(cv(p)) - base, u)) for p in pts]
+        items.append((min(s), max(s), name))
+    links = [(a, b) for a, b, _ in items if b - a > 1]
+    if not any(
+        min(b1, b2) - max(a1, a2) > 2 for i, (a1, b1) in enumerate(links) for a2, b2 in links[:i]
+    ):
+        return None
+    return base, u, items
+
+
+def _label_svg(base, u, k: int, extent: tuple[float, float], name: str) -> list[str]:
+    """The label of one element in lane ``k`` (above the line for k > 0, below for k <
+    0, on the screen): a thin line over its extent (a link), dashed leaders from its ends
+    back to the line, its name at the middle, kept inside the drawing."""
+    a, b = extent
+    n = np.array([u[1], -u[0]])  # the normal on the screen: up (or right)
+    off = _LANE * k
+    width = _CHAR * len(name)
+    tip = base + 0.5 * (a + b) * u + (off + (4 if k > 0 else -13)) * n
+    tx = min(max(tip[0], width / 2 + 2), _W - width / 2 - 2)
+    ty = min(max(tip[1], 12), _H - 2)
+    shown = html.escape(name)
+    out = [f'<g class="label" data-name="{shown}"><title>{shown}</title>']
+    if b - a > 1:
+        (x1, y1), (x2, y2) = base + a * u + off * n, base + b * u + off * n
+        out.append(
+            f'<line x1="{_f(x1)}" y1="{_f(y1)}" x2="{_f(x2)}" y2="{_f(y2)}" stroke="#777" '
+            'stroke-width="1.5"/>'
+        )
+    for s in sorted({a, b}):
+        (x1, y1), (x2, y2) = base + s * u, base + s * u + off * n
+        out.append(
+            f'<line x1="{_f(x1)}" y1="{_f(y1)}" x2="{_f(x2)}" y2="{_f(y2)}" stroke="#999" '
+            'stroke-width="1" stroke-dasharray="2 2"/>'
+        )
+    out.append(
+        f'<text x="{_f(tx)}" y="{_f(ty)}" font-size="11" fill="#333" text-anchor="middle">'
+        f"{shown}</text></g>"
+    )
     return out
 
 

@@ -65,8 +65,8 @@ h1 { font-size: 1.6rem; } h2 { border-bottom: 1px solid #ddd; margin-top: 2.2rem
 h3 { font-size: 1.05rem; margin-bottom: .3rem; }
 pre { background: #f6f6f6; padding: .7rem; overflow-x: auto; font-size: .85rem; }
 .math { overflow-x: auto; padding: .1rem 0; }
-table.eqs { border-collapse: collapse; width: 100%; }
-table.eqs td { padding: 0 .4rem; vertical-align: middle; }
+table.eqs { border-collapse: collapse; width: 100%; table-layout: fixed; }
+table.eqs td { padding: 0 .4rem; vertical-align: middle; overflow-x: auto; }
 table.eqs td.label { color: #666; font-size: .85rem; width: 30%; }
 .note { color: #555; font-size: .9rem; margin: .2rem 0 .2rem 1rem; }
 .correction { color: #8a4b00; }

@@ -67,6 +67,9 @@ def number(text: str, what: str, dimension: Dimension | None = None) -> float:
 def parse_values(text: str, name: str = "value", dimension: Dimension | None = None) -> np.ndarray:
     """``"A:B:N"`` (N values from A to B, both included), ``"a,b,c"`` or ``"a"``.
 
+    A range of one value has equal ends (``A:A:1`` is ``A``); ``A:B:1`` with A != B is
+    refused, saying what to write.
+
     Numbers, or quantities converted to SI (``10 cm:50 cm:5``; of ``dimension`` where it
     is given); no expression is evaluated.
     """
@@ -87,8 +90,14 @@ def parse_values(text: str, name: str = "value", dimension: Dimension | None = N
             raise SweepError(
                 f"{what}: count {parts[2].strip()!r} in {text!r} is not an integer"
             ) from None
-        if count < 1 or (count == 1 and a != b):
-            raise SweepError(f"{what}: range {text!r} needs a count >= 2 (or A = B)")
+        if count < 1:
+            raise SweepError(f"{what}: range {text!r}: count {count}: a range has at least 1 value")
+        if count == 1 and a != b:  # which end is meant is not known: say what to write
+            start, stop = parts[0].strip(), parts[1].strip()
+            raise SweepError(
+                f"{what}: range {text!r} has one value but two ends: write {name}={start} "
+                f"for that value, or {start}:{stop}:N with N >= 2 for a range"
+            )
         if count > MAX_CASES:
             raise SweepError(f"{what}: count {count} exceeds {MAX_CASES}")
         # 15 significant digits: 0.3, not linspace's 0.30000000000000004
