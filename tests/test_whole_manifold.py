@@ -244,6 +244,25 @@ def test_a_form_that_divides_by_the_sine_of_an_angle_says_where_it_holds():
     assert not any("divide" in n for n in lamech.solve("pendulum").notes)
 
 
+@pytest.mark.slow
+def test_a_zero_over_zero_with_a_limit_is_not_called_a_singularity():
+    """SymPy's rolling sphere: lambda_roll_y's denominator vanishes at theta = 0 and pi,
+    and so does its numerator; the multiplier has a finite limit there (checked at
+    30 digits approaching theta = 0 and pi), so no note says that it divides by
+    sin(theta). The note used to say so (the denominator factored on its own)."""
+    import random
+
+    sol = lamech.solve("rolling_sphere")
+    assert not any("divide" in n and "sin(theta)" in n for n in sol.notes), sol.notes
+    lam = sol.multipliers["roll_y"]
+    theta = sol.symbols["theta"]
+    rng = random.Random(1)
+    point = {x: sp.Float(0.3 + 0.5 * rng.random(), 40) for x in lam.free_symbols}
+    for z in (0, sp.pi):
+        near = [float(sp.N(lam.xreplace({**point, theta: z + e}), 30)) for e in (1e-5, 1e-7)]
+        assert near[0] == pytest.approx(near[1], rel=1e-3, abs=1e-6)
+
+
 def test_the_trammels_modes_find_both_equilibria_on_the_whole_circle():
     """With y = +sqrt(l^2 - x^2) modes missed the stable rest at y = -l; in the circle's
     angle it finds it, omega^2 = g/l (the trammel is a pendulum of length l), and the
