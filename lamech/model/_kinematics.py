@@ -31,14 +31,19 @@ __all__ = [
 
 def time_derivative(expr: sp.Expr, system: System, order: int = 1) -> sp.Expr:
     """Total time derivative along the motion: sum dE/dq q' + dE/dq' q'' + dE/dt."""
-    kin = tuple(
-        (c.symbol, c.velocity, c.acceleration)
-        for c in system.coordinates + system.chart_coordinates
-    )
+    kin = _kin(system)
     out = sp.sympify(expr)
     for _ in range(order):
         out = _derivative(out, system.t, kin)
     return out
+
+
+def _kin(system: System) -> tuple:
+    """(q, q', q'') of every coordinate: all a time derivative needs of a system."""
+    return tuple(
+        (c.symbol, c.velocity, c.acceleration)
+        for c in system.coordinates + system.chart_coordinates
+    )
 
 
 @functools.lru_cache(maxsize=4096)
@@ -99,17 +104,25 @@ def angular_velocity(system: System, body: Body) -> tuple[sp.Matrix, sp.Matrix] 
     kinematic equations); for an ``orientation`` matrix, vee(R^T dR/dt). Remembered for
     the last few (system, body) pairs: the body frame's form is trig-simplified, and the
     partial velocities of every contact ask for it again."""
-    spin = _angular_velocity(system, body)
+    spin = _angular_velocity(system.t, _kin(system), body)
     return None if spin is None else (spin[0].copy(), spin[1].copy())
 
 
 @functools.lru_cache(maxsize=32)
-def _angular_velocity(system: System, body: Body) -> tuple[sp.Matrix, sp.Matrix] | None:
+def _angular_velocity(t: sp.Symbol, kin: tuple, body: Body) -> tuple[sp.Matrix, sp.Matrix] | None:
+    """Keyed by what it depends on (the time, the coordinates and the body), not by the
+    system: the solve's system (the contacts holding at the start) is another object
+    than the loader's, and the trig-simplified body-frame form costs a rolling sphere
+    0.3 s each time."""
     R = body_rotation(body)
     if R is None:
         return None
+
+    def rate(e):
+        return _derivative(sp.sympify(e), t, kin)
+
     if body.rotation is None:
-        dR = R.applyfunc(lambda e: time_derivative(e, system))
+        dR = R.applyfunc(rate)
         W = R.T * dR  # skew: (omega_body)^
         w_body = sp.Matrix([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]) / 2
         w_body = w_body.applyfunc(lambda e: sp.trigsimp(sp.expand(e)))
@@ -122,12 +135,12 @@ def _angular_velocity(system: System, body: Body) -> tuple[sp.Matrix, sp.Matrix]
             carry = sp.eye(3)
             for a2, ang2 in turns[i + 1 :]:
                 carry = _turn(a2, ang2) * carry
-            w_world += carry * _AXES[axis] * time_derivative(angle, system)
+            w_world += carry * _AXES[axis] * rate(angle)
     else:
         # R = R_1 ... R_k: turn i's axis in the world is R_1 ... R_{i-1} e_i
         carry = sp.eye(3)
         for axis, angle in turns:
-            w_world += carry * _AXES[axis] * time_derivative(angle, system)
+            w_world += carry * _AXES[axis] * rate(angle)
             carry = carry * _turn(axis, angle)
     w_world = w_world.applyfunc(sp.expand)
     w_body = (R.T * w_world).applyfunc(lambda e: sp.trigsimp(sp.expand(e)))
