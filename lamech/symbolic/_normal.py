@@ -41,7 +41,7 @@ from math import lcm
 import sympy as sp
 from sympy.core.sorting import default_sort_key
 from sympy.polys.domains import QQ
-from sympy.polys.monomials import monomial_div
+from sympy.polys.monomials import monomial_div, monomial_mul
 from sympy.polys.rings import PolyElement, PolyRing
 
 from ._work import (
@@ -324,21 +324,25 @@ class _Space:
         for i, sq in rules:
             if not any(m[i] >= 2 for m in p):
                 continue
-            out = self.ring.zero
+            # the terms gathered in one dict, the polynomial made once: adding them one
+            # by one as polynomials copied the sum each time (quadratic in its terms)
+            acc: dict = {}
             powers = [one]
             for m, coeff in p.items():
                 k = m[i]
                 if k < 2:
-                    out += self.ring({m: coeff})
+                    acc[m] = acc[m] + coeff if m in acc else coeff
                     continue
                 while len(powers) <= k // 2:
                     powers.append(powers[-1] * sq)
                 m2 = list(m)
                 m2[i] = k % 2
-                term = self.ring({tuple(m2): coeff}) * powers[k // 2]
-                out += term
-                _charge(len(term))
-            p = out
+                power = powers[k // 2]
+                for mp, cp in power.items():
+                    key = monomial_mul(tuple(m2), mp)
+                    acc[key] = acc[key] + coeff * cp if key in acc else coeff * cp
+                _charge(len(power))
+            p = self.ring.from_dict({m: c for m, c in acc.items() if c})
             if len(p) > TERMS:
                 raise OverBudget(f"a polynomial of more than {TERMS} terms")
         return p
