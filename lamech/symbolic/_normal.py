@@ -651,7 +651,7 @@ def _normal(expr: sp.Expr, velocities: tuple, angles: tuple, pretty: bool = True
     best, best_ops = expr, count_ops(expr)
     shift_sets: list[dict] = [{}]
     used = [a for a in angles if any(a in f.free_symbols for f in expr.atoms(*_TRIG))]
-    if len(used) >= 2 and pretty:
+    if len(used) >= 2 and pretty and not _sums_only(expr):
         deltas = {}
         # theta_k = theta_1 + delta_k (delta_k printed back as theta_k - theta_1 ...)
         for k in range(1, len(used)):
@@ -665,6 +665,11 @@ def _normal(expr: sp.Expr, velocities: tuple, angles: tuple, pretty: bool = True
             shift[used[k]] = acc
         back = {d: diff for d, diff in deltas.values()}
         shift_sets.append({"to": shift, "back": back})
+    if pretty and _joins_symbols(expr):
+        # the base angles are the arguments themselves (q1, q1 + q2: few generators);
+        # written in one angle per symbol instead, a relative-angle chain's
+        # sin(q1) sin(q1 + q2) + cos(q1) cos(q1 + q2) is cos(q2)
+        shift_sets.append({"per_symbol": True})
     for shifts in shift_sets:
         try:
             with _one_call(CALL_WORK):
@@ -681,6 +686,25 @@ def _normal(expr: sp.Expr, velocities: tuple, angles: tuple, pretty: bool = True
     return best
 
 
+def _sums_only(expr: sp.Expr) -> bool:
+    """Every sine or cosine of two or more symbols in ``expr`` is of a sum (q1 + q2: a
+    chain in relative joint angles, where the differences of the angles mean nothing),
+    and there is one."""
+    args = [f.args[0] for f in expr.atoms(*_TRIG) if len(f.args[0].free_symbols) >= 2]
+    if not args:
+        return False
+    for a in args:
+        lin = _linear_angle(a)
+        if lin is None or len({c > 0 for c in lin[0].values()}) > 1:
+            return False
+    return True
+
+
+def _joins_symbols(expr: sp.Expr) -> bool:
+    """A sine or cosine in ``expr`` of an argument with two or more symbols."""
+    return any(len(f.args[0].free_symbols) >= 2 for f in expr.atoms(*_TRIG))
+
+
 def _best_of(expr: sp.Expr, shifts: dict, velocities: tuple, pretty: bool, best_ops: int):
     """(form, operations) of the shortest presentation of ``expr`` written with the
     angle ``shifts`` (none: as it is), when shorter than ``best_ops``; else None."""
@@ -688,7 +712,8 @@ def _best_of(expr: sp.Expr, shifts: dict, velocities: tuple, pretty: bool, best_
 
     to = shifts.get("to") if shifts else None
     e = expr.xreplace(to) if to else expr
-    space = _Space([e], per_symbol=bool(to))  # shifted: the first angle and differences
+    # shifted: the first angle and differences, each its own base angle
+    space = _Space([e], per_symbol=bool(to) or bool(shifts.get("per_symbol")))
     num, den = space.convert(e)
     if not num:
         return sp.Integer(0), 0

@@ -76,16 +76,19 @@ class _TooLarge(Exception):
     """The elimination's entries passed :data:`ELIMINATION_OPS`."""
 
 
-def tidy(expr: sp.Expr, velocities: tuple = (), angles: tuple = ()) -> sp.Expr:
+def tidy(
+    expr: sp.Expr, velocities: tuple = (), angles: tuple = (), upto: int = READABLE_OPS
+) -> sp.Expr:
     """The shortest readable form of ``expr`` (:func:`._normal.normal`: a normal form
     modulo sin^2 + cos^2 = 1, cancelled, factored where short; in chains also written in
     the differences of consecutive ``angles``), then a student's last touches
     (:func:`._student.student`). Bounded by counted work: past the solve's budget or
-    :data:`MAX_OPS`, ``expr`` as it is."""
+    :data:`MAX_OPS`, ``expr`` as it is; past ``upto`` operations too (a polynomial
+    normal form may go up to :data:`MAX_OPS`: its conversion is cheap)."""
     expr = sp.sympify(expr)
     if expr.is_Number or expr.is_Symbol:
         return expr
-    if count_ops(expr) > READABLE_OPS:
+    if count_ops(expr) > upto:
         return expr
     out = normal(expr, velocities=tuple(velocities), angles=tuple(angles))
     return student(_grouped(out, tuple(velocities)))
@@ -378,8 +381,13 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
             K = K.applyfunc(on_manifold.radicals_replaced)
             rhs = rhs.applyfunc(on_manifold.radicals_replaced)
         probe = _probe(system, red, K.free_symbols | rhs.free_symbols)
+        upto = READABLE_OPS
         try:
             sol = solve_linear(K, rhs, probe)  # in the polynomial ring: fast, exact
+            # normal forms already, written in the arguments' base angles (q1, q1 + q2):
+            # worth writing anew up to MAX_OPS (a relative-angle double pendulum's
+            # q1'' is 3,858 operations in q1, q1 + q2 and 80 in q1, q2)
+            upto = MAX_OPS
         except OverBudget:
             if len(unknowns) > CLOSED_FORM_LIMIT:
                 return ClosedForms(
@@ -404,7 +412,7 @@ def closed_forms(dyn: Dynamics, red: Reduction) -> ClosedForms:
             out[i] = projected[i]
             continue
         with labelled("multipliers" if i >= nacc else "reduced equations"):
-            out[i] = on_manifold(_tidy_angles(sol[i], angles))
+            out[i] = on_manifold(_tidy_angles(sol[i], angles, upto))
     return _closed(system, red, out, on_manifold)
 
 
@@ -550,10 +558,10 @@ def _has_radical(expr: sp.Expr) -> bool:
     return any(not p.exp.is_Integer for p in sp.sympify(expr).atoms(sp.Pow))
 
 
-def _tidy_angles(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
+def _tidy_angles(expr: sp.Expr, angles: list[sp.Symbol], upto: int = READABLE_OPS) -> sp.Expr:
     """:func:`tidy`, also trying the differences of consecutive ``angles`` (a chain's
     m1 + m2 sin^2(theta1 - theta2))."""
-    return tidy(expr, angles=tuple(angles))
+    return tidy(expr, angles=tuple(angles), upto=upto)
 
 
 def _probe(system: System, red: Reduction, symbols: set) -> dict:

@@ -494,22 +494,40 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
     ops = count_ops(equation)
     if ops > 4 * SIMPLIFY_OPS:
         return equation
+    syms = system.qdd + system.multipliers
+    angles = tuple(system.q)
     try:
-        new = sp.collect(sp.expand(equation), system.qdd + system.multipliers, func=_coefficient)
+        expanded = sp.expand(equation)
+        coefficient = functools.partial(_coefficient, angles=angles)
+        new = sp.collect(expanded, syms, func=coefficient)
+        # the rest (gravity, the velocities' terms) is tidied whole; grouped by its
+        # products of velocities, each group's coefficient tidied on its own, it may read
+        # shorter (a relative-angle chain: g sin(q1 + q2) beside -sin(q2) q1' q2', where
+        # tidied whole the gravity term is written in q1 and q2 too)
+        kept = [a for a in sp.Add.make_args(new) if a.has(*syms)]
+        rest = sp.Add(*[a for a in sp.Add.make_args(new) if not a.has(*syms)])
+        groups: dict = {}
+        for term in sp.Add.make_args(expanded):
+            if not term.has(*syms):
+                c, v = term.as_independent(*system.qd, as_Add=False)
+                groups[v] = groups.get(v, sp.Integer(0)) + c
+        grouped = sp.factor_terms(sp.Add(*[coefficient(c) * v for v, c in groups.items()]))
+        if count_ops(grouped) < count_ops(rest):
+            new = sp.Add(*kept) + grouped
     except (TypeError, ValueError, RecursionError, NotImplementedError):
         return equation
     return new if count_ops(new) <= 0.75 * ops else equation
 
 
 @functools.lru_cache(maxsize=1024)
-def _coefficient(c: sp.Expr) -> sp.Expr:
+def _coefficient(c: sp.Expr, angles: tuple = ()) -> sp.Expr:
     """A coefficient of :func:`readable`, trig-simplified with common factors pulled out;
     remembered, since the equations share theirs (M is symmetric, and sin(theta) alone
     is the coefficient of many terms: 7 ms of ``trigsimp`` each time), and left alone
     when it is a symbol or a function of one (``trigsimp`` gives it back)."""
     if c.is_Atom or (c.is_Function and all(a.is_Atom for a in c.args)):
         return c
-    return sp.factor_terms(normal(c))
+    return sp.factor_terms(normal(c, angles=angles))
 
 
 def _verdicts(
