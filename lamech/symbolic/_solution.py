@@ -37,6 +37,7 @@ from ._reduce import (
     Reduction,
     closed_forms,
     eliminate,
+    spatial_angles,
 )
 from ._selfcheck import ClosedFormError, check_forms, manifold_states, printed_forms
 from ._work import interrupted, labelled, work_budget
@@ -495,7 +496,8 @@ def readable(equation: sp.Expr, system: System) -> sp.Expr:
     if ops > 4 * SIMPLIFY_OPS:
         return equation
     syms = system.qdd + system.multipliers
-    angles = tuple(system.q)
+    spatial = spatial_angles(system)
+    angles = tuple(q for q in system.q if q not in spatial)
     try:
         expanded = sp.expand(equation)
         coefficient = functools.partial(_coefficient, angles=angles)
