@@ -231,3 +231,47 @@ def test_the_bundled_double_pendulum_in_its_chart_has_the_textbook_frequencies()
     squares = sorted(m.frequency**2 for m in down.modes)
     g = p["g"]
     assert squares == pytest.approx([(2 - math.sqrt(2)) * g, (2 + math.sqrt(2)) * g], rel=1e-12)
+
+
+PROBLEMS = __import__("pathlib").Path(__file__).parent / "problems"
+
+
+@pytest.mark.slow  # 5 s
+def test_a_cone_has_no_continuum_of_equilibria():
+    """A particle on the cone z^2 = tan(be)^2 (x^2 + y^2): at rest anywhere but the apex
+    gravity has a component along the surface (the KKT solve gives q'' != 0), and the apex
+    is a singular point of the constraint (grad f = 0). The equations at rest have only
+    complex families (x = +-i y) besides it: never "a continuum of equilibria"."""
+    system = lamech.load(PROBLEMS / "cone_xyz.toml")
+    p = _values(system)
+    md = lamech.modes(system)
+    assert "continuum" not in (md.reason or "") and not md.free
+    # at most the apex, where the KKT matrix is singular (grad f = 0): not linearised
+    for e in md.equilibria:
+        assert max(abs(v) for v in e.values.values()) < 1e-12 and e.stability is None
+    # the independent truth: at rest at a random point of either nappe, q'' != 0
+    rng = np.random.default_rng(7)
+    for _ in range(4):
+        r, ang, side = rng.uniform(0.1, 2), rng.uniform(-3, 3), rng.choice([-1, 1])
+        pt = {"x": r * math.cos(ang), "y": r * math.sin(ang), "z": side * r * math.tan(p["be"])}
+        assert np.abs(kkt_at_rest(system, pt)).max() > 1e-3 * p["g"]
+
+
+@pytest.mark.slow  # 4 s
+def test_a_cart_with_a_pendulum_in_the_bobs_coordinates_gives_its_frequency():
+    """The cart (mass Mc) rolls freely, so it rests anywhere: a continuum of equilibria
+    along s (with xb = s), the zero mode of its drift. At the initial s the hanging
+    pendulum oscillates with the textbook omega^2 = g (Mc + m)/(Mc l), the upright one
+    grows at the same rate, and every equilibrium given rests by the KKT solve."""
+    system = lamech.load(PROBLEMS / "cart_pendulum_xy.toml")
+    p = _values(system)
+    md = lamech.modes(system)
+    assert md.free and "rests as well" in md.free
+    assert_every_equilibrium_rests(md, p["g"])
+    w2 = p["g"] * (p["Mc"] + p["m"]) / (p["Mc"] * p["l"])
+    down = [e for e in md.equilibria if e.exists and e.values["yb"] == pytest.approx(-p["l"])]
+    up = [e for e in md.equilibria if e.exists and e.values["yb"] == pytest.approx(p["l"])]
+    assert len(down) == 1 and len(up) == 1
+    assert down[0].stability == "marginal"  # the cart's free drift: a zero mode
+    assert [m.frequency**2 for m in down[0].modes if m.frequency] == [pytest.approx(w2, rel=1e-10)]
+    assert [m.growth**2 for m in up[0].modes if m.growth] == [pytest.approx(w2, rel=1e-10)]
