@@ -275,3 +275,32 @@ def test_a_cart_with_a_pendulum_in_the_bobs_coordinates_gives_its_frequency():
     assert down[0].stability == "marginal"  # the cart's free drift: a zero mode
     assert [m.frequency**2 for m in down[0].modes if m.frequency] == [pytest.approx(w2, rel=1e-10)]
     assert [m.growth**2 for m in up[0].modes if m.growth] == [pytest.approx(w2, rel=1e-10)]
+
+
+@pytest.mark.slow  # 15 s: the rod in a bowl's modes
+def test_an_equilibrium_found_numerically_prints_as_the_exact_number_it_is(capsys):
+    """The rod (length 2b) in the bowl (radius Rb) rests horizontal at the bottom, its
+    centre at yc = -sqrt(Rb^2 - b^2) (= -3 sqrt(21)/20 for b = 0.3, Rb = 0.75), found
+    numerically: printed exactly as above the rim's +3 sqrt(21)/20 is, never as the
+    17 digits -0.68738635424335826; with omega^2 = g d/(d^2 + b^2/3), d = sqrt(Rb^2 - b^2)."""
+    path = PROBLEMS / "rod_in_small_bowl.toml"
+    system = lamech.load(path)
+    p = _values(system)
+    md = lamech.modes(system)
+    d = math.sqrt(p["Rb"] ** 2 - p["b"] ** 2)
+    bottom = [e for e in md.equilibria if e.exists and e.values["yc"] == pytest.approx(-d)]
+    assert bottom
+    for e in bottom:
+        assert (
+            sp.simplify(
+                sp.sympify(e.at["yc"]) + sp.sqrt(sp.Rational(3, 4) ** 2 - sp.Rational(3, 10) ** 2)
+            )
+            == 0
+        )
+        assert e.stability == "stable"
+        (mode,) = e.modes
+        assert mode.frequency**2 == pytest.approx(p["g"] * d / (d**2 + p["b"] ** 2 / 3), rel=1e-9)
+    assert_every_equilibrium_rests(md, p["g"])
+    assert main(["modes", str(path)]) == 0
+    heads = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("Equilibrium")]
+    assert heads and not any(re.search(r"\d{13}", ln) for ln in heads), heads

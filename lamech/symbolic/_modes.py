@@ -413,7 +413,7 @@ def _snapped(v: float) -> sp.Expr:
         simple = None
     if (
         simple is not None
-        and sp.count_ops(simple) <= 4
+        and sp.count_ops(-simple if v < 0 else simple) <= 4  # -3*sqrt(21)/20 as +: a sign
         and abs(float(simple) - v) <= 1e-10 * (1 + abs(v))
     ):
         return simple
