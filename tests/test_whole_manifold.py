@@ -272,3 +272,48 @@ def test_a_charts_start_is_kept_exact():
     assert psi.initial == sp.Rational(1, 2)
     shell = " ".join(str(e) for e in sol.on_energy_shell.values())
     assert "cos(1/2)" in shell and "00000" not in shell
+
+
+def _divide_notes(sol) -> list[str]:
+    return [n for n in sol.notes if " by " in n and "divide" in n]
+
+
+def _kkt_condition(system, values: dict) -> float:
+    """The condition number of the KKT matrix [[M, -A^T], [A, 0]] at rest at ``values``
+    (every coordinate), from the derived matrices evaluated by SymPy."""
+    dyn = dynamics(system)
+    env = {**system.parameter_values, system.t: 0}
+    env.update({c.symbol: values[c.name] for c in system.coordinates})
+    M = np.array(dyn.M.xreplace(env).evalf(), dtype=float)
+    A = np.array(dyn.A.xreplace(env).evalf(), dtype=float)
+    m = A.shape[0]
+    return float(np.linalg.cond(np.block([[M, -A.T], [A, np.zeros((m, m))]])))
+
+
+def test_a_form_that_divides_by_what_vanishes_on_the_constraints_says_where():
+    """The cycloid X = c (phi - sin(phi)), Z = c (1 + cos(phi)): phi'' divides by
+    cos(phi) - 1, 0 at the cusp phi = 0, where X' = Z' = 0 for any phi' and the KKT matrix
+    is singular (checked here); the note names the form and the point."""
+    sol = _solved("cycloid_bowl.toml")
+    notes = _divide_notes(sol)
+    assert any("phi''" in n and "cos(phi)" in n and "phi = 0" in n for n in notes), sol.notes
+    c = sol.system.parameter_values[_sym(sol, "c")]
+    assert _kkt_condition(sol.system, {"X": 0.0, "Z": 2 * c, "phi": 0.0}) > 1e13
+
+
+@pytest.mark.slow  # 3 s
+def test_the_cones_multiplier_says_it_fails_at_the_apex():
+    """z^2 = tan(be)^2 (x^2 + y^2): the multiplier's denominator sin(be)^4 (x^2 + y^2) +
+    cos(be)^4 z^2 is 0 on the constraint only at the apex, where grad f = 0 and the KKT
+    matrix is singular (checked here)."""
+    sol = _solved("cone_xyz.toml")
+    notes = _divide_notes(sol)
+    assert any("lambda_cone" in n and "x = 0, y = 0, z = 0" in n for n in notes), sol.notes
+    assert _kkt_condition(sol.system, {"x": 0.0, "y": 0.0, "z": 0.0}) > 1e13
+
+
+@pytest.mark.parametrize("name", ["ellipse_yup.toml", "paraboloid_k.toml"])
+def test_a_denominator_that_keeps_its_sign_on_the_constraints_gets_no_note(name):
+    """The ellipse's A^4 h^2 + B^4 u^2 (> 0 where u^2/A^2 + h^2/B^2 = 1) and the
+    paraboloid's 4 k^2 (q1^2 + q2^2) + 1 never vanish: no word about dividing."""
+    assert _divide_notes(_solved(name)) == []

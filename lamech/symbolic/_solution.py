@@ -38,6 +38,7 @@ from ._reduce import (
     eliminate,
 )
 from ._selfcheck import ClosedFormError, check_forms, manifold_states, printed_forms
+from ._singular import singular_notes
 from ._work import interrupted, labelled, work_budget
 
 __all__ = ["Solution", "solve"]
@@ -413,40 +414,6 @@ def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> list[str]:
         f"{at}, for one): the results hold only where it does; an angle covers a whole "
         "circle"
     ]
-
-
-def singular_notes(system: System, red: Reduction, forms: ClosedForms) -> list[str]:
-    """Where a printed form divides by what vanishes: a sine or cosine of one coordinate
-    in a denominator (the spherical pendulum's phi'' = -2 theta' phi' cot(theta) at
-    theta = 0), one note per such factor naming the results; the coordinates are
-    singular there, the motion need not be (it goes through in the file's other
-    coordinates, which lamech simulate integrates)."""
-    angles = set(system.q) | {c.symbol for c in system.chart_coordinates}
-    named: dict = {}
-    printed = [(f"lambda_{k}", v) for k, v in forms.readable_multipliers.items()]
-    printed += [
-        (f"{c.name}''", forms.accelerations[c.acceleration])
-        for c in red.independent
-        if c.acceleration in forms.accelerations and not forms.is_long(c.acceleration)
-    ]
-    for label, expr in printed:
-        e = sp.sympify(expr).rewrite(sp.sin) if expr.has(sp.cot, sp.tan, sp.sec, sp.csc) else expr
-        try:
-            den = sp.denom(sp.together(e))
-            _, factors = sp.factor_list(den)
-        except (sp.PolynomialError, TypeError, ValueError):
-            continue
-        for f, _ in factors:
-            if isinstance(f, (sp.sin, sp.cos)) and f.args[0] in angles:
-                named.setdefault(f, []).append(label)
-    notes = []
-    for f, labels in named.items():
-        notes.append(
-            f"{', '.join(dict.fromkeys(labels))} divide{'s' if len(labels) == 1 else ''} by "
-            f"{to_text(f)}: {'it holds' if len(labels) == 1 else 'they hold'} where "
-            f"{to_text(f)} != 0 (these coordinates are singular where it is 0)"
-        )
-    return notes
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:
