@@ -17,6 +17,8 @@ from lamech.problem import chain_toml
 from lamech.symbolic import dynamics, eliminate
 from lamech.symbolic._reduce import closed_forms
 
+PROBLEMS = __import__("pathlib").Path(__file__).parent / "problems"
+
 CARTESIAN = """
 title = "Double pendulum, Cartesian"
 [parameters]
@@ -305,3 +307,18 @@ def test_the_bundled_double_pendulum_has_the_textbook_equation_of_motion():
         assert float((-2 * l1 * sol.multipliers["rod1"]).xreplace(env)) == pytest.approx(
             float(T1.xreplace(env))
         )
+
+
+def test_a_circles_start_on_its_far_side_is_read_as_the_angle_it_is():
+    """The trammel with y measured down starts at X = d sin(2/5), Y = d cos(2/5); in the
+    circle's angle (X = d sin(theta), Y = -d cos(theta)) that is theta0 = pi - 2/5, and the
+    shell reads cos(2/5) (it printed thetarod = pi - atan(sin(2/5)/cos(2/5)))."""
+    sol = lamech.solve(lamech.load(PROBLEMS / "trammel_ydown.toml"))
+    (theta,) = sol.system.chart_coordinates
+    d = sol.system.parameter_values[sol.symbols["d"]]
+    X0, Y0 = d * math.sin(0.4), d * math.cos(0.4)  # the file's start
+    th0 = float(theta.initial)
+    assert (d * math.sin(th0), -d * math.cos(th0)) == pytest.approx((X0, Y0), abs=1e-12)
+    assert sp.simplify(theta.initial - (sp.pi - sp.Rational(2, 5))) == 0
+    assert not theta.initial.has(sp.atan, sp.atan2)
+    assert "atan" not in str(sol)

@@ -343,7 +343,19 @@ def _exact_candidates(chart, init: dict, u: sp.Symbol, S: sp.Symbol, C: sp.Symbo
         return
     if len(sol) == 1 and S in sol[0] and C in sol[0]:
         s0, c0 = (sp.simplify(sol[0][k]) for k in (S, C))
+        yield from _angle_of(s0, c0)
         yield sp.atan2(s0, c0)
+
+
+def _angle_of(s0: sp.Expr, c0: sp.Expr):
+    """Angles a whose sine is s0 and cosine c0 exactly, read off the sines and cosines
+    in them (sin(2/5), -cos(2/5): pi - 2/5, where atan2 gives pi - atan(sin(2/5)/cos(2/5)));
+    the caller keeps the one equal to the numeric start."""
+    args = {f.args[0] for f in (s0 + c0).atoms(sp.sin, sp.cos)}
+    for a in sorted(args, key=sp.default_sort_key):
+        for u in (a, -a, sp.pi - a, a - sp.pi, a + sp.pi / 2, a - sp.pi / 2, sp.pi / 2 - a):
+            if sp.expand(sp.sin(u) - s0) == 0 and sp.expand(sp.cos(u) - c0) == 0:
+                yield u
 
 
 def _equals(exact: sp.Expr, value: float, pv: dict) -> bool:
