@@ -272,3 +272,44 @@ def test_params_sweep_and_with_values_know_the_same_names():
             attempt()
         said.append(str(info.value).partition("unknown parameter")[2])
     assert said[0] == said[1] == said[2] == " `R3`; known: m, g, R1, R2, mu:rolling, mu"
+
+
+_PROBLEMS = Path(__file__).parent / "problems"
+
+
+def _leaves_the_sphere_at(R: float, g: float, theta0: float) -> float:
+    """When a particle released at rest at theta0 from the top of a smooth sphere reaches
+    cos(theta) = 2 cos(theta0)/3 (where the normal force m g (3 cos(theta) - 2
+    cos(theta0)) is 0), from theta'' = g sin(theta)/R integrated by SciPy: independent
+    of lamech."""
+    from scipy.integrate import solve_ivp
+
+    def at(t, y):
+        return math.cos(y[0]) - 2 * math.cos(theta0) / 3
+
+    at.terminal = True
+    run = solve_ivp(lambda t, y: [y[1], g / R * math.sin(y[0])], (0, 10), [theta0, 0.0],
+                    events=at, rtol=1e-12, atol=1e-12)  # fmt: skip
+    return float(run.t_events[0][0])
+
+
+def test_a_bilateral_sphere_in_x_y_z_says_when_its_multiplier_changes_sign(capsys):
+    """On the sphere X^2 + Y^2 + Z^2 = Rs^2 (z up, unilateral = true forgotten), released
+    at rest near the top: two degrees of freedom, so solve has no energy shell to say it
+    from; simulate sees lambda change sign along the motion and says when, and where a
+    contact would let go. The time is the textbook's, cos(theta) = 2 cos(theta0)/3."""
+    path = _PROBLEMS / "sphere_outside.toml"
+    system = lamech.load(path)
+    p = {s.name: s.numeric for s in system.parameters}
+    truth = _leaves_the_sphere_at(p["Rs"], p["G"], p["a0"])
+    traj = lamech.simulate(system, 1.2)
+    [note] = [n for n in traj.notes if "changes sign" in n]
+    assert "`surface` is bilateral" in note and "unilateral = true" in note
+    found = re.search(r"at t = ([-+0-9.e]+)", note)
+    assert found, note
+    assert float(found.group(1)) == pytest.approx(truth, abs=1e-6)
+    assert main(["simulate", str(path), "--t-end", "1.2"]) == 0
+    assert "changes sign" in capsys.readouterr().out
+    # a multiplier that keeps its sign (the hanging spherical pendulum) is not remarked on
+    hanging = lamech.simulate(lamech.load(_PROBLEMS / "sphere_cartesian.toml"), 1.2)
+    assert [n for n in hanging.notes if "changes sign" in n] == []
