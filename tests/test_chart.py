@@ -322,3 +322,17 @@ def test_a_circles_start_on_its_far_side_is_read_as_the_angle_it_is():
     assert sp.simplify(theta.initial - (sp.pi - sp.Rational(2, 5))) == 0
     assert not theta.initial.has(sp.atan, sp.atan2)
     assert "atan" not in str(sol)
+
+
+def test_a_circles_start_at_minus_pi_is_kept_exact():
+    """The string pendulum with y down starts at the bottom, x = 0, y = L: in the circle's
+    angle (x = L sin(theta), y = -L cos(theta)) theta0 = +-pi, read exactly as the numeric
+    start's side of the turn (it printed -3.1415926535897931), and the shell and the
+    lift-off carry no 17-digit number."""
+    sol = lamech.solve(lamech.load(PROBLEMS / "string_pendulum_ydown.toml"))
+    (theta,) = sol.system.chart_coordinates
+    L = sol.system.parameter_values[sol.symbols["L"]]
+    th0 = float(theta.initial)
+    assert (L * math.sin(th0), -L * math.cos(th0)) == pytest.approx((0.0, L), abs=1e-12)
+    assert theta.initial in (sp.pi, -sp.pi)
+    assert not any(len(d) >= 13 for d in __import__("re").findall(r"\d+", str(sol))), str(sol)

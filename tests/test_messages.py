@@ -313,3 +313,30 @@ def test_a_bilateral_sphere_in_x_y_z_says_when_its_multiplier_changes_sign(capsy
     # a multiplier that keeps its sign (the hanging spherical pendulum) is not remarked on
     hanging = lamech.simulate(lamech.load(_PROBLEMS / "sphere_cartesian.toml"), 1.2)
     assert [n for n in hanging.notes if "changes sign" in n] == []
+
+
+def test_a_parametric_curve_written_as_constraints_gets_no_let_go_note():
+    """A bead on a helix written x - Rh cos(s), y - Rh sin(s), z - p s: the first two
+    define x and y along the wire; their multipliers are the wire's force components,
+    which change sign as the bead turns (by the KKT solve at two points of the motion,
+    here), but no string or contact is there to let go: no note (it said "(it is -0 at
+    the start) ... a string or a one-sided contact would let go there")."""
+    from lamech.symbolic import dynamics
+    from lamech.symbolic._derive import kkt_numeric
+
+    path = _PROBLEMS / "helix_bead.toml"
+    sol = lamech.solve(lamech.load(path))
+    dyn = dynamics(sol.system)
+    pv = sol.system.parameter_values
+    P = {s.name: s.numeric for s in sol.system.parameters}
+    signs = set()
+    for s in (0.5, 4.0):  # at rest at two points of the wire
+        env = {**pv, sol.system.t: 0.0}
+        vals = (P["Rh"] * math.cos(s), P["Rh"] * math.sin(s), P["p"] * s, s)
+        env.update(zip(sol.system.q, vals))
+        env.update({v: 0.0 for v in sol.system.qd})
+        _, lam = kkt_numeric(dyn, env)
+        signs.add(math.copysign(1, float(lam[0])))
+    assert signs == {-1.0, 1.0}  # lambda_cx does change sign
+    assert [n for n in sol.notes if "changes sign" in n] == []
+    assert "-0 " not in str(sol)

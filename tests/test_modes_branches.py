@@ -304,3 +304,16 @@ def test_an_equilibrium_found_numerically_prints_as_the_exact_number_it_is(capsy
     assert main(["modes", str(path)]) == 0
     heads = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("Equilibrium")]
     assert heads and not any(re.search(r"\d{13}", ln) for ln in heads), heads
+
+
+def test_a_bead_on_a_helix_has_no_equilibrium_and_no_free_direction_claimed():
+    """Down a helix x = Rh cos(s), y = Rh sin(s), z = p s the bead accelerates at rest
+    with z'' = -g p^2/(Rh^2 + p^2) (the KKT solve, here): no equilibrium anywhere, so
+    not "every value of z rests as well"."""
+    system = lamech.load(PROBLEMS / "helix_bead.toml")
+    p = _values(system)
+    qdd = kkt_at_rest(system, {"x": p["Rh"], "y": 0.0, "z": 0.0, "s": 0.0})
+    assert qdd[2] == pytest.approx(-p["g"] * p["p"] ** 2 / (p["Rh"] ** 2 + p["p"] ** 2))
+    md = lamech.modes(system)
+    assert md.equilibria == () and not md.free
+    assert "rests as well" not in str(md)

@@ -24,6 +24,7 @@ c free of them: r = c + R (sin theta, -cos theta), the angle from the downward v
 from __future__ import annotations
 
 import dataclasses
+import math
 import random
 from dataclasses import dataclass
 
@@ -287,8 +288,16 @@ def exact_start(system, found: dict) -> dict:
     S, C = sp.Dummy("S"), sp.Dummy("C")
     for coord in chart.coordinates:
         u = coord.symbol
+        periodic = _periodic([e for _, e in chart.map], u)
         u0 = next(
-            (c for c in _exact_candidates(chart, init, u, S, C) if _equals(c, found[u], pv)),
+            (
+                c
+                for c in (
+                    _turned(c, found[u], pv) if periodic else c
+                    for c in _exact_candidates(chart, init, u, S, C)
+                )
+                if _equals(c, found[u], pv)
+            ),
             None,
         )
         if u0 is None:
@@ -356,6 +365,16 @@ def _angle_of(s0: sp.Expr, c0: sp.Expr):
         for u in (a, -a, sp.pi - a, a - sp.pi, a + sp.pi / 2, a - sp.pi / 2, sp.pi / 2 - a):
             if sp.expand(sp.sin(u) - s0) == 0 and sp.expand(sp.cos(u) - c0) == 0:
                 yield u
+
+
+def _turned(exact: sp.Expr, value: float, pv: dict) -> sp.Expr:
+    """``exact`` turned by whole turns to the side of ``value`` (pi for a start found as
+    -pi: the same point of a circle), for an angle the map takes through sin and cos only."""
+    try:
+        k = round((value - float(exact.subs(pv))) / (2 * math.pi))
+    except (TypeError, ValueError):
+        return exact
+    return exact + 2 * k * sp.pi if k else exact
 
 
 def _equals(exact: sp.Expr, value: float, pv: dict) -> bool:

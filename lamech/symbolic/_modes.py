@@ -127,7 +127,7 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
             [e.xreplace(fixed) for e in eqs], [x for x in u if x not in fixed], system
         )
         points = [({x: {**p, **fixed}[x] for x in u}, cond) for p, cond in points]
-        if free:
+        if free and points:  # (none: a force acts at rest, though not through them)
             shown = ", ".join(f"{x} = {to_text(v)}" for x, v in fixed.items())
             free_note = (
                 f"every value of {', '.join(map(str, free))} rests as well "
