@@ -317,3 +317,24 @@ def test_a_denominator_that_keeps_its_sign_on_the_constraints_gets_no_note(name)
     """The ellipse's A^4 h^2 + B^4 u^2 (> 0 where u^2/A^2 + h^2/B^2 = 1) and the
     paraboloid's 4 k^2 (q1^2 + q2^2) + 1 never vanish: no word about dividing."""
     assert _divide_notes(_solved(name)) == []
+
+
+@pytest.mark.slow  # every example and test problem solved and simulated: minutes
+@pytest.mark.parametrize("name", EXAMPLES + TEST_PROBLEMS)
+def test_every_printed_multiplier_agrees_with_the_simulation_of_its_start(name, solved_example):
+    """The report's check along the motion (issue 43: "a test runs it over every bundled
+    example and every test problem"): the printed multipliers evaluated along 2 s of the
+    simulated motion against the integrator's own (no closed form enters the
+    integration), up to the first event; nothing fires falsely."""
+    sol = _solved(name) if name.endswith(".toml") else solved_example(name)
+    if sol.closed.skipped or not sol.system.constraints:
+        pytest.skip(f"{name}: no closed forms ({sol.closed.skipped})")
+    try:
+        traj = lamech.simulate(sol.system, 2.0)
+    except lamech.SimulationError as exc:
+        pytest.skip(f"{name}: no simulation ({exc})")
+    if traj.status != "ok" and len(traj.t) < 3:
+        pytest.skip(f"{name}: the run stopped at once ({traj.message})")
+    until = traj.events[0].t if traj.events else None
+    bad = check_along(sol, traj.t, traj.q, traj.qd, traj.lambdas, until=until)
+    assert bad == [], "\n".join(str(d) for d in bad)
