@@ -185,7 +185,8 @@ def _in_a_steady_frame(sol: Solution, names: tuple[str, ...], at) -> Modes:
         (),
         "the reduced equations depend on t explicitly, so nothing rests in these "
         "coordinates, and no chart in the angles of the constraints' circles and spheres "
-        "that satisfies every constraint identically takes t out. For steady motions "
+        "(or along a line turning with t) that satisfies every constraint identically "
+        "takes t out. For steady motions "
         "(relative equilibria), give a [parametrisation] in coordinates in which the "
         "problem does not depend on t (a turning frame's angle), or follow the motion "
         "with `lamech simulate`",
