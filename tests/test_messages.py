@@ -340,3 +340,27 @@ def test_a_parametric_curve_written_as_constraints_gets_no_let_go_note():
     assert signs == {-1.0, 1.0}  # lambda_cx does change sign
     assert [n for n in sol.notes if "changes sign" in n] == []
     assert "-0 " not in str(sol)
+
+
+def test_a_start_condition_no_positive_parameters_meet_is_not_offered():
+    """Gravity written with the wrong sign: the floor's multiplier at the start is -g m,
+    negative for every positive g and m (the KKT solve at the start, here, gives -g m
+    too), so "stays on at the start while -g*m >= 0" offers a condition nothing meets:
+    it is not printed; the verdict stays "at the start"."""
+    from lamech.symbolic import dynamics
+    from lamech.symbolic._derive import kkt_numeric
+
+    system = lamech.loads(FLOOR.replace("VALUE", "-m*g*y"))
+    env = {**system.parameter_values, system.t: 0.0}
+    env.update({c.symbol: 0.0 for c in system.coordinates})
+    env.update({c.velocity: 0.0 for c in system.coordinates})
+    _, lam = kkt_numeric(dynamics(system), env)
+    assert float(lam[0]) == pytest.approx(-2.0 * 9.81)
+    sol = lamech.solve(system)
+    verdict = sol.lets_go["floor"]
+    assert verdict.when == "at the start" and verdict.condition is None
+    assert "stays on at the start while" not in str(sol)
+    # the right sign: the floor never lets go
+    assert (
+        lamech.solve(lamech.loads(FLOOR.replace("VALUE", "m*g*y"))).lets_go["floor"].when == "never"
+    )

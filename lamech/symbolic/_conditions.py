@@ -538,6 +538,8 @@ def lets_go_verdict(
     scale = 1e-12 * (1 + max((abs(v) for v in system.parameter_values.values()), default=1))
     constant = not (sp.sympify(multiplier).free_symbols & _state_symbols(system))
     cond = _at_least_zero(lam0) if _depends_on_parameters(lam0, system) else None
+    if cond and sp.sympify(lam0).is_negative:
+        cond = None  # -g*m >= 0: no positive parameters meet it (said as such elsewhere)
     if value is not None and value < -scale:
         at_rest = all(
             sp.sympify(c.initial_velocity).xreplace(system.parameter_values) == 0
