@@ -364,3 +364,34 @@ def test_a_start_condition_no_positive_parameters_meet_is_not_offered():
     assert (
         lamech.solve(lamech.loads(FLOOR.replace("VALUE", "m*g*y"))).lets_go["floor"].when == "never"
     )
+
+
+def test_a_start_velocity_into_the_second_contact_points_at_its_line():
+    """Two balls on a floor, the first rising off it (allowed: it opens), the second
+    moving into it: the error names `floor2` and shows floor2's line, not floor1's (the
+    index was counted among the contacts still closed)."""
+    text = """title = "Two balls"
+[parameters]
+m = 1.0
+g = 9.81
+[coordinates]
+y1 = { initial = 0, velocity = 1 }
+y2 = { initial = 0, velocity = -1 }
+[lagrangian]
+T = "m/2*(y1'^2 + y2'^2)"
+V = "m*g*(y1 + y2)"
+[[constraints]]
+name = "floor1"
+f = "y1"
+unilateral = true
+[[constraints]]
+name = "floor2"
+f = "y2"
+unilateral = true
+"""
+    with pytest.raises(lamech.ProblemFileError) as info:
+        lamech.loads(text, "two.toml")
+    message = str(info.value)
+    assert "`floor2`" in message and "df/dt = -1" in message
+    assert "two.toml:17: constraints[2] `floor2`" in message, message
+    assert 'f = "y2"' in message
