@@ -317,3 +317,24 @@ def test_a_bead_on_a_helix_has_no_equilibrium_and_no_free_direction_claimed():
     md = lamech.modes(system)
     assert md.equilibria == () and not md.free
     assert "rests as well" not in str(md)
+
+
+def test_a_sphere_in_its_angles_rests_at_its_poles_with_the_azimuth_free():
+    """The particle on the sphere X^2 + Y^2 + Z^2 = Rs^2 in the sphere's angles (as
+    --angles gives it): the azimuth phi is free (no force along it at rest) and is an
+    angle of the chart, not of the file (it stopped with StopIteration looking for its
+    initial value among the file's coordinates); bottom stable, omega^2 = G/Rs; the top
+    unstable; both at rest by the KKT solve."""
+    from lamech.model import circle_chart, with_chart
+
+    system = lamech.load(PROBLEMS / "sphere_outside.toml")
+    charted = with_chart(system, circle_chart(system))
+    p = _values(system)
+    md = lamech.modes(charted)
+    assert md.free and "phisurface" in md.free
+    assert_every_equilibrium_rests(md, p["G"])
+    by_z = {round(e.values["Z"], 9): e for e in md.equilibria if e.exists}
+    assert set(by_z) == {-p["Rs"], p["Rs"]}
+    assert by_z[-p["Rs"]].stability != "unstable" and by_z[p["Rs"]].stability == "unstable"
+    w2 = [m.frequency**2 for m in by_z[-p["Rs"]].modes if m.frequency]
+    assert w2 and all(x == pytest.approx(p["G"] / p["Rs"], rel=1e-10) for x in w2)

@@ -119,10 +119,7 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         # a coordinate no equation holds (the spherical pendulum's azimuth) is free:
         # every value rests; the rest are solved for with it at its initial value
         free = [x for x in u if eqs and not any(e.has(x) for e in eqs)]
-        fixed = {
-            x: sp.nsimplify(next(c.initial for c in system.coordinates if c.symbol == x))
-            for x in free
-        }
+        fixed = {x: _initial_of(system, x) for x in free}
         points, reason, free_note = _solve(
             [e.xreplace(fixed) for e in eqs], [x for x in u if x not in fixed], system
         )
@@ -298,9 +295,7 @@ def _on_the_continuum(sol: dict, u, system: System) -> tuple[dict | None, list[s
     ones' initial values; None when it is not real there (the cone's x = +-I*y, whose
     only real point is the apex): a complex family is no continuum of equilibria."""
     free = [x for x in u if x not in sol]
-    fixed = {
-        x: sp.nsimplify(next(c.initial for c in system.coordinates if c.symbol == x)) for x in free
-    }
+    fixed = {x: _initial_of(system, x) for x in free}
     point = {x: sp.sympify(sol[x]).xreplace(fixed) if x in sol else fixed[x] for x in u}
     # real at the start's values and at others nearby (x = I*y is real at y = 0 only)
     moved = {x: v + sp.Rational(3, 7) * (1 + i) for i, (x, v) in enumerate(fixed.items())}
@@ -401,6 +396,14 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
         "give a point with `at=`"
     )
     return points, reason
+
+
+def _initial_of(system: System, x: sp.Symbol) -> sp.Expr:
+    """The initial value of coordinate ``x``, a file's or a chart's (the sphere's
+    azimuth), exact where it is given so."""
+    return sp.nsimplify(
+        next(c.initial for c in system.coordinates + system.chart_coordinates if c.symbol == x)
+    )
 
 
 def _snapped(v: float) -> sp.Expr:
@@ -572,6 +575,16 @@ def _equilibrium(
             continue
     lam, holds = _holding(system, lam, notes)
     stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
+    if stability is None and rest is not None and verdict is not None and verdict.ok:
+        if not verdict.singular and not speeds and resting:
+            # a chart's pole (the sphere's angles at its top): the file's coordinates are
+            # regular there, so linearise in them
+            q = np.array([values[c.name] for c in sol.system.coordinates])
+            why = (
+                "these coordinates are singular here: linearised in the file's "
+                "coordinates, every constraint kept"
+            )
+            return full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
     check = None
     if (
         resting and not speeds
