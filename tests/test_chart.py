@@ -17,6 +17,8 @@ from lamech.problem import chain_toml
 from lamech.symbolic import dynamics, eliminate
 from lamech.symbolic._reduce import closed_forms
 
+PROBLEMS = __import__("pathlib").Path(__file__).parent / "problems"
+
 CARTESIAN = """
 title = "Double pendulum, Cartesian"
 [parameters]
@@ -305,3 +307,68 @@ def test_the_bundled_double_pendulum_has_the_textbook_equation_of_motion():
         assert float((-2 * l1 * sol.multipliers["rod1"]).xreplace(env)) == pytest.approx(
             float(T1.xreplace(env))
         )
+
+
+def test_a_circles_start_on_its_far_side_is_read_as_the_angle_it_is():
+    """The trammel with y measured down starts at X = d sin(2/5), Y = d cos(2/5); in the
+    circle's angle (X = d sin(theta), Y = -d cos(theta)) that is theta0 = pi - 2/5, and the
+    shell reads cos(2/5) (it printed thetarod = pi - atan(sin(2/5)/cos(2/5)))."""
+    sol = lamech.solve(lamech.load(PROBLEMS / "trammel_ydown.toml"))
+    (theta,) = sol.system.chart_coordinates
+    d = sol.system.parameter_values[sol.symbols["d"]]
+    X0, Y0 = d * math.sin(0.4), d * math.cos(0.4)  # the file's start
+    th0 = float(theta.initial)
+    assert (d * math.sin(th0), -d * math.cos(th0)) == pytest.approx((X0, Y0), abs=1e-12)
+    assert sp.simplify(theta.initial - (sp.pi - sp.Rational(2, 5))) == 0
+    assert not theta.initial.has(sp.atan, sp.atan2)
+    assert "atan" not in str(sol)
+
+
+def test_a_circles_start_at_minus_pi_is_kept_exact():
+    """The string pendulum with y down starts at the bottom, x = 0, y = L: in the circle's
+    angle (x = L sin(theta), y = -L cos(theta)) theta0 = +-pi, read exactly as the numeric
+    start's side of the turn (it printed -3.1415926535897931), and the shell and the
+    lift-off carry no 17-digit number."""
+    sol = lamech.solve(lamech.load(PROBLEMS / "string_pendulum_ydown.toml"))
+    (theta,) = sol.system.chart_coordinates
+    L = sol.system.parameter_values[sol.symbols["L"]]
+    th0 = float(theta.initial)
+    assert (L * math.sin(th0), -L * math.cos(th0)) == pytest.approx((0.0, L), abs=1e-12)
+    assert theta.initial in (sp.pi, -sp.pi)
+    assert not any(len(d) >= 13 for d in __import__("re").findall(r"\d+", str(sol))), str(sol)
+
+
+def test_a_turning_charts_start_is_kept_exact():
+    """The hoop spun at Om in its angle (px = a sin(theta) cos(Om t), py = a sin(theta)
+    sin(Om t), pz = -a cos(theta), as --angles gives it): the file starts at theta = 0.7
+    at t = 0, so theta0 = 7/10 exactly and theta0' = 0 (the start's py' = Om a sin(0.7)
+    is the turning), and the Jacobi shell carries no 17-digit integers."""
+    from lamech.model import circle_chart
+    from lamech.symbolic._steady import complete_chart
+
+    system = lamech.load(PROBLEMS / "hoop_spin_zup.toml")
+    sol = lamech.solve(complete_chart(system, circle_chart(system)))
+    (theta,) = sol.system.chart_coordinates
+    assert theta.initial == sp.Rational(7, 10) and theta.initial_velocity == 0
+    assert not any(len(d) >= 13 for d in __import__("re").findall(r"\d+", str(sol))), str(sol)
+
+
+def test_a_spheres_start_is_kept_exact_and_says_where_it_lets_go():
+    """The particle released at rest at a0 from the top of the sphere X^2 + Y^2 + Z^2 =
+    Rs^2 (z up, bilateral), in the sphere's angles (Z = -Rs cos(theta): theta0 = pi - a0
+    exactly, phi0 = 0): the shell then says the textbook's lift-off, the multiplier 0 at
+    cos(theta_top) = 2 cos(a0)/3, i.e. cos(theta) = -2 cos(a0)/3 (it printed 17-digit
+    integers: 98006657784124139/150000000000000000)."""
+    from lamech.model import circle_chart, with_chart
+
+    system = lamech.load(PROBLEMS / "sphere_outside.toml")
+    sol = lamech.solve(with_chart(system, circle_chart(system)))
+    theta, phi = sol.system.chart_coordinates
+    a0 = sol.symbols["a0"]
+    assert sp.simplify(theta.initial - (sp.pi - a0)) == 0 and phi.initial == 0
+    [note] = [n for n in sol.notes if "changes sign" in n]
+    assert "cos(thetasurface) = -2*cos(a0)/3" in note
+    a0v = sol.system.parameter_values[a0]
+    found = float(__import__("re").search(r"thetasurface = ([0-9.]+) \(", note).group(1))
+    assert math.cos(found) == pytest.approx(-2 * math.cos(a0v) / 3, abs=1e-9)
+    assert not any(len(d) >= 13 for d in __import__("re").findall(r"\d+", str(sol))), str(sol)

@@ -470,3 +470,126 @@ def test_a_force_named_on_one_of_the_two_bodies_it_joins_says_which_to_name():
         '["bob", "cart"] (the force on the second is the opposite), and the residual is 0'
     ]
     # (named on both, as the bundled file does, the residual is 0: tests/test_examples.py)
+
+
+_PROBLEMS = Path(__file__).parent / "problems"
+
+
+def _leaves_the_sphere_at(R: float, g: float, theta0: float) -> float:
+    """When a particle released at rest at theta0 from the top of a smooth sphere reaches
+    cos(theta) = 2 cos(theta0)/3 (where the normal force m g (3 cos(theta) - 2
+    cos(theta0)) is 0), from theta'' = g sin(theta)/R integrated by SciPy: independent
+    of lamech."""
+    from scipy.integrate import solve_ivp
+
+    def at(t, y):
+        return math.cos(y[0]) - 2 * math.cos(theta0) / 3
+
+    at.terminal = True
+    run = solve_ivp(lambda t, y: [y[1], g / R * math.sin(y[0])], (0, 10), [theta0, 0.0],
+                    events=at, rtol=1e-12, atol=1e-12)  # fmt: skip
+    return float(run.t_events[0][0])
+
+
+def test_a_bilateral_sphere_in_x_y_z_says_when_its_multiplier_changes_sign(capsys):
+    """On the sphere X^2 + Y^2 + Z^2 = Rs^2 (z up, unilateral = true forgotten), released
+    at rest near the top: two degrees of freedom, so solve has no energy shell to say it
+    from; simulate sees lambda change sign along the motion and says when, and where a
+    contact would let go. The time is the textbook's, cos(theta) = 2 cos(theta0)/3."""
+    path = _PROBLEMS / "sphere_outside.toml"
+    system = lamech.load(path)
+    p = {s.name: s.numeric for s in system.parameters}
+    truth = _leaves_the_sphere_at(p["Rs"], p["G"], p["a0"])
+    traj = lamech.simulate(system, 1.2)
+    [note] = [n for n in traj.notes if "changes sign" in n]
+    assert "`surface` is bilateral" in note and "unilateral = true" in note
+    found = re.search(r"at t = ([-+0-9.e]+)", note)
+    assert found, note
+    assert float(found.group(1)) == pytest.approx(truth, abs=1e-6)
+    assert main(["simulate", str(path), "--t-end", "1.2"]) == 0
+    assert "changes sign" in capsys.readouterr().out
+    # a multiplier that keeps its sign (the hanging spherical pendulum) is not remarked on
+    hanging = lamech.simulate(lamech.load(_PROBLEMS / "sphere_cartesian.toml"), 1.2)
+    assert [n for n in hanging.notes if "changes sign" in n] == []
+
+
+def test_a_parametric_curve_written_as_constraints_gets_no_let_go_note():
+    """A bead on a helix written x - Rh cos(s), y - Rh sin(s), z - p s: the first two
+    define x and y along the wire; their multipliers are the wire's force components,
+    which change sign as the bead turns (by the KKT solve at two points of the motion,
+    here), but no string or contact is there to let go: no note (it said "(it is -0 at
+    the start) ... a string or a one-sided contact would let go there")."""
+    from lamech.symbolic import dynamics
+    from lamech.symbolic._derive import kkt_numeric
+
+    path = _PROBLEMS / "helix_bead.toml"
+    sol = lamech.solve(lamech.load(path))
+    dyn = dynamics(sol.system)
+    pv = sol.system.parameter_values
+    P = {s.name: s.numeric for s in sol.system.parameters}
+    signs = set()
+    for s in (0.5, 4.0):  # at rest at two points of the wire
+        env = {**pv, sol.system.t: 0.0}
+        vals = (P["Rh"] * math.cos(s), P["Rh"] * math.sin(s), P["p"] * s, s)
+        env.update(zip(sol.system.q, vals))
+        env.update({v: 0.0 for v in sol.system.qd})
+        _, lam = kkt_numeric(dyn, env)
+        signs.add(math.copysign(1, float(lam[0])))
+    assert signs == {-1.0, 1.0}  # lambda_cx does change sign
+    assert [n for n in sol.notes if "changes sign" in n] == []
+    assert "-0 " not in str(sol)
+
+
+def test_a_start_condition_no_positive_parameters_meet_is_not_offered():
+    """Gravity written with the wrong sign: the floor's multiplier at the start is -g m,
+    negative for every positive g and m (the KKT solve at the start, here, gives -g m
+    too), so "stays on at the start while -g*m >= 0" offers a condition nothing meets:
+    it is not printed; the verdict stays "at the start"."""
+    from lamech.symbolic import dynamics
+    from lamech.symbolic._derive import kkt_numeric
+
+    system = lamech.loads(FLOOR.replace("VALUE", "-m*g*y"))
+    env = {**system.parameter_values, system.t: 0.0}
+    env.update({c.symbol: 0.0 for c in system.coordinates})
+    env.update({c.velocity: 0.0 for c in system.coordinates})
+    _, lam = kkt_numeric(dynamics(system), env)
+    assert float(lam[0]) == pytest.approx(-2.0 * 9.81)
+    sol = lamech.solve(system)
+    verdict = sol.lets_go["floor"]
+    assert verdict.when == "at the start" and verdict.condition is None
+    assert "stays on at the start while" not in str(sol)
+    # the right sign: the floor never lets go
+    assert (
+        lamech.solve(lamech.loads(FLOOR.replace("VALUE", "m*g*y"))).lets_go["floor"].when == "never"
+    )
+
+
+def test_a_start_velocity_into_the_second_contact_points_at_its_line():
+    """Two balls on a floor, the first rising off it (allowed: it opens), the second
+    moving into it: the error names `floor2` and shows floor2's line, not floor1's (the
+    index was counted among the contacts still closed)."""
+    text = """title = "Two balls"
+[parameters]
+m = 1.0
+g = 9.81
+[coordinates]
+y1 = { initial = 0, velocity = 1 }
+y2 = { initial = 0, velocity = -1 }
+[lagrangian]
+T = "m/2*(y1'^2 + y2'^2)"
+V = "m*g*(y1 + y2)"
+[[constraints]]
+name = "floor1"
+f = "y1"
+unilateral = true
+[[constraints]]
+name = "floor2"
+f = "y2"
+unilateral = true
+"""
+    with pytest.raises(lamech.ProblemFileError) as info:
+        lamech.loads(text, "two.toml")
+    message = str(info.value)
+    assert "`floor2`" in message and "df/dt = -1" in message
+    assert "two.toml:17: constraints[2] `floor2`" in message, message
+    assert 'f = "y2"' in message

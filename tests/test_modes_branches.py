@@ -231,3 +231,110 @@ def test_the_bundled_double_pendulum_in_its_chart_has_the_textbook_frequencies()
     squares = sorted(m.frequency**2 for m in down.modes)
     g = p["g"]
     assert squares == pytest.approx([(2 - math.sqrt(2)) * g, (2 + math.sqrt(2)) * g], rel=1e-12)
+
+
+PROBLEMS = __import__("pathlib").Path(__file__).parent / "problems"
+
+
+@pytest.mark.slow  # 5 s
+def test_a_cone_has_no_continuum_of_equilibria():
+    """A particle on the cone z^2 = tan(be)^2 (x^2 + y^2): at rest anywhere but the apex
+    gravity has a component along the surface (the KKT solve gives q'' != 0), and the apex
+    is a singular point of the constraint (grad f = 0). The equations at rest have only
+    complex families (x = +-i y) besides it: never "a continuum of equilibria"."""
+    system = lamech.load(PROBLEMS / "cone_xyz.toml")
+    p = _values(system)
+    md = lamech.modes(system)
+    assert "continuum" not in (md.reason or "") and not md.free
+    # at most the apex, where the KKT matrix is singular (grad f = 0): not linearised
+    for e in md.equilibria:
+        assert max(abs(v) for v in e.values.values()) < 1e-12 and e.stability is None
+    # the independent truth: at rest at a random point of either nappe, q'' != 0
+    rng = np.random.default_rng(7)
+    for _ in range(4):
+        r, ang, side = rng.uniform(0.1, 2), rng.uniform(-3, 3), rng.choice([-1, 1])
+        pt = {"x": r * math.cos(ang), "y": r * math.sin(ang), "z": side * r * math.tan(p["be"])}
+        assert np.abs(kkt_at_rest(system, pt)).max() > 1e-3 * p["g"]
+
+
+@pytest.mark.slow  # 4 s
+def test_a_cart_with_a_pendulum_in_the_bobs_coordinates_gives_its_frequency():
+    """The cart (mass Mc) rolls freely, so it rests anywhere: a continuum of equilibria
+    along s (with xb = s), the zero mode of its drift. At the initial s the hanging
+    pendulum oscillates with the textbook omega^2 = g (Mc + m)/(Mc l), the upright one
+    grows at the same rate, and every equilibrium given rests by the KKT solve."""
+    system = lamech.load(PROBLEMS / "cart_pendulum_xy.toml")
+    p = _values(system)
+    md = lamech.modes(system)
+    assert md.free and "rests as well" in md.free
+    assert_every_equilibrium_rests(md, p["g"])
+    w2 = p["g"] * (p["Mc"] + p["m"]) / (p["Mc"] * p["l"])
+    down = [e for e in md.equilibria if e.exists and e.values["yb"] == pytest.approx(-p["l"])]
+    up = [e for e in md.equilibria if e.exists and e.values["yb"] == pytest.approx(p["l"])]
+    assert len(down) == 1 and len(up) == 1
+    assert down[0].stability == "marginal"  # the cart's free drift: a zero mode
+    assert [m.frequency**2 for m in down[0].modes if m.frequency] == [pytest.approx(w2, rel=1e-10)]
+    assert [m.growth**2 for m in up[0].modes if m.growth] == [pytest.approx(w2, rel=1e-10)]
+
+
+@pytest.mark.slow  # 15 s: the rod in a bowl's modes
+def test_an_equilibrium_found_numerically_prints_as_the_exact_number_it_is(capsys):
+    """The rod (length 2b) in the bowl (radius Rb) rests horizontal at the bottom, its
+    centre at yc = -sqrt(Rb^2 - b^2) (= -3 sqrt(21)/20 for b = 0.3, Rb = 0.75), found
+    numerically: printed exactly as above the rim's +3 sqrt(21)/20 is, never as the
+    17 digits -0.68738635424335826; with omega^2 = g d/(d^2 + b^2/3), d = sqrt(Rb^2 - b^2)."""
+    path = PROBLEMS / "rod_in_small_bowl.toml"
+    system = lamech.load(path)
+    p = _values(system)
+    md = lamech.modes(system)
+    d = math.sqrt(p["Rb"] ** 2 - p["b"] ** 2)
+    bottom = [e for e in md.equilibria if e.exists and e.values["yc"] == pytest.approx(-d)]
+    assert bottom
+    for e in bottom:
+        assert (
+            sp.simplify(
+                sp.sympify(e.at["yc"]) + sp.sqrt(sp.Rational(3, 4) ** 2 - sp.Rational(3, 10) ** 2)
+            )
+            == 0
+        )
+        assert e.stability == "stable"
+        (mode,) = e.modes
+        assert mode.frequency**2 == pytest.approx(p["g"] * d / (d**2 + p["b"] ** 2 / 3), rel=1e-9)
+    assert_every_equilibrium_rests(md, p["g"])
+    assert main(["modes", str(path)]) == 0
+    heads = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("Equilibrium")]
+    assert heads and not any(re.search(r"\d{13}", ln) for ln in heads), heads
+
+
+def test_a_bead_on_a_helix_has_no_equilibrium_and_no_free_direction_claimed():
+    """Down a helix x = Rh cos(s), y = Rh sin(s), z = p s the bead accelerates at rest
+    with z'' = -g p^2/(Rh^2 + p^2) (the KKT solve, here): no equilibrium anywhere, so
+    not "every value of z rests as well"."""
+    system = lamech.load(PROBLEMS / "helix_bead.toml")
+    p = _values(system)
+    qdd = kkt_at_rest(system, {"x": p["Rh"], "y": 0.0, "z": 0.0, "s": 0.0})
+    assert qdd[2] == pytest.approx(-p["g"] * p["p"] ** 2 / (p["Rh"] ** 2 + p["p"] ** 2))
+    md = lamech.modes(system)
+    assert md.equilibria == () and not md.free
+    assert "rests as well" not in str(md)
+
+
+def test_a_sphere_in_its_angles_rests_at_its_poles_with_the_azimuth_free():
+    """The particle on the sphere X^2 + Y^2 + Z^2 = Rs^2 in the sphere's angles (as
+    --angles gives it): the azimuth phi is free (no force along it at rest) and is an
+    angle of the chart, not of the file (it stopped with StopIteration looking for its
+    initial value among the file's coordinates); bottom stable, omega^2 = G/Rs; the top
+    unstable; both at rest by the KKT solve."""
+    from lamech.model import circle_chart, with_chart
+
+    system = lamech.load(PROBLEMS / "sphere_outside.toml")
+    charted = with_chart(system, circle_chart(system))
+    p = _values(system)
+    md = lamech.modes(charted)
+    assert md.free and "phisurface" in md.free
+    assert_every_equilibrium_rests(md, p["G"])
+    by_z = {round(e.values["Z"], 9): e for e in md.equilibria if e.exists}
+    assert set(by_z) == {-p["Rs"], p["Rs"]}
+    assert by_z[-p["Rs"]].stability != "unstable" and by_z[p["Rs"]].stability == "unstable"
+    w2 = [m.frequency**2 for m in by_z[-p["Rs"]].modes if m.frequency]
+    assert w2 and all(x == pytest.approx(p["G"] / p["Rs"], rel=1e-10) for x in w2)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -166,3 +167,27 @@ def test_simulate_mode_releases_the_bead_on_the_turning_hoop(tmp_path, capsys):
     x, y, z = (float(final.group(i)) for i in (1, 2, 3))
     assert z == pytest.approx(-0.5 * math.cos(theta), abs=1e-4)  # (amplitude: 1e-5 off)
     assert math.hypot(x, y) == pytest.approx(0.5 * abs(math.sin(theta)), abs=1e-4)
+
+
+def test_a_bead_on_a_turning_wire_rests_at_the_axis_and_runs_away_at_its_rate():
+    """A bead on a straight wire turned at W in a horizontal plane, in x, y with the
+    wire px sin(Wt) - py cos(Wt) = 0: in the wire's own coordinate r (px = r cos(Wt),
+    py = r sin(Wt), which satisfies the constraint identically) r'' = W^2 r, so the
+    relative equilibrium is r = 0, unstable with rate W (it refused: "depends on t
+    explicitly"). The KKT solve at the axis at rest gives q'' = 0 at any t."""
+    from lamech.symbolic._derive import kkt_numeric
+
+    system = lamech.load(Path(__file__).parent / "problems" / "rotating_wire.toml")
+    W = next(p.numeric for p in system.parameters if p.name == "W")
+    md = lamech.modes(system)
+    [e] = [e for e in md.equilibria if e.exists]
+    assert e.values["px"] == 0 and e.values["py"] == 0 and e.stability == "unstable"
+    [mode] = e.modes
+    assert mode.growth**2 == pytest.approx(W**2, rel=1e-10)
+    dyn = lamech.dynamics(system)
+    for t in (0.0, 0.37, 1.9):
+        state = {**system.parameter_values, system.t: t}
+        state.update({q: 0.0 for q in system.q})
+        state.update({v: 0.0 for v in system.qd})
+        qdd, _ = kkt_numeric(dyn, state)
+        assert np.abs(np.asarray(qdd, dtype=float)).max() < 1e-12

@@ -317,3 +317,16 @@ def test_the_report_without_matplotlib_is_written_and_says_it_has_no_plots(
     page = out.read_text(encoding="utf-8")
     assert "no plot and no animation: they need matplotlib" in page
     assert "data:image/png" not in page and "final state" in page
+
+
+def test_a_file_without_bodies_with_numbered_points_is_drawn(tmp_path):
+    """The Cartesian double pendulum (x1, y1, x2, y2, no [[bodies]]): the drawing makes a
+    point of each pair, named so a body may be (it stopped with a traceback: body `1`
+    is not a valid name); both points are drawn."""
+    from lamech.cli import main
+
+    out = tmp_path / "dp.html"
+    path = ROOT / "tests" / "problems" / "double_pendulum_xy.toml"
+    assert main(["report", str(path), "-o", str(out), "--no-simulate"]) == 0
+    page = out.read_text(encoding="utf-8")
+    assert "point1" in page and "point2" in page

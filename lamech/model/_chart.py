@@ -24,6 +24,7 @@ c free of them: r = c + R (sin theta, -cos theta), the angle from the downward v
 from __future__ import annotations
 
 import dataclasses
+import math
 import random
 from dataclasses import dataclass
 
@@ -285,10 +286,21 @@ def exact_start(system, found: dict) -> dict:
     init.update({c.velocity: c.initial_velocity for c in system.coordinates})
     out: dict = {}
     S, C = sp.Dummy("S"), sp.Dummy("C")
+    # an exact start names no parameter the file's start does not (x2 = 1.24 with the
+    # chart's l1, l2 would give atan2((31 - 15 l1)/(25 l2), ...): a number reads better)
+    mentioned = set().union(*(sp.sympify(e).free_symbols for e in init.values()))
     for coord in chart.coordinates:
         u = coord.symbol
+        periodic = _periodic([e for _, e in chart.map], u)
         u0 = next(
-            (c for c in _exact_candidates(chart, init, u, S, C) if _equals(c, found[u], pv)),
+            (
+                c
+                for c in (
+                    _turned(c, found[u], pv) if periodic else c
+                    for c in _exact_candidates(chart, init, u, S, C, system.t, out)
+                )
+                if _equals(c, found[u], pv) and c.free_symbols <= mentioned
+            ),
             None,
         )
         if u0 is None:
@@ -296,8 +308,8 @@ def exact_start(system, found: dict) -> dict:
         out[u] = u0
         # the velocity: d/dt of one map entry that moves with u, x' = dg/du u' (+ the rest)
         for x, e in chart.map:
-            du = sp.diff(e, u)
-            rest = time_derivative_free(e, system, u)
+            du = sp.diff(e, u).xreplace({system.t: 0})  # at the start, t = 0
+            rest = time_derivative_free(e, system, u).xreplace({system.t: 0})
             vel = {c.symbol: c.velocity for c in system.coordinates}.get(x)
             if vel is None:
                 continue
@@ -316,24 +328,29 @@ def exact_start(system, found: dict) -> dict:
     return out
 
 
-def _exact_candidates(chart, init: dict, u: sp.Symbol, S: sp.Symbol, C: sp.Symbol):
-    """Exact values of u at the start, first to last: from a map entry linear in u
-    (the rod's phi = psi: psi0 = phi0), then atan2 of its sine and cosine where the map
-    states them linearly (a circle)."""
-    others = set(chart.symbols) - {u}
-    for x, e in chart.map:
+def _exact_candidates(chart, init: dict, u, S, C, t, known: dict):
+    """Exact values of u at the start (t = 0: a chart may turn with t; the chart's
+    coordinates already found, ``known``, put in), first to last: from a map entry linear
+    in u (the rod's phi = psi: psi0 = phi0), then the angle of its sine and cosine where
+    the map states them linearly (a circle; on a sphere, theta from z = -R cos(theta)
+    alone, then phi from x and y)."""
+    others = set(chart.symbols) - {u} - set(known)
+    start_map = [(x, e.xreplace({t: 0, **known})) for x, e in chart.map]
+    for x, e in start_map:
         if not e.has(u) or e.free_symbols & others:
             continue
         a = sp.diff(e, u)
         if a != 0 and not a.has(u) and not (a.free_symbols & others):
             yield sp.simplify((init.get(x, x) - e.xreplace({u: 0})) / a)
     rows: list[sp.Eq] = []
-    for x, e in chart.map:
+    for x, e in start_map:
         if not e.has(u):
             continue
         g = e.xreplace({sp.sin(u): S, sp.cos(u): C})
-        if g.has(u) or (g.free_symbols & set(chart.symbols)):
+        if g.has(u):
             return
+        if g.free_symbols & others:
+            continue  # a row of another angle still unknown (a sphere's x, for theta)
         rows.append(sp.Eq(init.get(x, x), g))
     if not rows:
         return
@@ -341,9 +358,42 @@ def _exact_candidates(chart, init: dict, u: sp.Symbol, S: sp.Symbol, C: sp.Symbo
         sol = sp.solve(rows, [S, C], dict=True)
     except (NotImplementedError, ValueError, TypeError):
         return
-    if len(sol) == 1 and S in sol[0] and C in sol[0]:
-        s0, c0 = (sp.simplify(sol[0][k]) for k in (S, C))
+    if len(sol) != 1:
+        return
+    s0, c0 = (sp.simplify(sol[0][k]) if k in sol[0] else None for k in (S, C))
+    if s0 is None and c0 is None:
+        return
+    yield from _angle_of(s0, c0)
+    if s0 is not None and c0 is not None:
         yield sp.atan2(s0, c0)
+    elif c0 is not None:
+        yield from (sp.acos(c0), -sp.acos(c0))
+    else:
+        yield from (sp.asin(s0), sp.pi - sp.asin(s0))
+
+
+def _angle_of(s0: sp.Expr | None, c0: sp.Expr | None):
+    """Angles a whose sine is s0 and cosine c0 exactly (None: not stated), read off the
+    sines and cosines in them (sin(2/5), -cos(2/5): pi - 2/5, where atan2 gives
+    pi - atan(sin(2/5)/cos(2/5))); the caller keeps the one equal to the numeric start."""
+    known = [e for e in (s0, c0) if e is not None]
+    args = {f.args[0] for e in known for f in e.atoms(sp.sin, sp.cos)}
+    for a in sorted(args, key=sp.default_sort_key):
+        for u in (a, -a, sp.pi - a, a - sp.pi, a + sp.pi / 2, a - sp.pi / 2, sp.pi / 2 - a):
+            if (s0 is None or sp.expand(sp.sin(u) - s0) == 0) and (
+                c0 is None or sp.expand(sp.cos(u) - c0) == 0
+            ):
+                yield u
+
+
+def _turned(exact: sp.Expr, value: float, pv: dict) -> sp.Expr:
+    """``exact`` turned by whole turns to the side of ``value`` (pi for a start found as
+    -pi: the same point of a circle), for an angle the map takes through sin and cos only."""
+    try:
+        k = round((value - float(exact.subs(pv))) / (2 * math.pi))
+    except (TypeError, ValueError):
+        return exact
+    return exact + 2 * k * sp.pi if k else exact
 
 
 def _equals(exact: sp.Expr, value: float, pv: dict) -> bool:

@@ -132,7 +132,9 @@ def system_issues(s: System, clean: Memo | None = None) -> Issues:
         return [("t", "t must be a SymPy Symbol")]
     groups: list[tuple[str, tuple[str, ...], Callable[[System], Issues]]] = [
         ("form", FORM, _form_issues),
-        ("start", START, lambda s: initial_issues(s) + dependent_issues(s)),
+        # the dependent constraints only from a valid start (they build the system of the
+        # contacts holding there, which would report the start's issues at its own indices)
+        ("start", START, lambda s: initial_issues(s) or dependent_issues(s)),
     ]
     if s.chart is not None:
         groups.append(("chart", CHART, chart_issues))

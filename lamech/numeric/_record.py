@@ -13,6 +13,7 @@ from ..symbolic._drives import turns
 from ._events import Status
 from ._losses import with_energy_lost
 from ._run import Run
+from ._signs import sign_change_notes
 from ._trajectory import Trajectory
 
 __all__ = ["Sample", "Recorder", "Progress", "assemble"]
@@ -113,6 +114,7 @@ def assemble(
     lambdas = np.array([s.lam for s in out]).reshape(N, m)
     drive_forces, drive_power, drive_coordinates, drive_units = _drives(run, tt, q, v, lambdas)
     drive_turns = {name: turns(ns.system, name) for name in drive_forces}
+    notes = notes + sign_change_notes(ns.system, ns.constraint_names, tt, q, lambdas)
     return Trajectory(
         coordinates=list(ns.coordinate_names),
         constraints=list(ns.constraint_names),

@@ -101,7 +101,8 @@ def _cartesian_points(system) -> list[tuple[str, list]]:
         if other is None:
             continue
         up = names.get("z" + tail)
-        out.append((name[1:] or "point", [sym, up] if up is not None else [sym, other]))
+        label = tail if tail[:1].isalpha() else "point" + tail  # x1: point1 (a body's name)
+        out.append((label, [sym, up] if up is not None else [sym, other]))
     return out
 
 

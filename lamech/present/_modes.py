@@ -14,8 +14,11 @@ __all__ = ["modes_text", "modes_latex"]
 
 
 def _t(expr) -> str:
+    expr = sp.sympify(expr)
+    if isinstance(expr, sp.Float):  # a root found numerically: its 12 digits, not 17
+        return f"{float(expr):.12g}"
     try:
-        return _expr_text(sp.sympify(expr))
+        return _expr_text(expr)
     except (ValueError, TypeError):
         return str(expr)
 

@@ -281,6 +281,8 @@ def sign_change_note(system: System, shell: Shell, name: str, start: float | Non
         return None
     if any(c.friction is not None and c.friction.normal == name for c in system.constraints):
         return None  # a normal force: the friction hint (lamech.model._hints) speaks of it
+    if _defines_a_coordinate(system, con.expr):
+        return None  # x - a (s + sin(s)): a point of a curve, not a contact or a string
     lam = shell.multipliers.get(name)
     if lam is None:
         return None
@@ -291,7 +293,7 @@ def sign_change_note(system: System, shell: Shell, name: str, start: float | Non
     r = roots[0]
     deg = f" ({r.degrees:.2f}°)" if r.degrees is not None else ""
     lam = f"lambda_{name}"
-    was = f" (it is {start:.6g} at the start)" if start is not None else ""
+    was = f" (it is {start + 0.0:.6g} at the start)" if start is not None else ""
     return (
         f"`{name}` is bilateral and {lam} changes sign along the motion{was}: on the "
         f"energy shell it is 0 where {r.equation}, {r.coordinate} = {r.value:.10g}{deg}, "
@@ -301,6 +303,24 @@ def sign_change_note(system: System, shell: Shell, name: str, start: float | Non
         "unilateral = true: lamech then gives where it lets go, and simulate follows the "
         "flight"
     )
+
+
+def _defines_a_coordinate(system: System, f: sp.Expr) -> bool:
+    """f = a x - g(the other coordinates) with a constant a and g not linear in them: a
+    parametric curve or surface written as constraints (the helix's x - Rh cos(s), the
+    cycloid's x - a (s + sin(s))), whose multiplier is a force component that changes
+    sign as the point moves along it; a string (l - y1 - y2), a contact (r - R) or a
+    circle (x^2 + y^2 - l^2) is not one."""
+    q = list(system.q)
+    for x in q:
+        a = sp.diff(f, x)
+        if a == 0 or a.free_symbols & (set(q) | {system.t}):
+            continue
+        g = sp.expand(a * x - f)
+        others = [y for y in q if y != x and g.has(y)]
+        if others and not all(sp.diff(g, y).free_symbols.isdisjoint(q) for y in others):
+            return True
+    return False
 
 
 def _crosses(F, x: float) -> bool:
@@ -518,6 +538,8 @@ def lets_go_verdict(
     scale = 1e-12 * (1 + max((abs(v) for v in system.parameter_values.values()), default=1))
     constant = not (sp.sympify(multiplier).free_symbols & _state_symbols(system))
     cond = _at_least_zero(lam0) if _depends_on_parameters(lam0, system) else None
+    if cond and sp.sympify(lam0).is_negative:
+        cond = None  # -g*m >= 0: no positive parameters meet it (said as such elsewhere)
     if value is not None and value < -scale:
         at_rest = all(
             sp.sympify(c.initial_velocity).xreplace(system.parameter_values) == 0

@@ -119,15 +119,12 @@ def modes(problem: Solution | System | str, at: dict[str, float] | None = None) 
         # a coordinate no equation holds (the spherical pendulum's azimuth) is free:
         # every value rests; the rest are solved for with it at its initial value
         free = [x for x in u if eqs and not any(e.has(x) for e in eqs)]
-        fixed = {
-            x: sp.nsimplify(next(c.initial for c in system.coordinates if c.symbol == x))
-            for x in free
-        }
-        points, reason = _solve(
+        fixed = {x: _initial_of(system, x) for x in free}
+        points, reason, free_note = _solve(
             [e.xreplace(fixed) for e in eqs], [x for x in u if x not in fixed], system
         )
         points = [({x: {**p, **fixed}[x] for x in u}, cond) for p, cond in points]
-        if free:
+        if free and points:  # (none: a force acts at rest, though not through them)
             shown = ", ".join(f"{x} = {to_text(v)}" for x, v in fixed.items())
             free_note = (
                 f"every value of {', '.join(map(str, free))} rests as well "
@@ -185,7 +182,8 @@ def _in_a_steady_frame(sol: Solution, names: tuple[str, ...], at) -> Modes:
         (),
         "the reduced equations depend on t explicitly, so nothing rests in these "
         "coordinates, and no chart in the angles of the constraints' circles and spheres "
-        "that satisfies every constraint identically takes t out. For steady motions "
+        "(or along a line turning with t) that satisfies every constraint identically "
+        "takes t out. For steady motions "
         "(relative equilibria), give a [parametrisation] in coordinates in which the "
         "problem does not depend on t (a turning frame's angle), or follow the motion "
         "with `lamech simulate`",
@@ -234,32 +232,38 @@ def _forces_at_rest(sol, u, F, rest) -> list[sp.Expr]:
     return [tidy(e) for e in forces]
 
 
-def _solve(eqs, u, system) -> tuple[list, str | None]:
-    """Solutions of eqs = 0 for u, each with its existence condition (bounded)."""
+def _solve(eqs, u, system) -> tuple[list, str | None, str | None]:
+    """Solutions of eqs = 0 for u, each with its existence condition (bounded); the
+    reason when there are none, and what to say of a continuum of them."""
     eqs = [e for e in eqs if e != 0]
     if not eqs:
-        return [], (
-            "every configuration is an equilibrium (no force acts at rest); "
-            "give a point with `at=` to linearise about it"
+        return (
+            [],
+            (
+                "every configuration is an equilibrium (no force acts at rest); "
+                "give a point with `at=` to linearise about it"
+            ),
+            None,
         )
     if len(u) > SOLVE_UNKNOWNS or sum(sp.count_ops(e) for e in eqs) > SOLVE_OPS:
-        return _numeric_equilibria(eqs, u, system)  # too large for SymPy: numbers
+        return (*_numeric_equilibria(eqs, u, system), None)  # too large for SymPy: numbers
     found = _separable(eqs, u)
     if found is None:
         if not all(e.is_polynomial(*u) for e in eqs):
-            return _numeric_equilibria(eqs, u, system)
+            return (*_numeric_equilibria(eqs, u, system), None)
         try:
             found = sp.solve(eqs, u, dict=True)
         except (NotImplementedError, ValueError, TypeError, RecursionError) as exc:
-            return [], f"SymPy could not solve the equilibrium equations ({exc})"
+            return [], f"SymPy could not solve the equilibrium equations ({exc})", None
     points = []
     seen: list[np.ndarray] = []
+    free_names: list[str] = []
     for sol in found:
         if set(sol) != set(u):
-            free = [str(x) for x in u if x not in sol]
-            return [], (
-                "a continuum of equilibria (free: " + ", ".join(free) + "); give a point with `at=`"
-            )
+            sol, free = _on_the_continuum(sol, u, system)
+            if sol is None:
+                continue  # a complex family (x = I*y): no real continuum
+            free_names += [n for n in free if n not in free_names]
         point = {x: _principal(tidy(sol[x]), x, system) for x in u}
         key = _numeric_point(point, system, u)
         if key is not None and any(np.allclose(key, s, atol=1e-9) for s in seen):
@@ -267,7 +271,39 @@ def _solve(eqs, u, system) -> tuple[list, str | None]:
         if key is not None:
             seen.append(key)
         points.append((point, _condition(point)))
-    return points, None if points else "the equilibrium equations have no solution"
+    if free_names and not points:
+        return (
+            [],
+            (
+                "a continuum of equilibria (free: " + ", ".join(free_names) + "); give a point "
+                "with `at=`"
+            ),
+            None,
+        )
+    free_note = (
+        f"a continuum of equilibria: every value of {', '.join(free_names)} rests as well "
+        "(the others following); shown at its initial value"
+        if free_names
+        else None
+    )
+    return points, None if points else "the equilibrium equations have no solution", free_note
+
+
+def _on_the_continuum(sol: dict, u, system: System) -> tuple[dict | None, list[str]]:
+    """A solution family of the equations at rest that leaves some unknowns free (a cart
+    that rests anywhere, with the pendulum's bob above it: xb = s), taken at the free
+    ones' initial values; None when it is not real there (the cone's x = +-I*y, whose
+    only real point is the apex): a complex family is no continuum of equilibria."""
+    free = [x for x in u if x not in sol]
+    fixed = {x: _initial_of(system, x) for x in free}
+    point = {x: sp.sympify(sol[x]).xreplace(fixed) if x in sol else fixed[x] for x in u}
+    # real at the start's values and at others nearby (x = I*y is real at y = 0 only)
+    moved = {x: v + sp.Rational(3, 7) * (1 + i) for i, (x, v) in enumerate(fixed.items())}
+    for at in (fixed, moved):
+        value = _numeric_point({x: sp.sympify(sol.get(x, x)).xreplace(at) for x in u}, system, u)
+        if value is None or np.abs(value.imag).max(initial=0) > 1e-12 * (1 + np.abs(value).max()):
+            return None, []
+    return point, [str(x) for x in free]
 
 
 def _polynomial_form(f: sp.Expr, system: System) -> sp.Expr:
@@ -362,6 +398,14 @@ def _numeric_equilibria(eqs, u, system) -> tuple[list, str | None]:
     return points, reason
 
 
+def _initial_of(system: System, x: sp.Symbol) -> sp.Expr:
+    """The initial value of coordinate ``x``, a file's or a chart's (the sphere's
+    azimuth), exact where it is given so."""
+    return sp.nsimplify(
+        next(c.initial for c in system.coordinates + system.chart_coordinates if c.symbol == x)
+    )
+
+
 def _snapped(v: float) -> sp.Expr:
     """A root found numerically, as the simple number it is to 1e-10 (0, -1, pi/2,
     2/3), else as a 12-digit float: the output reads y1 = -1, not -0.99999999999998."""
@@ -373,7 +417,7 @@ def _snapped(v: float) -> sp.Expr:
         simple = None
     if (
         simple is not None
-        and sp.count_ops(simple) <= 4
+        and sp.count_ops(-simple if v < 0 else simple) <= 4  # -3*sqrt(21)/20 as +: a sign
         and abs(float(simple) - v) <= 1e-10 * (1 + abs(v))
     ):
         return simple
@@ -531,6 +575,16 @@ def _equilibrium(
             continue
     lam, holds = _holding(system, lam, notes)
     stability, found, linear = _linearise(sol, u, ud, F, kept, at_point, env, point)
+    if stability is None and rest is not None and verdict is not None and verdict.ok:
+        if not verdict.singular and not speeds and resting:
+            # a chart's pole (the sphere's angles at its top): the file's coordinates are
+            # regular there, so linearise in them
+            q = np.array([values[c.name] for c in sol.system.coordinates])
+            why = (
+                "these coordinates are singular here: linearised in the file's "
+                "coordinates, every constraint kept"
+            )
+            return full_equilibrium(sol, rest, q, verdict.multipliers, condition, point, why)
     check = None
     if (
         resting and not speeds

@@ -597,6 +597,52 @@ def _probe(system: System, red: Reduction, symbols: set) -> dict:
             env[s] = complex(start[s]) + 0.05 * (1 + rng.random())
         else:
             env[s] = complex(0.3 + 0.4 * rng.random())
+    return _onto_kept(system, red, env)
+
+
+def _onto_kept(system: System, red: Reduction, env: dict) -> dict:
+    """``env`` with its coordinates moved onto the holonomic constraints the reduction
+    kept (a few Newton steps, least squares, in complex numbers), so that no pivot chosen
+    there vanishes where the constraints hold: pivoting off them on x sin(wt) - y cos(wt)
+    gave forms that are 0/0 on the turning plane. ``env`` itself where there are none or
+    Newton does not converge."""
+    import numpy as np
+
+    kept = [
+        red.apply(c.expr)
+        for c in system.constraints
+        if c.holonomic and c.name not in red.eliminated_constraints
+    ]
+    xs = [
+        q
+        for q in sorted(env, key=str)
+        if q in set(system.q) or q in {c.symbol for c in red.independent}
+    ]
+    kept = [f for f in kept if f.free_symbols & set(xs)]
+    if not kept or not xs:
+        return env
+    others = {**system.parameter_values, system.t: 0.3}
+    others.update({k: v for k, v in env.items() if k not in xs})
+    kept = [f.xreplace(others) for f in kept]
+    if any(f.free_symbols - set(xs) for f in kept):
+        return env  # (a velocity constraint's symbols: not a point to move)
+    try:
+        F = sp.lambdify([xs], [f.xreplace(others) for f in kept], modules="numpy")
+        J = sp.lambdify([xs], sp.Matrix(kept).jacobian(xs).xreplace(others), modules="numpy")
+        x = np.array([env[q] for q in xs], dtype=complex)
+        with np.errstate(all="ignore"):
+            for _ in range(30):
+                r = np.asarray(F(x), dtype=complex).reshape(-1)
+                if not np.all(np.isfinite(r)):
+                    return env
+                if np.abs(r).max() < 1e-13 * (1 + np.abs(x).max()):
+                    return {**env, **dict(zip(xs, (complex(v) for v in x)))}
+                step = np.linalg.lstsq(
+                    np.asarray(J(x), dtype=complex).reshape(len(kept), len(xs)), -r, rcond=None
+                )[0]
+                x = x + step
+    except (TypeError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
+        return env
     return env
 
 

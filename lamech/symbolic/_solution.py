@@ -4,7 +4,6 @@ frozen :class:`Solution` (a pure function of the :class:`~lamech.model.System`).
 from __future__ import annotations
 
 import functools
-import random
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -40,6 +39,7 @@ from ._reduce import (
     spatial_angles,
 )
 from ._selfcheck import ClosedFormError, check_forms, manifold_states, printed_forms
+from ._singular import singular_notes
 from ._work import interrupted, labelled, work_budget
 
 __all__ = ["Solution", "solve"]
@@ -415,76 +415,6 @@ def _self_check(dyn: Dynamics, red: Reduction, forms: ClosedForms) -> list[str]:
         f"{at}, for one): the results hold only where it does; an angle covers a whole "
         "circle"
     ]
-
-
-def singular_notes(system: System, red: Reduction, forms: ClosedForms) -> list[str]:
-    """Where a printed form divides by what vanishes: a sine or cosine of one coordinate
-    in a denominator (the spherical pendulum's phi'' = -2 theta' phi' cot(theta) at
-    theta = 0), one note per such factor naming the results; the coordinates are
-    singular there, the motion need not be (it goes through in the file's other
-    coordinates, which lamech simulate integrates)."""
-    angles = set(system.q) | {c.symbol for c in system.chart_coordinates}
-    named: dict = {}
-    printed = [(f"lambda_{k}", v) for k, v in forms.readable_multipliers.items()]
-    printed += [
-        (f"{c.name}''", forms.accelerations[c.acceleration])
-        for c in red.independent
-        if c.acceleration in forms.accelerations and not forms.is_long(c.acceleration)
-    ]
-    for label, expr in printed:
-        e = sp.sympify(expr).rewrite(sp.sin) if expr.has(sp.cot, sp.tan, sp.sec, sp.csc) else expr
-        try:
-            num, den = sp.fraction(sp.together(e))
-            found = _trig_factors(num, den, angles)
-        except (sp.PolynomialError, TypeError, ValueError):
-            continue
-        for f in found:
-            named.setdefault(f, []).append(label)
-    notes = []
-    for f, labels in named.items():
-        notes.append(
-            f"{', '.join(dict.fromkeys(labels))} divide{'s' if len(labels) == 1 else ''} by "
-            f"{to_text(f)}: {'it holds' if len(labels) == 1 else 'they hold'} where "
-            f"{to_text(f)} != 0 (these coordinates are singular where it is 0)"
-        )
-    return notes
-
-
-FACTOR_DEN_OPS = 200
-"""Denominators up to this many operations are factored; a larger one (a rolling
-sphere's multipliers: 1 s each in ``factor_list``) is tested for each sine and cosine
-factor by where it vanishes."""
-
-
-def _trig_factors(num: sp.Expr, den: sp.Expr, angles: set) -> list:
-    """The sin(x), cos(x) of the coordinates ``x`` in ``angles`` that divide ``den``:
-    its irreducible factors when short; when long, those at whose two zeros (x = 0, pi
-    for a sine; +-pi/2 for a cosine) ``den`` vanishes at a generic value of every other
-    symbol, as a factor does (and 1 - sin^2 does too), while ``num`` does not there (a
-    rolling sphere's 0/0, which has a limit, is no singularity)."""
-    if count_ops(den) <= FACTOR_DEN_OPS:
-        _, factors = sp.factor_list(den)
-        return [f for f, _ in factors if isinstance(f, (sp.sin, sp.cos)) and f.args[0] in angles]
-    rng = random.Random(5)
-    free = sorted(den.free_symbols, key=str)
-    point = {x: sp.Float(0.3 + 0.5 * rng.random(), 30) for x in free}
-    scale = abs(complex(sp.N(den.xreplace(point), 30)))
-    if not scale:
-        return []
-    out = []
-    for x in sorted(angles & den.free_symbols, key=str):
-        for trig, zeros in ((sp.sin, (0, sp.pi)), (sp.cos, (sp.pi / 2, -sp.pi / 2))):
-            if not den.has(trig(x)):
-                continue
-            at = [{**point, x: z} for z in zeros]
-            dens = [abs(complex(sp.N(den.xreplace(p), 30))) for p in at]
-            if any(v > 1e-15 * scale for v in dens):
-                continue
-            nums = [abs(complex(sp.N(num.xreplace(p), 30))) for p in at]
-            top = abs(complex(sp.N(num.xreplace(point), 30)))
-            if all(v > 1e-15 * top for v in nums):
-                out.append(trig(x))
-    return out
 
 
 def readable(equation: sp.Expr, system: System) -> sp.Expr:

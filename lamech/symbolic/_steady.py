@@ -20,6 +20,9 @@ explicit t (a relative equilibrium: at rest in the turning frame).
    pi - a. The turning plane becomes R sin(theta) sin(phi - wt) = 0: phi = wt. A value
    is kept when the constraint then vanishes identically (at random points, as
    :func:`~lamech.model._chart.chart_issues` checks a chart).
+   Where no constraint is a circle or a sphere, a line through the origin that turns
+   with t (a(t) x + b(t) y = 0) gets polar coordinates x = r cos(phi), y = r sin(phi)
+   first, and the same step solves it for phi (a bead on a wire turned at W: phi = Wt).
 3. The chart is used when :func:`~lamech.model.with_chart` accepts it: every holonomic
    constraint on the charted coordinates holds identically
    (:func:`~lamech.model._chart.chart_issues`) and the initial state is reached.
@@ -48,10 +51,35 @@ def autonomous_chart(system: System) -> System | None:
     (no circle or sphere, a constraint no angle solves, the file has a chart already)."""
     if system.chart is not None:
         return None
-    proposal = circle_chart(system)
+    proposal = circle_chart(system) or _turning_line(system)
     if proposal is None:
         return None
     return complete_chart(system, proposal)
+
+
+def _turning_line(system: System) -> ChartProposal | None:
+    """Polar coordinates (x = r cos(phi), y = r sin(phi)) for the two coordinates of the
+    first holonomic constraint that moves with t and is linear and homogeneous in them,
+    a(t) x + b(t) y = 0: a line through the origin turning with t (a bead on a wire
+    turned at W: x sin(Wt) - y cos(Wt) = 0), which :func:`complete_chart` then solves for
+    phi (phi = Wt), leaving the distance r along the line, of either sign."""
+    coords = {c.symbol: c.name for c in system.coordinates}
+    names = set(coords.values()) | {p.name for p in system.parameters}
+    for con in system.constraints:
+        f = con.expr
+        inside = sorted(f.free_symbols & set(coords), key=str)
+        if not con.holonomic or not f.has(system.t) or len(inside) != 2:
+            continue
+        x, y = inside
+        a, b = sp.diff(f, x), sp.diff(f, y)
+        if (a.free_symbols | b.free_symbols) & set(coords) or sp.expand(f - a * x - b * y) != 0:
+            continue
+        r, phi = f"r{con.name}", f"phi{con.name}"
+        if {r, phi} & names:
+            continue
+        R, P = sp.Symbol(r, real=True), sp.Symbol(phi, real=True)
+        return ChartProposal((), (r, phi), ((coords[x], R * sp.cos(P)), (coords[y], R * sp.sin(P))))
+    return None
 
 
 def complete_chart(system: System, proposal: ChartProposal) -> System | None:
