@@ -628,7 +628,8 @@ def test_cli_engine_chooses_the_integrator_and_says_which_ran(capsys):
     assert "engine 'python' cannot run this problem: method Radau" in err
     assert "Traceback" not in err
     # the older name, still accepted, says which to use
-    assert main([*args, "--engine", "loop"]) == 0
+    with pytest.warns(DeprecationWarning, match="engine 'loop' is deprecated"):
+        assert main([*args, "--engine", "loop"]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["engine"] == "loop (C)"  # compiled where it can
     assert "--engine loop is deprecated" in captured.err
