@@ -161,6 +161,7 @@ def test_a_reactions_magnitude_is_that_of_its_components():
     assert np.allclose(mag[name], np.hypot(*parts), equal_nan=True)
 
 
+@pytest.mark.slow
 def test_the_four_bars_motor_does_the_work_the_links_energy_gains():
     system = lamech.load("four_bar_driven")
     sol = lamech.solve(system)

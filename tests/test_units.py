@@ -119,6 +119,7 @@ def test_lambda_contact_with_units_equals_the_unit_free_one_at_random_states(cyl
         assert a == pytest.approx(b, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_solve_prints_each_multiplier_in_newtons_and_json_carries_the_units(tmp_path):
     path = tmp_path / "cylinder_units.toml"
     path.write_text(_with_units(), encoding="utf-8")

@@ -81,6 +81,7 @@ def test_simulate_prints_times_in_s_and_event_angles_in_rad_and_degrees(cylinder
     assert " rad" not in plain and " s " not in plain.split("events")[1]
 
 
+@pytest.mark.slow
 def test_simulate_json_carries_the_units_and_each_event_angle_in_degrees(cylinder_file):
     data = json.loads(_cli("simulate", str(cylinder_file), *RUN, "--json").stdout)
     units = data["units"]
@@ -152,6 +153,7 @@ def test_a_param_of_another_dimension_is_refused_naming_it_and_both_dimensions(
     assert "a position needs L (length)" in bad.stderr
 
 
+@pytest.mark.slow
 def test_simulate_with_r2_in_cm_runs_as_with_r2_in_metres(cylinder_file):
     a = json.loads(
         _cli("simulate", str(cylinder_file), *RUN, "--json", "--param", "R2=40cm").stdout

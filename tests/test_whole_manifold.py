@@ -177,7 +177,8 @@ def test_a_parametrisation_that_covers_half_of_the_circle_is_said():
 SLOW_FORMS = {"rolling_sphere", "four_bar_sympy.toml", "rod_in_bowl.toml", "andrews_squeezer",
               "rod_in_small_bowl.toml", "cone_xyz.toml", "double_pendulum_xy.toml",
               "cart_pendulum_xy.toml", "hoop_spin_zup.toml", "parabola_spin.toml",
-              "rod_ends_bowl.toml"}  # fmt: skip
+              "rod_ends_bowl.toml", "four_bar_sympy_motion.toml", "rod_in_bowl_chart.toml",
+              "four_bar_driven"}  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -417,6 +418,7 @@ def test_every_printed_multiplier_agrees_with_the_simulation_of_its_start(name, 
     assert bad == [], "\n".join(str(d) for d in bad)
 
 
+@pytest.mark.slow
 def test_a_spinning_parabolic_wire_has_forms_that_hold_on_its_plane():
     """z = k (x^2 + y^2) eliminated, the turning plane x sin(wt) - y cos(wt) = 0 kept:
     the KKT system was solved with pivots chosen at a point off the plane, so the forms
