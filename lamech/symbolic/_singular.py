@@ -146,7 +146,7 @@ class _ZeroSearch:
         """ "x = 0, y = 0" where ``f`` is 0 on the constraints, or None when none is
         found (or f holds no coordinate, or is too long to search)."""
         here = f.free_symbols & self.state
-        if not here or count_ops(f) > FACTOR_OPS:
+        if not here or count_ops(f) > FACTOR_OPS or _positive(f.xreplace(self.pv)):
             return None
         kept = [g for g in self.kept if g.free_symbols & self.state]
         xs = sorted(here.union(*(g.free_symbols & self.state for g in kept)), key=str)
@@ -205,6 +205,37 @@ class _ZeroSearch:
                 a = self.start.get(x, 0.0)
                 out.append(a + rng.uniform(-1.5, 1.5) * (1 + abs(a)))
         return np.array(out, dtype=float)
+
+
+def _positive(f: sp.Expr) -> bool:
+    """``f`` (numbers for the parameters) is positive in every state by its form: with
+    each even power of a cosine written in the sine (cos^2 = 1 - sin^2), a positive
+    number plus terms that are each a positive number times even powers (a double
+    pendulum's m1 + m2 sin^2(theta1 - theta2)). Such a factor has no zero to seek, and
+    seeking it costs a process SciPy's optimiser (a third of a second to import)."""
+
+    def even_cos(e):
+        return e.is_Pow and isinstance(e.base, sp.cos) and e.exp.is_Integer and e.exp % 2 == 0
+
+    try:
+        g = sp.expand(
+            f.replace(even_cos, lambda e: (1 - sp.sin(e.base.args[0]) ** 2) ** (e.exp // 2))
+        )
+    except (TypeError, ValueError, RecursionError):
+        return False
+    constant = False
+    for term in sp.Add.make_args(g):
+        coeff, rest = term.as_coeff_Mul()
+        if not (coeff.is_number and coeff > 0):
+            return False
+        if rest == 1:
+            constant = True
+            continue
+        for factor in sp.Mul.make_args(rest):
+            base, exp = factor.as_base_exp()
+            if not (exp.is_Integer and exp % 2 == 0) and not (base.is_number and base > 0):
+                return False
+    return constant
 
 
 def _real_at(fn, x) -> bool:
