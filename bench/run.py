@@ -1383,7 +1383,9 @@ def _at_start(system, exprs: dict) -> dict:
     import sympy as sp
 
     vals = {**system.parameter_values, system.t: 0.0}
-    for c in system.coordinates:
+    # a solve may give its results in a chart's angles (a circle among the constraints:
+    # the Cartesian double pendulum's theta1, theta2), whose start the chart gives
+    for c in (*system.coordinates, *system.chart_coordinates):
         vals[c.symbol] = float(system.numeric(c.initial))
         vals[c.velocity] = float(system.numeric(c.initial_velocity))
     vals = {k: sp.Float(v, 30) for k, v in vals.items()}
