@@ -77,6 +77,22 @@ def test_symbolic_peer_solves_lamechs_problem(name):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("source", [s for _, s in B5_PROBLEMS])
+def test_b5s_whole_report_and_raw_multipliers_agree_at_the_start(source):
+    """B5's three columns are compared at the initial state before a time counts; the
+    whole report may give its results in a chart's angles (the Cartesian double
+    pendulum in theta1, theta2), which the start values must include (the full run
+    stopped there: 'Cannot convert expression to float')."""
+    from bench.run import _lamech_problem, lamech_b5_fast, lamech_b5_full
+
+    fast = lamech_b5_fast(_lamech_problem(source))[0]
+    full = lamech_b5_full(source)[0]
+    assert fast.keys() == full.keys()
+    for name, value in fast.items():
+        assert full[name] == pytest.approx(value, rel=1e-8)
+
+
+@pytest.mark.slow
 def test_symbolic_benchmark_problems_load():
     import lamech
 
